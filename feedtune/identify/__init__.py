@@ -1,0 +1,1 @@
+"""feedtune.identify."""
