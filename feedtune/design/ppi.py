@@ -1,0 +1,175 @@
+"""P-PI position-velocity cascade of a ball-screw drive (thesis Figure 3.9, eq. 3.25, 3.27).
+
+Velocity PI on the motor side (``x1``), position P on the table (``x2``), velocity feedforward into the
+velocity loop and acceleration (inertia and viscous) feedforward ``U_ff = (m1 + m2) s^2 + (b1 + b2) s``
+into the command, the same filter pack as MC-PPC::
+
+    u = G_fp (Kpv + Kiv / s) (Kpx (x_r - x2) + s x_r - s x1) + U_ff x_r
+
+It is the shared ball-screw law (:mod:`feedtune.design.ballscrew_law`) with ``Kx1 = Kiv, Kv1 = Kpv,
+Kx2 = Kpv Kpx, Kv2 = 0, Ki2 = Kiv Kpx`` and ``R1 = 1``. :func:`tune_ppi` searches the highest-bandwidth
+gains whose peak sensitivity stays below a limit in the worst analysis case.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DesignError, UsageError
+from ..frf import Frf
+from ..lti import Zpk, delay_response, zoh_response
+from ..models.ballscrew import BallScrewModel
+from .ballscrew_law import BallScrewLaw
+from .filters import FilterPack
+from .mcppc import check_sampling
+
+PPI_UNITS = {"Kpx": "1/s", "Kpv": "V/(rad/s)", "Kiv": "V/rad"}
+
+
+@dataclass(frozen=True)
+class PpiDesign:
+    """A P-PI cascade design.
+
+    Attributes
+    ----------
+    model : BallScrewModel
+    ppi_gains : dict
+        ``Kpx`` [1/s], ``Kpv`` [V/(rad/s)], ``Kiv`` [V/rad].
+    filters : FilterPack
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    tuning : dict
+        How the gains were obtained (user, or the search and its limit).
+    """
+
+    model: BallScrewModel
+    ppi_gains: dict
+    filters: FilterPack
+    fs: float
+    delay_samples: int
+    tuning: dict
+
+    kind = "ppi"
+
+    @property
+    def gains(self) -> dict:
+        """Equivalent gains of the shared law [V/rad, V/rad, V/(rad/s), V/(rad/s), V/(rad s)]."""
+        return equivalent_gains(**self.ppi_gains)
+
+    def law(self) -> BallScrewLaw:
+        """The implementable control law."""
+        return BallScrewLaw(self.gains, self.filters.zpk(), Zpk.constant(1.0),
+                            acceleration_feedforward(self.model), self.fs, self.delay_samples)
+
+    def design_dict(self) -> dict:
+        """Design parameters with units."""
+        return dict(self.tuning)
+
+
+def equivalent_gains(Kpx: float, Kpv: float, Kiv: float) -> dict:
+    """Shared-law gains of a P-PI cascade."""
+    return {"Kx1": Kiv, "Kx2": Kpv * Kpx, "Kv1": Kpv, "Kv2": 0.0, "Ki2": Kiv * Kpx}
+
+
+def acceleration_feedforward(model: BallScrewModel) -> Zpk:
+    """``(m1 + m2) s^2 + (b1 + b2) s`` [V/rad]: inertia and viscous-friction feedforward."""
+    return Zpk.from_tf([model.total_inertia, model.b1 + model.b2, 0.0], [1.0])
+
+
+def _check_gains(Kpx: float, Kpv: float, Kiv: float) -> None:
+    for name, v in (("--kpx", Kpx), ("--kpv", Kpv), ("--kiv", Kiv)):
+        if not (np.isfinite(v) and v >= 0):
+            raise UsageError(f"{name} must be a finite gain >= 0, got {v}")
+    if Kpv <= 0:
+        raise UsageError("--kpv must be > 0")
+
+
+def design_ppi(model: BallScrewModel, *, Kpx: float, Kpv: float, Kiv: float, filters: FilterPack | None = None,
+               fs: float = 20000.0, delay_samples: int = 1) -> PpiDesign:
+    """P-PI with the user's gains ``Kpx`` [1/s], ``Kpv`` [V/(rad/s)], ``Kiv`` [V/rad]."""
+    check_sampling(fs, delay_samples)
+    _check_gains(Kpx, Kpv, Kiv)
+    filters = filters or FilterPack()
+    filters.check_nyquist(fs)
+    return PpiDesign(model, {"Kpx": float(Kpx), "Kpv": float(Kpv), "Kiv": float(Kiv)}, filters, float(fs),
+                     int(delay_samples), {"method": "user gains"})
+
+
+def _candidate_loops(model, filters, fs, delay, frf, f):
+    """Plant-and-filter responses of the worst case, precomputed once for the search."""
+    from ..analysis.ballscrew import zoh_plant
+
+    T = 1.0 / fs
+    z1 = np.exp(-2j * np.pi * f * T)
+    from .discretize import matched
+
+    Fd = matched(filters.zpk(), fs).tf.freqresp(f)
+    if frf is not None:
+        pos = frf.as_quantity("position")
+        G11 = np.interp(f, pos.freq_hz, pos.channel("x1/u").real) + 1j * np.interp(f, pos.freq_hz, pos.channel("x1/u").imag)
+        G21 = np.interp(f, pos.freq_hz, pos.channel("x2/u").real) + 1j * np.interp(f, pos.freq_hz, pos.channel("x2/u").imag)
+        H = zoh_response(f, fs) * delay_response(f, delay, fs)
+    else:
+        g = zoh_plant(model, fs, f)
+        G11, G21 = g["G11"], g["G21"]
+        H = delay_response(f, delay, fs)
+    return G11 * H * Fd, G21 * H * Fd, (1 - z1) / T, T / (1 - z1)
+
+
+def tune_ppi(model: BallScrewModel, *, ms_max: float = 3.25, pm_min_deg: float = 30.0, filters: FilterPack | None = None,
+             fs: float = 20000.0, delay_samples: int = 1, frf: Frf | None = None) -> PpiDesign:
+    """Highest-bandwidth P-PI with ``Ms <= ms_max`` [-] and every |phase margin| >= ``pm_min_deg`` [deg].
+
+    The velocity loop is parametrised by its crossover ``wv``: ``Kpv = (m1 + m2) wv``,
+    ``Kiv = Kpv wv / r_i``, ``Kpx = wv / r_p``, over ratios ``r_i`` in (2, 3, 4, 6, 10) and ``r_p`` in
+    (2, 3, 4, 6, 8); each candidate is checked with the discrete controller on the measured FRF (when given)
+    or the zero-order-hold model, for Nyquist stability and both limits. The candidate with the highest
+    first crossover of the position loop wins.
+    """
+    from ..analysis.loop import analyze_loop
+
+    check_sampling(fs, delay_samples)
+    if not (np.isfinite(ms_max) and ms_max > 1):
+        raise UsageError(f"--ms-max must be > 1, got {ms_max}")
+    filters = filters or FilterPack()
+    filters.check_nyquist(fs)
+    f_hi = fs / 2 * 0.999 if frf is None else min(fs / 2 * 0.999, float(frf.freq_hz[-1]))
+    f_lo = 0.5 if frf is None else max(0.5, float(frf.freq_hz[frf.freq_hz > 0][0]))
+    f = np.logspace(np.log10(f_lo), np.log10(f_hi), 3000)
+    A11, A21, D, I = _candidate_loops(model, filters, fs, delay_samples, frf, f)
+    M = model.total_inertia
+    best = None
+    for wv in 2 * np.pi * np.logspace(np.log10(5.0), np.log10(fs / 20), 60):
+        found = False
+        for ri in (2.0, 3.0, 4.0, 6.0, 10.0):
+            for rp in (2.0, 3.0, 4.0, 6.0, 8.0):
+                Kpv = M * wv
+                Kiv, Kpx = Kpv * wv / ri, wv / rp
+                g = equivalent_gains(Kpx, Kpv, Kiv)
+                L = (g["Kx1"] + g["Kv1"] * D) * A11 + (g["Kx2"] + g["Ki2"] * I) * A21
+                ms = float(np.max(np.abs(1 / (1 + L))))
+                if ms > ms_max:
+                    continue
+                res = analyze_loop(f, L)
+                if not res.stable or res.phase_margin_deg is None or abs(res.phase_margin_deg) < pm_min_deg:
+                    continue
+                bw = float(res.crossovers_hz[0])
+                found = True
+                if best is None or bw > best[0]:
+                    best = (bw, Kpx, Kpv, Kiv, ms, ri, rp, wv)
+        if not found and best is not None:
+            break  # bandwidth beyond the feasible range
+    if best is None:
+        raise DesignError(f"no P-PI gains reach Ms <= {ms_max:g} with phase margins >= {pm_min_deg:g} deg; "
+                          "relax --ms-max/--pm-min or adjust the filter pack")
+    bw, Kpx, Kpv, Kiv, ms, ri, rp, wv = best
+    tuning = {"method": "highest bandwidth with Ms and phase-margin limits", "ms_max": float(ms_max),
+              "pm_min_deg": float(pm_min_deg), "ms_found": ms,
+              "velocity_crossover_hz": float(wv / (2 * np.pi)), "integral_ratio": ri, "position_ratio": rp,
+              "checked_case": "discrete" if frf is not None else "ideal_discrete"}
+    return PpiDesign(model, {"Kpx": float(Kpx), "Kpv": float(Kpv), "Kiv": float(Kiv)}, filters, float(fs),
+                     int(delay_samples), tuning)
