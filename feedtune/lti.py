@@ -155,17 +155,16 @@ class Zpk:
             raise UsageError("second-order sections are for discrete transfer functions; discretize first")
         if self.zeros.size > self.poles.size:
             raise UsageError("transfer function is improper (more zeros than poles); add a delay first")
-        z = _pad(self.zeros, self.poles.size)
-        return zpk2sos(z, self.poles, self.gain, pairing="nearest")
+        n_delay = self.poles.size - self.zeros.size
+        # zpk2sos needs as many zeros as poles: pad with zeros at z = 0 (factors z) and cancel them with
+        # explicit delay sections z^-1, so the result equals the transfer function exactly
+        sos = zpk2sos(np.r_[self.zeros, np.zeros(n_delay)], self.poles, self.gain, pairing="nearest")
+        delays = [[0.0, 0.0, 1.0, 1.0, 0.0, 0.0]] * (n_delay // 2) + [[0.0, 1.0, 0.0, 1.0, 0.0, 0.0]] * (n_delay % 2)
+        return np.vstack([sos, *delays]) if delays else sos
 
     def __repr__(self) -> str:
         kind = "continuous" if self.dt is None else f"dt={self.dt:g} s"
         return f"Zpk(zeros={np.round(self.zeros, 6)}, poles={np.round(self.poles, 6)}, gain={self.gain:g}, {kind})"
-
-
-def _pad(zeros: np.ndarray, n: int) -> np.ndarray:
-    """Pad the zeros with roots at z = 0 up to n roots (adds no dynamics, only makes the count match)."""
-    return np.r_[zeros, np.zeros(n - zeros.size, complex)]
 
 
 def sos_freqresp(sos: np.ndarray, freq_hz, fs: float) -> np.ndarray:

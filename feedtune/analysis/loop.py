@@ -9,8 +9,8 @@ The Nyquist contour runs up the imaginary axis and is indented into the right ha
 with radius ``w_min = 2 pi freq_hz[0]``. Along the positive axis the winding of ``1 + L`` is taken from the
 unwrapped phase; the mirrored negative axis contributes the same by conjugate symmetry; the indentation
 arc, where ``L(s) ~ L(j w_min) (j w_min / s)^n`` with ``n`` the low-frequency slope of ``|L|`` (integer
-number of integrators, read from the data), contributes ``-n pi`` of phase when ``|L| >> 1`` there (it is
-evaluated numerically on the arc, so a small ``|L|`` is handled too); the arc at infinity contributes
+number of integrators, read from the data), turns ``L`` clockwise by about ``n pi`` from ``conj(L(j w_min))``
+to ``L(j w_min)`` (the exact turn that closes the curve is used); the arc at infinity contributes
 nothing when ``|L(j w_max)| < 1``. Closed-loop right-half-plane poles ``Z = N_cw + P`` where ``P`` is the
 number of open-loop right-half-plane poles.
 """
@@ -149,13 +149,16 @@ def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: int) -> flo
     one_plus = 1.0 + L
     ph = np.unwrap(np.angle(one_plus))
     along = ph[-1] - ph[0]  # 0+ -> +inf
-    # indentation arc s = w0 exp(j theta), theta from -90 to +90 deg, L(s) ~ L(j w0) (j w0 / s)^n
-    theta = np.linspace(-np.pi / 2, np.pi / 2, 721)
-    arc = 1.0 + L[0] * np.exp(1j * integrators * (np.pi / 2 - theta))
+    # indentation arc around s = 0 (z = 1) through the unstable region: L turns clockwise by about n*pi from
+    # L(-j w0) = conj(L0) to L(+j w0) = L0; the exact turn is the one of that size closing the curve
+    L0 = L[0]
+    phi0 = float(np.angle(L0))
+    k = np.round((-integrators * np.pi - 2 * phi0) / (2 * np.pi))
+    turn = 2 * phi0 + 2 * np.pi * k
+    arc = 1.0 + np.abs(L0) * np.exp(1j * (-phi0 + turn * np.linspace(0.0, 1.0, 721)))
     arc_ph = np.unwrap(np.angle(arc))
     arc_change = arc_ph[-1] - arc_ph[0]
-    # negative frequencies: conjugate branch traversed from -inf to -0, same phase change as 0 -> inf;
-    # the arc goes from L(-j w0) (= conj) to L(+j w0)
+    # negative frequencies: conjugate branch from -inf to -0 has the same phase change as 0 -> +inf
     total = 2 * along + arc_change
     return total / (2 * np.pi)
 
