@@ -26,9 +26,16 @@ def normalize_quantity(name: str, where: str = "quantity") -> str:
     """Map user spellings (``pos``, ``vel``, ``acc``, ``displacement``...) to a canonical quantity."""
     key = str(name).strip().lower()
     aliases = {
-        "position": "position", "pos": "position", "displacement": "position", "disp": "position",
-        "velocity": "velocity", "vel": "velocity", "speed": "velocity",
-        "acceleration": "acceleration", "acc": "acceleration", "accel": "acceleration",
+        "position": "position",
+        "pos": "position",
+        "displacement": "position",
+        "disp": "position",
+        "velocity": "velocity",
+        "vel": "velocity",
+        "speed": "velocity",
+        "acceleration": "acceleration",
+        "acc": "acceleration",
+        "accel": "acceleration",
     }
     if key not in aliases:
         raise DataError(f"{where}: unknown quantity {name!r}; expected position, velocity or acceleration")
@@ -127,9 +134,7 @@ class Frf:
             out, inp = channel.split("/")
             return self.outputs.index(out), self.inputs.index(inp)
         except ValueError:
-            raise DataError(
-                f"{self.source}: no channel {channel!r}; available: {', '.join(self.channels)}"
-            ) from None
+            raise DataError(f"{self.source}: no channel {channel!r}; available: {', '.join(self.channels)}") from None
 
     def has(self, channel: str) -> bool:
         """True if the channel ``"OUT/IN"`` exists."""
@@ -208,7 +213,8 @@ class Frf:
                 coh[outs.index(o), ins.index(i)] = np.asarray(coherence[name], float)
         missing = [f"{o}/{i}" for o in outs for i in ins if (o, i) not in have]
         if missing:
-            raise DataError(f"{where}: channel(s) {', '.join(missing)} missing to complete the {len(outs)}x"
-                            f"{len(ins)} FRF matrix")
+            raise DataError(
+                f"{where}: channel(s) {', '.join(missing)} missing to complete the {len(outs)}x{len(ins)} FRF matrix"
+            )
         # channels without a coherence column keep NaN ("not measured")
         return cls(f, h, tuple(outs), tuple(ins), quantity, coh, input_unit, output_unit, meta)

@@ -83,8 +83,7 @@ class Zpk:
     def __mul__(self, other: Zpk | float) -> Zpk:
         if isinstance(other, Zpk):
             self._check_dt(other)
-            return Zpk(np.r_[self.zeros, other.zeros], np.r_[self.poles, other.poles],
-                       self.gain * other.gain, self.dt)
+            return Zpk(np.r_[self.zeros, other.zeros], np.r_[self.poles, other.poles], self.gain * other.gain, self.dt)
         return Zpk(self.zeros, self.poles, self.gain * float(other), self.dt)
 
     __rmul__ = __mul__
@@ -138,8 +137,11 @@ class Zpk:
     # -------------------------------------------------------------- conversion
     def to_tf(self) -> tuple[np.ndarray, np.ndarray]:
         """Real polynomial coefficients ``(num, den)`` in descending powers."""
-        num = np.real_if_close(np.poly(self.zeros) * self.gain, tol=1e6).real if self.zeros.size else \
-            np.array([self.gain])
+        num = (
+            np.real_if_close(np.poly(self.zeros) * self.gain, tol=1e6).real
+            if self.zeros.size
+            else np.array([self.gain])
+        )
         den = np.real_if_close(np.poly(self.poles), tol=1e6).real if self.poles.size else np.array([1.0])
         return np.atleast_1d(num).astype(float), np.atleast_1d(den).astype(float)
 

@@ -83,8 +83,10 @@ def _discrete_closed_loop_eigs(law):
     from feedtune.lti import Zpk
 
     p1 = _sum_zpk(Zpk.constant(g["Kx1"], T), backward_difference(law.fs) * g["Kv1"])
-    p2 = _sum_zpk(_sum_zpk(Zpk.constant(g["Kx2"], T), backward_difference(law.fs) * g["Kv2"]),
-                  backward_euler_integrator(law.fs) * g["Ki2"])
+    p2 = _sum_zpk(
+        _sum_zpk(Zpk.constant(g["Kx2"], T), backward_difference(law.fs) * g["Kv2"]),
+        backward_euler_integrator(law.fs) * g["Ki2"],
+    )
     blocks = [ss(p1), ss(p2), ss(law.filter_pack_discrete())]
     (Aa, Ba, Ca, Da), (Ab, Bb, Cb, Db), (Af, Bf, Cf, Df) = blocks
     na, nb, nf = Aa.shape[0], Ab.shape[0], Af.shape[0]
@@ -92,22 +94,22 @@ def _discrete_closed_loop_eigs(law):
     M = np.zeros((n, n))
     ip, ia, ib, i_f, idl = 0, 4, 4 + na, 4 + na + nb, n - 1
     c1, c2 = Cd[0:1], Cd[1:2]
-    M[ip:ip + 4, ip:ip + 4] = Ad
-    M[ip:ip + 4, idl:idl + 1] = Bd
-    M[ia:ia + na, ia:ia + na] = Aa
-    M[ia:ia + na, ip:ip + 4] = Ba @ c1
-    M[ib:ib + nb, ib:ib + nb] = Ab
-    M[ib:ib + nb, ip:ip + 4] = Bb @ c2
+    M[ip : ip + 4, ip : ip + 4] = Ad
+    M[ip : ip + 4, idl : idl + 1] = Bd
+    M[ia : ia + na, ia : ia + na] = Aa
+    M[ia : ia + na, ip : ip + 4] = Ba @ c1
+    M[ib : ib + nb, ib : ib + nb] = Ab
+    M[ib : ib + nb, ip : ip + 4] = Bb @ c2
     # v = -(Ca xa + Da x1 + Cb xb + Db x2)
     v_row = np.zeros((1, n))
-    v_row[:, ia:ia + na] = -Ca
-    v_row[:, ib:ib + nb] = -Cb
-    v_row[:, ip:ip + 4] = -(Da @ c1 + Db @ c2)
-    M[i_f:i_f + nf, i_f:i_f + nf] = Af
-    M[i_f:i_f + nf, :] += Bf @ v_row
+    v_row[:, ia : ia + na] = -Ca
+    v_row[:, ib : ib + nb] = -Cb
+    v_row[:, ip : ip + 4] = -(Da @ c1 + Db @ c2)
+    M[i_f : i_f + nf, i_f : i_f + nf] = Af
+    M[i_f : i_f + nf, :] += Bf @ v_row
     u_row = Df @ v_row
-    u_row[:, i_f:i_f + nf] += Cf
-    M[idl:idl + 1, :] = u_row  # one-sample computational delay
+    u_row[:, i_f : i_f + nf] += Cf
+    M[idl : idl + 1, :] = u_row  # one-sample computational delay
     return np.linalg.eigvals(M)
 
 

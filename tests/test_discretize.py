@@ -38,12 +38,15 @@ def test_matched_maps_poles_and_zeros():
     assert m.tf.dc_gain().real == pytest.approx(g.dc_gain().real, rel=1e-12)
 
 
-@pytest.mark.parametrize("g", [
-    THESIS_FILTER_PACK.zpk(),
-    lead(130.0, 63.0),
-    lowpass1(2000.0),
-    Notch(1080.0, 0.05, 0.7).zpk(),
-])
+@pytest.mark.parametrize(
+    "g",
+    [
+        THESIS_FILTER_PACK.zpk(),
+        lead(130.0, 63.0),
+        lowpass1(2000.0),
+        Notch(1080.0, 0.05, 0.7).zpk(),
+    ],
+)
 def test_matched_response_up_to_fs_over_10(g):
     m = matched(g, FS)
     f = np.logspace(0, np.log10(FS / 10), 400)
@@ -90,8 +93,11 @@ def test_backward_difference_and_integrator_closed_form():
 
 
 def test_sos_equals_zpk_including_delays():
-    for g in (Zpk([0.5], [0.9, 0.0, 0.0], 2.0, 1 / FS), Zpk([], [0.0, 0.0, 0.0], 1.0, 1 / FS),
-              matched(THESIS_FILTER_PACK.zpk(), FS).tf):
+    for g in (
+        Zpk([0.5], [0.9, 0.0, 0.0], 2.0, 1 / FS),
+        Zpk([], [0.0, 0.0, 0.0], 1.0, 1 / FS),
+        matched(THESIS_FILTER_PACK.zpk(), FS).tf,
+    ):
         f = np.logspace(0, 3.9, 30)
         assert np.allclose(sos_freqresp(g.to_sos(), f, FS), g.freqresp(f), rtol=1e-9)
 

@@ -43,10 +43,14 @@ def _reference_output(doc, r_preview, x1, x2):
     return sosfilt(np.array(doc["filters"]["filter_pack_sos"]), ufb) + uff
 
 
-@pytest.mark.parametrize("design", [
-    design_mcppc(MODEL, filters=THESIS_FILTER_PACK),
-    design_ppi(MODEL, Kpx=60.0, Kpv=0.8, Kiv=100.0, filters=THESIS_FILTER_PACK),
-], ids=["mcppc", "ppi"])
+@pytest.mark.parametrize(
+    "design",
+    [
+        design_mcppc(MODEL, filters=THESIS_FILTER_PACK),
+        design_ppi(MODEL, Kpx=60.0, Kpv=0.8, Kiv=100.0, filters=THESIS_FILTER_PACK),
+    ],
+    ids=["mcppc", "ppi"],
+)
 def test_c_header_matches_vectorised_law(tmp_path, design):
     cc = shutil.which("cc") or shutil.which("gcc")
     if cc is None:
@@ -55,8 +59,9 @@ def test_c_header_matches_vectorised_law(tmp_path, design):
     (tmp_path / "gains.h").write_text(c_header(doc))
     (tmp_path / "main.c").write_text(MAIN_C)
     exe = tmp_path / "run"
-    subprocess.run([cc, "-std=c99", "-O1", "-Wall", "-Werror", "-o", str(exe), str(tmp_path / "main.c")],
-                   check=True, cwd=tmp_path)
+    subprocess.run(
+        [cc, "-std=c99", "-O1", "-Wall", "-Werror", "-o", str(exe), str(tmp_path / "main.c")], check=True, cwd=tmp_path
+    )
     rng = np.random.default_rng(1)
     n = 3000
     t = np.arange(n) / 20000.0

@@ -178,12 +178,13 @@ def test_indirect_closed_loop_removes_feedback_bias():
 
 # ------------------------------------------------------------------------------------ real bench data
 def _bench_log(path) -> Log:
+    """README recipe: time int32 us, input iq_adx [A], outputs theta_mx and -theta_my [rad]."""
     from scipy.io import loadmat
 
     d = loadmat(path, squeeze_me=True)
     sig = {"iq_adx": d["iq_adx"], "theta_mx": d["theta_mx"], "theta_my": -d["theta_my"]}
     return Log(d["time"].astype(float) * 1e-6, sig, {"iq_adx": "A", "theta_mx": "rad", "theta_my": "rad"},
-               {"source": "MultisineTypeA.mat"})
+               {"source": path.name})
 
 
 def test_real_twomass_bench_multisine(real_data_dir):
@@ -208,6 +209,13 @@ def test_real_twomass_bench_multisine(real_data_dir):
     # the period is found from the measured current alone
     auto = estimate_frf(log, input="iq_adx", outputs=["theta_mx"], method="periodic")
     assert auto.meta["period_samples"] == "2500" and auto.freq_hz.size == 240
+
+
+def test_real_twomass_bench_odd_odd_multisine(real_data_dir):
+    """TypeB excites 13, 17, ..., 249 Hz; the measured current also carries distortion on other lines."""
+    log = _bench_log(real_data_dir / "twomass_motor_bench_FdiTools" / "MultisineTypeB.mat")
+    frf = estimate_frf(log, input="iq_adx", outputs=["theta_mx"], method="periodic")
+    np.testing.assert_allclose(frf.freq_hz, np.arange(13.0, 250.0, 4.0), atol=1e-9)
 
 
 # ------------------------------------------------------------------------------------------ bad input
@@ -257,6 +265,9 @@ def test_bad_parameters_and_units(small_log):
         estimate_frf(small_log, input="u", outputs=["y"], window="no-such-window")
     with pytest.raises(UsageError, match="freq_range"):
         estimate_frf(small_log, input="u", outputs=["y"], freq_range=(100.0, 10.0))
+    silent = small_log.with_signals({"u": np.zeros(small_log.n)})
+    with pytest.raises(DataError, match="no excitation"):
+        estimate_frf(silent, input="u", outputs=["y"])
     mixed = small_log.with_signals({"z": small_log["y"]}, {"z": "rad"})
     with pytest.raises(DataError, match="share one unit"):
         estimate_frf(mixed, input="u", outputs=["y", "z"])

@@ -104,7 +104,9 @@ def default_grid(fs: float, frf: Frf | None = None, n: int = 4000) -> np.ndarray
 def _plant_from_frf(frf: Frf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pos = frf.as_quantity("position")
     if not (pos.has("x1/u") and pos.has("x2/u")):
-        raise DataError(f"{frf.source}: the analysis needs both channels x1/u and x2/u; found {', '.join(frf.channels)}")
+        raise DataError(
+            f"{frf.source}: the analysis needs both channels x1/u and x2/u; found {', '.join(frf.channels)}"
+        )
     f = pos.freq_hz
     keep = f > 0
     return f[keep], pos.channel("x1/u")[keep], pos.channel("x2/u")[keep]
@@ -147,8 +149,9 @@ def zoh_plant(model: BallScrewModel, fs: float, freq_hz: np.ndarray) -> dict[str
     return out
 
 
-def analyze_ballscrew(law: BallScrewLaw, model: BallScrewModel, frf: Frf | None = None,
-                      freq_hz: np.ndarray | None = None) -> BallScrewAnalysis:
+def analyze_ballscrew(
+    law: BallScrewLaw, model: BallScrewModel, frf: Frf | None = None, freq_hz: np.ndarray | None = None
+) -> BallScrewAnalysis:
     """Analyse a ball-screw control law in all cases (see module docstring).
 
     Parameters
@@ -174,27 +177,67 @@ def analyze_ballscrew(law: BallScrewLaw, model: BallScrewModel, frf: Frf | None 
     cases: dict[str, CaseResponse | None] = {}
 
     g = model.frequency_response(f)
-    cases["ideal"] = _case("ideal", f, g["G11"], g["G21"], K1.freqresp(f), K2.freqresp(f), 1.0,
-                           law.feedforward.freqresp(f), law.rotary_reference.freqresp(f), g["G13"], g["G23"],
-                           rhp_c)
+    cases["ideal"] = _case(
+        "ideal",
+        f,
+        g["G11"],
+        g["G21"],
+        K1.freqresp(f),
+        K2.freqresp(f),
+        1.0,
+        law.feedforward.freqresp(f),
+        law.rotary_reference.freqresp(f),
+        g["G13"],
+        g["G23"],
+        rhp_c,
+    )
     fd = f[f < law.fs / 2]
     fd = np.r_[fd, law.fs / 2]  # the z-domain contour closes at the Nyquist frequency
     gd = zoh_plant(model, law.fs, fd)
     Hd = delay_response(fd, law.delay_samples, law.fs)
     cases["ideal_discrete"] = _case(
-        "ideal_discrete", fd, gd["G11"], gd["G21"], K1d.freqresp(fd), K2d.freqresp(fd), Hd,
-        paths["feedforward"].discrete_response(fd), paths["rotary"].discrete_response(fd), gd["G13"], gd["G23"],
-        rhp_d)
+        "ideal_discrete",
+        fd,
+        gd["G11"],
+        gd["G21"],
+        K1d.freqresp(fd),
+        K2d.freqresp(fd),
+        Hd,
+        paths["feedforward"].discrete_response(fd),
+        paths["rotary"].discrete_response(fd),
+        gd["G13"],
+        gd["G23"],
+        rhp_d,
+    )
     if frf is None:
         cases["measured"] = cases["discrete"] = None
     else:
         fm, G11m, G21m = _plant_from_frf(frf)
-        cases["measured"] = _case("measured", fm, G11m, G21m, K1.freqresp(fm), K2.freqresp(fm), 1.0,
-                                  law.feedforward.freqresp(fm), law.rotary_reference.freqresp(fm), rhp=rhp_c)
+        cases["measured"] = _case(
+            "measured",
+            fm,
+            G11m,
+            G21m,
+            K1.freqresp(fm),
+            K2.freqresp(fm),
+            1.0,
+            law.feedforward.freqresp(fm),
+            law.rotary_reference.freqresp(fm),
+            rhp=rhp_c,
+        )
         H = zoh_response(fm, law.fs) * delay_response(fm, law.delay_samples, law.fs)
-        cases["discrete"] = _case("discrete", fm, G11m, G21m, K1d.freqresp(fm), K2d.freqresp(fm), H,
-                                  paths["feedforward"].discrete_response(fm),
-                                  paths["rotary"].discrete_response(fm), rhp=rhp_d)
+        cases["discrete"] = _case(
+            "discrete",
+            fm,
+            G11m,
+            G21m,
+            K1d.freqresp(fm),
+            K2d.freqresp(fm),
+            H,
+            paths["feedforward"].discrete_response(fm),
+            paths["rotary"].discrete_response(fm),
+            rhp=rhp_d,
+        )
     return BallScrewAnalysis(cases)
 
 

@@ -117,7 +117,7 @@ def margins(freq_hz: np.ndarray, L: np.ndarray) -> tuple[list, list, list, list]
     """Crossovers [Hz], phase margins [deg], phase crossovers [Hz] and gain margins [dB] of ``L``."""
     f = np.asarray(freq_hz, float)
     mag_db = 20 * np.log10(np.abs(L))
-    wc = crossings(f, mag_db, 0.0)
+    wc = merge_noisy_crossings(crossings(f, mag_db, 0.0))
     pm = []
     if wc.size:
         Lc = _interp_complex_at(f, L, wc)
@@ -135,13 +135,41 @@ def margins(freq_hz: np.ndarray, L: np.ndarray) -> tuple[list, list, list, list]
     return list(map(float, wc)), [float(x) for x in pm], w180, gm
 
 
-def count_integrators(freq_hz: np.ndarray, L: np.ndarray, n_fit: int = 5) -> int:
-    """Number of open-loop poles at the origin from the low-frequency slope of ``|L|`` [-]."""
-    n = min(n_fit, len(freq_hz))
-    lf = np.log(freq_hz[:n])
-    lm = np.log(np.abs(L[:n]))
-    slope = np.polyfit(lf, lm, 1)[0] if n > 1 else 0.0
+def count_integrators(freq_hz: np.ndarray, L: np.ndarray, octaves: float = 1.0) -> int:
+    """Number of open-loop poles at the origin from the low-frequency slope of ``|L|`` [-].
+
+    The slope is fitted over the first ``octaves`` of the grid (at least 3 points), so measurement noise on
+    single points does not change the count.
+    """
+    f = np.asarray(freq_hz, float)
+    sel = f <= f[0] * 2.0**octaves
+    if sel.sum() < 3:
+        sel = np.arange(f.size) < min(3, f.size)
+    if sel.sum() < 2:
+        return 0
+    slope = np.polyfit(np.log(f[sel]), np.log(np.abs(L[sel])), 1)[0]
     return max(0, int(np.round(-slope)))
+
+
+def merge_noisy_crossings(freqs: np.ndarray, rel: float = 0.03) -> np.ndarray:
+    """Merge crossings closer than ``rel`` (relative frequency): noise makes one crossing look like several.
+
+    A cluster with an odd number of crossings is one crossing (its first member); an even cluster is a
+    touch of the level without a net crossing and is dropped.
+    """
+    if freqs.size < 2:
+        return freqs
+    out, cluster = [], [freqs[0]]
+    for f in freqs[1:]:  # a handful of crossings
+        if f <= cluster[-1] * (1 + rel):
+            cluster.append(f)
+        else:
+            if len(cluster) % 2:
+                out.append(cluster[0])
+            cluster = [f]
+    if len(cluster) % 2:
+        out.append(cluster[0])
+    return np.array(out)
 
 
 def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: int) -> float:
@@ -174,11 +202,15 @@ def analyze_loop(freq_hz, L, *, open_loop_rhp_poles: int = 0, integrators: int |
     i_ms = int(np.argmax(aS))
     n_int = count_integrators(f, L) if integrators is None else int(integrators)
     if abs(L[0]) < 10 and n_int > 0:
-        warnings.append(f"|L| is only {abs(L[0]):.3g} at the lowest frequency {f[0]:g} Hz; "
-                        "the Nyquist count near 0 Hz is less reliable")
+        warnings.append(
+            f"|L| is only {abs(L[0]):.3g} at the lowest frequency {f[0]:g} Hz; "
+            "the Nyquist count near 0 Hz is less reliable"
+        )
     if abs(L[-1]) >= 1:
-        warnings.append(f"|L| = {abs(L[-1]):.3g} >= 1 at the highest frequency {f[-1]:g} Hz; "
-                        "extend the frequency grid for a valid Nyquist count")
+        warnings.append(
+            f"|L| = {abs(L[-1]):.3g} >= 1 at the highest frequency {f[-1]:g} Hz; "
+            "extend the frequency grid for a valid Nyquist count"
+        )
     winding = nyquist_winding(f, L, n_int)
     n_ccw = int(np.round(winding))
     if abs(winding - n_ccw) > 0.2:
@@ -186,9 +218,22 @@ def analyze_loop(freq_hz, L, *, open_loop_rhp_poles: int = 0, integrators: int |
     n_cw = -n_ccw
     z = n_cw + int(open_loop_rhp_poles)
     stable = z == 0
-    return LoopMetrics(wc, pm, min(pm, key=abs) if pm else None, min(gm, key=abs) if gm else None, gm, w180,
-                       float(aS[i_ms]), float(f[i_ms]), rejection_band(f, aS), bool(stable), n_cw,
-                       int(open_loop_rhp_poles), n_int, warnings)
+    return LoopMetrics(
+        wc,
+        pm,
+        min(pm, key=abs) if pm else None,
+        min(gm, key=abs) if gm else None,
+        gm,
+        w180,
+        float(aS[i_ms]),
+        float(f[i_ms]),
+        rejection_band(f, aS),
+        bool(stable),
+        n_cw,
+        int(open_loop_rhp_poles),
+        n_int,
+        warnings,
+    )
 
 
 def rejection_band(freq_hz: np.ndarray, abs_s: np.ndarray) -> list | None:

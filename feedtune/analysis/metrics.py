@@ -131,7 +131,7 @@ class RopeSnapMetrics:
         ``settle_fraction * |peak|`` [m].
     settling_time : float or None
         Time after the release from which ``|x - final|`` stays below ``settle_band`` [s]; None when the
-        response never settles within the log.
+        response never settles within the log (it still leaves the band during the last 10 %).
     settled : bool
         False when the response did not settle within the log.
     asd_freq_hz, asd : ndarray
@@ -243,10 +243,13 @@ def _uniform_dt(t: np.ndarray, what: str) -> float:
     return dt
 
 
-def _fraction(value: float, name: str, upper_inclusive: bool = False) -> float:
-    ok = isinstance(value, (int, float)) and (0 <= value <= 1 if upper_inclusive else 0 < value < 1)
+def _fraction(value: float, name: str, allow_zero: bool = False) -> float:
+    """A number in (0, 1), or [0, 1) with ``allow_zero``; else UsageError naming ``name``."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and value < 1 \
+        and (value >= 0 if allow_zero else value > 0)
     if not ok:
-        raise UsageError(f"{name}: expected a fraction between 0 and 1, got {value!r}")
+        span = "0 <= value < 1" if allow_zero else "0 < value < 1"
+        raise UsageError(f"{name}: expected a fraction {span}, got {value!r}")
     return float(value)
 
 
@@ -379,8 +382,8 @@ def tracking_metrics(
     e = _vector(error, "error", t.size)
     v = None if vel is None else _vector(vel, "vel", t.size)
     a = None if acc is None else _vector(acc, "acc", t.size)
-    v_tol = _fraction(v_tol, "v_tol")
-    a_tol = _fraction(a_tol, "a_tol")
+    v_tol = _fraction(v_tol, "v_tol", allow_zero=True)
+    a_tol = _fraction(a_tol, "a_tol", allow_zero=True)
     n_peaks = _count(n_peaks, "n_peaks", 0)
     peak_prominence = _fraction(peak_prominence, "peak_prominence")
     dt = float((t[-1] - t[0]) / (t.size - 1))
@@ -451,14 +454,18 @@ def detect_release(t: np.ndarray, x: np.ndarray) -> tuple[int, float, float]:
 
 
 def _settling(
-    tau: np.ndarray, x_post: np.ndarray, final: float, band: float
+    tau: np.ndarray, x_post: np.ndarray, final: float, band: float, n_final: int
 ) -> float | None:
-    """Time from which ``|x - final| < band`` holds to the end; None if the last sample is outside."""
+    """Time from which ``|x - final| < band`` holds to the end of the log.
+
+    None (not settled) when the response leaves the band within the last ``n_final`` samples, the window
+    that defines ``final``: a response must stay settled over that whole window to count as settled.
+    """
     outside = np.flatnonzero(np.abs(x_post - final) >= band)
     if outside.size == 0:
         return 0.0
     last = int(outside[-1])
-    if last == x_post.size - 1:
+    if last >= x_post.size - n_final:
         return None
     return float(tau[last + 1])
 
@@ -527,7 +534,8 @@ def ropesnap_metrics(
     RopeSnapMetrics
         The baseline is the mean before the release; the peak is ``x - baseline`` of largest magnitude
         after the release; ``final`` the mean of the last 10 % of the log; the settling time the time
-        after the release from which ``|x - final| < settle_fraction * |peak|`` holds to the end of the log.
+        after the release from which ``|x - final| < settle_fraction * |peak|`` holds to the end of the log
+        (None, with ``settled`` False, when the band is still left during those last 10 %).
     """
     t = _time(t, 32)
     x = _vector(x, "x", t.size)
@@ -545,9 +553,10 @@ def ropesnap_metrics(
     dev = post_x - baseline
     k = int(np.argmax(np.abs(dev)))
     peak = float(dev[k])
-    final = float(x[-max(1, int(FINAL_FRACTION * x.size)):].mean())
+    n_final = max(1, int(FINAL_FRACTION * x.size))
+    final = float(x[-n_final:].mean())
     band = settle_fraction * abs(peak)
-    settling = _settling(tau, post_x, final, band)
+    settling = _settling(tau, post_x, final, band, min(n_final, post_x.size))
     freq, asd = amplitude_spectral_density(post_x, dt, None if nperseg is None else min(nperseg, post_x.size))
     peaks = _dominant_peaks(freq[1:], asd[1:], n_peaks, prominence=prominence_db / 20.0, log_scale=True)
     return RopeSnapMetrics(

@@ -127,8 +127,11 @@ class BallScrewLaw:
     def K2d(self) -> Zpk:
         """Discrete ``(Kx2 + Kv2 (1 - z^-1)/T + Ki2 T/(1 - z^-1)) G_fp(z)``."""
         g = self.gains
-        parts = [Zpk.constant(g["Kx2"], self.T), backward_difference(self.fs) * g["Kv2"],
-                 backward_euler_integrator(self.fs) * g["Ki2"]]
+        parts = [
+            Zpk.constant(g["Kx2"], self.T),
+            backward_difference(self.fs) * g["Kv2"],
+            backward_euler_integrator(self.fs) * g["Ki2"],
+        ]
         out = parts[0]
         for p in parts[1:]:
             out = _sum_zpk(out, p)

@@ -37,8 +37,9 @@ class DesignCheck:
         return {"ok": self.ok, "checked_case": self.worst_case, "violations": list(self.violations)}
 
 
-def check_design(design, *, frf: Frf | None = None, ms_max: float | None = None,
-                 pm_min_deg: float | None = None) -> DesignCheck:
+def check_design(
+    design, *, frf: Frf | None = None, ms_max: float | None = None, pm_min_deg: float | None = None
+) -> DesignCheck:
     """Analyse ``design`` (MC-PPC or P-PI) and compare with the limits.
 
     Parameters
@@ -56,15 +57,19 @@ def check_design(design, *, frf: Frf | None = None, ms_max: float | None = None,
     violations = []
     for name, case in analysis.cases.items():
         if case is not None and not case.metrics.stable:
-            violations.append(f"closed loop is unstable in the {name} case "
-                              f"({case.metrics.nyquist_encirclements} clockwise encirclements of -1)")
+            violations.append(
+                f"closed loop is unstable in the {name} case "
+                f"({case.metrics.nyquist_encirclements} clockwise encirclements of -1)"
+            )
     worst = "discrete" if frf is not None else "ideal_discrete"
     m = analysis.cases[worst].metrics
     if ms_max is not None and m.ms > ms_max:
-        violations.append(f"peak sensitivity Ms = {m.ms:.3g} at {m.ms_freq_hz:.4g} Hz exceeds --ms-max {ms_max:g} "
-                          f"({worst} case)")
+        violations.append(
+            f"peak sensitivity Ms = {m.ms:.3g} at {m.ms_freq_hz:.4g} Hz exceeds --ms-max {ms_max:g} ({worst} case)"
+        )
     if pm_min_deg is not None and m.phase_margin_deg is not None and abs(m.phase_margin_deg) < pm_min_deg:
-        violations.append(f"phase margin {m.phase_margin_deg:.3g} deg is below --pm-min {pm_min_deg:g} deg "
-                          f"({worst} case)")
+        violations.append(
+            f"phase margin {m.phase_margin_deg:.3g} deg is below --pm-min {pm_min_deg:g} deg ({worst} case)"
+        )
     poles = closed_loop_poles(law, design.model)
     return DesignCheck(analysis, poles, not violations, worst, violations)

@@ -41,8 +41,9 @@ def _is_origin(r: np.ndarray, scale: float) -> np.ndarray:
     return np.abs(r) <= 1e-12 * max(scale, 1.0)
 
 
-def matched(g: Zpk, fs: float, *, excess_zeros: str = "all", causal: bool = True,
-            match_hz: float | None = None) -> Matched:
+def matched(
+    g: Zpk, fs: float, *, excess_zeros: str = "all", causal: bool = True, match_hz: float | None = None
+) -> Matched:
     """Discretize ``g`` by pole-zero matching at sample rate ``fs`` [Hz].
 
     Parameters
@@ -92,8 +93,9 @@ def matched(g: Zpk, fs: float, *, excess_zeros: str = "all", causal: bool = True
     return Matched(Zpk(zd, pd, gd, T), delay)
 
 
-def _match_gain(g: Zpk, zd: np.ndarray, pd: np.ndarray, z_at0: np.ndarray, p_at0: np.ndarray, T: float,
-                match_hz: float | None) -> float:
+def _match_gain(
+    g: Zpk, zd: np.ndarray, pd: np.ndarray, z_at0: np.ndarray, p_at0: np.ndarray, T: float, match_hz: float | None
+) -> float:
     """Gain so that the low-frequency asymptotes (or the response at ``match_hz``) agree."""
     n_diff = int(z_at0.sum() - p_at0.sum())  # net power of s at the origin
     c_red = g.gain * np.prod(-g.zeros[~z_at0]) / np.prod(-g.poles[~p_at0])

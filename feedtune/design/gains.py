@@ -87,8 +87,12 @@ def gains_document(design: McppcDesign | PpiDesign, analysis: dict | None = None
             "preview_samples": int(law.preview_samples),
         },
         "units": {"position": "rad", "command": design.model.input_unit, "time": "s"},
-        "law": {"execution": LAW_TEXT, "velocity_estimator": "backward difference (eq. 3.5)",
-                "integrator": "backward Euler", "discretization": "pole-zero matching"},
+        "law": {
+            "execution": LAW_TEXT,
+            "velocity_estimator": "backward difference (eq. 3.5)",
+            "integrator": "backward Euler",
+            "discretization": "pole-zero matching",
+        },
         "gains": {n: q(design.gains[n], GAIN_UNITS[n]) for n in GAIN_NAMES},
         "filters": {
             "continuous": design.filters.to_dict(),

@@ -55,8 +55,14 @@ class McppcDesign:
 
     def law(self) -> BallScrewLaw:
         """The implementable control law (gains, G_fp, G_r, G_ff)."""
-        return BallScrewLaw(self.gains, self.filters.zpk(), rotary_command_generator(self.model),
-                            model_inversion(self.model), self.fs, self.delay_samples)
+        return BallScrewLaw(
+            self.gains,
+            self.filters.zpk(),
+            rotary_command_generator(self.model),
+            model_inversion(self.model),
+            self.fs,
+            self.delay_samples,
+        )
 
     def closed_loop_poles(self) -> np.ndarray:
         """Eigenvalues of ``A - B1 K`` of the five-state model (filters excluded) [rad/s]."""
@@ -84,11 +90,15 @@ def desired_poles(model: BallScrewModel, beta: float, pole_hz: float, zeta: floa
     sigma1, wd1 = -mode.real, mode.imag
     w2 = 2 * np.pi * pole_hz
     wd2 = w2 * np.sqrt(1 - zeta**2)
-    return np.array([
-        -beta * sigma1 + 1j * wd1, -beta * sigma1 - 1j * wd1,
-        -zeta * w2 + 1j * wd2, -zeta * w2 - 1j * wd2,
-        -w2 + 0j,
-    ])
+    return np.array(
+        [
+            -beta * sigma1 + 1j * wd1,
+            -beta * sigma1 - 1j * wd1,
+            -zeta * w2 + 1j * wd2,
+            -zeta * w2 - 1j * wd2,
+            -w2 + 0j,
+        ]
+    )
 
 
 def place_gains(model: BallScrewModel, poles: np.ndarray) -> dict:
@@ -132,8 +142,16 @@ def model_inversion(model: BallScrewModel) -> Zpk:
     return Zpk.from_tf(model.denominator(), [model.c, model.k])
 
 
-def design_mcppc(model: BallScrewModel, *, beta: float = 4.0, pole_hz: float = 50.0, zeta: float = 0.7,
-                 filters: FilterPack | None = None, fs: float = 20000.0, delay_samples: int = 1) -> McppcDesign:
+def design_mcppc(
+    model: BallScrewModel,
+    *,
+    beta: float = 4.0,
+    pole_hz: float = 50.0,
+    zeta: float = 0.7,
+    filters: FilterPack | None = None,
+    fs: float = 20000.0,
+    delay_samples: int = 1,
+) -> McppcDesign:
     """Design MC-PPC (eq. 3.5-3.13).
 
     Parameters
@@ -161,8 +179,9 @@ def design_mcppc(model: BallScrewModel, *, beta: float = 4.0, pole_hz: float = 5
     filters.check_nyquist(fs)
     poles = desired_poles(model, beta, pole_hz, zeta)
     gains = place_gains(model, poles)
-    return McppcDesign(model, float(beta), float(pole_hz), float(zeta), gains, poles, filters, float(fs),
-                       int(delay_samples))
+    return McppcDesign(
+        model, float(beta), float(pole_hz), float(zeta), gains, poles, filters, float(fs), int(delay_samples)
+    )
 
 
 def check_sampling(fs: float, delay_samples: int) -> None:

@@ -62,8 +62,14 @@ class PpiDesign:
 
     def law(self) -> BallScrewLaw:
         """The implementable control law."""
-        return BallScrewLaw(self.gains, self.filters.zpk(), Zpk.constant(1.0),
-                            acceleration_feedforward(self.model), self.fs, self.delay_samples)
+        return BallScrewLaw(
+            self.gains,
+            self.filters.zpk(),
+            Zpk.constant(1.0),
+            acceleration_feedforward(self.model),
+            self.fs,
+            self.delay_samples,
+        )
 
     def design_dict(self) -> dict:
         """Design parameters with units."""
@@ -88,15 +94,29 @@ def _check_gains(Kpx: float, Kpv: float, Kiv: float) -> None:
         raise UsageError("--kpv must be > 0")
 
 
-def design_ppi(model: BallScrewModel, *, Kpx: float, Kpv: float, Kiv: float, filters: FilterPack | None = None,
-               fs: float = 20000.0, delay_samples: int = 1) -> PpiDesign:
+def design_ppi(
+    model: BallScrewModel,
+    *,
+    Kpx: float,
+    Kpv: float,
+    Kiv: float,
+    filters: FilterPack | None = None,
+    fs: float = 20000.0,
+    delay_samples: int = 1,
+) -> PpiDesign:
     """P-PI with the user's gains ``Kpx`` [1/s], ``Kpv`` [V/(rad/s)], ``Kiv`` [V/rad]."""
     check_sampling(fs, delay_samples)
     _check_gains(Kpx, Kpv, Kiv)
     filters = filters or FilterPack()
     filters.check_nyquist(fs)
-    return PpiDesign(model, {"Kpx": float(Kpx), "Kpv": float(Kpv), "Kiv": float(Kiv)}, filters, float(fs),
-                     int(delay_samples), {"method": "user gains"})
+    return PpiDesign(
+        model,
+        {"Kpx": float(Kpx), "Kpv": float(Kpv), "Kiv": float(Kiv)},
+        filters,
+        float(fs),
+        int(delay_samples),
+        {"method": "user gains"},
+    )
 
 
 def _candidate_loops(model, filters, fs, delay, frf, f):
@@ -110,8 +130,12 @@ def _candidate_loops(model, filters, fs, delay, frf, f):
     Fd = matched(filters.zpk(), fs).tf.freqresp(f)
     if frf is not None:
         pos = frf.as_quantity("position")
-        G11 = np.interp(f, pos.freq_hz, pos.channel("x1/u").real) + 1j * np.interp(f, pos.freq_hz, pos.channel("x1/u").imag)
-        G21 = np.interp(f, pos.freq_hz, pos.channel("x2/u").real) + 1j * np.interp(f, pos.freq_hz, pos.channel("x2/u").imag)
+        G11 = np.interp(f, pos.freq_hz, pos.channel("x1/u").real) + 1j * np.interp(
+            f, pos.freq_hz, pos.channel("x1/u").imag
+        )
+        G21 = np.interp(f, pos.freq_hz, pos.channel("x2/u").real) + 1j * np.interp(
+            f, pos.freq_hz, pos.channel("x2/u").imag
+        )
         H = zoh_response(f, fs) * delay_response(f, delay, fs)
     else:
         g = zoh_plant(model, fs, f)
@@ -120,8 +144,16 @@ def _candidate_loops(model, filters, fs, delay, frf, f):
     return G11 * H * Fd, G21 * H * Fd, (1 - z1) / T, T / (1 - z1)
 
 
-def tune_ppi(model: BallScrewModel, *, ms_max: float = 3.25, pm_min_deg: float = 30.0, filters: FilterPack | None = None,
-             fs: float = 20000.0, delay_samples: int = 1, frf: Frf | None = None) -> PpiDesign:
+def tune_ppi(
+    model: BallScrewModel,
+    *,
+    ms_max: float = 3.25,
+    pm_min_deg: float = 30.0,
+    filters: FilterPack | None = None,
+    fs: float = 20000.0,
+    delay_samples: int = 1,
+    frf: Frf | None = None,
+) -> PpiDesign:
     """Highest-bandwidth P-PI with ``Ms <= ms_max`` [-] and every |phase margin| >= ``pm_min_deg`` [deg].
 
     The velocity loop is parametrised by its crossover ``wv``: ``Kpv = (m1 + m2) wv``,
@@ -164,12 +196,21 @@ def tune_ppi(model: BallScrewModel, *, ms_max: float = 3.25, pm_min_deg: float =
         if not found and best is not None:
             break  # bandwidth beyond the feasible range
     if best is None:
-        raise DesignError(f"no P-PI gains reach Ms <= {ms_max:g} with phase margins >= {pm_min_deg:g} deg; "
-                          "relax --ms-max/--pm-min or adjust the filter pack")
+        raise DesignError(
+            f"no P-PI gains reach Ms <= {ms_max:g} with phase margins >= {pm_min_deg:g} deg; "
+            "relax --ms-max/--pm-min or adjust the filter pack"
+        )
     bw, Kpx, Kpv, Kiv, ms, ri, rp, wv = best
-    tuning = {"method": "highest bandwidth with Ms and phase-margin limits", "ms_max": float(ms_max),
-              "pm_min_deg": float(pm_min_deg), "ms_found": ms,
-              "velocity_crossover_hz": float(wv / (2 * np.pi)), "integral_ratio": ri, "position_ratio": rp,
-              "checked_case": "discrete" if frf is not None else "ideal_discrete"}
-    return PpiDesign(model, {"Kpx": float(Kpx), "Kpv": float(Kpv), "Kiv": float(Kiv)}, filters, float(fs),
-                     int(delay_samples), tuning)
+    tuning = {
+        "method": "highest bandwidth with Ms and phase-margin limits",
+        "ms_max": float(ms_max),
+        "pm_min_deg": float(pm_min_deg),
+        "ms_found": ms,
+        "velocity_crossover_hz": float(wv / (2 * np.pi)),
+        "integral_ratio": ri,
+        "position_ratio": rp,
+        "checked_case": "discrete" if frf is not None else "ideal_discrete",
+    }
+    return PpiDesign(
+        model, {"Kpx": float(Kpx), "Kpv": float(Kpv), "Kiv": float(Kiv)}, filters, float(fs), int(delay_samples), tuning
+    )

@@ -20,7 +20,11 @@ import numpy as np
 from ..errors import DataError
 
 PARAM_UNITS = {
-    "m1": "V/(rad/s^2)", "m2": "V/(rad/s^2)", "b1": "V/(rad/s)", "b2": "V/(rad/s)", "k": "V/rad",
+    "m1": "V/(rad/s^2)",
+    "m2": "V/(rad/s^2)",
+    "b1": "V/(rad/s)",
+    "b2": "V/(rad/s)",
+    "k": "V/rad",
     "c": "V/(rad/s)",
 }
 PARAM_NAMES = ("m1", "m2", "b1", "b2", "k", "c")
@@ -110,20 +114,30 @@ class BallScrewModel:
 
         g = self.frequency_response(freq_hz)
         h = np.stack([g["G11"], g["G21"]])[:, None, :]
-        f = Frf(np.asarray(freq_hz, float), h, ("x1", "x2"), ("u",), "position",
-                input_unit=self.input_unit, output_unit="rad", meta={"source": "ball-screw model"})
+        f = Frf(
+            np.asarray(freq_hz, float),
+            h,
+            ("x1", "x2"),
+            ("u",),
+            "position",
+            input_unit=self.input_unit,
+            output_unit="rad",
+            meta={"source": "ball-screw model"},
+        )
         return f.as_quantity(quantity)
 
     # --------------------------------------------------------------- state space
     def state_space(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(A, B, C)`` of eq. 3.3: states ``[x1, x2, x1', x2']``, inputs ``[u, d1, d2]``, outputs ``[x1, x2]``."""
         m1, m2, b1, b2, k, c = (self.m1, self.m2, self.b1, self.b2, self.k, self.c)
-        A = np.array([
-            [0, 0, 1, 0],
-            [0, 0, 0, 1],
-            [-k / m1, k / m1, -(c + b1) / m1, c / m1],
-            [k / m2, -k / m2, c / m2, -(c + b2) / m2],
-        ])
+        A = np.array(
+            [
+                [0, 0, 1, 0],
+                [0, 0, 0, 1],
+                [-k / m1, k / m1, -(c + b1) / m1, c / m1],
+                [k / m2, -k / m2, c / m2, -(c + b2) / m2],
+            ]
+        )
         B = np.array([[0, 0, 0], [0, 0, 0], [1 / m1, 1 / m1, 0], [0, 0, 1 / m2]])
         C = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]])
         return A, B, C
