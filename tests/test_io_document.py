@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from dataclasses import dataclass
 
 import numpy as np
 import pytest
+import tomllib
 
 from feedtune.errors import DataError, UsageError
 from feedtune.io import (
@@ -69,14 +69,16 @@ def test_toml_round_trip_through_tomllib_is_exact():
 def test_toml_layout_inline_quantities_and_matrix_rows():
     text = dumps_toml(NESTED)
     assert 'gain = { value = 0.001858, unit = "V/(rad/s^2)" }' in text
-    assert "sos = [\n    [1.0, -1.9, 0.95, 1.0, -1.8, 0.81],\n    [0.5, 0.0, -0.5, 1.0, -0.1, 0.2],\n]" in text
+    rows = "\n    [1.0, -1.9, 0.95, 1.0, -1.8, 0.81],\n    [0.5, 0.0, -0.5, 1.0, -0.1, 0.2],\n"
+    assert f"sos = [{rows}]" in text
     assert "[controller.poles]" in text and "[[controller.notch]]" in text
     assert '["x2/u"]' in text
     assert "pos_inf = inf" in text and "neg_inf = -inf" in text
 
 
 def test_toml_nan_none_numpy_values():
-    doc = {"a": float("nan"), "b": None, "c": np.float64(2.5), "d": np.arange(3), "e": {"f": None, "g": (1, 2)}}
+    doc = {"a": float("nan"), "b": None, "c": np.float64(2.5), "d": np.arange(3),
+           "e": {"f": None, "g": (1, 2)}}
     back = tomllib.loads(dumps_toml(doc))
     assert math.isnan(back["a"]) and "b" not in back and back["c"] == 2.5
     assert back["d"] == [0, 1, 2] and back["e"] == {"g": [1, 2]}
@@ -117,7 +119,7 @@ def test_read_document_errors(tmp_path):
         read_document(badj)
     with pytest.raises(DataError, match=r"nope\.toml: file not found"):
         read_document(tmp_path / "nope.toml")
-    with pytest.raises(DataError, match="expected .toml or .json"):
+    with pytest.raises(DataError, match=r"expected \.toml or \.json"):
         read_document(tmp_path / "x.yaml")
 
 
@@ -131,10 +133,10 @@ def test_value_of_and_require_schema():
     with pytest.raises(DataError, match="expected a number"):
         value_of("ten", where="x")
     assert require_schema({"schema": "feedtune.model/1.3"}, "feedtune.model", "m.toml") == (1, 3)
-    with pytest.raises(DataError, match=r"m\.toml: feedtune\.model/2 comes from a newer feedtune; this feedtune "
-                                        r"reads feedtune\.model/1"):
+    newer = r"m\.toml: feedtune\.model/2 comes from a newer feedtune; this feedtune reads feedtune\.model/1"
+    with pytest.raises(DataError, match=newer):
         require_schema({"schema": "feedtune.model/2"}, "feedtune.model", "m.toml")
-    with pytest.raises(DataError, match="feedtune.gains document; expected feedtune.model"):
+    with pytest.raises(DataError, match=r"feedtune\.gains document; expected feedtune\.model"):
         require_schema({"schema": "feedtune.gains/1"}, "feedtune.model", "m.toml")
     with pytest.raises(DataError, match="no 'schema' entry"):
         require_schema({}, "feedtune.model", "m.toml")
@@ -187,6 +189,15 @@ def test_model_errors_name_file_and_key(tmp_path, edit, fragment):
     with pytest.raises(DataError) as err:
         load_model(tmp_path / "bad.json")
     assert "bad.json" in str(err.value) and fragment in str(err.value)
+
+
+def test_gantry_kind_registered_on_first_use(tmp_path):
+    from feedtune.models.gantry import GantryModel
+
+    model = GantryModel(m=30.0, L=0.8, J0=2.0, d=0.1, m_x=10.0, c=50.0, k=2e6, alpha1_0=0.4)
+    save_model(tmp_path / "g.toml", model)
+    assert 'kind = "gantry"' in (tmp_path / "g.toml").read_text()
+    assert load_model(tmp_path / "g.json") == model
 
 
 def test_register_model_kind(tmp_path):

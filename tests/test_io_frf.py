@@ -155,7 +155,7 @@ def test_csv_unreadable_files(tmp_path):
         read_frf_csv(tmp_path)
     garbage = tmp_path / "garbage.csv"
     garbage.write_bytes(bytes(range(256)) * 4)
-    with pytest.raises(DataError, match="garbage.csv: binary"):
+    with pytest.raises(DataError, match=r"garbage\.csv: binary"):
         read_frf_csv(garbage)
 
 

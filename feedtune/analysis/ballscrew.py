@@ -176,35 +176,41 @@ def analyze_ballscrew(
     rhp_d = _rhp(K1d) + _rhp(K2d)
     cases: dict[str, CaseResponse | None] = {}
 
+    def responses(freq: np.ndarray) -> dict[str, np.ndarray]:
+        """Every controller response on one grid; s and z are computed once (no repeated exp)."""
+        s = 2j * np.pi * freq
+        z = np.exp(s / law.fs)
+        zP = z ** paths["feedforward"].preview_samples
+        return {
+            "K1": K1.evaluate(s),
+            "K2": K2.evaluate(s),
+            "ff": law.feedforward.evaluate(s),
+            "R1": law.rotary_reference.evaluate(s),
+            "K1d": K1d.evaluate(z),
+            "K2d": K2d.evaluate(z),
+            "ffd": paths["feedforward"].discrete.evaluate(z) * zP,
+            "R1d": paths["rotary"].discrete.evaluate(z) * zP,
+        }
+
     g = model.frequency_response(f)
+    r = responses(f)
     cases["ideal"] = _case(
-        "ideal",
-        f,
-        g["G11"],
-        g["G21"],
-        K1.freqresp(f),
-        K2.freqresp(f),
-        1.0,
-        law.feedforward.freqresp(f),
-        law.rotary_reference.freqresp(f),
-        g["G13"],
-        g["G23"],
-        rhp_c,
+        "ideal", f, g["G11"], g["G21"], r["K1"], r["K2"], 1.0, r["ff"], r["R1"], g["G13"], g["G23"], rhp_c
     )
-    fd = f[f < law.fs / 2]
-    fd = np.r_[fd, law.fs / 2]  # the z-domain contour closes at the Nyquist frequency
+    fd = np.r_[f[f < law.fs / 2], law.fs / 2]  # the z-domain contour closes at the Nyquist frequency
     gd = zoh_plant(model, law.fs, fd)
+    rd = responses(fd)
     Hd = delay_response(fd, law.delay_samples, law.fs)
     cases["ideal_discrete"] = _case(
         "ideal_discrete",
         fd,
         gd["G11"],
         gd["G21"],
-        K1d.freqresp(fd),
-        K2d.freqresp(fd),
+        rd["K1d"],
+        rd["K2d"],
         Hd,
-        paths["feedforward"].discrete_response(fd),
-        paths["rotary"].discrete_response(fd),
+        rd["ffd"],
+        rd["R1d"],
         gd["G13"],
         gd["G23"],
         rhp_d,
@@ -213,31 +219,10 @@ def analyze_ballscrew(
         cases["measured"] = cases["discrete"] = None
     else:
         fm, G11m, G21m = _plant_from_frf(frf)
-        cases["measured"] = _case(
-            "measured",
-            fm,
-            G11m,
-            G21m,
-            K1.freqresp(fm),
-            K2.freqresp(fm),
-            1.0,
-            law.feedforward.freqresp(fm),
-            law.rotary_reference.freqresp(fm),
-            rhp=rhp_c,
-        )
+        rm = r if np.array_equal(fm, f) else responses(fm)
+        cases["measured"] = _case("measured", fm, G11m, G21m, rm["K1"], rm["K2"], 1.0, rm["ff"], rm["R1"], rhp=rhp_c)
         H = zoh_response(fm, law.fs) * delay_response(fm, law.delay_samples, law.fs)
-        cases["discrete"] = _case(
-            "discrete",
-            fm,
-            G11m,
-            G21m,
-            K1d.freqresp(fm),
-            K2d.freqresp(fm),
-            H,
-            paths["feedforward"].discrete_response(fm),
-            paths["rotary"].discrete_response(fm),
-            rhp=rhp_d,
-        )
+        cases["discrete"] = _case("discrete", fm, G11m, G21m, rm["K1d"], rm["K2d"], H, rm["ffd"], rm["R1d"], rhp=rhp_d)
     return BallScrewAnalysis(cases)
 
 

@@ -1,0 +1,196 @@
+"""``feedtune design``: controllers from models."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+
+app = typer.Typer(help="Design controllers (MC-PPC, P-PI) from identified models.", no_args_is_help=True)
+
+NOTCH_HELP = "Notch HZ,ZETA_Z,ZETA_P (repeatable), e.g. --notch 420,0.55,0.7 --notch 1080,0.05,0.7."
+
+
+def _filters(notch, lpf):
+    from ..design.filters import FilterPack, Notch
+
+    return FilterPack([Notch.parse(n) for n in notch or []], lpf)
+
+
+def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_unstable, as_json):
+    """Analyse, check the limits, write the gains file, print the result."""
+    from ..design.check import check_design
+    from ..design.gains import gains_document
+    from ..errors import DesignError
+    from ..io import write_document
+    from .frf_options import read_optional_frf
+
+    frf = read_optional_frf(frf_path, quantity)
+    check = check_design(design, frf=frf, ms_max=ms_max, pm_min_deg=pm_min)
+    analysis = check.analysis.to_dict()
+    result = {
+        "kind": design.kind,
+        "gains": dict(design.gains),
+        "closed_loop_poles": [[float(p.real), float(p.imag)] for p in check.closed_loop_poles],
+        "analysis": analysis,
+        "check": check.to_dict(),
+        "design": design.design_dict(),
+    }
+    if design.kind == "ppi":
+        result["gains"].update(design.ppi_gains)
+    else:
+        result["placed_poles"] = [[float(p.real), float(p.imag)] for p in design.poles]
+    written = False
+    if out is not None and (check.ok or allow_unstable):
+        write_document(out, gains_document(design, analysis), force=force)
+        result["out"] = str(out)
+        written = True
+    if as_json:
+        print_json(result)
+    else:
+        _summary(result)
+        if written:
+            typer.echo(f"wrote {out}")
+    if not check.ok:
+        msg = "; ".join(check.violations)
+        if allow_unstable:
+            typer.echo(f"feedtune: warning: {msg} (written because of --allow-unstable)", err=True)
+        else:
+            raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
+
+
+def _summary(result: dict) -> None:
+    typer.echo(f"{result['kind'].upper()} gains:")
+    from ..design.ballscrew_law import GAIN_UNITS
+    from ..design.ppi import PPI_UNITS
+
+    units = {**GAIN_UNITS, **PPI_UNITS}
+    for k, v in result["gains"].items():
+        typer.echo(f"  {k:4s} = {fmt(v, units.get(k, ''), 6)}")
+    typer.echo(
+        f"{'case':15s} {'crossovers [Hz]':28s} {'PM [deg]':>9s} {'GM [dB]':>8s} {'Ms':>6s} {'Ms at [Hz]':>10s} "
+        f"{'|S|<1 [Hz]':>14s} stable"
+    )
+    for name, a in result["analysis"].items():
+        if a is None:
+            typer.echo(f"{name:15s} (needs --frf)")
+            continue
+        xo = ", ".join(f"{x:.1f}" for x in a["crossovers_hz"]) or "-"
+        rb = a["rejection_band_hz"]
+        rbs = f"{rb[0]:.3g}-{rb[1]:.4g}" if rb else "-"
+        typer.echo(
+            f"{name:15s} {xo:28s} {fmt(a['phase_margin_deg'], '', 3):>9s} {fmt(a['gain_margin_db'], '', 3):>8s} "
+            f"{a['ms']:6.3f} {a['ms_freq_hz']:10.1f} {rbs:>14s} {'yes' if a['stable'] else 'NO'}"
+        )
+    ideal = result["analysis"]["ideal"]
+    if ideal.get("disturbance_min_real_rad_per_V") is not None:
+        typer.echo(
+            f"d2->x2 most negative real part: {ideal['disturbance_min_real_rad_per_V']:.4g} rad/V at "
+            f"{ideal['disturbance_min_real_freq_hz']:.1f} Hz (ideal)"
+        )
+
+
+def _load_model(path: Path):
+    from ..io import load_model
+
+    return load_model(path)
+
+
+@app.command("ppc")
+def ppc(
+    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
+    beta: float = typer.Option(4.0, "--beta", help="Multiplier of the axial mode's decay rate (eq. 3.7), >= 1."),
+    pole_hz: float = typer.Option(50.0, "--pole-hz", help="Rigid-body closed-loop pole frequency [Hz] (eq. 3.8)."),
+    zeta: float = typer.Option(0.7, "--zeta", help="Damping of the rigid-body pole pair [-]."),
+    notch: list[str] = typer.Option(None, "--notch", help=NOTCH_HELP),
+    lpf: float = typer.Option(None, "--lpf", help="First-order low-pass pole frequency [Hz] (eq. 3.10)."),
+    fs: float = typer.Option(20000.0, "--fs", help="Sample rate of the target [Hz]."),
+    delay_samples: int = typer.Option(1, "--delay-samples", help="Computational delay [samples]."),
+    frf: Path = typer.Option(None, "--frf", help="Measured FRF for the measured and discrete analysis cases."),
+    quantity: str = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata."),
+    ms_max: float = typer.Option(3.5, "--ms-max", help="Largest acceptable peak sensitivity [-]."),
+    pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable phase margin [deg]."),
+    out: Path = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin)."),
+    force: bool = FORCE_OPTION,
+    allow_unstable: bool = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated."),
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Mode-compensating pole-placement control (MC-PPC, eq. 3.5-3.13)."""
+    from ..design.mcppc import design_mcppc
+
+    design = design_mcppc(
+        _load_model(model_file),
+        beta=beta,
+        pole_hz=pole_hz,
+        zeta=zeta,
+        filters=_filters(notch, lpf),
+        fs=fs,
+        delay_samples=delay_samples,
+    )
+    _finish(
+        design,
+        frf_path=frf,
+        quantity=quantity,
+        ms_max=ms_max,
+        pm_min=pm_min,
+        out=out,
+        force=force,
+        allow_unstable=allow_unstable,
+        as_json=as_json,
+    )
+
+
+@app.command("ppi")
+def ppi(
+    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
+    ms_max: float = typer.Option(3.25, "--ms-max", help="Peak sensitivity limit [-] for tuning and checking."),
+    pm_min: float = typer.Option(30.0, "--pm-min", help="Phase-margin limit [deg] for tuning and checking."),
+    kpx: float = typer.Option(None, "--kpx", help="Position-loop gain [1/s] (give all three to skip tuning)."),
+    kpv: float = typer.Option(None, "--kpv", help="Velocity-loop proportional gain [V/(rad/s)]."),
+    kiv: float = typer.Option(None, "--kiv", help="Velocity-loop integral gain [V/rad]."),
+    notch: list[str] = typer.Option(None, "--notch", help=NOTCH_HELP),
+    lpf: float = typer.Option(None, "--lpf", help="First-order low-pass pole frequency [Hz]."),
+    fs: float = typer.Option(20000.0, "--fs", help="Sample rate of the target [Hz]."),
+    delay_samples: int = typer.Option(1, "--delay-samples", help="Computational delay [samples]."),
+    frf: Path = typer.Option(None, "--frf", help="Measured FRF: tuning and checking use the discrete case on it."),
+    quantity: str = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata."),
+    out: Path = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin)."),
+    force: bool = FORCE_OPTION,
+    allow_unstable: bool = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated."),
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """P-PI position-velocity cascade with velocity and acceleration feedforward (Figure 3.9)."""
+    from ..design.ppi import design_ppi, tune_ppi
+    from ..errors import UsageError
+    from .frf_options import read_optional_frf
+
+    model = _load_model(model_file)
+    filters = _filters(notch, lpf)
+    given = [g is not None for g in (kpx, kpv, kiv)]
+    if any(given) and not all(given):
+        raise UsageError("give all of --kpx, --kpv and --kiv, or none of them to tune for --ms-max")
+    if all(given):
+        design = design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kiv, filters=filters, fs=fs, delay_samples=delay_samples)
+    else:
+        design = tune_ppi(
+            model,
+            ms_max=ms_max,
+            pm_min_deg=pm_min,
+            filters=filters,
+            fs=fs,
+            delay_samples=delay_samples,
+            frf=read_optional_frf(frf, quantity),
+        )
+    _finish(
+        design,
+        frf_path=frf,
+        quantity=quantity,
+        ms_max=ms_max,
+        pm_min=pm_min,
+        out=out,
+        force=force,
+        allow_unstable=allow_unstable,
+        as_json=as_json,
+    )

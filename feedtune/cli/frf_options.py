@@ -1,0 +1,27 @@
+"""Parsing of FRF-reader options shared by several commands."""
+
+from __future__ import annotations
+
+
+def mat_channels(items: list[str] | None) -> dict[str, str] | None:
+    """``["x2/u=H2", ...]`` -> ``{"x2/u": "H2"}``; UsageError on a malformed item."""
+    from ..errors import UsageError
+
+    if not items:
+        return None
+    out = {}
+    for it in items:
+        name, sep, var = it.partition("=")
+        if not sep or not name or not var:
+            raise UsageError(f"--mat-channel expects CHANNEL=VARIABLE (e.g. x2/u=H2), got {it!r}")
+        out[name.strip()] = var.strip()
+    return out
+
+
+def read_optional_frf(path, quantity=None, mat_freq=None, mat_channel=None):
+    """Read an FRF file when a path is given, else None."""
+    if path is None:
+        return None
+    from ..io import read_frf
+
+    return read_frf(path, quantity=quantity, freq_var=mat_freq, channels=mat_channels(mat_channel))

@@ -1,0 +1,53 @@
+"""The ``feedtune`` command line: a thin layer over the library.
+
+Every command parses options, calls library functions, writes files and prints a summary, or one JSON
+object with ``--json``. Errors are one line on stderr with exit code 2 (usage) or 1 (data, design).
+Library imports happen inside the commands so ``feedtune --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import typer
+
+from . import analyze_cmd, design_cmd, export_cmd, identify_cmd
+
+app = typer.Typer(
+    name="feedtune",
+    help="Identify and tune precision feed drives: ball-screw drives and linear-motor gantries.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
+app.add_typer(identify_cmd.app, name="identify")
+app.add_typer(design_cmd.app, name="design")
+app.add_typer(export_cmd.app, name="export")
+app.command("analyze")(analyze_cmd.analyze)
+
+
+def main() -> None:
+    """Entry point of the ``feedtune`` console script."""
+    from ..errors import FeedtuneError
+
+    try:
+        app()
+    except FeedtuneError as exc:
+        typer.echo(f"feedtune: error: {exc}", err=True)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        typer.echo("feedtune: interrupted", err=True)
+        sys.exit(130)
+    except Exception as exc:  # a bug: one line unless asked for the traceback
+        if os.environ.get("FEEDTUNE_DEBUG"):
+            raise
+        typer.echo(
+            f"feedtune: internal error: {type(exc).__name__}: {exc} (set FEEDTUNE_DEBUG=1 for a traceback)", err=True
+        )
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,353 @@
+"""TOML documents with a JSON twin: the model and gains files.
+
+Conventions (see ``docs/formats.md``):
+
+* Every physical number carries its unit as a *quantity* ``{"value": 0.001858, "unit": "V/(rad/s^2)"}``,
+  written inline in TOML: ``m1 = { value = 0.001858, unit = "V/(rad/s^2)" }``.
+* ``schema = "feedtune.<kind>/<major>[.<minor>]"`` names the document type and version.
+* ``x.toml`` is written together with ``x.json`` holding the same content (both or neither).
+* Floats are written with full precision (``repr``). TOML has ``inf``/``nan``; JSON has not, so in JSON
+  non-finite numbers are the strings ``"inf"``, ``"-inf"`` and ``"nan"``, and :func:`read_document` turns
+  exactly these strings back into floats.
+* ``None`` values are omitted (TOML has no null).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError
+from ._table import read_bytes
+from .atomic import atomic_outputs
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+_NONFINITE_STRINGS = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
+_SCHEMA_RE = re.compile(r"^(?P<prefix>[A-Za-z0-9_.-]+)/(?P<major>\d+)(?:\.(?P<minor>\d+))?$")
+
+
+# ----------------------------------------------------------------------------------------------- helpers
+def quantity(value: float, unit: str) -> dict[str, object]:
+    """A number with its unit: ``{"value": float(value), "unit": unit}``.
+
+    Examples
+    --------
+    >>> quantity(0.5, "m")
+    {'value': 0.5, 'unit': 'm'}
+    """
+    return {"value": float(value), "unit": str(unit)}
+
+
+def is_quantity(entry: object) -> bool:
+    """True for a dict with exactly the keys ``value`` (a number) and ``unit`` (a string)."""
+    return (isinstance(entry, Mapping) and set(entry) == {"value", "unit"} and isinstance(entry["unit"], str)
+            and isinstance(entry["value"], (int, float, np.integer, np.floating))
+            and not isinstance(entry["value"], bool))
+
+
+def value_of(entry: object, unit: str | None = None, where: str = "") -> float:
+    """The number of a bare number or a quantity dict, checking its unit.
+
+    Parameters
+    ----------
+    entry : float or dict
+        ``0.5`` or ``{"value": 0.5, "unit": "m"}``.
+    unit : str, optional
+        Expected unit; a quantity with another unit is a :class:`DataError` (bare numbers are accepted).
+    where : str
+        Location for messages, e.g. ``"model.toml: params.m1"``.
+    """
+    label = where or "value"
+    if isinstance(entry, Mapping):
+        if "value" not in entry:
+            raise DataError(f"{label}: expected a number or {{ value = ..., unit = ... }}, got keys "
+                            f"{', '.join(map(str, entry)) or 'none'}")
+        got = entry.get("unit")
+        if unit is not None and got is not None and str(got) != unit:
+            raise DataError(f"{label}: unit {got!r} where {unit!r} is expected")
+        entry = entry["value"]
+    if isinstance(entry, str) and entry in _NONFINITE_STRINGS:
+        return _NONFINITE_STRINGS[entry]
+    if isinstance(entry, bool) or not isinstance(entry, (int, float, np.integer, np.floating)):
+        raise DataError(f"{label}: expected a number, got {entry!r}")
+    return float(entry)
+
+
+def require_schema(doc: Mapping[str, object], schema_prefix: str, where: str,
+                   supported_major: int = 1) -> tuple[int, int]:
+    """Check ``doc["schema"]`` is ``"<schema_prefix>/<major>[.<minor>]"`` with a major version we read.
+
+    Parameters
+    ----------
+    doc : mapping
+        The document.
+    schema_prefix : str
+        E.g. ``"feedtune.model"``.
+    where : str
+        File name for messages.
+    supported_major : int
+        The major version this feedtune reads; minor versions only add optional entries.
+
+    Returns
+    -------
+    (major, minor) : tuple of int
+    """
+    schema = doc.get("schema")
+    if not isinstance(schema, str):
+        expected = f"{schema_prefix}/{supported_major}"
+        raise DataError(f"{where}: no 'schema' entry; expected schema = \"{expected}\"")
+    m = _SCHEMA_RE.match(schema.strip())
+    if not m:
+        raise DataError(f"{where}: schema {schema!r} is not of the form '{schema_prefix}/<version>'")
+    if m.group("prefix") != schema_prefix:
+        raise DataError(f"{where}: this is a {m.group('prefix')} document; expected {schema_prefix}")
+    major, minor = int(m.group("major")), int(m.group("minor") or 0)
+    if major != supported_major:
+        newer = "a newer" if major > supported_major else "an older"
+        raise DataError(f"{where}: {schema} comes from {newer} feedtune; this feedtune reads "
+                        f"{schema_prefix}/{supported_major}")
+    return major, minor
+
+
+# ------------------------------------------------------------------------------------------ normalising
+def _plain(value: object, path: str) -> object:
+    """Convert numpy scalars/arrays and tuples to plain Python; drop None entries of dicts."""
+    if isinstance(value, Mapping):
+        out = {}
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise DataError(f"document key {k!r} at {path or 'top level'} is not a string")
+            if v is not None:
+                out[k] = _plain(v, f"{path}.{k}" if path else k)
+        return out
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        items = []
+        for n, v in enumerate(value):
+            if v is None:
+                raise DataError(f"document entry {path}[{n}] is None; lists cannot hold missing values")
+            items.append(_plain(v, f"{path}[{n}]"))
+        return items
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value)
+    if isinstance(value, str):
+        return value
+    if isinstance(value, complex):
+        raise DataError(f"document entry {path} is complex; store real and imaginary parts separately")
+    raise DataError(f"document entry {path} has unsupported type {type(value).__name__}")
+
+
+# ------------------------------------------------------------------------------------------ TOML emitter
+def _key(k: str) -> str:
+    return k if _BARE_KEY.match(k) else _string(k)
+
+
+def _string(s: str) -> str:
+    return json.dumps(s, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def _float(x: float) -> str:
+    if math.isnan(x):
+        return "nan"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return repr(x)
+
+
+def _inline(v: object) -> str:
+    """A value written on one line (scalars, inline arrays, inline tables)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return _float(v)
+    if isinstance(v, str):
+        return _string(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_inline(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{_key(k)} = {_inline(x)}" for k, x in v.items()) + " }" if v else "{}"
+    raise DataError(f"cannot write {type(v).__name__} to TOML")
+
+
+def _is_table(v: object) -> bool:
+    return isinstance(v, dict) and not is_quantity(v)
+
+
+def _is_table_array(v: object) -> bool:
+    return isinstance(v, list) and bool(v) and all(_is_table(x) for x in v)
+
+
+def _value_lines(k: str, v: object) -> list[str]:
+    """``key = value`` lines; lists of lists are written one row per line."""
+    if isinstance(v, list) and v and all(isinstance(r, list) for r in v):
+        return [f"{_key(k)} = ["] + [f"    {_inline(r)}," for r in v] + ["]"]
+    return [f"{_key(k)} = {_inline(v)}"]
+
+
+def _emit_table(table: dict, path: list[str], out: list[str]) -> None:
+    for k, v in table.items():
+        if not _is_table(v) and not _is_table_array(v):
+            out.extend(_value_lines(k, v))
+    for k, v in table.items():
+        sub = [*path, _key(k)]
+        if _is_table(v):
+            if out:
+                out.append("")
+            out.append(f"[{'.'.join(sub)}]")
+            _emit_table(v, sub, out)
+        elif _is_table_array(v):
+            for item in v:
+                if out:
+                    out.append("")
+                out.append(f"[[{'.'.join(sub)}]]")
+                _emit_table(item, sub, out)
+
+
+def dumps_toml(doc: Mapping[str, object]) -> str:
+    """Write a document as TOML: quantities inline, dicts as ``[tables]``, lists of dicts as ``[[arrays]]``.
+
+    Floats keep full precision (``repr``; ``inf``/``nan`` as TOML ``inf``/``nan``), lists of lists are
+    written one row per line, ``None`` values are omitted. ``tomllib.loads(dumps_toml(d)) == d`` for any
+    document without ``None``.
+
+    Examples
+    --------
+    >>> print(dumps_toml({"schema": "feedtune.model/1", "params": {"k": quantity(210.02, "V/rad")}}))
+    schema = "feedtune.model/1"
+    <BLANKLINE>
+    [params]
+    k = { value = 210.02, unit = "V/rad" }
+    <BLANKLINE>
+    """
+    plain = _plain(dict(doc), "")
+    lines: list[str] = []
+    _emit_table(plain, [], lines)
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------------------------- JSON
+def _json_safe(v: object) -> object:
+    if isinstance(v, float) and not math.isfinite(v):
+        return _float(v)
+    if isinstance(v, dict):
+        return {k: _json_safe(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_json_safe(x) for x in v]
+    return v
+
+
+def _json_restore(v: object) -> object:
+    if isinstance(v, str) and v in _NONFINITE_STRINGS:
+        return _NONFINITE_STRINGS[v]
+    if isinstance(v, dict):
+        return {k: _json_restore(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_json_restore(x) for x in v]
+    return v
+
+
+def dumps_json(doc: Mapping[str, object]) -> str:
+    """The JSON twin: ``indent=2``, non-finite floats as the strings ``"inf"``, ``"-inf"``, ``"nan"``."""
+    return json.dumps(_json_safe(_plain(dict(doc), "")), indent=2, allow_nan=False, ensure_ascii=False) + "\n"
+
+
+# ------------------------------------------------------------------------------------------ write / read
+def write_document(path: str | os.PathLike[str], doc: Mapping[str, object], *, force: bool = False,
+                   json_twin: bool = True) -> list[Path]:
+    """Write ``doc`` as ``x.toml`` plus its JSON twin ``x.json`` (both or neither), or as ``x.json`` only.
+
+    Parameters
+    ----------
+    path : path-like
+        ``.toml`` (writes TOML and, with ``json_twin``, the ``.json`` beside it) or ``.json`` (JSON only).
+    doc : mapping
+        The document (plain values, quantity dicts, nested dicts and lists).
+    force : bool
+        Replace existing files (both destinations are checked before anything is written).
+    json_twin : bool
+        Also write the JSON twin of a ``.toml`` file.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    p = Path(path)
+    ext = p.suffix.lower()
+    if ext == ".json":
+        texts = {p: dumps_json(doc)}
+    elif ext == ".toml":
+        texts = {p: dumps_toml(doc)}
+        if json_twin:
+            texts[p.with_suffix(".json")] = dumps_json(doc)
+    else:
+        raise DataError(f"{p}: documents are written as .toml (with a .json twin) or .json")
+    paths = list(texts)
+    with atomic_outputs(paths, force=force) as temps:
+        for tmp, text in zip(temps, texts.values(), strict=True):
+            tmp.write_bytes(text.encode("utf-8"))
+    return paths
+
+
+def loads_document(text: str, fmt: str, where: str) -> dict:
+    """Parse TOML or JSON text (``fmt`` ``"toml"`` or ``"json"``); syntax errors name the line."""
+    if fmt == "toml":
+        try:
+            import tomllib
+        except ModuleNotFoundError:  # Python 3.10
+            import tomli as tomllib
+        try:
+            return tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise DataError(f"{where}: TOML syntax error: {' '.join(str(exc).split())}") from None
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{where}: JSON syntax error at line {exc.lineno}, column {exc.colno}: {exc.msg}") \
+            from None
+    if not isinstance(doc, dict):
+        raise DataError(f"{where}: a JSON document must be an object {{...}} at the top level")
+    return _json_restore(doc)
+
+
+def read_document(path: str | os.PathLike[str]) -> dict:
+    """Read a ``.toml`` or ``.json`` document.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+
+    Returns
+    -------
+    dict
+        The document; in JSON files the strings ``"inf"``, ``"-inf"``, ``"nan"`` become floats.
+
+    Raises
+    ------
+    DataError
+        Missing file, unknown extension, or a syntax error (with its line number).
+    """
+    p = Path(path)
+    ext = p.suffix.lower()
+    if ext not in (".toml", ".json"):
+        raise DataError(f"{p}: unknown document type {ext or '(no extension)'!r}; expected .toml or .json")
+    raw = read_bytes(p)
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise DataError(f"{p}: not a UTF-8 text file") from None
+    return loads_document(text, ext[1:], str(p))

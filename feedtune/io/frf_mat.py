@@ -1,0 +1,345 @@
+"""MATLAB ``.mat`` files: a variable loader for v5 and v7.3 files, and FRF read/write.
+
+* v4/v5/v7 files are read with :func:`scipy.io.loadmat`; variables scipy cannot decode (MATLAB objects such
+  as ``tf``) are skipped.
+* v7.3 files are HDF5 and read with h5py: arrays are stored transposed (MATLAB is column-major), complex
+  arrays as a compound type with fields ``real`` and ``imag``, char arrays as uint16 with the attribute
+  ``MATLAB_class = "char"``.
+
+FRF variables (defaults, all overridable): frequency vector ``freq_hz`` (or ``f``, ``freq``,
+``frequency``) [Hz], one complex vector per channel named ``OUT_IN`` (e.g. ``x1_u``), coherence
+``OUT_IN_coh``, optional char variables ``quantity``, ``input_unit``, ``output_unit``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError
+from ..frf import Frf, normalize_quantity
+from ._table import check_readable_file
+from .atomic import atomic_output
+
+FREQ_NAMES = ("freq_hz", "f", "freq", "frequency")
+_CHANNEL_VAR_RE = re.compile(r"^([A-Za-z][A-Za-z0-9]*)_([A-Za-z][A-Za-z0-9]*)$")
+_NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
+
+
+@dataclass(frozen=True)
+class MatContents:
+    """Variables of a MAT file.
+
+    Attributes
+    ----------
+    name : str
+        File name for messages.
+    arrays : dict of str to ndarray
+        Numeric variables (real or complex, any integer or float type) in MATLAB's shape (rows, columns).
+    strings : dict of str to str
+        Char variables (rows joined with newlines).
+    skipped : list of str
+        Variables that are neither numeric nor char (structs, cells, objects) or could not be decoded.
+    version : str
+        ``"5"`` (v4/v5/v7, scipy) or ``"7.3"`` (HDF5).
+    """
+
+    name: str
+    arrays: dict[str, np.ndarray]
+    strings: dict[str, str] = field(default_factory=dict)
+    skipped: list[str] = field(default_factory=list)
+    version: str = "5"
+
+    def available(self) -> str:
+        """Comma-separated list of the numeric variables with their shapes, for messages."""
+        items = [f"{k} {'x'.join(map(str, v.shape))}" for k, v in self.arrays.items()]
+        return ", ".join(items) or "no numeric variables"
+
+    def vector(self, var: str, what: str = "variable") -> np.ndarray:
+        """A numeric variable as a 1-D array (row or column vector); errors name the variable."""
+        if var not in self.arrays:
+            unreadable = var in self.skipped or var in self.strings
+            extra = " (it exists but could not be read as numbers)" if unreadable else ""
+            raise DataError(f"{self.name}: no {what} {var!r}{extra}; numeric variables: {self.available()}")
+        a = self.arrays[var]
+        if a.ndim > 2 or (a.ndim == 2 and min(a.shape) > 1) or a.size == 0:
+            shape = "x".join(map(str, a.shape))
+            raise DataError(f"{self.name}: {what} {var!r} must be a vector, got shape {shape}")
+        return a.reshape(-1)
+
+
+def _is_numeric(a: object) -> bool:
+    return isinstance(a, np.ndarray) and a.dtype.kind in "biufc" and a.dtype.names is None
+
+
+def _char_to_str(a: np.ndarray) -> str:
+    """A scipy char array (str dtype) to text."""
+    if a.size == 0:
+        return ""
+    if a.ndim == 0:
+        return str(a.item())
+    return "\n".join(str(x).rstrip() for x in np.atleast_1d(a.squeeze()).reshape(-1))
+
+
+def _load_v5(path: Path) -> MatContents:
+    import scipy.io
+    from scipy.io.matlab import MatReadError
+
+    try:
+        raw = scipy.io.loadmat(str(path), squeeze_me=False, chars_as_strings=True)
+    except (ValueError, TypeError, OSError, NotImplementedError, MatReadError):
+        raise DataError(f"{path}: not a MATLAB .mat file (no valid MAT header or truncated)") from None
+    except Exception:
+        raw = _load_v5_by_variable(path)
+    return _sort_v5(path, raw)
+
+
+def _short(exc: BaseException) -> str:
+    return " ".join(str(exc).split())[:120] or type(exc).__name__
+
+
+def _load_v5_by_variable(path: Path) -> dict[str, object]:
+    """Load variable by variable, dropping those scipy cannot decode."""
+    import scipy.io
+
+    try:
+        names = [w[0] for w in scipy.io.whosmat(str(path))]
+    except Exception as exc:
+        raise DataError(f"{path}: not a MATLAB .mat file ({_short(exc)})") from None
+    out: dict[str, object] = {}
+    for var in names:
+        try:
+            out.update(scipy.io.loadmat(str(path), variable_names=[var], squeeze_me=False,
+                                        chars_as_strings=True))
+        except Exception:
+            out[var] = None
+    return out
+
+
+def _sort_v5(path: Path, raw: Mapping[str, object]) -> MatContents:
+    arrays: dict[str, np.ndarray] = {}
+    strings: dict[str, str] = {}
+    skipped: list[str] = []
+    for key, val in raw.items():
+        if key.startswith("__"):
+            continue
+        if _is_numeric(val):
+            arrays[key] = np.asarray(val)
+        elif isinstance(val, np.ndarray) and val.dtype.kind == "U":
+            strings[key] = _char_to_str(val)
+        else:
+            skipped.append(key)
+    return MatContents(str(path), arrays, strings, skipped, "5")
+
+
+def _h5_class(obj: object) -> str:
+    cls = getattr(obj, "attrs", {}).get("MATLAB_class", b"")
+    return cls.decode() if isinstance(cls, bytes) else str(cls)
+
+
+def _h5_dataset(ds: object) -> np.ndarray | str | None:
+    """Decode one v7.3 dataset into MATLAB orientation; None when it is not numeric or char."""
+    cls = _h5_class(ds)
+    if ds.attrs.get("MATLAB_empty", 0):
+        return None
+    data = ds[()]
+    if not isinstance(data, np.ndarray):
+        data = np.asarray(data)
+    if data.dtype.names is not None:
+        if {"real", "imag"} <= set(data.dtype.names):
+            data = data["real"] + 1j * data["imag"]
+        else:
+            return None
+    data = data.T
+    if cls == "char":
+        rows = np.atleast_2d(data)
+        return "\n".join("".join(map(chr, row)).rstrip() for row in rows.astype(np.uint32))
+    if data.dtype.kind not in "biufc" or cls in ("cell", "struct", "function_handle"):
+        return None
+    if cls == "logical":
+        data = data.astype(bool)
+    return data
+
+
+def _load_v73(path: Path) -> MatContents:
+    import h5py
+
+    arrays: dict[str, np.ndarray] = {}
+    strings: dict[str, str] = {}
+    skipped: list[str] = []
+    try:
+        with h5py.File(path, "r") as fh:
+            for key, obj in fh.items():
+                if key.startswith("#"):
+                    continue
+                val = _h5_dataset(obj) if isinstance(obj, h5py.Dataset) else None
+                if isinstance(val, str):
+                    strings[key] = val
+                elif isinstance(val, np.ndarray):
+                    arrays[key] = val
+                else:
+                    skipped.append(key)
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read the HDF5 (MATLAB v7.3) file ({_short(exc)})") from None
+    return MatContents(str(path), arrays, strings, skipped, "7.3")
+
+
+def read_mat_variables(path: str | os.PathLike[str]) -> MatContents:
+    """Read the numeric and char variables of a MATLAB file (v4/v5/v7 or v7.3).
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.mat`` file.
+
+    Raises
+    ------
+    DataError
+        Missing file, folder, or not a MAT file.
+    """
+    import h5py
+
+    p = check_readable_file(path)
+    if h5py.is_hdf5(str(p)):
+        return _load_v73(p)
+    return _load_v5(p)
+
+
+# ------------------------------------------------------------------------------------------------ FRF read
+def _frequency(mat: MatContents, freq_var: str | None) -> tuple[str, np.ndarray]:
+    if freq_var is None:
+        found = [n for n in FREQ_NAMES if n in mat.arrays]
+        if not found:
+            raise DataError(f"{mat.name}: no frequency variable ({', '.join(FREQ_NAMES)}); pass freq_var. "
+                            f"Numeric variables: {mat.available()}")
+        freq_var = found[0]
+    f = mat.vector(freq_var, "frequency variable")
+    if np.iscomplexobj(f):
+        raise DataError(f"{mat.name}: frequency variable {freq_var!r} is complex; it must be real [Hz]")
+    return freq_var, f.astype(float)
+
+
+def _default_channels(mat: MatContents, n: int, freq_var: str) -> dict[str, str]:
+    found: dict[str, str] = {}
+    for var, a in mat.arrays.items():
+        m = _CHANNEL_VAR_RE.match(var)
+        if var == freq_var or not m or not np.iscomplexobj(a) or a.size != n or min(a.shape, default=0) > 1:
+            continue
+        found[f"{m.group(1)}/{m.group(2)}"] = var
+    if not found:
+        raise DataError(f"{mat.name}: no channel variables found; name complex vectors OUT_IN (e.g. x1_u) "
+                        f"or pass channels={{'x1/u': 'VAR'}}. Numeric variables: {mat.available()}")
+    return found
+
+
+def _sized_vector(mat: MatContents, var: str, n: int, what: str) -> np.ndarray:
+    a = mat.vector(var, what)
+    if a.size != n:
+        raise DataError(f"{mat.name}: {what} {var!r} has {a.size} values, the frequency vector has {n}")
+    return a
+
+
+def _coherence_vars(mat: MatContents, channels: Mapping[str, str],
+                    coherence: Mapping[str, str] | None) -> dict[str, str]:
+    if coherence is not None:
+        unknown = set(coherence) - set(channels)
+        if unknown:
+            names = ", ".join(sorted(unknown))
+            raise DataError(f"{mat.name}: coherence given for unknown channel(s) {names}")
+        return dict(coherence)
+    out = {}
+    for ch, var in channels.items():
+        for cand in (ch.replace("/", "_") + "_coh", var + "_coh"):
+            if cand in mat.arrays:
+                out[ch] = cand
+                break
+    return out
+
+
+def read_frf_mat(
+    path: str | os.PathLike[str],
+    *,
+    freq_var: str | None = None,
+    channels: Mapping[str, str] | None = None,
+    coherence: Mapping[str, str] | None = None,
+    quantity: str | None = None,
+) -> Frf:
+    """Read an FRF from a MATLAB file (v5 or v7.3).
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.mat`` file.
+    freq_var : str, optional
+        Name of the frequency vector [Hz]; default the first of ``freq_hz``, ``f``, ``freq``, ``frequency``.
+    channels : mapping of str to str, optional
+        ``{"OUT/IN": variable}``, e.g. ``{"x1/u": "H_rot", "x2/u": "H_lin"}``; real vectors are accepted.
+        Default: every complex vector named ``OUT_IN`` with the frequency vector's length.
+    coherence : mapping of str to str, optional
+        ``{"OUT/IN": variable}`` of coherence vectors [-]; default ``OUT_IN_coh`` (or ``VAR_coh``).
+    quantity : {"position", "velocity", "acceleration"}, optional
+        Overrides the file's ``quantity`` char variable (default position).
+
+    Returns
+    -------
+    Frf
+        Response in ``output_unit / input_unit`` (char variables, default rad/V).
+    """
+    mat = read_mat_variables(path)
+    fvar, f = _frequency(mat, freq_var)
+    n = f.size
+    chan_vars = dict(channels) if channels else _default_channels(mat, n, fvar)
+    resp = {ch: _sized_vector(mat, var, n, f"channel {ch} variable") for ch, var in chan_vars.items()}
+    coh_vars = _coherence_vars(mat, chan_vars, coherence)
+    coh = {ch: _sized_vector(mat, var, n, f"coherence {ch} variable").real.astype(float)
+           for ch, var in coh_vars.items()}
+    q = quantity if quantity is not None else mat.strings.get("quantity", "position")
+    q = normalize_quantity(q, f"{mat.name}: quantity")
+    meta = {"source": mat.name, "format": f"mat v{mat.version}"}
+    if "source" in mat.strings:
+        meta["origin"] = mat.strings["source"]
+    return Frf.from_channels(f, resp, coherence=coh or None, quantity=q,
+                             input_unit=mat.strings.get("input_unit", "V"),
+                             output_unit=mat.strings.get("output_unit", "rad"), meta=meta)
+
+
+# ----------------------------------------------------------------------------------------------- FRF write
+def frf_mat_variables(frf: Frf) -> dict[str, object]:
+    """The variables :func:`write_frf_mat` stores (column vectors and char values)."""
+    for name in (*frf.outputs, *frf.inputs):
+        if not _NAME_RE.match(name):
+            raise DataError(f"{frf.source}: channel name {name!r} cannot form a MATLAB variable OUT_IN; "
+                            "use letters and digits only (e.g. x1, u)")
+    out: dict[str, object] = {"freq_hz": frf.freq_hz.reshape(-1, 1)}
+    for i, o in enumerate(frf.outputs):
+        for j, u in enumerate(frf.inputs):
+            out[f"{o}_{u}"] = frf.response[i, j].reshape(-1, 1)
+            if frf.coherence is not None and np.all(np.isfinite(frf.coherence[i, j])):
+                out[f"{o}_{u}_coh"] = frf.coherence[i, j].reshape(-1, 1)
+    out.update(quantity=frf.quantity, input_unit=frf.input_unit, output_unit=frf.output_unit,
+               source=frf.source)
+    return out
+
+
+def write_frf_mat(frf: Frf, path: str | os.PathLike[str], *, force: bool = False) -> None:
+    """Write an FRF as a MATLAB v5 file (complex column vectors ``OUT_IN``, ``freq_hz`` [Hz]) atomically.
+
+    Parameters
+    ----------
+    frf : Frf
+        The response to write.
+    path : path-like
+        Destination ``.mat`` file.
+    force : bool
+        Replace an existing file.
+    """
+    import scipy.io
+
+    variables = frf_mat_variables(frf)
+    with atomic_output(path, force=force, suffix=".mat") as tmp:
+        scipy.io.savemat(str(tmp), variables, do_compression=True, oned_as="column")

@@ -1,0 +1,111 @@
+"""Logs as CSV text: reading (any vendor layout with ``skip_rows``) and writing (feedtune's own layout).
+
+Layout written by :func:`write_log_csv` and read back exactly by :func:`~feedtune.io.read_log`::
+
+    # feedtune log
+    # source: bench run 3
+    t [s],x1 [rad],u [V]
+    0.0,0.0,0.1
+    0.001,1.2e-06,0.1
+
+Units come from ``NAME [UNIT]`` headers or ``# unit: NAME = UNIT`` lines. Files without a header row get
+the column names ``col0``, ``col1``...
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from typing import IO
+
+import numpy as np
+
+from ..errors import DataError
+from ..log import Log
+from ._table import parse_table, read_text
+from .atomic import atomic_write_text
+from .log_read import RawLog
+
+_HEADER_UNIT_RE = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]*)[\])]\s*$")
+_UNIT_META_RE = re.compile(r"^\s*([^=]+?)\s*=\s*(.*?)\s*$")
+
+
+def _split_header(name: str) -> tuple[str, str | None]:
+    """``"x2 [m]"`` -> ``("x2", "m")``; ``"x2"`` -> ``("x2", None)``."""
+    m = _HEADER_UNIT_RE.match(name)
+    if m and m.group(1).strip():
+        return m.group(1).strip(), m.group(2).strip()
+    return name.strip(), None
+
+
+def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int = 0) -> RawLog:
+    """Parse a log CSV into a :class:`RawLog` (columns by header name, units from headers/metadata)."""
+    text, name = read_text(source, "CSV")
+    table = parse_table(text, name, skip_rows=skip_rows, require_header=False)
+    columns: dict[str, np.ndarray] = {}
+    units: dict[str, str] = {}
+    aliases: dict[str, str] = {}
+    for j, header in enumerate(table.columns):
+        sig, unit = _split_header(header)
+        if sig in columns:
+            sig = header
+        columns[sig] = table.data[:, j]
+        aliases[header] = sig
+        aliases[f"col{j}"] = sig
+        if unit is not None:
+            units[sig] = unit
+    for line in table.metadata.get("unit", []):
+        m = _UNIT_META_RE.match(line)
+        if not m:
+            raise DataError(f"{name}: '# unit: {line}' must read '# unit: NAME = UNIT'")
+        if m.group(1) not in columns:
+            raise DataError(f"{name}: '# unit:' line names {m.group(1)!r}, which is not a column")
+        units[m.group(1)] = m.group(2)
+    meta: dict[str, object] = {"format": "csv"}
+    meta.update({("origin" if k == "source" else k): "; ".join(v) for k, v in table.metadata.items()
+                 if k != "unit"})
+
+    def resolve(spec: str) -> np.ndarray:
+        if spec in aliases:
+            return columns[aliases[spec]]
+        raise DataError(f"{name}: no column {spec!r}; columns: {', '.join(columns)}")
+
+    return RawLog(name, columns, units, meta, resolve, aliases={k: v for k, v in aliases.items() if k != v})
+
+
+def log_to_csv_text(log: Log) -> str:
+    """CSV text of a log: ``# source:`` metadata, header ``t [s],NAME [UNIT],...``, full float precision."""
+    import pandas as pd
+
+    for key in log.signals:
+        if any(c in key for c in ',"[]#') or key != key.strip() or not key:
+            raise DataError(f"{log.source}: signal name {key!r} cannot be a CSV column name "
+                            "(no commas, quotes, brackets or #)")
+        if any(c in log.units.get(key, "") for c in ',"[]#\n'):
+            raise DataError(f"{log.source}: unit {log.units[key]!r} of {key!r} cannot go in a CSV header")
+        if key.lower() in ("t", "time"):
+            raise DataError(f"{log.source}: a signal may not be named {key!r}; that name is the time column")
+    lines = ["# feedtune log", f"# source: {' '.join(log.source.split())}"]
+    for key, value in log.meta.items():
+        if key not in ("source", "format", "origin", "unit") and isinstance(value, (str, int, float)) \
+                and re.fullmatch(r"[A-Za-z_]\w*", key):
+            lines.append(f"# {key}: {' '.join(str(value).split())}")
+    header = ["t [s]"] + [f"{k} [{log.units.get(k, '')}]" if log.units.get(k) else k for k in log.signals]
+    cols = {"t": log.t, **log.signals}
+    body = pd.DataFrame(cols).to_csv(index=False, header=False, lineterminator="\n")
+    return "\n".join([*lines, ",".join(header)]) + "\n" + body
+
+
+def write_log_csv(log: Log, path: str | os.PathLike[str], *, force: bool = False) -> None:
+    """Write a log as CSV (time [s] first, full precision) atomically.
+
+    Parameters
+    ----------
+    log : Log
+        The log.
+    path : path-like
+        Destination ``.csv`` file.
+    force : bool
+        Replace an existing file.
+    """
+    atomic_write_text(path, log_to_csv_text(log), force=force)

@@ -1,0 +1,258 @@
+"""Read time-series logs (CSV, MATLAB v5/v7.3, MDF4) into a :class:`~feedtune.log.Log`.
+
+Each format's reader produces a :class:`RawLog` (the file's columns as found); :func:`assemble_log` then
+applies the user's options the same way for every format:
+
+1. time base: the column named by ``time``, else a column ``t``/``time`` (any case); with ``fs`` [Hz] the
+   time is ``arange(n) / fs`` instead (``fs`` is required when there is no time column);
+2. ``mapping`` ``{NEW_NAME: COLUMN}`` renames (and for MATLAB ``var[k]`` picks column ``k`` of a matrix);
+   the other columns keep their names;
+3. ``scale`` ``{NAME: factor}`` multiplies signals (or the time, key ``t`` or the time column's name);
+4. ``units`` ``{NAME: unit}`` sets units.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import Counter
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+from ..log import Log
+
+CSV_EXTENSIONS = (".csv", ".txt")
+MAT_EXTENSIONS = (".mat",)
+MDF_EXTENSIONS = (".mf4", ".mdf")
+LOG_EXTENSIONS = CSV_EXTENSIONS + MAT_EXTENSIONS + MDF_EXTENSIONS
+TIME_NAMES = ("t", "time")
+TIME_UNIT_FACTORS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "ns": 1e-9}
+
+
+@dataclass
+class RawLog:
+    """Columns of a log file before the user's options are applied.
+
+    Attributes
+    ----------
+    name : str
+        File name for messages.
+    columns : dict of str to ndarray
+        Candidate signals (1-D float arrays; may differ in length for MATLAB files).
+    units : dict of str to str
+        Units found in the file.
+    meta : dict
+        Metadata (scalars, ``# key: value`` lines, ...).
+    resolve : callable, optional
+        ``resolve(spec) -> ndarray`` for mapping specs that are not plain column names (``data[3]``).
+    aliases : dict of str to str
+        Other spellings of column names (``"x2 [m]"``, ``"col3"`` -> ``"x2"``).
+    time : ndarray, optional
+        A time vector [s] the format carries itself (MDF); then no time column is looked for.
+    """
+
+    name: str
+    columns: dict[str, np.ndarray]
+    units: dict[str, str] = field(default_factory=dict)
+    meta: dict[str, object] = field(default_factory=dict)
+    resolve: Callable[[str], np.ndarray] | None = None
+    time: np.ndarray | None = None
+    aliases: dict[str, str] = field(default_factory=dict)
+
+    def canonical(self, spec: str) -> str:
+        """The column name a spec refers to (``spec`` itself when it is not an alias)."""
+        return self.aliases.get(spec, spec)
+
+    def get(self, spec: str, what: str = "column") -> np.ndarray:
+        """A column by name (or by the format's ``resolve``); unknown names list what exists."""
+        if spec in self.columns:
+            return self.columns[spec]
+        if self.resolve is not None:
+            return self.resolve(spec)
+        raise DataError(f"{self.name}: no {what} {spec!r}; available: {', '.join(self.columns) or 'none'}")
+
+
+def _find_time_column(raw: RawLog) -> str | None:
+    for cand in TIME_NAMES:
+        if cand in raw.columns:
+            return cand
+    lower = {k.lower(): k for k in raw.columns}
+    for cand in TIME_NAMES:
+        if cand in lower:
+            return lower[cand]
+    return None
+
+
+def _time_factor(raw: RawLog, spec: str) -> float:
+    unit = raw.units.get(raw.canonical(spec), "").strip()
+    return TIME_UNIT_FACTORS.get(unit, 1.0)
+
+
+def _common_length(raw: RawLog, signals: Mapping[str, np.ndarray]) -> int:
+    if signals:
+        return next(iter(signals.values())).size
+    lengths = Counter(v.size for v in raw.columns.values() if v.size >= 2)
+    if not lengths:
+        raise DataError(f"{raw.name}: no signal vectors found")
+    top = max(lengths.values())
+    return max(n for n, c in lengths.items() if c == top)
+
+
+def _check_fs(fs: float | None) -> None:
+    if fs is not None and not (np.isfinite(fs) and fs > 0):
+        raise UsageError(f"fs must be a sample rate > 0 Hz, got {fs}")
+
+
+def assemble_log(
+    raw: RawLog,
+    *,
+    mapping: Mapping[str, str] | None = None,
+    fs: float | None = None,
+    time: str | None = None,
+    scale: Mapping[str, float] | None = None,
+    units: Mapping[str, str] | None = None,
+) -> Log:
+    """Apply time base, renaming, scaling and units to a :class:`RawLog` (see module docstring)."""
+    _check_fs(fs)
+    if time is not None and fs is not None:
+        raise UsageError("give either a time column (time=) or a sample rate (fs=), not both")
+    time_spec = time if time is not None else (None if raw.time is not None else _find_time_column(raw))
+    mapping = dict(mapping or {})
+    mapped = {new: np.asarray(raw.get(col, "column for " + repr(new)), dtype=float).reshape(-1)
+              for new, col in mapping.items()}
+    sig_units = {new: raw.units.get(raw.canonical(col), "") for new, col in mapping.items()}
+    t_name = "t"
+    if raw.time is not None:
+        t = np.asarray(raw.time, dtype=float)
+    elif fs is None and time_spec is not None:
+        t = np.asarray(raw.get(time_spec, "time column"), dtype=float).reshape(-1)
+        t = t * _time_factor(raw, time_spec)
+        t_name = time_spec
+    elif fs is not None:
+        t = np.arange(_common_length(raw, mapped)) / fs
+    else:
+        raise DataError(f"{raw.name}: no time column (t or time); pass --fs (sample rate in Hz) "
+                        "or name the time column")
+    n = t.size
+    used = {raw.canonical(c) for c in mapping.values()} | ({raw.canonical(time_spec)} if time_spec else set())
+    signals: dict[str, np.ndarray] = {}
+    for new, x in mapped.items():
+        if x.size != n:
+            raise DataError(f"{raw.name}: column {mapping[new]!r} (for {new}) has {x.size} samples, "
+                            f"the time base has {n}")
+        signals[new] = x
+    for name, x in raw.columns.items():
+        if name not in used and name not in signals and x.size == n:
+            signals[name] = np.asarray(x, dtype=float)
+            sig_units[name] = raw.units.get(name, "")
+    t = _apply_scale(raw.name, signals, t, t_name, scale)
+    for name, unit in (units or {}).items():
+        if name not in signals:
+            raise UsageError(f"units: no signal {name!r}; signals: {', '.join(signals) or 'none'}")
+        sig_units[name] = str(unit)
+    meta = dict(raw.meta)
+    meta["source"] = raw.name
+    if np.any(np.diff(t) <= 0) and fs is None:
+        bad = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise DataError(f"{raw.name}: time column {t_name!r} is not strictly increasing at sample {bad + 1}; "
+                        "pass --fs to use a uniform time base")
+    return Log(t, signals, sig_units, meta)
+
+
+def _apply_scale(name: str, signals: dict[str, np.ndarray], t: np.ndarray, t_name: str,
+                 scale: Mapping[str, float] | None) -> np.ndarray:
+    for key, factor in (scale or {}).items():
+        try:
+            k = float(factor)
+        except (TypeError, ValueError):
+            raise UsageError(f"scale for {key!r} must be a number, got {factor!r}") from None
+        if not np.isfinite(k) or k == 0:
+            raise UsageError(f"scale for {key!r} must be finite and non-zero, got {factor!r}")
+        if key in signals:
+            signals[key] = signals[key] * k
+        elif key in ("t", t_name):
+            if k < 0:
+                raise UsageError(f"scale for the time column {key!r} must be > 0, got {factor!r}")
+            t = t * k
+        else:
+            raise UsageError(f"scale: no signal {key!r} in {name}; signals: {', '.join(signals) or 'none'}")
+    return t
+
+
+def log_format(path: str | os.PathLike[str]) -> str:
+    """``"csv"``, ``"mat"`` or ``"mdf"`` from the extension; others are a :class:`DataError`."""
+    ext = Path(path).suffix.lower()
+    if ext in CSV_EXTENSIONS:
+        return "csv"
+    if ext in MAT_EXTENSIONS:
+        return "mat"
+    if ext in MDF_EXTENSIONS:
+        return "mdf"
+    raise DataError(f"{path}: unknown log file type {ext or '(no extension)'!r}; "
+                    f"accepted: {', '.join(LOG_EXTENSIONS)}")
+
+
+def read_log(
+    path: str | os.PathLike[str],
+    *,
+    mapping: Mapping[str, str] | None = None,
+    fs: float | None = None,
+    time: str | None = None,
+    scale: Mapping[str, float] | None = None,
+    units: Mapping[str, str] | None = None,
+    skip_rows: int = 0,
+) -> Log:
+    """Read a log from CSV (``.csv``/``.txt``), MATLAB (``.mat``, v5 or v7.3) or MDF4 (``.mf4``/``.mdf``).
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    mapping : mapping of str to str, optional
+        ``{NEW_NAME: COLUMN}`` renames; for MATLAB, COLUMN may be ``var`` or ``var[k]`` (0-based column k
+        of a matrix, e.g. ``data[3]``); for headerless CSV the columns are ``col0``, ``col1``...
+    fs : float, optional
+        Sample rate [Hz]; the time becomes ``arange(n) / fs``. Required when there is no time column.
+    time : str, optional
+        Name of the time column (default ``t`` or ``time``) [s; CSV headers ``[ms]``/``[us]`` are converted].
+    scale : mapping of str to float, optional
+        Factors applied after reading, e.g. ``{"u": 35.15}`` (V to N) or ``{"time": 1e-6}`` (us to s).
+    units : mapping of str to str, optional
+        Units of signals (overrides the file).
+    skip_rows : int
+        CSV only: lines to skip before the header (vendor preambles).
+
+    Returns
+    -------
+    Log
+        Time [s] and signals (float) with units; ``meta["source"]`` is the file name.
+
+    Raises
+    ------
+    DataError
+        Missing/malformed file, unknown column or variable, no time base.
+    UsageError
+        Invalid option value.
+    """
+    fmt = log_format(path)
+    if skip_rows and fmt != "csv":
+        raise UsageError(f"{path}: skip_rows applies to CSV files only")
+    if time is not None and fmt == "mdf":
+        raise UsageError(f"{path}: MDF4 files carry their own time base; time= does not apply")
+    if fmt == "csv":
+        from .log_csv import read_log_csv_raw
+
+        raw = read_log_csv_raw(path, skip_rows=skip_rows)
+    elif fmt == "mat":
+        from .log_mat import read_log_mat_raw
+
+        raw = read_log_mat_raw(path)
+    else:
+        from .log_mdf import read_log_mdf_raw
+
+        raw = read_log_mdf_raw(path, channels=list(mapping.values()) if mapping else None, fs=fs)
+        fs = None
+    return assemble_log(raw, mapping=mapping, fs=fs, time=time, scale=scale, units=units)
