@@ -50,10 +50,14 @@ def main() -> None:
         from feedtune.analysis.loop import analyze_loop
 
         s = 2j * np.pi * f
-        t_loop = best_of(lambda: analyze_loop(f, law.K1().freqresp(f) * np.polyval(nums["G11"], s) / np.polyval(den, s)))
-        print(f"python-control frequency_response of one loop: {1e3 * t_ct:.1f} ms "
-              f"(ratio to our whole 4-case analysis: {t_ct / t_ours:.1f}x; our single loop + metrics: "
-              f"{1e3 * t_loop:.1f} ms)")
+        t_loop = best_of(
+            lambda: analyze_loop(f, law.K1().freqresp(f) * np.polyval(nums["G11"], s) / np.polyval(den, s))
+        )
+        print(
+            f"python-control frequency_response of one loop: {1e3 * t_ct:.1f} ms "
+            f"(ratio to our whole 4-case analysis: {t_ct / t_ours:.1f}x; our single loop + metrics: "
+            f"{1e3 * t_loop:.1f} ms)"
+        )
 
     t0 = time.perf_counter()
     for _ in range(3):

@@ -53,14 +53,23 @@ def test_frf_to_gains_to_header(ext, frf_files, tmp_path, capsys, monkeypatch):
             assert res["params"][name] == pytest.approx(true, rel=0.01)
     assert res["modes"][0]["freq_hz"] == pytest.approx(130.0, abs=0.5)
     gains = tmp_path / "mcppc.toml"
-    code, out, err = run(["design", "ppc", model, *FILTERS, "--frf", frf, "--out", gains, "--json"], capsys, monkeypatch)
+    code, out, err = run(
+        ["design", "ppc", model, *FILTERS, "--frf", frf, "--out", gains, "--json"], capsys, monkeypatch
+    )
     assert code == 0, err
     res = json.loads(out)
     assert set(res["gains"]) >= {"Kx1", "Kx2", "Kv1", "Kv2", "Ki2"}
     for case in ("ideal", "measured", "discrete"):
         a = res["analysis"][case]
-        assert set(a) >= {"crossovers_hz", "phase_margin_deg", "gain_margin_db", "ms", "ms_freq_hz",
-                          "rejection_band_hz", "stable"}
+        assert set(a) >= {
+            "crossovers_hz",
+            "phase_margin_deg",
+            "gain_margin_db",
+            "ms",
+            "ms_freq_hz",
+            "rejection_band_hz",
+            "stable",
+        }
         assert a["stable"] is True
     assert gains.exists() and gains.with_suffix(".json").exists()
     assert json.loads(gains.with_suffix(".json").read_text())["schema"] == "feedtune.gains/1"
@@ -76,8 +85,9 @@ def test_frf_to_gains_to_header(ext, frf_files, tmp_path, capsys, monkeypatch):
 def test_ppi_user_gains_and_tuning(frf_files, tmp_path, capsys, monkeypatch):
     model = tmp_path / "m.toml"
     run(["identify", "ballscrew", frf_files["csv"], "--out", model], capsys, monkeypatch)
-    code, out, err = run(["design", "ppi", model, "--kpx", "60", "--kpv", "0.8", "--kiv", "100", "--json"],
-                         capsys, monkeypatch)
+    code, out, err = run(
+        ["design", "ppi", model, "--kpx", "60", "--kpv", "0.8", "--kiv", "100", "--json"], capsys, monkeypatch
+    )
     assert code == 0, err
     res = json.loads(out)
     assert res["gains"]["Kpx"] == 60.0 and res["gains"]["Kx2"] == pytest.approx(0.8 * 60.0)
@@ -91,34 +101,34 @@ def test_unstable_design_writes_nothing(frf_files, tmp_path, capsys, monkeypatch
     run(["identify", "ballscrew", frf_files["csv"], "--out", model], capsys, monkeypatch)
     gains = tmp_path / "g.toml"
     args = ["design", "ppc", model, "--pole-hz", "600", *FILTERS, "--out", gains]
-    code, out, err = run(args, capsys, monkeypatch)
+    code, _, err = run(args, capsys, monkeypatch)
     assert code == 1
     assert "unstable" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not gains.exists() and not gains.with_suffix(".json").exists()
-    code, out, err = run([*args, "--allow-unstable"], capsys, monkeypatch)
+    code, _, err = run([*args, "--allow-unstable"], capsys, monkeypatch)
     assert code == 0 and gains.exists() and "warning" in err  # written on request, with a warning
 
 
 def test_bad_input_messages(frf_files, tmp_path, capsys, monkeypatch):
     bad = tmp_path / "bad.csv"
     bad.write_text("freq_hz,x1/u.re,x1/u.im,x2/u.re\n1,1,0,1\n2,1,0,1\n")
-    code, out, err = run(["identify", "ballscrew", bad], capsys, monkeypatch)
+    code, _, err = run(["identify", "ballscrew", bad], capsys, monkeypatch)
     assert code == 1 and "bad.csv" in err and "x2/u" in err and len(err.strip().splitlines()) == 1
     nonnum = tmp_path / "nonnum.csv"
     nonnum.write_text("freq_hz,x1/u.re,x1/u.im\n1,abc,0\n2,1,0\n")
-    code, out, err = run(["identify", "ballscrew", nonnum], capsys, monkeypatch)
+    code, _, err = run(["identify", "ballscrew", nonnum], capsys, monkeypatch)
     assert code == 1 and "nonnum.csv" in err
-    code, out, err = run(["identify", "ballscrew", tmp_path / "missing.csv"], capsys, monkeypatch)
+    code, _, err = run(["identify", "ballscrew", tmp_path / "missing.csv"], capsys, monkeypatch)
     assert code == 1 and "missing.csv" in err
     model = tmp_path / "m.toml"
     assert run(["identify", "ballscrew", frf_files["csv"], "--out", model], capsys, monkeypatch)[0] == 0
-    code, out, err = run(["identify", "ballscrew", frf_files["csv"], "--out", model], capsys, monkeypatch)
+    code, _, err = run(["identify", "ballscrew", frf_files["csv"], "--out", model], capsys, monkeypatch)
     assert code == 2 and "--force" in err
-    code, out, err = run(["design", "ppc", model, "--notch", "12000,0.1,0.7"], capsys, monkeypatch)
+    code, _, err = run(["design", "ppc", model, "--notch", "12000,0.1,0.7"], capsys, monkeypatch)
     assert code == 2 and "Nyquist" in err
-    code, out, err = run(["design", "ppc", model, "--fs", "-5"], capsys, monkeypatch)
+    code, _, err = run(["design", "ppc", model, "--fs", "-5"], capsys, monkeypatch)
     assert code == 2 and "--fs" in err
-    code, out, err = run(["identify", "ballscrew", frf_files["csv"], "--band", "300", "600"], capsys, monkeypatch)
+    code, _, err = run(["identify", "ballscrew", frf_files["csv"], "--band", "300", "600"], capsys, monkeypatch)
     assert code == 1 and "mode" in err
-    code, out, err = run(["design", "ppi", model, "--kpx", "10"], capsys, monkeypatch)
+    code, _, err = run(["design", "ppi", model, "--kpx", "10"], capsys, monkeypatch)
     assert code == 2 and "--kpv" in err
