@@ -1,5 +1,6 @@
-"""Physical models of feed drives: ball-screw 2-mass model, gantry yaw model, rigid body, friction."""
+"""Physical models of feed drives: ball-screw 2-mass model and the T-gantry yaw model."""
 
 from .ballscrew import THESIS_TABLE_3_1, BallScrewModel, Mode
+from .gantry import THESIS_GANTRY, GantryModel, GantryModelAtX
 
-__all__ = ["THESIS_TABLE_3_1", "BallScrewModel", "Mode"]
+__all__ = ["THESIS_GANTRY", "THESIS_TABLE_3_1", "BallScrewModel", "GantryModel", "GantryModelAtX", "Mode"]
