@@ -1,0 +1,213 @@
+"""Rigid-body IDIM-LS: EMPS benchmark reference values, synthetic ground truth, ill-conditioning."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from feedtune.errors import DataError, IllConditionedError, UsageError
+from feedtune.identify.rigid import decimate_columns, fit_rigid, validate_rigid
+from feedtune.log import Log
+from feedtune.models.rigid import RigidBodyModel
+
+GTAU = 35.15065  # N/V, EMPS drive gain (README)
+
+# EMPS_Description.pdf via the README: IDIM-LS values, standard deviations, relative error, condition number
+EMPS_SYMMETRIC = {"mass": 95.1089, "viscous": 203.5034, "coulomb": 20.3935, "offset": -3.1648}
+EMPS_SYMMETRIC_STD = {"mass": 0.1085, "viscous": 1.1460, "coulomb": 0.1012, "offset": 0.0444}
+EMPS_ASYMMETRIC = {"mass": 95.1540, "viscous_pos": 166.7061, "coulomb_pos": 20.1440, "viscous_neg": 240.4236,
+                   "coulomb_neg": 20.6277}
+
+
+def _emps_log(path) -> Log:
+    from scipy.io import loadmat
+
+    d = loadmat(path)
+    return Log(d["t"].ravel(), {"qm": d["qm"].ravel(), "vir": d["vir"].ravel()}, {"qm": "m", "vir": "V"},
+               {"source": path.name})
+
+
+@pytest.fixture(scope="module")
+def emps(real_data_dir) -> Log:
+    return _emps_log(real_data_dir / "EMPS" / "DATA_EMPS.mat")
+
+
+@pytest.fixture(scope="module")
+def emps_fit(emps):
+    return fit_rigid(emps, force="vir", position="qm", force_scale=GTAU)
+
+
+def _synthetic(model: RigidBodyModel, fs: float = 1000.0, seconds: float = 20.0, both_ways: bool = True,
+               quant: float = 0.0) -> Log:
+    """Sum-of-sines motion with analytic derivatives; force from the model (inverse dynamics)."""
+    t = np.arange(round(seconds * fs)) / fs
+    w = 2 * np.pi * np.array([0.15, 0.4, 1.1])
+    amp = np.array([0.08, 0.02, 0.004])
+    offset = 0.0 if both_ways else 0.2  # velocity offset keeps one direction only
+    x = (amp[:, None] * np.sin(w[:, None] * t)).sum(0) + offset * t
+    v = (amp[:, None] * w[:, None] * np.cos(w[:, None] * t)).sum(0) + offset
+    a = -(amp[:, None] * w[:, None] ** 2 * np.sin(w[:, None] * t)).sum(0)
+    if quant:
+        x = np.round(x / quant) * quant
+    return Log(t, {"x": x, "u": model.force(a, v)}, {"x": "m", "u": "N"}, {"source": "synthetic"})
+
+
+# ------------------------------------------------------------------------------------------ the model
+def test_rigid_model_force_by_hand():
+    m = RigidBodyModel(mass=2.0, viscous=3.0, coulomb_pos=5.0, coulomb_neg=7.0, offset=-1.0, viscous_neg=4.0)
+    # v>0: 2*1 + 3*0.5 + 5 - 1 = 7.5 ; v<0: 2*1 + 4*(-0.5) - 7 - 1 = -8 ; v=0: 2*1 - 1 = 1
+    assert m.force([1.0, 1.0, 1.0], [0.5, -0.5, 0.0]).tolist() == [7.5, -8.0, 1.0]
+    assert m.units["mass"] == "N/(m/s^2)"
+    assert not m.is_symmetric
+    json.dumps(m.to_dict(), allow_nan=False)
+    with pytest.raises(DataError, match="mass"):
+        RigidBodyModel(mass=0.0)
+    with pytest.raises(DataError, match="position_unit"):
+        RigidBodyModel(mass=1.0, position_unit="mm")
+
+
+# --------------------------------------------------------------------------------------- EMPS benchmark
+def test_emps_symmetric_matches_published_idim_ls(emps_fit):
+    for name, ref in EMPS_SYMMETRIC.items():
+        assert emps_fit.values[name] == pytest.approx(ref, rel=0.02), name
+        assert emps_fit.std[name] == pytest.approx(EMPS_SYMMETRIC_STD[name], rel=0.1), name
+    assert emps_fit.relative_error_pct == pytest.approx(4.08, abs=0.2)
+    assert emps_fit.condition_number == pytest.approx(25.99, rel=0.01)
+    assert emps_fit.decimate == 10  # round(fs / cutoff) = 1000 / 100, the published factor
+    d = emps_fit.to_dict()
+    json.dumps(d, allow_nan=False)
+    assert d["units"]["mass"] == "N/(m/s^2)" and d["units"]["viscous"] == "N/(m/s)"
+
+
+def test_emps_asymmetric_matches_published_idim_ls(emps):
+    fit = fit_rigid(emps, force="vir", position="qm", force_scale=GTAU, asymmetric=True)
+    for name, ref in EMPS_ASYMMETRIC.items():
+        assert fit.values[name] == pytest.approx(ref, rel=0.05), name
+    assert fit.relative_error_pct == pytest.approx(3.11, abs=0.2)
+    assert fit.model.offset == 0.0
+    assert fit.model.coulomb_negative == pytest.approx(20.6277, rel=0.05)
+
+
+def test_emps_pulses_cross_validation(real_data_dir, emps_fit):
+    pulses = _emps_log(real_data_dir / "EMPS" / "DATA_EMPS_PULSES.mat")
+    val = validate_rigid(pulses, emps_fit.model, force="vir", position="qm", force_scale=GTAU)
+    assert val.relative_error_pct == pytest.approx(5.98, abs=0.5)  # published cross-test error
+    json.dumps(val.to_dict(), allow_nan=False)
+    rotary = RigidBodyModel(mass=1.0, position_unit="rad")
+    with pytest.raises(DataError, match="model is in rad"):
+        validate_rigid(pulses, rotary, force="vir", position="qm")
+
+
+def test_emps_position_in_mm_gives_same_fit(emps, emps_fit):
+    mm = emps.with_signals({"qm": emps["qm"] * 1e3}, {"qm": "mm"})
+    fit = fit_rigid(mm, force="vir", position="qm", force_scale=GTAU)
+    assert fit.values["mass"] == pytest.approx(emps_fit.values["mass"], rel=1e-9)
+
+
+# ------------------------------------------------------------------------------------ synthetic truth
+def test_synthetic_symmetric_truth_recovered():
+    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0, offset=1.5)
+    fit = fit_rigid(_synthetic(truth), force="u", position="x", cutoff_hz=20.0)
+    assert fit.values["mass"] == pytest.approx(12.0, rel=0.01)
+    assert fit.values["viscous"] == pytest.approx(30.0, rel=0.01)
+    assert fit.values["coulomb"] == pytest.approx(8.0, rel=0.01)
+    assert fit.values["offset"] == pytest.approx(1.5, abs=0.05)
+    # leaving out the slow samples around reversals (where sign(dq) is smeared by decimation) still works
+    slow = fit_rigid(_synthetic(truth), force="u", position="x", cutoff_hz=20.0, velocity_threshold=0.02)
+    assert slow.n_samples < fit.n_samples
+    assert slow.values["coulomb"] == pytest.approx(8.0, rel=0.01)
+    assert slow.values["mass"] == pytest.approx(12.0, rel=0.01)
+
+
+def test_synthetic_asymmetric_truth_recovered_with_quantisation():
+    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0, coulomb_neg=5.0, viscous_neg=45.0)
+    fit = fit_rigid(_synthetic(truth, quant=1e-6), force="u", position="x", cutoff_hz=20.0, asymmetric=True)
+    expected = {"mass": 12.0, "viscous_pos": 30.0, "coulomb_pos": 8.0, "viscous_neg": 45.0, "coulomb_neg": 5.0}
+    for name, ref in expected.items():
+        assert fit.values[name] == pytest.approx(ref, rel=0.02), name
+
+
+def test_force_scale_and_unit():
+    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0)
+    log = _synthetic(truth)
+    volts = log.with_signals({"u": log["u"] / 4.0}, {"u": "V"})
+    fit = fit_rigid(volts, force="u", position="x", cutoff_hz=20.0, force_scale=4.0)
+    assert fit.values["mass"] == pytest.approx(12.0, rel=0.01)
+    assert fit.force_unit == "N"
+    raw = fit_rigid(volts, force="u", position="x", cutoff_hz=20.0)
+    assert raw.values["mass"] == pytest.approx(3.0, rel=0.01)
+    assert raw.units["mass"] == "V/(m/s^2)"
+
+
+def test_decimation_in_stages_keeps_a_slow_sine():
+    fs, factor = 20_000.0, 200  # > 13: applied as stages 10 x 10 x 2
+    t = np.arange(200_000) / fs
+    x = np.sin(2 * np.pi * 3.0 * t)
+    y = decimate_columns(x[:, None], factor)[:, 0]
+    assert y.size == 1000
+    # zero phase and sample-aligned: y = g sin + h cos with h ~ 0; g within the Chebyshev ripple
+    # (0.05 dB per pass, forward and backward, three stages: at most ~3.5 % low)
+    td = t[::factor][50:-50]
+    basis = np.column_stack([np.sin(2 * np.pi * 3.0 * td), np.cos(2 * np.pi * 3.0 * td)])
+    g, h = np.linalg.lstsq(basis, y[50:-50], rcond=None)[0]
+    assert abs(h) < 1e-4
+    assert 0.96 < g <= 1.0
+
+
+# ----------------------------------------------------------------------------------- ill-conditioning
+def test_constant_velocity_is_ill_conditioned():
+    t = np.arange(5000) / 1000.0
+    log = Log(t, {"x": 0.05 * t, "u": np.full(t.size, 7.0)}, {"x": "m", "u": "N"})
+    with pytest.raises(IllConditionedError, match="no acceleration"):
+        fit_rigid(log, force="u", position="x")
+
+
+def test_constant_velocity_with_quantisation_noise_is_ill_conditioned():
+    t = np.arange(5000) / 1000.0
+    rng = np.random.default_rng(1)
+    x = np.round((0.05 * t + rng.normal(0, 2e-6, t.size)) / 1e-6) * 1e-6
+    log = Log(t, {"x": x, "u": 7.0 + rng.normal(0, 0.1, t.size)}, {"x": "m", "u": "N"})
+    with pytest.raises(IllConditionedError, match=r"sign\(dq\).*1 \(constant\)|mass"):
+        fit_rigid(log, force="u", position="x")
+
+
+def test_standstill_is_ill_conditioned():
+    t = np.arange(3000) / 1000.0
+    log = Log(t, {"x": np.full(t.size, 0.1), "u": np.zeros(t.size)}, {"x": "m", "u": "N"})
+    with pytest.raises(IllConditionedError, match="did not move"):
+        fit_rigid(log, force="u", position="x")
+
+
+def test_one_direction_only_asymmetric_is_ill_conditioned():
+    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0)
+    log = _synthetic(truth, both_ways=False)
+    with pytest.raises(IllConditionedError, match="both directions"):
+        fit_rigid(log, force="u", position="x", cutoff_hz=20.0, asymmetric=True)
+    # the symmetric model cannot separate Coulomb friction from the offset either
+    with pytest.raises(IllConditionedError, match="linearly dependent"):
+        fit_rigid(log, force="u", position="x", cutoff_hz=20.0)
+
+
+# ------------------------------------------------------------------------------------------ bad input
+def test_bad_input_gives_one_line_errors():
+    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0)
+    log = _synthetic(truth, seconds=5.0)
+    with pytest.raises(DataError, match="no signal 'nope'"):
+        fit_rigid(log, force="nope", position="x")
+    with pytest.raises(UsageError, match="cutoff_hz"):
+        fit_rigid(log, force="u", position="x", cutoff_hz=600.0)
+    with pytest.raises(UsageError, match="decimate"):
+        fit_rigid(log, force="u", position="x", decimate=0)
+    with pytest.raises(UsageError, match="force_scale"):
+        fit_rigid(log, force="u", position="x", force_scale=0.0)
+    counts = log.with_signals({"x": log["x"]}, {"x": "counts"})
+    with pytest.raises(DataError, match="unit 'counts'"):
+        fit_rigid(counts, force="u", position="x")
+    t = log.t.copy()
+    t[100:] += 0.01
+    with pytest.raises(DataError, match="not uniform"):
+        fit_rigid(Log(t, dict(log.signals), dict(log.units)), force="u", position="x")
+    with pytest.raises(DataError, match="too few"):
+        fit_rigid(log.slice(None, 0.2), force="u", position="x")
