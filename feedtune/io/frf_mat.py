@@ -92,7 +92,7 @@ def _load_v5(path: Path) -> MatContents:
 
     try:
         raw = scipy.io.loadmat(str(path), squeeze_me=False, chars_as_strings=True)
-    except (ValueError, TypeError, OSError, NotImplementedError, MatReadError):
+    except (ValueError, TypeError, OSError, RuntimeError, MatReadError):  # RuntimeError: scipy refuses v7.3
         raise DataError(f"{path}: not a MATLAB .mat file (no valid MAT header or truncated)") from None
     except Exception:
         raw = _load_v5_by_variable(path)
