@@ -8,7 +8,7 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, print_json
 
-app = typer.Typer(help="Export gains files for real-time targets.", no_args_is_help=True)
+app = typer.Typer(rich_markup_mode=None, help="Export gains files for real-time targets.", no_args_is_help=True)
 
 
 @app.command("c")

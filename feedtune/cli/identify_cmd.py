@@ -8,7 +8,7 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair, print_json
 
-app = typer.Typer(help="Identify models from FRFs and logs.", no_args_is_help=True)
+app = typer.Typer(rich_markup_mode=None, help="Identify models from FRFs and logs.", no_args_is_help=True)
 
 
 @app.command("ballscrew")

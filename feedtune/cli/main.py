@@ -12,9 +12,10 @@ import sys
 
 import typer
 
-from . import analyze_cmd, design_cmd, export_cmd, identify_cmd
+from . import analyze_cmd, demo_cmd, design_cmd, export_cmd, identify_cmd, simulate_cmd, trajectory_cmd
 
 app = typer.Typer(
+    rich_markup_mode=None,
     name="feedtune",
     help="Identify and tune precision feed drives: ball-screw drives and linear-motor gantries.",
     no_args_is_help=True,
@@ -26,6 +27,9 @@ app.add_typer(identify_cmd.app, name="identify")
 app.add_typer(design_cmd.app, name="design")
 app.add_typer(export_cmd.app, name="export")
 app.command("analyze")(analyze_cmd.analyze)
+app.add_typer(simulate_cmd.app, name="simulate")
+app.command("trajectory")(trajectory_cmd.trajectory)
+app.command("demo")(demo_cmd.demo)
 
 
 def main() -> None:

@@ -1,0 +1,293 @@
+"""``feedtune simulate``: experiments on the digital twin (FRF measurement, tracking, rope snap, cutting)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+
+app = typer.Typer(
+    rich_markup_mode=None,
+    help="Run experiments on the ball-screw digital twin; write logs (and FRFs).",
+    no_args_is_help=True,
+)
+
+MACHINES = ("ballscrew",)
+
+MACHINE_OPTION = typer.Option("ballscrew", "--machine", help="Machine kind of the twin (ballscrew).")
+PARAM_OPTION = typer.Option(
+    None,
+    "--param",
+    "-p",
+    help="Twin parameter NAME=VALUE (repeatable), e.g. current_loop_hz=500, k=250, "
+    "friction_motor=none, friction_motor.dc_pos=0.05, noise_m=0; see docs/twin.md.",
+)
+IDEAL_OPTION = typer.Option(
+    False,
+    "--ideal",
+    help="Twin without unmodeled dynamics, friction, quantization, noise or saturation (the 2-mass model alone).",
+)
+SEED_OPTION = typer.Option(0, "--seed", help="Seed of the measurement noise (and multisine phases).")
+ENGINE_OPTION = typer.Option("auto", "--engine", help="auto, numba or python.")
+OUT_OPTION = typer.Option(..., "--out", "-o", help="Log file to write (.csv).")
+GAINS_OPTION = typer.Option(..., "--gains", "-g", help="Gains file (.toml or .json) from feedtune design.")
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def _twin(machine: str, params: list[str] | None, ideal: bool):
+    """Build the twin from the options (UsageError for an unknown machine or parameter)."""
+    from ..errors import UsageError
+    from ..sim.twin import BallScrewTwin, TwinParams
+
+    if machine not in MACHINES:
+        raise UsageError(f"unknown machine {machine!r}; the twin exists for: {', '.join(MACHINES)}")
+    base = TwinParams.ideal() if ideal else TwinParams()
+    overrides = {}
+    for item in params or []:
+        key, sep, val = item.partition("=")
+        if not sep or not key.strip():
+            raise UsageError(f"--param expects NAME=VALUE, got {item!r}")
+        overrides[key.strip()] = val.strip()
+    return BallScrewTwin(base.with_overrides(overrides))
+
+
+def _runtime(gains: Path):
+    from ..sim.runtime import GainsRuntime
+
+    return GainsRuntime.from_file(gains)
+
+
+def _check_csv(out: Path, what: str = "--out") -> None:
+    from ..errors import UsageError
+
+    if out.suffix.lower() != ".csv":
+        raise UsageError(f"{what} {out}: logs are written as .csv")
+
+
+def _finish(result, texts: dict, force: bool, as_json: bool, lines: list[str]) -> None:
+    """Write the files all-or-nothing, print, and turn a trip into an error after writing its log."""
+    from ..errors import DataError
+    from ..sim.demo import write_texts
+
+    written = write_texts(texts, force=force)
+    out = result.to_dict()
+    out["files"] = [str(p) for p in written]
+    if as_json:
+        print_json(out)
+    else:
+        for line in lines:
+            typer.echo(line)
+        for p in written:
+            typer.echo(f"wrote {p}")
+    if result.tripped:
+        raise DataError(f"{result.run.trip_message}; the log up to the trip was written to {written[0]}")
+
+
+def _trajectory(trajectory_file, distance, waypoints, v_max, a_max, j_max, s_max, fs, dwell_before, dwell_after):
+    from ..errors import UsageError
+    from .trajectory_cmd import build_trajectory
+
+    if trajectory_file is not None:
+        if distance is not None or waypoints:
+            raise UsageError("give either --trajectory FILE or --distance/--waypoints, not both")
+        from ..sim.experiments import trajectory_from_log
+
+        return trajectory_from_log(trajectory_file, fs)
+    return build_trajectory(distance, waypoints, v_max, a_max, j_max, s_max, fs, 0.0, dwell_before, dwell_after)
+
+
+# ------------------------------------------------------------------------------------------ commands
+@app.command("frf")
+def frf(
+    out: Path = OUT_OPTION,
+    frf_out: Path = typer.Option(None, "--frf-out", help="FRF file to write (.csv; default OUT_frf.csv)."),
+    excitation: str = typer.Option("multisine", "--excitation", help="multisine, chirp or prbs."),
+    rms: float = typer.Option(1.0, "--rms", help="RMS of the excitation added to the command [V]."),
+    f_lo: float = typer.Option(2.0, "--f-lo", help="Lowest excited frequency [Hz]."),
+    f_hi: float = typer.Option(2000.0, "--f-hi", help="Highest excited frequency [Hz]."),
+    period: float = typer.Option(0.5, "--period", help="Excitation period [s] (line spacing 1/period)."),
+    periods: int = typer.Option(6, "--periods", help="Periods run; the first is dropped as transient."),
+    drift: float = typer.Option(0.05, "--drift", help="Constant table speed during the test [m/s] (0: standstill)."),
+    gains: Path = typer.Option(None, "--gains", "-g", help="Stabilising controller (default: a weak P-PI)."),
+    machine: str = MACHINE_OPTION,
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Measure the FRF u -> x1, x2 under a weak stabilising controller; write the log and the FRF."""
+    from ..sim.demo import experiment_texts
+    from ..sim.experiments import measure_frf
+
+    _check_csv(out)
+    frf_path = frf_out or out.with_name(out.stem + "_frf.csv")
+    _check_csv(frf_path, "--frf-out")
+    twin = _twin(machine, param, ideal)
+    ctrl = _runtime(gains) if gains is not None else None
+    res = measure_frf(
+        twin,
+        excitation=excitation,
+        rms=rms,
+        f_lo=f_lo,
+        f_hi=f_hi,
+        period_s=period,
+        periods=periods,
+        drift_m_per_s=drift,
+        controller=ctrl,
+        seed=seed,
+        engine=engine,
+    )
+    texts = experiment_texts(res, str(out), None if res.tripped else str(frf_path))
+    s = res.summary
+    lines = [
+        f"FRF measurement ({s['excitation']}, {fmt(s['rms_V'], 'V')} RMS, {s['band_hz'][0]:g}-"
+        f"{s['band_hz'][1]:g} Hz, drift {fmt(s['drift_m_per_s'], 'm/s')}): {s.get('n_lines', 0)} lines, "
+        f"lowest coherence {fmt(s.get('coherence_min'))}"
+    ]
+    _finish(res, texts, force, as_json, lines)
+
+
+@app.command("track")
+def track(
+    gains: Path = GAINS_OPTION,
+    out: Path = OUT_OPTION,
+    trajectory_file: Path = typer.Option(
+        None, "--trajectory", "-t", help="Trajectory log (.csv from feedtune trajectory) with x_ref [m]."
+    ),
+    distance: float = typer.Option(None, "--distance", help="Move length [m] (instead of --trajectory)."),
+    waypoints: str = typer.Option(None, "--waypoints", help="Comma-separated positions [m]."),
+    v_max: float = typer.Option(0.2, "--v-max", help="Velocity limit [m/s]."),
+    a_max: float = typer.Option(5.0, "--a-max", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(500.0, "--j-max", help="Jerk limit [m/s^3]."),
+    s_max: float = typer.Option(None, "--s-max", help="Snap limit [m/s^4] (jerk-continuous profile)."),
+    dwell_before: float = typer.Option(0.05, "--dwell-before", help="Rest before the move [s]."),
+    dwell_after: float = typer.Option(0.2, "--dwell-after", help="Rest after the move [s]."),
+    machine: str = MACHINE_OPTION,
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Run a trajectory under the controller of a gains file; the log holds x_ref and derivatives, x1, x2, u."""
+    from ..sim.demo import experiment_texts
+    from ..sim.experiments import run_tracking
+
+    _check_csv(out)
+    twin = _twin(machine, param, ideal)
+    rt = _runtime(gains)
+    tr = _trajectory(
+        trajectory_file, distance, waypoints, v_max, a_max, j_max, s_max, twin.fs, dwell_before, dwell_after
+    )
+    res = run_tracking(twin, rt, tr, seed=seed, engine=engine)
+    lines = (
+        []
+        if res.tripped
+        else [
+            f"tracking with {rt.controller or 'controller'} from {gains}: max error "
+            f"{res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um"
+        ]
+    )
+    _finish(res, experiment_texts(res, str(out)), force, as_json, lines)
+
+
+@app.command("ropesnap")
+def ropesnap(
+    gains: Path = GAINS_OPTION,
+    out: Path = OUT_OPTION,
+    force_v: float = typer.Option(0.5, "--rope-force", help="Rope force on the table before the release [V]."),
+    t_release: float = typer.Option(0.6, "--t-release", help="Release time [s]."),
+    after: float = typer.Option(1.0, "--after", help="Time simulated after the release [s]."),
+    machine: str = MACHINE_OPTION,
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Rope snap: a constant table force released at --t-release; the log holds the table displacement and u."""
+    from ..sim.demo import experiment_texts
+    from ..sim.experiments import run_ropesnap
+
+    _check_csv(out)
+    twin = _twin(machine, param, ideal)
+    rt = _runtime(gains)
+    res = run_ropesnap(twin, rt, force=force_v, t_release=t_release, after_s=after, seed=seed, engine=engine)
+    lines = []
+    if not res.tripped:
+        st = res.summary["settling_time_s"]
+        lines = [
+            f"rope snap with {rt.controller or 'controller'}: peak {res.summary['peak_um']:.4g} um, 5 % "
+            f"settling {'not reached' if st is None else f'{st:.4g} s'}"
+        ]
+    _finish(res, experiment_texts(res, str(out)), force, as_json, lines)
+
+
+@app.command("cut")
+def cut(
+    gains: Path = GAINS_OPTION,
+    out: Path = OUT_OPTION,
+    speed: float = typer.Option(0.2, "--speed", help="Feed speed [m/s]."),
+    flutes: int = typer.Option(4, "--flutes", help="Teeth of the end mill."),
+    rpm: float = typer.Option(3500.0, "--rpm", help="Spindle speed [1/min]."),
+    tool_diameter: float = typer.Option(25.4e-3, "--tool-diameter", help="End-mill diameter [m]."),
+    cut_start: float = typer.Option(0.05, "--cut-start", help="Workpiece edge [m of table travel]."),
+    cut_length: float = typer.Option(0.12, "--cut-length", help="Length of the slot [m]."),
+    mean_force: float = typer.Option(0.3, "--mean-force", help="Mean feed force in full engagement [V]."),
+    tooth_force: float = typer.Option(0.3, "--tooth-force", help="Tooth-passing force amplitude [V]."),
+    a_max: float = typer.Option(5.0, "--a-max", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(500.0, "--j-max", help="Jerk limit [m/s^3]."),
+    machine: str = MACHINE_OPTION,
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Slotting at constant feed (thesis 3.4): cutting force at the tooth-passing frequency entering and leaving."""
+    from ..errors import UsageError
+    from ..sim.demo import experiment_texts
+    from ..sim.experiments import SlotCut, run_cut
+    from ..sim.trajectory import point_to_point
+
+    _check_csv(out)
+    if isinstance(flutes, bool) or flutes < 1:
+        raise UsageError(f"--flutes must be an integer >= 1, got {flutes}")
+    for name, v in (
+        ("--rpm", rpm),
+        ("--tool-diameter", tool_diameter),
+        ("--cut-length", cut_length),
+        ("--speed", speed),
+    ):
+        if not v > 0:
+            raise UsageError(f"{name} must be > 0, got {v:g}")
+    twin = _twin(machine, param, ideal)
+    rt = _runtime(gains)
+    sc = SlotCut(flutes, rpm, tool_diameter, cut_start, cut_length, mean_force, tooth_force)
+    tr = point_to_point(
+        cut_start + cut_length + 0.03,
+        v_max=speed,
+        a_max=a_max,
+        j_max=j_max,
+        fs=twin.fs,
+        dwell_before=0.05,
+        dwell_after=0.2,
+    )
+    res = run_cut(twin, rt, tr, sc, seed=seed, engine=engine)
+    lines = (
+        []
+        if res.tripped
+        else [
+            f"slotting at {speed * 1e3:g} mm/s ({sc.tooth_hz:.4g} Hz tooth passing) "
+            f"with {rt.controller or 'controller'}: "
+            f"max error {res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um"
+        ]
+    )
+    _finish(res, experiment_texts(res, str(out)), force, as_json, lines)

@@ -1,0 +1,286 @@
+"""The main job in one command, on the twin: measure, identify, design, test, compare (thesis §3.4, Table 3.2).
+
+:func:`run_demo` measures the FRF of the ball-screw twin under a weak stabilising controller, identifies the
+2-mass model from it, designs MC-PPC (beta = 4, 50 Hz, zeta = 0.7, the thesis's filter pack) and a P-PI
+tuned for the same peak sensitivity on the measured FRF, exports both gains files and runs every test
+through :class:`~feedtune.sim.runtime.GainsRuntime` reading the exported text only: rope snap and
+tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. The result
+holds the comparison table and the text of every file; :func:`write_texts` writes them all or none.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DesignError, UsageError
+
+SPEEDS_M_PER_S = (0.2, 0.5, 1.0)
+"""Tracking speeds of Table 3.2 [m/s]."""
+DEMO_MOVE = {"distance": 0.15, "a_max": 5.0, "j_max": 500.0, "dwell_before": 0.05, "dwell_after": 0.2}
+"""The demo's point-to-point move: 150 mm, 5 m/s^2, 500 m/s^3, dwells [m, m/s^2, m/s^3, s, s]."""
+CONTROLLERS = ("mcppc", "ppi")
+LABELS = {"mcppc": "MC-PPC", "ppi": "P-PI"}
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """Everything the demo computed.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per test: ``{"test", "mcppc": {...}, "ppi": {...}}`` with ``max_um``, ``rms_um`` (tracking,
+        cut) or ``peak_um``, ``settling_time_s`` (rope snap).
+    identified : dict
+        The fit (:meth:`~feedtune.identify.ballscrew.BallScrewFit.to_dict`).
+    designs : dict
+        Per controller: gains and the discrete-case peak sensitivity ``ms``.
+    texts : dict
+        File name -> file text (CSV logs, FRF, model and gains TOML/JSON, summary JSON).
+    twin : dict
+        The twin's parameters.
+    """
+
+    rows: list
+    identified: dict
+    designs: dict
+    texts: dict = field(repr=False)
+    twin: dict = field(repr=False, default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: comparison rows, identified model, designs, twin parameters, file names."""
+        return {"comparison": self.rows, "identified": self.identified, "designs": self.designs,
+                "twin": self.twin, "files": sorted(self.texts),
+                "units": {"max_um": "um", "rms_um": "um", "peak_um": "um", "settling_time_s": "s",
+                          "speed": "mm/s"}}
+
+    def table(self) -> str:
+        """The comparison as text, laid out like Table 3.2."""
+        head = (f"{'test':22s} {'MC-PPC max':>10s} {'RMS':>7s} {'P-PI max':>10s} {'RMS':>7s} "
+                f"{'max -%':>7s} {'RMS -%':>7s}")
+        lines = ["Tracking error of the table [um] (Table 3.2)", head]
+        for row in self.rows:
+            if "max_um" not in row["mcppc"]:
+                continue
+            a, b = row["mcppc"], row["ppi"]
+            lines.append(f"{row['test']:22s} {a['max_um']:10.3f} {a['rms_um']:7.3f} {b['max_um']:10.3f} "
+                         f"{b['rms_um']:7.3f} {_drop(a['max_um'], b['max_um']):7.1f} "
+                         f"{_drop(a['rms_um'], b['rms_um']):7.1f}")
+        for row in self.rows:
+            if "peak_um" in row["mcppc"]:
+                a, b = row["mcppc"], row["ppi"]
+                lines += ["", f"Rope snap ({row['test']}): peak [um], 5 % settling time [s]",
+                          f"  MC-PPC {a['peak_um']:8.3f} um  {_fmt_s(a['settling_time_s'])}",
+                          f"  P-PI   {b['peak_um']:8.3f} um  {_fmt_s(b['settling_time_s'])}"]
+        return "\n".join(lines)
+
+
+def _drop(a: float, b: float) -> float:
+    return 100.0 * (1.0 - a / b) if b else float("nan")
+
+
+def _fmt_s(x) -> str:
+    return "not settled" if x is None else f"{x:.4f} s"
+
+
+# ------------------------------------------------------------------------------------------ files
+def check_out_dir(out_dir: str | os.PathLike[str], force: bool) -> Path:
+    """Refuse an existing non-empty output folder without ``force``; the parent must exist."""
+    from ..errors import DataError
+
+    d = Path(out_dir)
+    if d.exists() and not d.is_dir():
+        raise DataError(f"{d} is a file; --out expects a folder")
+    if d.is_dir() and any(d.iterdir()) and not force:
+        raise UsageError(f"{d} exists and is not empty; pass --force to write into it")
+    parent = d.parent if str(d.parent) else Path(".")
+    if not parent.is_dir():
+        raise DataError(f"{d}: folder {parent} does not exist")
+    return d
+
+
+def write_texts(texts: dict, *, force: bool = False, out_dir: str | os.PathLike[str] | None = None) -> list[Path]:
+    """Write ``{path: text}`` all-or-nothing (:func:`feedtune.io.atomic_outputs`); create ``out_dir`` if needed.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    from ..io import atomic_outputs
+
+    created = False
+    if out_dir is not None:
+        d = Path(out_dir)
+        if not d.exists():
+            d.mkdir()
+            created = True
+        paths = [d / name for name in texts]
+    else:
+        paths = [Path(p) for p in texts]
+    try:
+        with atomic_outputs(paths, force=force) as temps:
+            for tmp, text in zip(temps, texts.values(), strict=True):
+                tmp.write_bytes(text.encode("utf-8"))
+    except BaseException:
+        if created and not any(Path(out_dir).iterdir()):
+            Path(out_dir).rmdir()
+        raise
+    return paths
+
+
+def experiment_texts(result, log_name: str, frf_name: str | None = None) -> dict:
+    """CSV texts of an experiment's log (and FRF): ``{log_name: text[, frf_name: text]}``."""
+    from ..io.frf_csv import frf_to_csv_text
+    from ..io.log_csv import log_to_csv_text
+
+    texts = {log_name: log_to_csv_text(result.log)}
+    if frf_name is not None and result.frf is not None:
+        texts[frf_name] = frf_to_csv_text(result.frf)
+    return texts
+
+
+# ------------------------------------------------------------------------------------------ demo
+def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str = "auto",
+             rope_force: float = 0.5, include_cut: bool = True) -> DemoResult:
+    """Run the whole job on the twin (see the module docstring); nothing is written.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the excitation phases and of the measurement noise.
+    speeds : sequence of float
+        Tracking speeds [m/s].
+    params : TwinParams, optional
+        The twin (default: the thesis's drive with every unmodeled effect).
+    engine : str
+        Simulation engine.
+    rope_force : float
+        Rope force [V].
+    include_cut : bool
+        Also run the slotting cut at the first speed.
+
+    Returns
+    -------
+    DemoResult
+
+    Raises
+    ------
+    DesignError
+        A design is unstable on the measured FRF (with the default twin this does not happen).
+    """
+    from ..design.filters import THESIS_FILTER_PACK
+    from ..design.gains import gains_document
+    from ..design.mcppc import design_mcppc
+    from ..design.ppi import tune_ppi
+    from ..identify.ballscrew import fit_ballscrew
+    from ..io import dumps_json, dumps_toml, model_document
+    from .experiments import measure_frf
+    from .twin import BallScrewTwin, TwinParams
+
+    twin = BallScrewTwin(params or TwinParams())
+    p = twin.params
+    frf_res = measure_frf(twin, seed=seed, engine=engine)
+    if frf_res.tripped:
+        raise DesignError(f"FRF measurement stopped: {frf_res.run.trip_message}")
+    frf = frf_res.frf
+    fit = fit_ballscrew(frf)
+    texts = experiment_texts(frf_res, "frf_measurement.csv", "frf.csv")
+    model_doc = model_document(fit.model, fit=fit.to_dict())
+    texts["model.toml"], texts["model.json"] = dumps_toml(model_doc), dumps_json(model_doc)
+
+    mc = design_mcppc(fit.model, filters=THESIS_FILTER_PACK, fs=p.fs, delay_samples=p.delay_samples)
+    mc_check = _checked(mc, frf)
+    ms = mc_check.analysis.cases["discrete"].metrics.ms
+    pp = tune_ppi(fit.model, ms_max=ms, filters=THESIS_FILTER_PACK, frf=frf, fs=p.fs, delay_samples=p.delay_samples)
+    designs, runtimes = {}, {}
+    for name, design, check in (("mcppc", mc, mc_check), ("ppi", pp, _checked(pp, frf))):
+        doc = gains_document(design, check.analysis.to_dict())
+        texts[f"{name}_gains.toml"], texts[f"{name}_gains.json"] = dumps_toml(doc), dumps_json(doc)
+        runtimes[name] = _runtime_from_text(texts[f"{name}_gains.toml"], f"{name}_gains.toml")
+        designs[name] = {"gains": dict(design.gains), "ms": check.analysis.cases["discrete"].metrics.ms,
+                         "crossovers_hz": list(check.analysis.cases["discrete"].metrics.crossovers_hz)}
+        if name == "ppi":
+            designs[name]["ppi_gains"] = dict(design.ppi_gains)
+    rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
+    result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict())
+    texts["summary.json"] = dumps_json(_plain({k: v for k, v in result.to_dict().items() if k != "files"}))
+    return result
+
+
+def _checked(design, frf):
+    from ..design.check import check_design
+
+    check = check_design(design, frf=frf)
+    if not check.ok:
+        raise DesignError(f"{design.kind} design on the identified model: {'; '.join(check.violations)}")
+    return check
+
+
+def _runtime_from_text(text: str, name: str):
+    """The runtime built from exactly the exported TOML text."""
+    from ..io.document import loads_document
+    from .runtime import GainsRuntime
+
+    return GainsRuntime.from_document(loads_document(text, "toml", name), name)
+
+
+def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts) -> list:
+    from .experiments import SlotCut, run_cut, run_ropesnap, run_tracking
+    from .trajectory import point_to_point
+
+    rows = []
+    row = {"test": f"{rope_force:g} V"}
+    for name, rt in runtimes.items():
+        res = run_ropesnap(twin, rt, force=rope_force, seed=seed, engine=engine)
+        texts[f"ropesnap_{name}.csv"] = _log_text(res)
+        row[name] = _figures(res, ("peak_um", "settling_time_s"))
+    rows.append(row)
+    for v in speeds:
+        tr = point_to_point(DEMO_MOVE["distance"], v_max=v, a_max=DEMO_MOVE["a_max"], j_max=DEMO_MOVE["j_max"],
+                            fs=twin.fs, dwell_before=DEMO_MOVE["dwell_before"], dwell_after=DEMO_MOVE["dwell_after"])
+        row = {"test": f"track {v * 1e3:g} mm/s", "speed": v * 1e3}
+        for name, rt in runtimes.items():
+            res = run_tracking(twin, rt, tr, seed=seed, engine=engine)
+            texts[f"track_{v * 1e3:g}mm_s_{name}.csv"] = _log_text(res)
+            row[name] = _figures(res, ("max_um", "rms_um"))
+        rows.append(row)
+    if include_cut:
+        v = speeds[0]
+        cut = SlotCut()
+        dist = cut.start_m + cut.length_m + 0.03
+        tr = point_to_point(dist, v_max=v, a_max=DEMO_MOVE["a_max"], j_max=DEMO_MOVE["j_max"], fs=twin.fs,
+                            dwell_before=DEMO_MOVE["dwell_before"], dwell_after=DEMO_MOVE["dwell_after"])
+        row = {"test": f"cut {v * 1e3:g} mm/s*", "speed": v * 1e3}
+        for name, rt in runtimes.items():
+            res = run_cut(twin, rt, tr, cut, seed=seed, engine=engine)
+            texts[f"cut_{v * 1e3:g}mm_s_{name}.csv"] = _log_text(res)
+            row[name] = _figures(res, ("max_um", "rms_um"))
+        rows.append(row)
+    return rows
+
+
+def _log_text(res) -> str:
+    from ..io.log_csv import log_to_csv_text
+
+    if res.tripped:
+        raise DesignError(f"{res.kind} with {res.summary.get('controller')}: {res.run.trip_message}")
+    return log_to_csv_text(res.log)
+
+
+def _figures(res, keys) -> dict:
+    return {k: res.summary.get(k) for k in keys}
+
+
+def _plain(obj):
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    return obj

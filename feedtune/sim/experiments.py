@@ -1,0 +1,498 @@
+"""Experiments on the ball-screw twin (thesis §3.2.1, §3.4), each giving the log a real test would record.
+
+* :func:`measure_frf` -- the drive excited (random-phase multisine, chirp or PRBS) under a weak stabilising
+  controller; the log holds ``r`` (excitation), ``u``, ``x1``, ``x2`` and the FRF ``x1/u``, ``x2/u`` is
+  estimated from it indirectly (``(r -> y) / (r -> u)``) with its coherence.
+* :func:`run_tracking` -- a trajectory under a gains file; the log holds ``x_ref`` and its derivatives,
+  ``x1``, ``x2``, ``u`` and the table tracking error ``e2``.
+* :func:`run_ropesnap` -- a constant table force (a string pulling the table) released at ``t_release``;
+  the log holds the table displacement and ``u``.
+* :func:`run_cut` -- slotting at constant feed: the cutting force at the tooth-passing frequency on the
+  table while the tool is in the workpiece (§3.4: 4-flute 25.4 mm end mill, 3500 rpm, 200 mm/s).
+* :func:`measure_closed_loop` -- the closed-loop ``x_r -> x2`` response by a sine sweep (multisine of
+  reference lines), to compare with the frequency-domain analysis.
+
+Positions in the logs: encoders ``x1``, ``x2`` in rad of screw rotation (the model's unit, what the FRF
+fit expects), table travel and references in m. Commands and forces in V.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+from ..log import Log
+from .twin import BallScrewTwin, TwinRun
+
+EXCITATIONS = ("multisine", "chirp", "prbs")
+
+
+# ------------------------------------------------------------------------------------------ results
+@dataclass(frozen=True)
+class ExperimentResult:
+    """What an experiment produced.
+
+    Attributes
+    ----------
+    kind : str
+        ``"frf"``, ``"track"``, ``"ropesnap"`` or ``"cut"``.
+    log : Log
+        The recorded signals (``meta["trip"]`` says why a run stopped early).
+    run : TwinRun
+        The raw closed-loop run.
+    summary : dict
+        JSON-ready figures with units in the keys (metrics, settings).
+    frf : Frf or None
+        The estimated FRF (``"frf"`` experiment).
+    metrics : object or None
+        :class:`~feedtune.analysis.metrics.TrackingMetrics` or ``RopeSnapMetrics`` (None after a trip).
+    """
+
+    kind: str
+    log: Log
+    run: TwinRun
+    summary: dict
+    frf: object = None
+    metrics: object = None
+
+    @property
+    def tripped(self) -> bool:
+        """True when the safety envelope stopped the run."""
+        return self.run.tripped
+
+    def to_dict(self) -> dict:
+        """``summary`` plus the run's duration and trip state."""
+        return {"experiment": self.kind, **self.summary, "run": self.run.to_dict()}
+
+
+@dataclass(frozen=True)
+class ClosedLoopResponse:
+    """Closed-loop responses measured on the twin at the reference lines.
+
+    Attributes
+    ----------
+    freq_hz : ndarray
+        Measured lines [Hz].
+    tracking : ndarray
+        ``x2 / x_r`` [-] (table encoder over reference).
+    rotary : ndarray
+        ``x1 / x_r`` [-].
+    """
+
+    freq_hz: np.ndarray
+    tracking: np.ndarray
+    rotary: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def to_dict(self) -> dict:
+        """Magnitudes and phases of ``x2/x_r`` per line (units in the keys)."""
+        return {"freq_hz": self.freq_hz.tolist(), "tracking_mag": np.abs(self.tracking).tolist(),
+                "tracking_phase_deg": np.angle(self.tracking, deg=True).tolist()}
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def _positive(v, name: str, unit: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise UsageError(f"{name} must be a finite number > 0 {unit}, got {v!r}")
+    return float(v)
+
+
+def _trip_meta(run: TwinRun) -> dict:
+    return {"trip": run.trip_message} if run.tripped else {}
+
+
+def _base_signals(twin: BallScrewTwin, run: TwinRun) -> tuple[dict, dict]:
+    sig = {"x1": run.x1, "x2": run.x2, "u": run.u, "x2_table": run.x2 * twin.lead}
+    units = {"x1": "rad", "x2": "rad", "u": "V", "x2_table": "m"}
+    return sig, units
+
+
+# ------------------------------------------------------------------------------------------ excitations
+def multisine(fs: float, period_s: float, f_lo: float, f_hi: float, rms: float, rng) -> np.ndarray:
+    """One period of a random-phase multisine with flat amplitude on the lines ``f_lo..f_hi`` [V]."""
+    n = round(period_s * fs)
+    df = fs / n
+    k = np.arange(n // 2 + 1)
+    lines = (k * df >= f_lo) & (k * df <= f_hi) & (k > 0)
+    if not lines.any():
+        raise UsageError(f"no excitation line between {f_lo:g} and {f_hi:g} Hz at {df:g} Hz spacing; "
+                         "lengthen the period or widen the band")
+    spec = np.zeros(k.size, complex)
+    spec[lines] = np.exp(2j * np.pi * rng.random(int(lines.sum())))
+    x = np.fft.irfft(spec, n)
+    return x * rms / np.sqrt(np.mean(x**2))
+
+
+def chirp_period(fs: float, period_s: float, f_lo: float, f_hi: float, rms: float) -> np.ndarray:
+    """One period of a logarithmic sweep ``f_lo -> f_hi`` with amplitude ``sqrt(2) rms`` [V]."""
+    from scipy.signal import chirp
+
+    n = round(period_s * fs)
+    t = np.arange(n) / fs
+    return np.sqrt(2) * rms * chirp(t, f_lo, t[-1], f_hi, method="logarithmic", phi=-90)
+
+
+def prbs_period(fs: float, period_s: float, f_hi: float, rms: float) -> np.ndarray:
+    """About ``period_s`` of a maximum-length binary sequence (+-rms) clocked at about ``2.5 f_hi`` [V]."""
+    from scipy.signal import max_len_seq
+
+    hold = max(1, int(fs / (2.5 * f_hi)))
+    nbits = int(np.clip(np.ceil(np.log2(period_s * fs / hold + 1)), 6, 20))
+    seq = max_len_seq(nbits)[0].astype(float) * 2 - 1
+    return rms * np.repeat(seq, hold)
+
+
+# ------------------------------------------------------------------------------------------ FRF
+def drift_reference(fs: float, n: int, speed: float, ramp_s: float) -> np.ndarray:
+    """Table reference [m] reaching ``speed`` [m/s] with a raised-cosine velocity over ``ramp_s`` [s]."""
+    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not math.isfinite(speed):
+        raise UsageError(f"drift speed must be a finite number in m/s, got {speed!r}")
+    t = np.arange(n) / fs
+    # integral of speed * (1 - cos(pi t / ramp)) / 2 during the ramp, then constant speed
+    during = speed * (t / 2 - ramp_s / (2 * np.pi) * np.sin(np.pi * t / ramp_s))
+    after = speed * (t - ramp_s / 2)
+    return np.where(t < ramp_s, during, after)
+
+
+def weak_controller(twin: BallScrewTwin, bandwidth_hz: float = 10.0):
+    """A weak P-PI (velocity crossover ``bandwidth_hz``) built from the twin's inertia, as a gains runtime.
+
+    It only holds the axis in place during an FRF measurement, as the factory tuning of a real drive would;
+    no filter pack, no feedforward that matters at standstill.
+    """
+    from ..design.gains import gains_document
+    from ..design.ppi import design_ppi
+    from .runtime import GainsRuntime
+
+    w = 2 * np.pi * _positive(bandwidth_hz, "weak-controller bandwidth", "Hz")
+    m = twin.params.model
+    kpv = m.total_inertia * w
+    design = design_ppi(m, Kpx=w / 4, Kpv=kpv, Kiv=kpv * w / 4, fs=twin.fs, delay_samples=twin.params.delay_samples)
+    return GainsRuntime.from_document(gains_document(design), "weak stabilising P-PI")
+
+
+def measure_frf(
+    twin: BallScrewTwin,
+    *,
+    excitation: str = "multisine",
+    rms: float = 1.0,
+    f_lo: float = 2.0,
+    f_hi: float = 2000.0,
+    period_s: float = 0.5,
+    periods: int = 6,
+    drift_m_per_s: float = 0.05,
+    controller=None,
+    seed: int | None = 0,
+    engine: str = "auto",
+) -> ExperimentResult:
+    """Measure the FRF ``u -> x1, x2`` under a weak stabilising controller.
+
+    Parameters
+    ----------
+    twin : BallScrewTwin
+    excitation : {"multisine", "chirp", "prbs"}
+        Random-phase multisine (default), logarithmic chirp repeated every period, or maximum-length PRBS
+        (period ``2^n - 1`` clock ticks, about ``period_s``). All three are periodic, so the FRF is the
+        leakage-free periodic estimate averaged over the periods after the first.
+    rms : float
+        RMS of the excitation added to the command [V].
+    f_lo, f_hi : float
+        Excited band [Hz] (PRBS: ``f_hi`` sets the clock, about ``2.5 f_hi``; the FRF keeps ``f_lo..f_hi``).
+    period_s : float
+        Period of the multisine/chirp [s]; the line spacing is ``1 / period_s`` [Hz].
+    periods : int
+        Periods run; the first is dropped as transient.
+    drift_m_per_s : float
+        Constant table speed [m/s] during the measurement (reached within the first period). Moving in
+        one direction keeps the friction at its sliding level instead of switching at every reversal,
+        which would distort the FRF (the practice on real drives); 0 measures at standstill.
+    controller : GainsRuntime, optional
+        Stabilising controller; default :func:`weak_controller`.
+    seed : int or None
+        Seed of the multisine phases and the measurement noise.
+    engine : str
+        Simulation engine (see :meth:`BallScrewTwin.simulate`).
+
+    Returns
+    -------
+    ExperimentResult
+        ``log`` with ``r, u, x1, x2`` and ``frf`` with ``x1/u``, ``x2/u`` [rad/V] and coherence.
+    """
+    from ..identify.frf_estimate import estimate_frf
+
+    kind = str(excitation).strip().lower()
+    if kind not in EXCITATIONS:
+        raise UsageError(f"excitation must be one of {', '.join(EXCITATIONS)}, got {excitation!r}")
+    rms = _positive(rms, "excitation rms", "V")
+    f_lo, f_hi, period_s = (_positive(f_lo, "f_lo", "Hz"), _positive(f_hi, "f_hi", "Hz"),
+                            _positive(period_s, "period", "s"))
+    if not f_lo < f_hi < twin.fs / 2:
+        raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
+    if isinstance(periods, bool) or int(periods) != periods or periods < 2:
+        raise UsageError(f"periods must be an integer >= 2 (the first is dropped), got {periods!r}")
+    rng = np.random.default_rng(seed)
+    if kind == "multisine":
+        one = multisine(twin.fs, period_s, f_lo, f_hi, rms, rng)
+    elif kind == "chirp":
+        one = chirp_period(twin.fs, period_s, f_lo, f_hi, rms)
+    else:
+        one = prbs_period(twin.fs, period_s, f_hi, rms)
+    r = np.tile(one, int(periods))
+    ctrl = controller if controller is not None else weak_controller(twin)
+    x_ref = drift_reference(twin.fs, r.size + ctrl.preview_samples, drift_m_per_s, min(0.2, one.size / twin.fs / 2))
+    run = twin.simulate(ctrl, x_ref / twin.lead, excitation=r, seed=seed, engine=engine, n_samples=r.size).from_zero()
+    m = run.t.size
+    meta = {"source": f"twin FRF measurement ({kind})", "experiment": "frf", "excitation": kind,
+            "controller": ctrl.source, **_trip_meta(run)}
+    log = Log(run.t, {"r": r[:m], "u": run.u, "x1": run.x1, "x2": run.x2}, {"r": "V", "u": "V", "x1": "rad",
+                                                                             "x2": "rad"}, meta)
+    summary = {"excitation": kind, "rms_V": rms, "drift_m_per_s": float(drift_m_per_s), "band_hz": [f_lo, f_hi],
+               "period_s": one.size / twin.fs,
+               "periods": int(periods), "u_peak_V": float(np.max(np.abs(run.u)))}
+    if run.tripped:
+        return ExperimentResult("frf", log, run, summary)
+    hi = f_hi if kind != "prbs" else min(f_hi, twin.fs / 2 * 0.999)
+    frf = estimate_frf(log, input="u", outputs=["x1", "x2"], reference="r", method="periodic",
+                       period_samples=one.size, transient_periods=1, freq_range=(f_lo, hi))
+    frf = replace(frf, meta={**frf.meta, "source": meta["source"]})
+    coh = frf.coherence
+    summary["n_lines"] = int(frf.freq_hz.size)
+    summary["coherence_min"] = float(np.min(coh)) if coh is not None else None
+    return ExperimentResult("frf", log, run, summary, frf=frf)
+
+
+# ------------------------------------------------------------------------------------------ tracking
+def trajectory_from_log(source, fs: float | None = None):
+    """A :class:`~feedtune.sim.trajectory.Trajectory` from a trajectory log (``feedtune trajectory`` output).
+
+    Parameters
+    ----------
+    source : Log or path-like
+        Uniformly sampled log with ``x_ref`` [m]; ``v_ref``, ``a_ref``, ``j_ref``, ``s_ref`` are used when
+        present and computed by numerical differentiation otherwise.
+    fs : float, optional
+        Required sample rate [Hz] (DataError when the log differs).
+    """
+    from ..io import read_log
+    from .trajectory import Trajectory, log_signal_names
+
+    log = source if isinstance(source, Log) else read_log(source)
+    names = log_signal_names("x_ref")
+    pos = log.get("x_ref")
+    if log.unit("x_ref") not in ("m", ""):
+        raise DataError(f"{log.source}: x_ref is in {log.unit('x_ref')!r}; the trajectory must be in m")
+    if not log.is_uniform(1e-6):
+        raise DataError(f"{log.source}: the trajectory must be uniformly sampled")
+    if fs is not None and not math.isclose(log.fs, fs, rel_tol=1e-6):
+        raise DataError(f"{log.source}: the trajectory is sampled at {log.fs:g} Hz; the twin runs at {fs:g} Hz "
+                        f"(write it with feedtune trajectory --fs {fs:g})")
+    derivs = [pos]
+    for name in names[1:]:
+        derivs.append(log.get(name) if name in log else np.gradient(derivs[-1], log.dt))
+    t = log.t - log.t[0]
+    return Trajectory(t, *derivs, limits={}, sample_rate=log.fs)
+
+
+def run_tracking(twin: BallScrewTwin, runtime, trajectory, *, seed: int | None = 0, engine: str = "auto",
+                 d2=None, kind: str = "track") -> ExperimentResult:
+    """Run a trajectory (:class:`~feedtune.sim.trajectory.Trajectory`, table travel in m) under ``runtime``.
+
+    Returns
+    -------
+    ExperimentResult
+        ``log``: ``x_ref, v_ref, a_ref, j_ref, s_ref`` [m, m/s, ...], ``x1, x2`` [rad], ``u`` [V],
+        ``x2_table`` [m] and the table tracking error ``e2 = x_ref - x2_table`` [m]; ``metrics``:
+        :class:`~feedtune.analysis.metrics.TrackingMetrics` of ``e2``.
+    """
+    from ..analysis.metrics import tracking_metrics
+
+    if not math.isclose(trajectory.fs, twin.fs, rel_tol=1e-9):
+        raise UsageError(f"the trajectory is sampled at {trajectory.fs:g} Hz; the twin runs at {twin.fs:g} Hz "
+                         f"(generate it with --fs {twin.fs:g})")
+    run = twin.simulate(runtime, trajectory.pos / twin.lead, d2=d2, seed=seed, engine=engine).from_zero()
+    m = run.t.size
+    ref = trajectory.to_log()
+    sig = {k: v[:m] for k, v in ref.signals.items()}
+    units = dict(ref.units)
+    s2, u2 = _base_signals(twin, run)
+    sig.update(s2)
+    units.update(u2)
+    sig["e2"] = sig["x_ref"] - sig["x2_table"]
+    units["e2"] = "m"
+    if d2 is not None:
+        sig["d2"] = np.asarray(d2, float)[:m]
+        units["d2"] = "V"
+    meta = {"source": f"twin {kind} run", "experiment": kind, "controller": runtime.controller,
+            "gains": runtime.source, **_trip_meta(run)}
+    log = Log(run.t, sig, units, meta)
+    summary = {"controller": runtime.controller, "v_max_m_per_s": trajectory.limits.get("v_max"),
+               "duration_s": float(run.t[-1])}
+    if run.tripped:
+        return ExperimentResult(kind, log, run, summary)
+    met = tracking_metrics(run.t, sig["e2"], vel=sig["v_ref"], acc=sig["a_ref"])
+    summary["tracking"] = met.to_dict()
+    summary["max_um"] = met.overall.max_abs * 1e6
+    summary["rms_um"] = met.overall.rms * 1e6
+    return ExperimentResult(kind, log, run, summary, metrics=met)
+
+
+# ------------------------------------------------------------------------------------------ rope snap
+def ropesnap_force(fs: float, duration: float, force: float, t_release: float, preload_s: float = 0.1) -> np.ndarray:
+    """External table force [V]: ``-force`` ramped in over ``preload_s`` (raised cosine), 0 from ``t_release``."""
+    n = round(duration * fs) + 1
+    t = np.arange(n) / fs
+    ramp = np.clip(t / preload_s, 0.0, 1.0)
+    d2 = -force * 0.5 * (1 - np.cos(np.pi * ramp))
+    d2[t >= t_release - 0.5 / fs] = 0.0
+    return d2
+
+
+def run_ropesnap(twin: BallScrewTwin, runtime, *, force: float = 0.5, t_release: float = 0.6,
+                 after_s: float = 1.0, record_before_s: float = 0.1, seed: int | None = 0,
+                 engine: str = "auto") -> ExperimentResult:
+    """Rope snap: a table force of ``force`` [V] (pulling towards -x) is held, then released at ``t_release``.
+
+    The force is ramped in over the first 0.1 s and the controller holds the table at 0 until the release;
+    the log covers ``record_before_s`` before the release to ``after_s`` after it.
+
+    Returns
+    -------
+    ExperimentResult
+        ``log``: ``x2`` [rad], ``x2_table`` (displacement) [m], ``x1`` [rad], ``u`` [V], ``d2`` [V];
+        ``metrics``: :class:`~feedtune.analysis.metrics.RopeSnapMetrics` (peak, 5 % settling time, ASD).
+    """
+    from ..analysis.metrics import ropesnap_metrics
+
+    force = _positive(force, "rope force", "V")
+    t_release = _positive(t_release, "t_release", "s")
+    after_s = _positive(after_s, "time after the release", "s")
+    record_before_s = _positive(record_before_s, "time recorded before the release", "s")
+    if t_release < 0.1 + record_before_s:
+        raise UsageError(f"t_release must leave the 0.1 s preload ramp and {record_before_s:g} s of record before "
+                         f"it, i.e. be >= {0.1 + record_before_s:g} s, got {t_release:g}")
+    d2 = ropesnap_force(twin.fs, t_release + after_s, force, t_release)
+    run = twin.simulate(runtime, np.zeros(d2.size), d2=d2, seed=seed, engine=engine).from_zero()
+    sig, units = _base_signals(twin, run)
+    sig["d2"] = d2[: run.t.size]
+    units["d2"] = "V"
+    keep = run.t >= t_release - record_before_s - 0.5 / twin.fs
+    if run.tripped and keep.sum() < 2:
+        keep = np.ones(run.t.size, bool)
+    meta = {"source": "twin rope-snap run", "experiment": "ropesnap", "controller": runtime.controller,
+            "gains": runtime.source, "t_release_s": t_release, "force_V": force, **_trip_meta(run)}
+    log = Log(run.t[keep], {k: v[keep] for k, v in sig.items()}, units, meta)
+    summary = {"controller": runtime.controller, "force_V": force, "t_release_s": t_release}
+    if run.tripped:
+        return ExperimentResult("ropesnap", log, run, summary)
+    met = ropesnap_metrics(log.t, log["x2_table"], t_release=t_release)
+    summary["ropesnap"] = {k: v for k, v in met.to_dict().items() if k not in ("asd_freq_hz", "asd_m_per_rthz")}
+    summary["peak_um"] = met.peak * 1e6
+    summary["settling_time_s"] = met.settling_time
+    return ExperimentResult("ropesnap", log, run, summary, metrics=met)
+
+
+# ------------------------------------------------------------------------------------------ cutting
+@dataclass(frozen=True)
+class SlotCut:
+    """A slotting cut (thesis §3.4) as a table force [V-equivalent].
+
+    Parameters
+    ----------
+    flutes : int
+        Number of teeth.
+    spindle_rpm : float
+        Spindle speed [1/min]; tooth passing at ``flutes * rpm / 60`` [Hz].
+    tool_diameter_m : float
+        End-mill diameter [m]; the engagement grows over one radius of travel on entry.
+    start_m, length_m : float
+        Workpiece edge position and length of the cut [m of table travel].
+    mean_force : float
+        Mean feed-direction force in full engagement [V], opposing the feed.
+    tooth_force : float
+        Amplitude of its tooth-passing component [V].
+    """
+
+    flutes: int = 4
+    spindle_rpm: float = 3500.0
+    tool_diameter_m: float = 25.4e-3
+    start_m: float = 0.05
+    length_m: float = 0.12
+    mean_force: float = 0.3
+    tooth_force: float = 0.3
+
+    @property
+    def tooth_hz(self) -> float:
+        """Tooth-passing frequency [Hz]."""
+        return self.flutes * self.spindle_rpm / 60.0
+
+    def force(self, t: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> np.ndarray:
+        """Table force [V] for tool position ``pos`` [m] and feed ``vel`` [m/s] at times ``t`` [s].
+
+        Engagement rises linearly over the tool radius after the edge at ``start_m`` and ends abruptly
+        at ``start_m + length_m`` (the last chip breaks free: a step disturbance, as in the thesis).
+        """
+        r = self.tool_diameter_m / 2
+        rel = (pos - self.start_m) * np.sign(self.length_m)
+        engage = np.clip((rel + r) / r, 0.0, 1.0) * (rel <= abs(self.length_m))
+        tooth = np.cos(2 * np.pi * self.tooth_hz * t)
+        return -np.sign(vel) * engage * (self.mean_force + self.tooth_force * tooth)
+
+
+def run_cut(twin: BallScrewTwin, runtime, trajectory, cut: SlotCut | None = None, *, seed: int | None = 0,
+            engine: str = "auto") -> ExperimentResult:
+    """Tracking with the slotting force of ``cut`` on the table (excites pitching); see :func:`run_tracking`."""
+    cut = cut or SlotCut()
+    d2 = cut.force(trajectory.t, trajectory.pos, trajectory.vel)
+    if not np.any(d2):
+        raise UsageError(f"the trajectory never reaches the workpiece at {cut.start_m:g} m; "
+                         "adjust the cut start/length or the move")
+    res = run_tracking(twin, runtime, trajectory, seed=seed, engine=engine, d2=d2, kind="cut")
+    summary = dict(res.summary)
+    summary["cut"] = {"tooth_passing_hz": cut.tooth_hz, "flutes": cut.flutes, "spindle_rpm": cut.spindle_rpm,
+                      "tool_diameter_m": cut.tool_diameter_m, "start_m": cut.start_m, "length_m": cut.length_m,
+                      "mean_force_V": cut.mean_force, "tooth_force_V": cut.tooth_force}
+    in_cut = np.flatnonzero(d2 != 0)
+    summary["cut"]["t_enter_s"] = float(trajectory.t[in_cut[0]])
+    summary["cut"]["t_exit_s"] = float(trajectory.t[in_cut[-1]])
+    return ExperimentResult("cut", res.log, res.run, summary, metrics=res.metrics)
+
+
+# ------------------------------------------------------------------------------------------ closed loop
+def measure_closed_loop(twin: BallScrewTwin, runtime, freq_hz, *, amplitude_m: float = 1e-6,
+                        period_s: float = 0.2, periods: int = 3, seed: int | None = 0,
+                        engine: str = "auto") -> ClosedLoopResponse:
+    """Closed-loop ``x_r -> x2`` and ``x_r -> x1`` measured with a periodic sum of sines as the reference.
+
+    The requested frequencies are rounded to the line grid ``1 / period_s`` [Hz]; the first period is
+    dropped as transient and the last because the preview runs past the end of the reference.
+
+    Parameters
+    ----------
+    twin : BallScrewTwin
+    runtime : GainsRuntime
+    freq_hz : array_like
+        Frequencies to measure [Hz].
+    amplitude_m : float
+        Amplitude of each sine in table travel [m].
+    period_s : float
+        Period of the reference [s].
+    periods : int
+        Periods simulated (>= 3).
+    """
+    f = np.atleast_1d(np.asarray(freq_hz, float))
+    n = round(period_s * twin.fs)
+    k = np.unique(np.clip(np.round(f * period_s).astype(int), 1, n // 2 - 1))
+    if isinstance(periods, bool) or int(periods) != periods or periods < 3:
+        raise UsageError(f"periods must be an integer >= 3, got {periods!r}")
+    rng = np.random.default_rng(seed)
+    t = np.arange(n * int(periods)) / twin.fs
+    phase = 2 * np.pi * rng.random(k.size)
+    x_ref = amplitude_m / twin.lead * np.sin(2 * np.pi * (k / period_s)[:, None] * t[None] + phase[:, None]).sum(0)
+    run = twin.simulate(runtime, x_ref, seed=seed, engine=engine).from_zero()
+    if run.tripped:
+        raise DataError(run.trip_message)
+    seg = slice(n, n * (int(periods) - 1))
+    spec = np.fft.rfft(np.vstack([x_ref[seg], run.x2[seg], run.x1[seg]]).reshape(3, -1, n), axis=-1).mean(1)[:, k]
+    return ClosedLoopResponse(k / period_s, spec[1] / spec[0], spec[2] / spec[0])

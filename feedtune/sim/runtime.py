@@ -1,0 +1,365 @@
+"""Per-sample runtime of an exported ball-screw gains file, executed exactly as a real-time target would.
+
+:class:`GainsRuntime` reads nothing but the gains document (``feedtune design ... --out gains.toml``): the
+five gains, the sample rate, the preview, and the second-order sections of the filter pack and of the
+three reference paths. It never rebuilds the law from the stored model, so running it proves that the
+export is complete. :meth:`GainsRuntime.step` executes the law of ``docs/gains.md`` once per sample::
+
+    x1r = rotary(x_r[k+P]); x2r = table(x_r[k+P]); uff = feedforward(x_r[k+P])
+    e1 = x1r - x1[k]; e2 = x2r - x2[k]            (on the first sample e1_prev = e1, e2_prev = e2)
+    de1 = (e1 - e1_prev) fs; de2 = (e2 - e2_prev) fs; ie2 += e2 / fs
+    u = filter_pack(Kx1 e1 + Kx2 e2 + Kv1 de1 + Kv2 de2 + Ki2 ie2) + uff
+
+Every ``*_sos`` list runs in cascade in transposed direct form II (as ``scipy.signal.sosfilt``), states
+zero at start; each section is normalised by its ``a0`` when the file is read.
+
+Fast path: the reference paths do not depend on the measurements, so :meth:`GainsRuntime.reference_signals`
+computes them for a whole trajectory at once (``sosfilt``), and the closed-loop simulation of
+:mod:`feedtune.sim.twin` runs only the feedback part per sample (:meth:`GainsRuntime.loop_constants`).
+:meth:`GainsRuntime.replay` evaluates the law for recorded measurements without any per-sample loop.
+
+Units: positions [rad] of screw rotation (table travel / ``lead_m_per_rad``), command in the drive's unit
+(V), time [s].
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+
+SOS_KEYS = {
+    "filter_pack": ("filters", "filter_pack_sos"),
+    "rotary": ("reference", "rotary_sos"),
+    "table": ("reference", "table_sos"),
+    "feedforward": ("reference", "feedforward_sos"),
+}
+GAIN_ORDER = ("Kx1", "Kx2", "Kv1", "Kv2", "Ki2")
+GAIN_UNITS = {"Kx1": "V/rad", "Kx2": "V/rad", "Kv1": "V/(rad/s)", "Kv2": "V/(rad/s)", "Ki2": "V/(rad s)"}
+
+
+# ------------------------------------------------------------------------------------------ reading
+def _number(entry, where: str, unit: str | None = None) -> float:
+    """A bare number or ``{value, unit}``; DataError naming ``where`` otherwise."""
+    if isinstance(entry, dict):
+        if "value" not in entry:
+            raise DataError(f"{where}: expected {{value = ..., unit = ...}}")
+        got = entry.get("unit")
+        if unit is not None and got is not None and got != unit:
+            raise DataError(f"{where}: unit is {got!r}, expected {unit!r}")
+        entry = entry["value"]
+    if isinstance(entry, bool):
+        raise DataError(f"{where}: expected a number, got {entry!r}")
+    try:
+        v = float(entry)
+    except (TypeError, ValueError):
+        raise DataError(f"{where}: expected a number, got {entry!r}") from None
+    if not math.isfinite(v):
+        raise DataError(f"{where}: value must be finite, got {v}")
+    return v
+
+
+def _section(doc: dict, path: tuple[str, str], where: str):
+    sec = doc.get(path[0])
+    if not isinstance(sec, dict):
+        raise DataError(f"{where}: gains file has no [{path[0]}] section")
+    if path[1] not in sec:
+        raise DataError(f"{where}: gains file has no {path[0]}.{path[1]}")
+    return sec[path[1]]
+
+
+def normalized_sos(rows, where: str) -> np.ndarray:
+    """Second-order sections ``[b0, b1, b2, a0, a1, a2]`` divided by ``a0``; DataError when malformed.
+
+    Parameters
+    ----------
+    rows : list of list of float
+        Sections in powers of ``z^-1``.
+    where : str
+        Name used in error messages (file and key).
+
+    Returns
+    -------
+    ndarray, shape (n_sections, 6)
+        With ``a0 = 1`` in every row.
+    """
+    if not isinstance(rows, (list, tuple)) or len(rows) == 0:
+        raise DataError(f"{where}: expected a non-empty list of second-order sections [b0, b1, b2, a0, a1, a2]")
+    out = np.empty((len(rows), 6))
+    for i, row in enumerate(rows):
+        if not isinstance(row, (list, tuple)) or len(row) != 6:
+            raise DataError(f"{where}[{i}]: a section must have 6 coefficients [b0, b1, b2, a0, a1, a2]")
+        out[i] = [_number(c, f"{where}[{i}]") for c in row]
+        if out[i, 3] == 0:
+            raise DataError(f"{where}[{i}]: a0 = 0 is not a valid section")
+        out[i] /= out[i, 3]
+    return out
+
+
+def read_sampling(doc: dict, where: str) -> tuple[float, int, int]:
+    """``(fs [Hz], delay_samples, preview_samples)`` from ``[sampling]``; DataError when missing or invalid."""
+    sec = doc.get("sampling")
+    if not isinstance(sec, dict):
+        raise DataError(f"{where}: gains file has no [sampling] section")
+    fs = _number(sec.get("fs_hz"), f"{where}: sampling.fs_hz", "Hz")
+    if fs <= 0:
+        raise DataError(f"{where}: sampling.fs_hz must be > 0 Hz, got {fs:g}")
+    counts = []
+    for key in ("delay_samples", "preview_samples"):
+        v = sec.get(key)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or v < 0:
+            raise DataError(f"{where}: sampling.{key} must be an integer >= 0, got {v!r}")
+        counts.append(int(v))
+    return fs, counts[0], counts[1]
+
+
+def _check_header(doc, where: str) -> None:
+    if not isinstance(doc, dict):
+        raise DataError(f"{where}: a gains document must be a table/object at the top level")
+    schema = str(doc.get("schema", ""))
+    if not schema.startswith("feedtune.gains/"):
+        raise DataError(f"{where}: not a feedtune gains file (schema {schema!r}, expected 'feedtune.gains/1')")
+    if schema.split("/", 1)[1].split(".")[0] != "1":
+        raise DataError(f"{where}: gains schema {schema!r} is not supported; this feedtune reads version 1")
+    if doc.get("kind") != "ballscrew":
+        raise DataError(f"{where}: gains file is for machine kind {doc.get('kind')!r}, expected 'ballscrew'")
+
+
+# ----------------------------------------------------------------------------------------- one filter
+class _SosState:
+    """Cascaded second-order sections, transposed direct form II, executed one sample at a time."""
+
+    def __init__(self, sos: np.ndarray) -> None:
+        self.rows = [tuple(float(c) for c in r) for r in sos]
+        self.w = [[0.0, 0.0] for _ in self.rows]
+
+    def reset(self) -> None:
+        for w in self.w:
+            w[0] = w[1] = 0.0
+
+    def step(self, x: float) -> float:
+        for (b0, b1, b2, _a0, a1, a2), w in zip(self.rows, self.w, strict=True):
+            y = b0 * x + w[0]
+            w[0] = b1 * x - a1 * y + w[1]
+            w[1] = b2 * x - a2 * y
+            x = y
+        return x
+
+
+# --------------------------------------------------------------------------------------------- runtime
+@dataclass(frozen=True)
+class LoopConstants:
+    """What the per-sample feedback loop needs (for compiled simulation loops).
+
+    Attributes
+    ----------
+    gains : ndarray, shape (5,)
+        ``Kx1, Kx2, Kv1, Kv2, Ki2`` [V/rad, V/rad, V/(rad/s), V/(rad/s), V/(rad s)].
+    filter_pack : ndarray, shape (n, 6)
+        Normalised sections of the filter pack.
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay the design assumed [samples].
+    """
+
+    gains: np.ndarray
+    filter_pack: np.ndarray
+    fs: float
+    delay_samples: int
+
+
+class GainsRuntime:
+    """Executes a ball-screw gains document sample by sample (see the module docstring).
+
+    Create it with :meth:`from_document` or :meth:`from_file`; call :meth:`reset` before a new run and
+    :meth:`step` once per sample.
+
+    Attributes
+    ----------
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Samples between sampling ``x1[k], x2[k]`` and applying ``u`` (assumed by the design).
+    preview_samples : int
+        ``P``: :meth:`step` expects the reference ``x_r[k+P]``.
+    gains : dict
+        ``Kx1`` [V/rad], ``Kx2`` [V/rad], ``Kv1`` [V/(rad/s)], ``Kv2`` [V/(rad/s)], ``Ki2`` [V/(rad s)].
+    controller : str
+        ``"mcppc"`` or ``"ppi"`` (information only).
+    command_unit : str
+        Unit of ``u`` (``"V"``).
+    source : str
+        File name or ``"gains document"``.
+    """
+
+    def __init__(self, gains: dict, sos: dict, fs: float, delay_samples: int, preview_samples: int,
+                 controller: str = "", command_unit: str = "V", source: str = "gains document") -> None:
+        self.gains = {k: float(gains[k]) for k in GAIN_ORDER}
+        self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
+        self.fs = float(fs)
+        self.delay_samples = int(delay_samples)
+        self.preview_samples = int(preview_samples)
+        self.controller = controller
+        self.command_unit = command_unit
+        self.source = source
+        self._filters = {k: _SosState(v) for k, v in self.sos.items()}
+        self.reset()
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_document(cls, doc: dict, where: str = "gains document") -> GainsRuntime:
+        """Read a gains document (dict from :func:`feedtune.io.read_document`).
+
+        Raises
+        ------
+        DataError
+            Not a ball-screw gains file of schema version 1, or a missing/invalid entry (named).
+        """
+        _check_header(doc, where)
+        fs, delay, preview = read_sampling(doc, where)
+        sec = doc.get("gains")
+        if not isinstance(sec, dict):
+            raise DataError(f"{where}: gains file has no [gains] section")
+        gains = {}
+        for n in GAIN_ORDER:
+            if n not in sec:
+                raise DataError(f"{where}: gains.{n} is missing")
+            gains[n] = _number(sec[n], f"{where}: gains.{n}", GAIN_UNITS[n])
+        sos = {name: normalized_sos(_section(doc, path, where), f"{where}: {'.'.join(path)}")
+               for name, path in SOS_KEYS.items()}
+        unit = str(doc.get("units", {}).get("command", "V")) if isinstance(doc.get("units"), dict) else "V"
+        return cls(gains, sos, fs, delay, preview, str(doc.get("controller", "")), unit, where)
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str]) -> GainsRuntime:
+        """Read a ``.toml`` or ``.json`` gains file."""
+        from ..io import read_document
+
+        return cls.from_document(read_document(path), str(path))
+
+    # ------------------------------------------------------------------ per sample
+    def reset(self) -> None:
+        """Zero every filter state and the integrator; the next sample is the first."""
+        for f in self._filters.values():
+            f.reset()
+        self._e1_prev = self._e2_prev = 0.0
+        self._ie2 = 0.0
+        self._started = False
+
+    def step(self, x_ref_preview: float, x1: float, x2: float) -> float:
+        """One sample of the law (``docs/gains.md``).
+
+        Parameters
+        ----------
+        x_ref_preview : float
+            Reference ``x_r[k + preview_samples]`` [rad].
+        x1, x2 : float
+            Rotary and linear encoder readings at ``k`` [rad].
+
+        Returns
+        -------
+        float
+            Command ``u`` [V], to be applied ``delay_samples`` later.
+        """
+        f = self._filters
+        x1r = f["rotary"].step(x_ref_preview)
+        x2r = f["table"].step(x_ref_preview)
+        uff = f["feedforward"].step(x_ref_preview)
+        e1 = x1r - x1
+        e2 = x2r - x2
+        if not self._started:
+            self._e1_prev, self._e2_prev, self._started = e1, e2, True
+        de1 = (e1 - self._e1_prev) * self.fs
+        de2 = (e2 - self._e2_prev) * self.fs
+        self._ie2 += e2 / self.fs
+        self._e1_prev, self._e2_prev = e1, e2
+        g = self.gains
+        ufb = g["Kx1"] * e1 + g["Kx2"] * e2 + g["Kv1"] * de1 + g["Kv2"] * de2 + g["Ki2"] * self._ie2
+        return f["filter_pack"].step(ufb) + uff
+
+    # ------------------------------------------------------------------ vectorised helpers
+    def previewed(self, x_ref) -> np.ndarray:
+        """The sequence ``x_r[k + P]`` fed to :meth:`step`, holding the last value past the end [rad]."""
+        x = _as_vector(x_ref, "x_ref")
+        P = self.preview_samples
+        return x if P == 0 else np.r_[x[P:], np.full(min(P, x.size), x[-1])]
+
+    def reference_signals(self, x_ref) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rotary reference ``x1r`` [rad], table reference ``x2r`` [rad] and feedforward ``uff`` [V] per sample.
+
+        Parameters
+        ----------
+        x_ref : array_like, shape (n,)
+            Reference ``x_r[k]`` [rad] for ``k = 0 .. n-1`` (the preview is taken from it).
+        """
+        from scipy.signal import sosfilt
+
+        p = self.previewed(x_ref)
+        return (sosfilt(self.sos["rotary"], p), sosfilt(self.sos["table"], p),
+                sosfilt(self.sos["feedforward"], p))
+
+    def replay(self, x_ref, x1, x2) -> np.ndarray:
+        """The commands the law computes for recorded encoder readings, without a per-sample loop [V].
+
+        Equals calling :meth:`reset` and then :meth:`step` for every sample.
+
+        Parameters
+        ----------
+        x_ref : array_like, shape (n,)
+            Reference ``x_r[k]`` [rad].
+        x1, x2 : array_like, shape (n,)
+            Encoder readings [rad].
+        """
+        from scipy.signal import sosfilt
+
+        x1r, x2r, uff = self.reference_signals(x_ref)
+        n = x1r.size
+        e1 = x1r - _as_vector(x1, "x1", n)
+        e2 = x2r - _as_vector(x2, "x2", n)
+        de1 = np.diff(e1, prepend=e1[0]) * self.fs
+        de2 = np.diff(e2, prepend=e2[0]) * self.fs
+        ie2 = np.cumsum(e2 / self.fs)
+        g = self.gains
+        ufb = g["Kx1"] * e1 + g["Kx2"] * e2 + g["Kv1"] * de1 + g["Kv2"] * de2 + g["Ki2"] * ie2
+        return sosfilt(self.sos["filter_pack"], ufb) + uff
+
+    def loop_constants(self) -> LoopConstants:
+        """Gains and filter-pack sections for a compiled feedback loop."""
+        return LoopConstants(np.array([self.gains[k] for k in GAIN_ORDER]), self.sos["filter_pack"].copy(),
+                             self.fs, self.delay_samples)
+
+    def check_target(self, fs: float, where: str | None = None) -> None:
+        """DataError unless the file was made for sample rate ``fs`` [Hz]."""
+        if not math.isclose(self.fs, fs, rel_tol=1e-9):
+            raise DataError(f"{where or self.source}: gains were designed for fs = {self.fs:g} Hz, "
+                            f"but the target samples at {fs:g} Hz; design again with --fs {fs:g}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready description (gains with units, sampling, section counts)."""
+        return {
+            "source": self.source,
+            "controller": self.controller,
+            "gains": dict(self.gains),
+            "fs_hz": self.fs,
+            "delay_samples": self.delay_samples,
+            "preview_samples": self.preview_samples,
+            "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
+            "units": {**GAIN_UNITS, "fs_hz": "Hz", "command": self.command_unit},
+        }
+
+
+def _as_vector(x, name: str, n: int | None = None) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise UsageError(f"{name}: expected a sequence of numbers") from None
+    if a.size == 0 or (n is not None and a.size != n):
+        raise UsageError(f"{name}: expected {n if n is not None else 'at least 1'} samples, got {a.size}")
+    if not np.all(np.isfinite(a)):
+        raise UsageError(f"{name}: contains NaN or infinite values")
+    return a

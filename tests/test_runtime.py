@@ -1,0 +1,127 @@
+"""The per-sample runtime executes a gains file exactly as docs/gains.md describes."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+from scipy.signal import sosfilt
+
+from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.design.gains import gains_document
+from feedtune.design.mcppc import design_mcppc
+from feedtune.design.ppi import design_ppi
+from feedtune.errors import DataError
+from feedtune.io import write_document
+from feedtune.models import THESIS_TABLE_3_1 as MODEL
+from feedtune.sim.runtime import GainsRuntime
+
+DESIGNS = {
+    "mcppc": design_mcppc(MODEL, filters=THESIS_FILTER_PACK),
+    "ppi": design_ppi(MODEL, Kpx=60.0, Kpv=0.8, Kiv=100.0, filters=THESIS_FILTER_PACK),
+}
+
+
+def _inputs(n: int = 1500, seed: int = 3):
+    """A previewed reference and encoder readings that all start at 0 (so the first error is 0)."""
+    rng = np.random.default_rng(seed)
+    p = np.cumsum(rng.standard_normal(n)) * 1e-3
+    x1 = np.cumsum(rng.standard_normal(n)) * 1e-4
+    x2 = np.cumsum(rng.standard_normal(n)) * 1e-4
+    p[:5] = x1[0] = x2[0] = 0.0
+    return p, x1, x2
+
+
+def _step_all(rt: GainsRuntime, p, x1, x2) -> np.ndarray:
+    rt.reset()
+    return np.array([rt.step(a, b, c) for a, b, c in zip(p, x1, x2, strict=True)])
+
+
+@pytest.mark.parametrize("kind", list(DESIGNS))
+def test_step_equals_the_discrete_transfer_functions_of_the_law(kind):
+    # independent: u = Uff(z) p + K1d(z) (R1(z) p - x1) + K2d(z) (T(z) p - x2), built from the design's
+    # continuous law (not from the file) and filtered as whole transfer functions
+    design = DESIGNS[kind]
+    law = design.law()
+    paths = law.reference_paths()
+    p, x1, x2 = _inputs()
+
+    def filt(z, x):
+        return sosfilt(z.to_sos(), x)
+
+    expected = (filt(paths["feedforward"].discrete, p) + filt(law.K1d(), filt(paths["rotary"].discrete, p) - x1)
+                + filt(law.K2d(), filt(paths["table"].discrete, p) - x2))
+    got = _step_all(GainsRuntime.from_document(gains_document(design)), p, x1, x2)
+    assert np.max(np.abs(got - expected)) <= 1e-8 * np.max(np.abs(expected))
+
+
+def test_first_sample_has_no_derivative_kick():
+    # a constant error -c from the first sample: de = 0 throughout, ie2 = -c (k + 1) / fs (hand-derived)
+    design = DESIGNS["mcppc"]
+    rt = GainsRuntime.from_document(gains_document(design))
+    g, fs, c, n = design.gains, design.fs, 2e-4, 400
+    got = _step_all(rt, np.zeros(n), np.full(n, c), np.full(n, c))
+    ufb = -(g["Kx1"] + g["Kx2"]) * c - g["Ki2"] * c * np.arange(1, n + 1) / fs
+    expected = sosfilt(design.law().filter_pack_discrete().to_sos(), ufb)
+    assert np.allclose(got, expected, rtol=1e-9, atol=1e-12)
+
+
+def test_replay_equals_stepping():
+    rt = GainsRuntime.from_document(gains_document(DESIGNS["mcppc"]))
+    p, x1, x2 = _inputs(800)
+    x_ref = np.r_[np.zeros(rt.preview_samples), p][: p.size]  # so that previewed(x_ref) == p up to the end
+    stepped = _step_all(rt, rt.previewed(x_ref), x1, x2)
+    assert np.allclose(rt.replay(x_ref, x1, x2), stepped, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("ext", ["toml", "json"])
+def test_file_round_trip_and_only_the_law_is_read(tmp_path, ext):
+    doc = gains_document(DESIGNS["ppi"])
+    path = tmp_path / f"gains.{ext}"
+    write_document(path, doc)
+    p, x1, x2 = _inputs(300)
+    ref = _step_all(GainsRuntime.from_document(doc), p, x1, x2)
+    assert np.array_equal(_step_all(GainsRuntime.from_file(path), p, x1, x2), ref)
+    stripped = copy.deepcopy(doc)
+    for key in ("model", "design", "ppi_gains", "law"):
+        stripped.pop(key, None)
+    stripped["reference"] = {k: v for k, v in doc["reference"].items() if k.endswith("_sos")}
+    stripped["filters"] = {"filter_pack_sos": doc["filters"]["filter_pack_sos"]}
+    assert np.array_equal(_step_all(GainsRuntime.from_document(stripped), p, x1, x2), ref)
+
+
+def _broken(edit):
+    doc = copy.deepcopy(gains_document(DESIGNS["mcppc"]))
+    edit(doc)
+    return doc
+
+
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        (lambda d: d.update(kind="gantry"), "machine kind 'gantry'"),
+        (lambda d: d.update(schema="feedtune.gains/2"), "not supported"),
+        (lambda d: d.update(schema="something"), "not a feedtune gains file"),
+        (lambda d: d["gains"].pop("Kv1"), "gains.Kv1 is missing"),
+        (lambda d: d["gains"].update(Kx1={"value": 1.0, "unit": "V/m"}), "expected 'V/rad'"),
+        (lambda d: d["filters"].update(filter_pack_sos=[[1, 0, 0, 0, 0, 0]]), "a0 = 0"),
+        (lambda d: d["reference"].update(rotary_sos=[[1, 2, 3]]), "reference.rotary_sos[0]"),
+        (lambda d: d["reference"].pop("table_sos"), "reference.table_sos"),
+        (lambda d: d["sampling"].update(fs_hz={"value": -1.0, "unit": "Hz"}), "fs_hz must be > 0"),
+        (lambda d: d["sampling"].update(delay_samples=-1), "delay_samples"),
+        (lambda d: d.pop("sampling"), "[sampling]"),
+    ],
+)
+def test_bad_gains_documents_are_one_line_data_errors(edit, needle):
+    with pytest.raises(DataError) as exc:
+        GainsRuntime.from_document(_broken(edit), "g.toml")
+    msg = str(exc.value)
+    assert needle in msg and msg.startswith("g.toml") and "\n" not in msg
+
+
+def test_sample_rate_mismatch_is_refused():
+    rt = GainsRuntime.from_document(gains_document(DESIGNS["mcppc"]), "g.toml")
+    rt.check_target(20000.0)
+    with pytest.raises(DataError, match=r"designed for fs = 20000 Hz.*10000 Hz"):
+        rt.check_target(10000.0)
