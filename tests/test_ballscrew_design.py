@@ -66,7 +66,6 @@ def _discrete_closed_loop_eigs(law):
     """Eigenvalues of the sampled loop (ZOH plant, discrete controller, delay) from a state-space assembly."""
     from scipy.signal import cont2discrete, tf2ss
 
-    from feedtune.design.ballscrew_law import pd_zpk  # noqa: F401  (documents the law's structure)
     from feedtune.design.discretize import backward_difference, backward_euler_integrator
 
     T = 1 / law.fs

@@ -96,8 +96,9 @@ class BallScrewAnalysis:
         return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
 
 
-def default_grid(fs: float, frf: Frf | None = None, n: int = 4000) -> np.ndarray:
-    """Analysis grid [Hz]: 0.5 Hz to ``fs/2`` (log-spaced) or the FRF's own grid."""
+def default_grid(fs: float, n: int = 4000) -> np.ndarray:
+    """Analysis grid for the model cases [Hz]: 0.5 Hz to just below ``fs/2``, log-spaced (measured cases use
+    the FRF's own grid)."""
     return np.logspace(np.log10(0.5), np.log10(fs / 2 * 0.999), n)
 
 

@@ -13,6 +13,13 @@ app = typer.Typer(
 )
 
 NOTCH_HELP = "Notch HZ,ZETA_Z,ZETA_P (repeatable), e.g. --notch 420,0.55,0.7 --notch 1080,0.05,0.7."
+NOTCH_OPTION = typer.Option(None, "--notch", help=NOTCH_HELP)
+LPF_OPTION = typer.Option(None, "--lpf", help="First-order low-pass pole frequency [Hz] (eq. 3.10).")
+FS_OPTION = typer.Option(20000.0, "--fs", help="Sample rate of the target [Hz].")
+DELAY_OPTION = typer.Option(1, "--delay-samples", help="Computational delay [samples].")
+QUANTITY_OPTION = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata.")
+OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin).")
+ALLOW_OPTION = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated.")
 
 
 def _filters(notch, lpf):
@@ -106,17 +113,17 @@ def ppc(
     beta: float = typer.Option(4.0, "--beta", help="Multiplier of the axial mode's decay rate (eq. 3.7), >= 1."),
     pole_hz: float = typer.Option(50.0, "--pole-hz", help="Rigid-body closed-loop pole frequency [Hz] (eq. 3.8)."),
     zeta: float = typer.Option(0.7, "--zeta", help="Damping of the rigid-body pole pair [-]."),
-    notch: list[str] = typer.Option(None, "--notch", help=NOTCH_HELP),
-    lpf: float = typer.Option(None, "--lpf", help="First-order low-pass pole frequency [Hz] (eq. 3.10)."),
-    fs: float = typer.Option(20000.0, "--fs", help="Sample rate of the target [Hz]."),
-    delay_samples: int = typer.Option(1, "--delay-samples", help="Computational delay [samples]."),
+    notch: list[str] = NOTCH_OPTION,
+    lpf: float = LPF_OPTION,
+    fs: float = FS_OPTION,
+    delay_samples: int = DELAY_OPTION,
     frf: Path = typer.Option(None, "--frf", help="Measured FRF for the measured and discrete analysis cases."),
-    quantity: str = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata."),
+    quantity: str = QUANTITY_OPTION,
     ms_max: float = typer.Option(3.5, "--ms-max", help="Largest acceptable peak sensitivity [-]."),
     pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable phase margin [deg]."),
-    out: Path = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin)."),
+    out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
-    allow_unstable: bool = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated."),
+    allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Mode-compensating pole-placement control (MC-PPC, eq. 3.5-3.13)."""
@@ -152,15 +159,15 @@ def ppi(
     kpx: float = typer.Option(None, "--kpx", help="Position-loop gain [1/s] (give all three to skip tuning)."),
     kpv: float = typer.Option(None, "--kpv", help="Velocity-loop proportional gain [V/(rad/s)]."),
     kiv: float = typer.Option(None, "--kiv", help="Velocity-loop integral gain [V/rad]."),
-    notch: list[str] = typer.Option(None, "--notch", help=NOTCH_HELP),
-    lpf: float = typer.Option(None, "--lpf", help="First-order low-pass pole frequency [Hz]."),
-    fs: float = typer.Option(20000.0, "--fs", help="Sample rate of the target [Hz]."),
-    delay_samples: int = typer.Option(1, "--delay-samples", help="Computational delay [samples]."),
+    notch: list[str] = NOTCH_OPTION,
+    lpf: float = LPF_OPTION,
+    fs: float = FS_OPTION,
+    delay_samples: int = DELAY_OPTION,
     frf: Path = typer.Option(None, "--frf", help="Measured FRF: tuning and checking use the discrete case on it."),
-    quantity: str = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata."),
-    out: Path = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin)."),
+    quantity: str = QUANTITY_OPTION,
+    out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
-    allow_unstable: bool = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated."),
+    allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
     """P-PI position-velocity cascade with velocity and acceleration feedforward (Figure 3.9)."""

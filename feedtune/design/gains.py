@@ -24,7 +24,7 @@ LAW_TEXT = (
     "every sample k: x1r = rotary(x_r[k+P]); x2r = table(x_r[k+P]); e1 = x1r - x1[k]; e2 = x2r - x2[k]; "
     "de_i = (e_i[k] - e_i[k-1]) * fs; ie2 += e2 / fs; "
     "u_fb = Kx1 e1 + Kx2 e2 + Kv1 de1 + Kv2 de2 + Ki2 ie2; "
-    "u = filter_pack(u_fb) + feedforward(x_r[k+P]) [+ friction(v_ref)] [+ prefilter terms]; "
+    "u = filter_pack(u_fb) + feedforward(x_r[k+P]); "
     "u is applied delay_samples after x1[k], x2[k] were sampled"
 )
 
@@ -35,19 +35,17 @@ def q(value: float, unit: str) -> dict:
 
 
 def value(entry, where: str, unit: str | None = None) -> float:
-    """Read a number that may be given bare or as ``{"value", "unit"}``; DataError when absent or wrong."""
-    if isinstance(entry, dict):
-        if "value" not in entry:
-            raise DataError(f"{where}: expected {{value = ..., unit = ...}}")
-        if unit is not None and entry.get("unit", unit) != unit:
-            raise DataError(f"{where}: unit is {entry.get('unit')!r}, expected {unit!r}")
-        entry = entry["value"]
-    try:
-        v = float(entry)
-    except (TypeError, ValueError):
-        raise DataError(f"{where}: expected a number, got {entry!r}") from None
+    """A finite number given bare or as ``{"value", "unit"}`` (parsed by :func:`feedtune.io.value_of`)."""
+    from ..io.document import value_of
+
+    if entry is None:
+        raise DataError(f"{where}: missing")
+    got = entry.get("unit") if isinstance(entry, dict) else None
+    if unit is not None and got is not None and got != unit:
+        raise DataError(f"{where}: unit is {got!r}, expected {unit!r}")
+    v = value_of(entry, None, where)
     if not np.isfinite(v):
-        raise DataError(f"{where}: value must be finite")
+        raise DataError(f"{where}: value must be finite, got {v}")
     return v
 
 
@@ -130,16 +128,22 @@ def _strip_none(d):
     return d
 
 
-def check_ballscrew_gains(doc: dict, where: str) -> None:
-    """Validate schema and kind of a gains document."""
+def check_gains_header(doc, where: str) -> None:
+    """Schema (version 1) and machine kind of a ball-screw gains document; DataError otherwise."""
+    if not isinstance(doc, dict):
+        raise DataError(f"{where}: a gains document must be a table/object at the top level")
     schema = str(doc.get("schema", ""))
     if not schema.startswith("feedtune.gains/"):
         raise DataError(f"{where}: not a feedtune gains file (schema {schema!r}, expected {SCHEMA!r})")
-    major = schema.split("/", 1)[1].split(".")[0]
-    if major != "1":
-        raise DataError(f"{where}: gains schema version {major} is not supported; this feedtune reads version 1")
+    if schema.split("/", 1)[1].split(".")[0] != "1":
+        raise DataError(f"{where}: gains schema {schema!r} is not supported; this feedtune reads version 1")
     if doc.get("kind") != "ballscrew":
         raise DataError(f"{where}: gains file is for machine kind {doc.get('kind')!r}, expected 'ballscrew'")
+
+
+def check_ballscrew_gains(doc: dict, where: str) -> None:
+    """Header plus every section the analysis and the exporters need."""
+    check_gains_header(doc, where)
     for key in ("sampling", "gains", "filters", "reference", "model"):
         if key not in doc:
             raise DataError(f"{where}: gains file has no [{key}] section")

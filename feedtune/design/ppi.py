@@ -22,6 +22,7 @@ from ..frf import Frf
 from ..lti import Zpk, delay_response, zoh_response
 from ..models.ballscrew import BallScrewModel
 from .ballscrew_law import BallScrewLaw
+from .discretize import matched
 from .filters import FilterPack
 from .mcppc import check_sampling
 
@@ -125,17 +126,15 @@ def _candidate_loops(model, filters, fs, delay, frf, f):
 
     T = 1.0 / fs
     z1 = np.exp(-2j * np.pi * f * T)
-    from .discretize import matched
-
     Fd = matched(filters.zpk(), fs).tf.freqresp(f)
     if frf is not None:
         pos = frf.as_quantity("position")
-        G11 = np.interp(f, pos.freq_hz, pos.channel("x1/u").real) + 1j * np.interp(
-            f, pos.freq_hz, pos.channel("x1/u").imag
-        )
-        G21 = np.interp(f, pos.freq_hz, pos.channel("x2/u").real) + 1j * np.interp(
-            f, pos.freq_hz, pos.channel("x2/u").imag
-        )
+
+        def on_grid(channel):
+            h = pos.channel(channel)
+            return np.interp(f, pos.freq_hz, h.real) + 1j * np.interp(f, pos.freq_hz, h.imag)
+
+        G11, G21 = on_grid("x1/u"), on_grid("x2/u")
         H = zoh_response(f, fs) * delay_response(f, delay, fs)
     else:
         g = zoh_plant(model, fs, f)

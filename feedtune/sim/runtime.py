@@ -30,6 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..design.ballscrew_law import GAIN_NAMES as GAIN_ORDER
+from ..design.ballscrew_law import GAIN_UNITS
+from ..design.gains import check_gains_header, value
 from ..errors import DataError, UsageError
 
 SOS_KEYS = {
@@ -38,31 +41,9 @@ SOS_KEYS = {
     "table": ("reference", "table_sos"),
     "feedforward": ("reference", "feedforward_sos"),
 }
-GAIN_ORDER = ("Kx1", "Kx2", "Kv1", "Kv2", "Ki2")
-GAIN_UNITS = {"Kx1": "V/rad", "Kx2": "V/rad", "Kv1": "V/(rad/s)", "Kv2": "V/(rad/s)", "Ki2": "V/(rad s)"}
 
 
 # ------------------------------------------------------------------------------------------ reading
-def _number(entry, where: str, unit: str | None = None) -> float:
-    """A bare number or ``{value, unit}``; DataError naming ``where`` otherwise."""
-    if isinstance(entry, dict):
-        if "value" not in entry:
-            raise DataError(f"{where}: expected {{value = ..., unit = ...}}")
-        got = entry.get("unit")
-        if unit is not None and got is not None and got != unit:
-            raise DataError(f"{where}: unit is {got!r}, expected {unit!r}")
-        entry = entry["value"]
-    if isinstance(entry, bool):
-        raise DataError(f"{where}: expected a number, got {entry!r}")
-    try:
-        v = float(entry)
-    except (TypeError, ValueError):
-        raise DataError(f"{where}: expected a number, got {entry!r}") from None
-    if not math.isfinite(v):
-        raise DataError(f"{where}: value must be finite, got {v}")
-    return v
-
-
 def _section(doc: dict, path: tuple[str, str], where: str):
     sec = doc.get(path[0])
     if not isinstance(sec, dict):
@@ -93,7 +74,7 @@ def normalized_sos(rows, where: str) -> np.ndarray:
     for i, row in enumerate(rows):
         if not isinstance(row, (list, tuple)) or len(row) != 6:
             raise DataError(f"{where}[{i}]: a section must have 6 coefficients [b0, b1, b2, a0, a1, a2]")
-        out[i] = [_number(c, f"{where}[{i}]") for c in row]
+        out[i] = [value(c, f"{where}[{i}]") for c in row]
         if out[i, 3] == 0:
             raise DataError(f"{where}[{i}]: a0 = 0 is not a valid section")
         out[i] /= out[i, 3]
@@ -105,7 +86,7 @@ def read_sampling(doc: dict, where: str) -> tuple[float, int, int]:
     sec = doc.get("sampling")
     if not isinstance(sec, dict):
         raise DataError(f"{where}: gains file has no [sampling] section")
-    fs = _number(sec.get("fs_hz"), f"{where}: sampling.fs_hz", "Hz")
+    fs = value(sec.get("fs_hz"), f"{where}: sampling.fs_hz", "Hz")
     if fs <= 0:
         raise DataError(f"{where}: sampling.fs_hz must be > 0 Hz, got {fs:g}")
     counts = []
@@ -117,19 +98,6 @@ def read_sampling(doc: dict, where: str) -> tuple[float, int, int]:
     return fs, counts[0], counts[1]
 
 
-def _check_header(doc, where: str) -> None:
-    if not isinstance(doc, dict):
-        raise DataError(f"{where}: a gains document must be a table/object at the top level")
-    schema = str(doc.get("schema", ""))
-    if not schema.startswith("feedtune.gains/"):
-        raise DataError(f"{where}: not a feedtune gains file (schema {schema!r}, expected 'feedtune.gains/1')")
-    if schema.split("/", 1)[1].split(".")[0] != "1":
-        raise DataError(f"{where}: gains schema {schema!r} is not supported; this feedtune reads version 1")
-    if doc.get("kind") != "ballscrew":
-        raise DataError(f"{where}: gains file is for machine kind {doc.get('kind')!r}, expected 'ballscrew'")
-
-
-# ----------------------------------------------------------------------------------------- one filter
 class _SosState:
     """Cascaded second-order sections, transposed direct form II, executed one sample at a time."""
 
@@ -220,7 +188,7 @@ class GainsRuntime:
         DataError
             Not a ball-screw gains file of schema version 1, or a missing/invalid entry (named).
         """
-        _check_header(doc, where)
+        check_gains_header(doc, where)
         fs, delay, preview = read_sampling(doc, where)
         sec = doc.get("gains")
         if not isinstance(sec, dict):
@@ -229,7 +197,7 @@ class GainsRuntime:
         for n in GAIN_ORDER:
             if n not in sec:
                 raise DataError(f"{where}: gains.{n} is missing")
-            gains[n] = _number(sec[n], f"{where}: gains.{n}", GAIN_UNITS[n])
+            gains[n] = value(sec[n], f"{where}: gains.{n}", GAIN_UNITS[n])
         sos = {name: normalized_sos(_section(doc, path, where), f"{where}: {'.'.join(path)}")
                for name, path in SOS_KEYS.items()}
         unit = str(doc.get("units", {}).get("command", "V")) if isinstance(doc.get("units"), dict) else "V"
