@@ -56,7 +56,8 @@ def test_demo_identifies_the_twin_and_designs_for_similar_ms(demo):
     got = demo.identified["params"]
     for name in ("m1", "m2", "k", "c"):
         assert got[name] == pytest.approx(getattr(MODEL, name), rel=0.05), name
-    assert demo.designs["ppi"]["ms"] <= demo.designs["mcppc"]["ms"] + 1e-9
+    # "P-PI designed for similar Ms": at most MC-PPC's, and within 5 % of it
+    assert 0.95 * demo.designs["mcppc"]["ms"] <= demo.designs["ppi"]["ms"] <= demo.designs["mcppc"]["ms"] + 1e-9
     assert set(demo.designs) == {"mcppc", "ppi"}
 
 

@@ -143,6 +143,11 @@ def _candidate_loops(model, filters, fs, delay, frf, f):
     return G11 * H * Fd, G21 * H * Fd, (1 - z1) / T, T / (1 - z1)
 
 
+INTEGRAL_RATIOS = (2.0, 3.0, 4.0, 6.0, 10.0)
+POSITION_RATIOS = (2.0, 3.0, 4.0, 6.0, 8.0)
+REFINE_POINTS = 12
+
+
 def tune_ppi(
     model: BallScrewModel,
     *,
@@ -159,7 +164,9 @@ def tune_ppi(
     ``Kiv = Kpv wv / r_i``, ``Kpx = wv / r_p``, over ratios ``r_i`` in (2, 3, 4, 6, 10) and ``r_p`` in
     (2, 3, 4, 6, 8); each candidate is checked with the discrete controller on the measured FRF (when given)
     or the zero-order-hold model, for Nyquist stability and both limits. The candidate with the highest
-    first crossover of the position loop wins.
+    first crossover of the position loop wins. ``wv`` runs over 60 log-spaced values from 5 Hz to ``fs/20``;
+    past the last feasible value the interval to the first infeasible one is refined with 12 more values,
+    so that a binding ``ms_max`` is met closely rather than to the coarse grid's step (9 %).
     """
     from ..analysis.loop import analyze_loop
 
@@ -173,11 +180,12 @@ def tune_ppi(
     f = np.logspace(np.log10(f_lo), np.log10(f_hi), 3000)
     A11, A21, D, I = _candidate_loops(model, filters, fs, delay_samples, frf, f)
     M = model.total_inertia
-    best = None
-    for wv in 2 * np.pi * np.logspace(np.log10(5.0), np.log10(fs / 20), 60):
-        found = False
-        for ri in (2.0, 3.0, 4.0, 6.0, 10.0):
-            for rp in (2.0, 3.0, 4.0, 6.0, 8.0):
+
+    def best_at(wv: float):
+        """Best admissible (ri, rp) candidate at velocity crossover ``wv`` [rad/s], or None."""
+        found = None
+        for ri in INTEGRAL_RATIOS:
+            for rp in POSITION_RATIOS:
                 Kpv = M * wv
                 Kiv, Kpx = Kpv * wv / ri, wv / rp
                 g = equivalent_gains(Kpx, Kpv, Kiv)
@@ -189,11 +197,23 @@ def tune_ppi(
                 if not res.stable or res.phase_margin_deg is None or abs(res.phase_margin_deg) < pm_min_deg:
                     continue
                 bw = float(res.crossovers_hz[0])
-                found = True
-                if best is None or bw > best[0]:
-                    best = (bw, Kpx, Kpv, Kiv, ms, ri, rp, wv)
-        if not found and best is not None:
-            break  # bandwidth beyond the feasible range
+                if found is None or bw > found[0]:
+                    found = (bw, Kpx, Kpv, Kiv, ms, ri, rp, wv)
+        return found
+
+    best = None
+    coarse = 2 * np.pi * np.logspace(np.log10(5.0), np.log10(fs / 20), 60)
+    for i, wv in enumerate(coarse):
+        cand = best_at(wv)
+        if cand is None and best is not None:
+            # bandwidth beyond the feasible range: refine between the last feasible and this grid point
+            for wf in np.geomspace(coarse[i - 1], wv, REFINE_POINTS + 2)[1:-1]:
+                cand = best_at(wf)
+                if cand is not None and cand[0] > best[0]:
+                    best = cand
+            break
+        if cand is not None and (best is None or cand[0] > best[0]):
+            best = cand
     if best is None:
         raise DesignError(
             f"no P-PI gains reach Ms <= {ms_max:g} with phase margins >= {pm_min_deg:g} deg; "

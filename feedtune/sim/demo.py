@@ -1,8 +1,10 @@
 """The main job in one command, on the twin: measure, identify, design, test, compare (thesis §3.4, Table 3.2).
 
 :func:`run_demo` measures the FRF of the ball-screw twin under a weak stabilising controller, identifies the
-2-mass model from it, designs MC-PPC (beta = 4, 50 Hz, zeta = 0.7, the thesis's filter pack) and a P-PI
-tuned for the same peak sensitivity on the measured FRF, exports both gains files and runs every test
+2-mass model from it, designs MC-PPC (50 Hz, zeta = 0.7, the thesis's filter pack, and the largest
+``beta`` up to the thesis's 4 whose design meets ``feedtune design ppc``'s default limit Ms <= 3.5 on the
+measured FRF) and a P-PI tuned for the same peak sensitivity with a phase-margin floor no tighter than
+MC-PPC's own, exports both gains files and runs every test
 through :class:`~feedtune.sim.runtime.GainsRuntime` reading the exported text only: rope snap and
 tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. The result
 holds the comparison table and the text of every file; :func:`write_texts` writes them all or none.
@@ -22,6 +24,10 @@ SPEEDS_M_PER_S = (0.2, 0.5, 1.0)
 """Tracking speeds of Table 3.2 [m/s]."""
 DEMO_MOVE = {"distance": 0.15, "a_max": 5.0, "j_max": 500.0, "dwell_before": 0.05, "dwell_after": 0.2}
 """The demo's point-to-point move: 150 mm, 5 m/s^2, 500 m/s^3, dwells [m, m/s^2, m/s^3, s, s]."""
+MS_MAX = 3.5
+"""Peak-sensitivity limit of the demo's MC-PPC design, the default of ``feedtune design ppc --ms-max`` [-]."""
+BETAS = (4.0, 3.5, 3.0, 2.5, 2.0, 1.5, 1.0)
+"""MC-PPC ``beta`` values tried, largest first (the thesis's drive allowed up to 4) [-]."""
 CONTROLLERS = ("mcppc", "ppi")
 LABELS = {"mcppc": "MC-PPC", "ppi": "P-PI"}
 
@@ -175,7 +181,6 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     """
     from ..design.filters import THESIS_FILTER_PACK
     from ..design.gains import gains_document
-    from ..design.mcppc import design_mcppc
     from ..design.ppi import tune_ppi
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document
@@ -193,10 +198,12 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     model_doc = model_document(fit.model, fit=fit.to_dict())
     texts["model.toml"], texts["model.json"] = dumps_toml(model_doc), dumps_json(model_doc)
 
-    mc = design_mcppc(fit.model, filters=THESIS_FILTER_PACK, fs=p.fs, delay_samples=p.delay_samples)
-    mc_check = _checked(mc, frf)
-    ms = mc_check.analysis.cases["discrete"].metrics.ms
-    pp = tune_ppi(fit.model, ms_max=ms, filters=THESIS_FILTER_PACK, frf=frf, fs=p.fs, delay_samples=p.delay_samples)
+    mc, mc_check = _mcppc_within_limits(fit.model, frf, p)
+    mc_metrics = mc_check.analysis.cases["discrete"].metrics
+    # P-PI for the same peak sensitivity, with a phase-margin floor no tighter than MC-PPC's own
+    pm_floor = min(30.0, abs(mc_metrics.phase_margin_deg or 30.0))
+    pp = tune_ppi(fit.model, ms_max=mc_metrics.ms, pm_min_deg=pm_floor, filters=THESIS_FILTER_PACK, frf=frf,
+                  fs=p.fs, delay_samples=p.delay_samples)
     designs, runtimes = {}, {}
     for name, design, check in (("mcppc", mc, mc_check), ("ppi", pp, _checked(pp, frf))):
         doc = gains_document(design, check.analysis.to_dict())
@@ -206,10 +213,28 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
                          "crossovers_hz": list(check.analysis.cases["discrete"].metrics.crossovers_hz)}
         if name == "ppi":
             designs[name]["ppi_gains"] = dict(design.ppi_gains)
+        else:
+            designs[name]["design"] = {"beta": design.beta, "pole_hz": design.pole_hz, "zeta": design.zeta}
     rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
     result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict())
     texts["summary.json"] = dumps_json(_plain({k: v for k, v in result.to_dict().items() if k != "files"}))
     return result
+
+
+def _mcppc_within_limits(model, frf, p):
+    """MC-PPC with the largest ``beta`` of :data:`BETAS` meeting Ms <= :data:`MS_MAX` on the measured FRF."""
+    from ..design.check import check_design
+    from ..design.filters import THESIS_FILTER_PACK
+    from ..design.mcppc import design_mcppc
+
+    found = []
+    for beta in BETAS:
+        design = design_mcppc(model, beta=beta, filters=THESIS_FILTER_PACK, fs=p.fs, delay_samples=p.delay_samples)
+        check = check_design(design, frf=frf, ms_max=MS_MAX)
+        if check.ok:
+            return design, check
+        found.append(f"beta {beta:g}: {'; '.join(check.violations)}")
+    raise DesignError("no MC-PPC design on the identified model meets the demo's limits: " + " | ".join(found))
 
 
 def _checked(design, frf):
