@@ -226,6 +226,7 @@ def tune_ppi(
         "pm_min_deg": float(pm_min_deg),
         "ms_found": ms,
         "velocity_crossover_hz": float(wv / (2 * np.pi)),
+        "first_crossover_hz": bw,
         "integral_ratio": ri,
         "position_ratio": rp,
         "checked_case": "discrete" if frf is not None else "ideal_discrete",
