@@ -1,12 +1,19 @@
 """Timing of FRF estimation on a long log: 60 s at 20 kHz (1.2 M samples), one input, two outputs.
 
-Run by hand: ``python benchmarks/bench_frf_estimate.py``. Prints the best of a few runs per case; the
-target is < 1 s per estimate.
+Run by hand: ``python benchmarks/bench_frf_estimate.py [--csv]``. Prints the best of a few runs per case of
+the library call, then the ``feedtune frf`` command end to end on the log written as a MATLAB file (and as
+CSV with ``--csv``): in a fresh process, minus the start-up of ``feedtune --help`` (Python, typer, the CLI
+modules), and in-process with warm imports. Target: < 1 s per estimate and per command.
 """
 
 from __future__ import annotations
 
+import argparse
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy import signal
@@ -44,7 +51,7 @@ def _best(fn, repeat: int = 3) -> float:
     return min(times)
 
 
-def main() -> None:
+def main() -> Log:
     rng = np.random.default_rng(0)
     t = np.arange(N) / FS
     units = {"u": "V", "x1": "m", "x2": "m"}
@@ -65,7 +72,51 @@ def main() -> None:
     for name, fn in cases.items():
         frf = fn()
         print(f"  {name:32s} {_best(fn) * 1e3:8.1f} ms   ({frf.freq_hz.size} lines)")
+    return ms_log
+
+
+def _wall(cmd: list[str], repeat: int = 3) -> float:
+    """Best wall time [s] of a subprocess."""
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True)
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def bench_cli(log: Log, csv: bool) -> None:
+    """``feedtune frf`` end to end on the log written to disk (.mat, and .csv when asked)."""
+    from scipy.io import savemat
+    from typer.testing import CliRunner
+
+    from feedtune.cli.main import app
+    from feedtune.io import write_log_csv
+
+    exe = [sys.executable, "-m", "feedtune.cli.main"]
+    startup = _wall([*exe, "--help"])
+    print(f"feedtune frf end to end (python start-up + CLI import {startup * 1e3:.0f} ms subtracted)")
+    with tempfile.TemporaryDirectory() as d:
+        paths = [Path(d) / "multisine.mat"]
+        savemat(paths[0], {"t": log.t, **log.signals})
+        if csv:
+            paths.append(Path(d) / "multisine.csv")
+            write_log_csv(log, paths[1])
+        for path in paths:
+            for method in (["--method", "periodic"], ["--method", "h1"]):
+                args = ["frf", str(path), "--input", "u", "--output", "x1,x2", *method,
+                        "--out", str(Path(d) / "frf.csv"), "--force", "--json"]
+                fresh = _wall([*exe, *args]) - startup
+                runner = CliRunner()
+                runner.invoke(app, args)
+                t0 = time.perf_counter()
+                res = runner.invoke(app, args)
+                warm = time.perf_counter() - t0
+                assert res.exit_code == 0, res.output
+                print(f"  {path.suffix} {method[1]:9s} fresh process {fresh * 1e3:8.1f} ms, warm {warm * 1e3:8.1f} ms")
 
 
 if __name__ == "__main__":
-    main()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--csv", action="store_true", help="also time the command on a 108 MB CSV log")
+    bench_cli(main(), parser.parse_args().csv)

@@ -174,3 +174,24 @@ def read_document_text(text: str) -> dict:
 def test_read_document_round_trip_of_demo_gains(tmp_path, demo):
     (tmp_path / "g.toml").write_text(demo.texts["ppi_gains.toml"])
     assert read_document(tmp_path / "g.toml")["controller"] == "ppi"
+
+
+# ------------------------------------------------------------------------------------ pre-filter
+def test_demo_prefilter_from_one_run_improves_every_speed(demo, tmp_path):
+    for speed in (200, 500, 1000):
+        row = _row(demo, f"track {speed} mm/s")
+        # measured (seed 1): RMS 0.346 -> 0.130, 0.572 -> 0.164, 0.727 -> 0.167 um
+        assert row["mcppc_prefilter"]["rms_um"] < 0.6 * row["mcppc"]["rms_um"], speed
+        assert row["mcppc_prefilter"]["max_um"] < row["mcppc"]["max_um"], speed
+    assert demo.prefilter["speed_mm_s"] == 500 and set(demo.prefilter["gains"]) == {"K_vel", "K_acc", "K_jerk",
+                                                                                      "K_snap"}
+    write_texts(demo.texts, out_dir=tmp_path / "out")
+    rt = GainsRuntime.from_file(tmp_path / "out" / "mcppc_prefilter_gains.toml")
+    assert rt.to_dict()["prefilter"]["gains"] == pytest.approx(demo.prefilter["gains"])
+    log = read_log(tmp_path / "out" / "track_1000mm_s_mcppc_prefilter.csv")
+    e = log["x_ref"] - log["x2"] * MODEL.lead_m_per_rad  # table error from the encoder
+    rms = float(np.sqrt(np.mean(e**2))) * 1e6
+    assert rms == pytest.approx(_row(demo, "track 1000")["mcppc_prefilter"]["rms_um"], rel=1e-6)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["prefilter"]["gains"]["K_acc"] == pytest.approx(demo.prefilter["gains"]["K_acc"])
+    assert "MC-PPC+PF" in demo.table()

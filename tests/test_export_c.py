@@ -7,11 +7,14 @@ import numpy as np
 import pytest
 
 from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.design.friction_ff import with_friction_feedforward
 from feedtune.design.gains import gains_document, law_from_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi
+from feedtune.design.prefilter import with_prefilter
 from feedtune.export.c_header import c_header
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
+from feedtune.models.friction import StribeckFriction
 
 MAIN_C = r"""
 #include <stdio.h>
@@ -25,16 +28,24 @@ int main(void) {
 """
 
 
-def _reference_output(doc, r_preview, x1, x2):
-    """The law of docs/gains.md evaluated with vector operations (sosfilt and cumulative sums)."""
+def _reference_output(doc, r_preview, x1, x2, friction=None, band=None):
+    """The law of docs/gains.md evaluated with vector operations (sosfilt and cumulative sums).
+
+    With a ``[prefilter]`` the paths run on ``r + sosfilt(prefilter_sos, r)``; ``friction`` (a
+    StribeckFriction in V and rad/s) adds its smoothed force of the backward-difference velocity of that.
+    """
     from scipy.signal import sosfilt
 
     fs = doc["sampling"]["fs_hz"]["value"]
     g = {k: v["value"] for k, v in doc["gains"].items()}
     ref = doc["reference"]
+    if "prefilter" in doc:
+        r_preview = r_preview + sosfilt(np.array(doc["prefilter"]["prefilter_sos"]), r_preview)
     x1r = sosfilt(np.array(ref["rotary_sos"]), r_preview)
     x2r = sosfilt(np.array(ref["table_sos"]), r_preview)
     uff = sosfilt(np.array(ref["feedforward_sos"]), r_preview)
+    if friction is not None:
+        uff = uff + friction.smoothed(np.diff(r_preview, prepend=r_preview[0]) * fs, band)
     e1, e2 = x1r - x1, x2r - x2
     de1 = np.diff(e1, prepend=e1[0]) * fs
     de2 = np.diff(e2, prepend=e2[0]) * fs
@@ -43,36 +54,52 @@ def _reference_output(doc, r_preview, x1, x2):
     return sosfilt(np.array(doc["filters"]["filter_pack_sos"]), ufb) + uff
 
 
+FRICTION = StribeckFriction(dc_pos=0.1, ds_pos=0.16, dc_neg=-0.09, ds_neg=-0.15, omega_pos=0.8, omega_neg=0.6,
+                            command_unit="V", velocity_unit="rad/s")
+PF_GAINS = {"K_vel": 1e-4, "K_acc": -2e-6, "K_jerk": 3e-9, "K_snap": -4e-12}
+
+
+def _extras(design):
+    """Gains document with a pre-filter and friction feedforward (band 0.05 rad/s)."""
+    doc = with_prefilter(gains_document(design), gains=PF_GAINS, lpf_hz=80.0)
+    return with_friction_feedforward(doc, FRICTION, v_band=0.05)
+
+
 @pytest.mark.parametrize(
-    "design",
+    ("design", "extras"),
     [
-        design_mcppc(MODEL, filters=THESIS_FILTER_PACK),
-        design_ppi(MODEL, Kpx=60.0, Kpv=0.8, Kiv=100.0, filters=THESIS_FILTER_PACK),
+        (design_mcppc(MODEL, filters=THESIS_FILTER_PACK), False),
+        (design_ppi(MODEL, Kpx=60.0, Kpv=0.8, Kiv=100.0, filters=THESIS_FILTER_PACK), False),
+        (design_mcppc(MODEL, filters=THESIS_FILTER_PACK), True),
     ],
-    ids=["mcppc", "ppi"],
+    ids=["mcppc", "ppi", "mcppc+prefilter+friction"],
 )
-def test_c_header_matches_vectorised_law(tmp_path, design):
+def test_c_header_matches_vectorised_law(tmp_path, design, extras):
     cc = shutil.which("cc") or shutil.which("gcc")
     if cc is None:
         pytest.skip("no C compiler")
-    doc = gains_document(design)
+    doc = _extras(design) if extras else gains_document(design)
     (tmp_path / "gains.h").write_text(c_header(doc))
     (tmp_path / "main.c").write_text(MAIN_C)
     exe = tmp_path / "run"
     subprocess.run(
-        [cc, "-std=c99", "-O1", "-Wall", "-Werror", "-o", str(exe), str(tmp_path / "main.c")], check=True, cwd=tmp_path
+        [cc, "-std=c99", "-O1", "-Wall", "-Werror", "-o", str(exe), str(tmp_path / "main.c"), "-lm"], check=True,
+        cwd=tmp_path,
     )
     rng = np.random.default_rng(1)
-    n = 3000
+    n = 4000
     t = np.arange(n) / 20000.0
-    r = 0.5 * (1 - np.cos(2 * np.pi * 3 * t))
+    r = 0.5 * (1 - np.cos(2 * np.pi * 3 * t))  # both signs of velocity, through 0 at t = 1/6 s
     x1 = r + 1e-4 * rng.standard_normal(n)
     x2 = r + 1e-4 * rng.standard_normal(n)
     text = "\n".join(f"{a:.17g} {b:.17g} {c:.17g}" for a, b, c in zip(r, x1, x2, strict=True))
     out = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True).stdout
     u_c = np.array(out.split(), float)
-    u_ref = _reference_output(doc, r, x1, x2)
+    u_ref = _reference_output(doc, r, x1, x2, FRICTION if extras else None, 0.05)
     assert np.allclose(u_c, u_ref, rtol=1e-9, atol=1e-9 * np.max(np.abs(u_ref)))
+    if extras:  # the extras really act: without them the command differs
+        plain = _reference_output(gains_document(design), r, x1, x2)
+        assert np.max(np.abs(u_c - plain)) > 0.05
 
 
 def test_gains_document_rebuilds_the_same_law():

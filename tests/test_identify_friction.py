@@ -343,3 +343,26 @@ def test_emps_coulomb_levels_near_benchmark(real_data_dir):
     auto = identify_friction(log, **opts)
     assert auto.rigid_fit is not None and auto.rigid_fit.values["mass"] == pytest.approx(95.1089, rel=0.02)
     assert auto.friction == result.friction
+
+
+# ------------------------------------------------------------------------------------- model file
+def test_friction_model_file_round_trip_and_errors(tmp_path):
+    from feedtune.io import load_model, save_model
+
+    shared = StribeckFriction(0.1, 0.16, -0.09, -0.15, omega_pos=0.8, command_unit="V", velocity_unit="rad/s")
+    split = StribeckFriction(12.0, 20.0, -10.0, -17.0, omega_pos=0.006, omega_neg=0.012)
+    for k, model in enumerate((shared, split)):
+        path = tmp_path / f"f{k}.toml"
+        save_model(path, model, fit={"log": "run.csv"})
+        assert load_model(path) == model
+        assert load_model(path.with_suffix(".json")) == model
+    text = (tmp_path / "f0.toml").read_text()
+    assert 'kind = "friction"' in text and 'velocity_unit = "rad/s"' in text and "omega_neg" not in text
+    bad = tmp_path / "bad.toml"
+    for old, new, message in (('unit = "rad/s" }', 'unit = "m/s" }', "unit 'm/s' where 'rad/s' is expected"),
+                              ('dc_pos = { value = 0.1, unit = "V" }\n', "", "params.dc_pos is missing"),
+                              ('velocity_unit = "rad/s"', 'velocity_unit = "mm/s"', "velocity_unit = 'mm/s'"),
+                              ("value = 0.8,", "value = -0.8,", "omega_pos must be > 0")):
+        bad.write_text(text.replace(old, new, 1))
+        with pytest.raises(DataError, match=message):
+            load_model(bad)

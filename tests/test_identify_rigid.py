@@ -211,3 +211,24 @@ def test_bad_input_gives_one_line_errors():
         fit_rigid(Log(t, dict(log.signals), dict(log.units)), force="u", position="x")
     with pytest.raises(DataError, match="too few"):
         fit_rigid(log.slice(None, 0.2), force="u", position="x")
+
+
+def test_rigid_model_file_round_trip_and_errors(tmp_path):
+    from feedtune.io import load_model, save_model
+
+    sym = RigidBodyModel(mass=95.1, viscous=203.5, coulomb_pos=20.4, offset=-3.16)
+    asym = RigidBodyModel(mass=2.0, viscous=3.0, coulomb_pos=5.0, coulomb_neg=7.0, offset=-1.0, viscous_neg=4.0,
+                          command_unit="N*m", position_unit="rad")
+    for k, model in enumerate((sym, asym)):
+        path = tmp_path / f"r{k}.toml"
+        save_model(path, model)
+        assert load_model(path) == model
+    text = (tmp_path / "r1.toml").read_text()
+    assert 'kind = "rigid"' in text and 'mass = { value = 2.0, unit = "N*m/(rad/s^2)" }' in text
+    bad = tmp_path / "bad.toml"
+    for old, new, message in (('position_unit = "rad"', 'position_unit = "mm"', "position_unit = 'mm'"),
+                              ("value = 2.0,", "value = 0.0,", "mass must be > 0"),
+                              ("[params]\n", "[params]\nspring = 1.0\n", "unknown rigid-body parameter")):
+        bad.write_text(text.replace(old, new, 1))
+        with pytest.raises(DataError, match=message):
+            load_model(bad)

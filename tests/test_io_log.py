@@ -138,6 +138,23 @@ def test_mat_v5_vectors_scalars_and_matrix_columns(tmp_path):
         read_log(tmp_path / "m.mat", mapping={"x": "qm"})
 
 
+def test_time_column_by_its_mapped_name(tmp_path):
+    import scipy.io
+
+    n = 40
+    data = np.column_stack([0.5 + np.arange(n) * 1e-3, np.arange(n) * 2.0])
+    scipy.io.savemat(tmp_path / "hsm.mat", {"data": data})
+    for kwargs in ({"time": "t"}, {}):  # named with time=, or found as the mapped name t
+        log = read_log(tmp_path / "hsm.mat", mapping={"t": "data[0]", "x": "data[1]"}, **kwargs)
+        np.testing.assert_array_equal(log.t, data[:, 0])
+        assert list(log.signals) == ["x"]
+    ms = read_log(tmp_path / "hsm.mat", mapping={"clock": "data[0]", "x": "data[1]"}, time="clock",
+                  scale={"clock": 1e3})
+    np.testing.assert_allclose(ms.t, data[:, 0] * 1e3)
+    with pytest.raises(DataError, match=r"hsm\.mat: no time column"):
+        read_log(tmp_path / "hsm.mat", mapping={"x": "data[1]"})
+
+
 def test_mat_v73_log(tmp_path):
     from test_io_frf import write_mat73
 

@@ -125,3 +125,71 @@ def test_sample_rate_mismatch_is_refused():
     rt.check_target(20000.0)
     with pytest.raises(DataError, match=r"designed for fs = 20000 Hz.*10000 Hz"):
         rt.check_target(10000.0)
+
+
+# ------------------------------------------------------------------------------ pre-filter and friction
+PF_GAINS = {"K_vel": 1e-4, "K_acc": -2e-6, "K_jerk": 3e-9, "K_snap": -4e-12}
+
+
+def _with_extras():
+    from feedtune.design.friction_ff import with_friction_feedforward
+    from feedtune.design.prefilter import with_prefilter
+    from feedtune.models.friction import StribeckFriction
+
+    fr = StribeckFriction(dc_pos=0.1, ds_pos=0.16, dc_neg=-0.09, ds_neg=-0.15, omega_pos=0.8, omega_neg=0.6,
+                          command_unit="V", velocity_unit="rad/s")
+    doc = with_prefilter(gains_document(DESIGNS["mcppc"]), gains=PF_GAINS, lpf_hz=80.0)
+    return with_friction_feedforward(doc, fr, v_band=0.05), fr
+
+
+def test_step_with_prefilter_and_friction_equals_the_vectorised_paths():
+    # independent: the plain runtime fed the pre-filtered reference (scipy sosfilt of the stored sections)
+    # plus StribeckFriction.smoothed of its backward-difference velocity, added to the command
+    doc, fr = _with_extras()
+    rt = GainsRuntime.from_document(doc)
+    plain = GainsRuntime.from_document(gains_document(DESIGNS["mcppc"]))
+    p, x1, x2 = _inputs(1200)
+    p = np.cumsum(np.abs(p)) * 1e-2 - np.cumsum(np.abs(p[::-1])) * 2e-2  # both signs of velocity, long rests
+    p[:5] = 0.0
+    xp = p + sosfilt(np.array(doc["prefilter"]["prefilter_sos"]), p)
+    v = np.diff(xp, prepend=xp[0]) * rt.fs
+    expected = _step_all(plain, xp, x1, x2) + fr.smoothed(v, 0.05)
+    got = _step_all(rt, p, x1, x2)
+    assert np.max(np.abs(got - expected)) <= 1e-9 * np.max(np.abs(expected))
+    x_ref = np.r_[np.zeros(rt.preview_samples), p][: p.size]
+    assert np.allclose(rt.replay(x_ref, x1, x2), _step_all(rt, rt.previewed(x_ref), x1, x2), rtol=1e-10,
+                       atol=1e-12)
+
+
+def test_extras_survive_the_file_round_trip_and_are_reported(tmp_path):
+    doc, _ = _with_extras()
+    path = tmp_path / "g.toml"
+    write_document(path, doc)
+    p, x1, x2 = _inputs(300)
+    assert np.array_equal(_step_all(GainsRuntime.from_file(path), p, x1, x2),
+                          _step_all(GainsRuntime.from_document(doc), p, x1, x2))
+    d = GainsRuntime.from_file(path).to_dict()
+    assert d["prefilter"]["gains"] == PF_GAINS and d["prefilter"]["units"]["K_snap"] == "s^4"
+    assert d["friction_feedforward"]["v_band"] == 0.05 and d["friction_feedforward"]["units"]["v_band"] == "rad/s"
+    assert "prefilter(x_r[k+P])" in doc["law"]["execution"] and "friction(v_r)" in doc["law"]["execution"]
+    plain = GainsRuntime.from_document(gains_document(DESIGNS["mcppc"])).to_dict()
+    assert plain["prefilter"] is None and plain["friction_feedforward"] is None
+
+
+@pytest.mark.parametrize(
+    ("edit", "needle"),
+    [
+        (lambda d: d["prefilter"].pop("prefilter_sos"), "prefilter.prefilter_sos"),
+        (lambda d: d["prefilter"].update(prefilter_sos=[[1, 2]]), "prefilter.prefilter_sos[0]"),
+        (lambda d: d["friction_feedforward"].pop("omega_pos"), "friction_feedforward.omega_pos: missing"),
+        (lambda d: d["friction_feedforward"].update(dc_pos={"value": 1.0, "unit": "N"}), "expected 'V'"),
+        (lambda d: d["friction_feedforward"].update(v_band={"value": 0.0, "unit": "rad/s"}), "band must be > 0"),
+    ],
+)
+def test_bad_extra_sections_are_one_line_data_errors(edit, needle):
+    doc, _ = _with_extras()
+    edit(doc)
+    with pytest.raises(DataError) as exc:
+        GainsRuntime.from_document(doc, "g.toml")
+    msg = str(exc.value)
+    assert needle in msg and msg.startswith("g.toml") and "\n" not in msg

@@ -158,7 +158,8 @@ def test_measured_frf_agrees_with_the_twin_and_identifies_its_parameters(excitat
     res = measure_frf(twin, excitation=excitation, periods=4)
     frf = res.frf
     assert set(res.log.signals) == {"r", "u", "x1", "x2"}
-    g = twin.frequency_response(frf.freq_hz)
+    assert frf.meta["sampling"] == "removed" and res.summary["sampling_removed"] is True
+    g = twin.frequency_response(frf.freq_hz, sampled=False)  # ZOH and delay removed: the continuous plant
     f_mode = MODEL.modes()[0].freq_hz
     near = (frf.freq_hz > 0.85 * f_mode) & (frf.freq_hz < 1.15 * f_mode)
     for ch, out in (("x1/u", "x1"), ("x2/u", "x2")):
@@ -168,6 +169,28 @@ def test_measured_frf_agrees_with_the_twin_and_identifies_its_parameters(excitat
     fit = fit_ballscrew(frf)
     for name in ("m1", "m2", "k", "c"):
         assert getattr(fit.model, name) == pytest.approx(getattr(MODEL, name), rel=0.05), name
+
+
+def test_keep_sampling_gives_the_sampled_response_and_default_removes_zoh_and_delay():
+    twin = BallScrewTwin(TwinParams.ideal())
+    kept = measure_frf(twin, periods=3, keep_sampling=True).frf
+    removed = measure_frf(twin, periods=3).frf
+    assert kept.meta["sampling"] == "not_removed" and kept.meta["sampling_fs_hz"] == "20000"
+    band = (kept.freq_hz >= 200) & (kept.freq_hz <= 500)  # ZOH + delay lag 5.4..13.5 deg here
+    good = band & (kept.channel_coherence("x1/u") > 0.999)
+    assert good.sum() > 100
+    h = kept.channel("x1/u")[good]
+    g_sampled = twin.frequency_response(kept.freq_hz[good], sampled=True)["x1"]
+    g_continuous = twin.frequency_response(kept.freq_hz[good], sampled=False)["x1"]
+    assert np.max(np.abs(h / g_sampled - 1)) < 0.015
+    assert np.min(np.abs(h / g_continuous - 1)) > 0.08
+    # same run (same seed): the two files differ by the ZOH and 1 sample of delay, a lag of
+    # 360 f 1.5 / fs = 4.32 deg at 160 Hz (hand-computed), with magnitude sinc(160/20000) = 0.99989
+    i = int(np.argmin(np.abs(kept.freq_hz - 160.0)))
+    assert kept.freq_hz[i] == pytest.approx(160.0)
+    ratio = kept.channel("x1/u")[i] / removed.channel("x1/u")[i]
+    assert np.degrees(np.angle(ratio)) == pytest.approx(-4.32, abs=1e-9)
+    assert abs(ratio) == pytest.approx(np.sinc(160.0 / FS), rel=1e-12)
 
 
 def test_bad_experiment_parameters_are_usage_errors():

@@ -12,6 +12,12 @@ Cases (thesis §3.3):
 Loop (eq. 3.24/3.25): ``L = K1 G11 + K2 G21``. Disturbance ``d2 -> x2`` (eq. 3.26/3.27):
 ``(G23 + K1 (G11 G23 - G13 G21)) / (1 + L)`` [rad/V], on the model cases. Tracking ``x_r -> x2``:
 ``G21 (U_ff + K1 R1 + K2) / (1 + L)`` with feedforward, ``G21 (K1 + K2) / (1 + L)`` without.
+
+Nyquist counts: each case extends its loop below its grid with the model
+(:func:`feedtune.analysis.loop.model_extension`, from 1e-5 Hz, below the model's real pole near 0.07 Hz where
+``G ~ 1/(b s)``): the model in ``ideal``, the continuous model times the hold ``(1 - e^{-sT})/(sT)`` in
+``ideal_discrete``, and in ``measured``/``discrete`` the model scaled by one complex factor fitted to the
+FRF's ``x1/u`` and ``x2/u`` over its first octave, with the case's hold, delay and controller.
 """
 
 from __future__ import annotations
@@ -25,7 +31,7 @@ from ..errors import DataError
 from ..frf import Frf
 from ..lti import Zpk, delay_response, zoh_response
 from ..models.ballscrew import BallScrewModel
-from .loop import LoopMetrics, analyze_loop
+from .loop import LoopMetrics, analyze_loop, model_extension
 
 CASES = ("ideal", "ideal_discrete", "measured", "discrete")
 
@@ -119,7 +125,8 @@ def _rhp(z: Zpk) -> int:
     return int(np.sum(np.abs(z.poles) > 1 + 1e-9))
 
 
-def _case(name, f, G11, G21, K1, K2, H, ff, R1, G13=None, G23=None, rhp=0, integrators=None) -> CaseResponse:
+def _case(name, f, G11, G21, K1, K2, H, ff, R1, G13=None, G23=None, rhp=0, integrators=None,
+          extension=None) -> CaseResponse:
     K1e, K2e = K1 * H, K2 * H
     L = K1e * G11 + K2e * G21
     S = 1.0 / (1.0 + L)
@@ -128,7 +135,7 @@ def _case(name, f, G11, G21, K1, K2, H, ff, R1, G13=None, G23=None, rhp=0, integ
     dist = None
     if G13 is not None:
         dist = (G23 + K1e * (G11 * G23 - G13 * G21)) * S
-    metrics = analyze_loop(f, L, open_loop_rhp_poles=rhp, integrators=integrators)
+    metrics = analyze_loop(f, L, open_loop_rhp_poles=rhp, integrators=integrators, extension=extension)
     return CaseResponse(name, f, L, S, tracking, tracking_no_ff, dist, metrics)
 
 
@@ -193,10 +200,28 @@ def analyze_ballscrew(
             "R1d": paths["rotary"].discrete.evaluate(z) * zP,
         }
 
+    def model_plant(fr: np.ndarray, zoh: bool = False) -> np.ndarray:
+        """``[G11, G21]`` of the model [rad/V], shape ``(2, n)`` (times the hold when ``zoh``)."""
+        gm = model.frequency_response(fr)
+        return np.array([gm["G11"], gm["G21"]]) * (zoh_response(fr, law.fs) if zoh else 1.0)
+
+    def extension(fr: np.ndarray, G11, G21, discrete: bool, zoh_in_plant: bool = False):
+        """The loop below ``fr[0]`` from the model, scaled to meet ``(G11, G21)`` at the junction."""
+
+        def loop(fe, g):
+            re = responses(fe)
+            if not discrete:
+                return re["K1"] * g[0] + re["K2"] * g[1]
+            h = delay_response(fe, law.delay_samples, law.fs) * (1.0 if zoh_in_plant else zoh_response(fe, law.fs))
+            return h * (re["K1d"] * g[0] + re["K2d"] * g[1])
+
+        return model_extension(fr, np.array([G11, G21]), lambda fe: model_plant(fe, zoh_in_plant), loop)
+
     g = model.frequency_response(f)
     r = responses(f)
     cases["ideal"] = _case(
-        "ideal", f, g["G11"], g["G21"], r["K1"], r["K2"], 1.0, r["ff"], r["R1"], g["G13"], g["G23"], rhp_c
+        "ideal", f, g["G11"], g["G21"], r["K1"], r["K2"], 1.0, r["ff"], r["R1"], g["G13"], g["G23"], rhp_c,
+        extension=extension(f, g["G11"], g["G21"], False),
     )
     fd = np.r_[f[f < law.fs / 2], law.fs / 2]  # the z-domain contour closes at the Nyquist frequency
     gd = zoh_plant(model, law.fs, fd)
@@ -215,15 +240,18 @@ def analyze_ballscrew(
         gd["G13"],
         gd["G23"],
         rhp_d,
+        extension=extension(fd, gd["G11"], gd["G21"], True, zoh_in_plant=True),
     )
     if frf is None:
         cases["measured"] = cases["discrete"] = None
     else:
         fm, G11m, G21m = _plant_from_frf(frf)
         rm = r if np.array_equal(fm, f) else responses(fm)
-        cases["measured"] = _case("measured", fm, G11m, G21m, rm["K1"], rm["K2"], 1.0, rm["ff"], rm["R1"], rhp=rhp_c)
+        cases["measured"] = _case("measured", fm, G11m, G21m, rm["K1"], rm["K2"], 1.0, rm["ff"], rm["R1"], rhp=rhp_c,
+                                  extension=extension(fm, G11m, G21m, False))
         H = zoh_response(fm, law.fs) * delay_response(fm, law.delay_samples, law.fs)
-        cases["discrete"] = _case("discrete", fm, G11m, G21m, rm["K1d"], rm["K2d"], H, rm["ffd"], rm["R1d"], rhp=rhp_d)
+        cases["discrete"] = _case("discrete", fm, G11m, G21m, rm["K1d"], rm["K2d"], H, rm["ffd"], rm["R1d"], rhp=rhp_d,
+                                  extension=extension(fm, G11m, G21m, True))
     return BallScrewAnalysis(cases)
 
 

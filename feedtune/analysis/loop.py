@@ -6,20 +6,44 @@ All functions take the loop transfer ``L(j w)`` sampled on a strictly increasing
 Nyquist criterion with open-loop poles at the origin
 ----------------------------------------------------
 The Nyquist contour runs up the imaginary axis and is indented into the right half plane around ``s = 0``
-with radius ``w_min = 2 pi freq_hz[0]``. Along the positive axis the winding of ``1 + L`` is taken from the
-unwrapped phase; the mirrored negative axis contributes the same by conjugate symmetry; the indentation
-arc, where ``L(s) ~ L(j w_min) (j w_min / s)^n`` with ``n`` the low-frequency slope of ``|L|`` (integer
-number of integrators, read from the data), turns ``L`` clockwise by about ``n pi`` from ``conj(L(j w_min))``
-to ``L(j w_min)`` (the exact turn that closes the curve is used); the arc at infinity contributes
-nothing when ``|L(j w_max)| < 1``. Closed-loop right-half-plane poles ``Z = N_cw + P`` where ``P`` is the
-number of open-loop right-half-plane poles.
+with radius ``w_min = 2 pi f_min``, the lowest frequency of the contour. Along the positive axis the winding
+of ``1 + L`` is taken from the unwrapped phase; the mirrored negative axis contributes the same by conjugate
+symmetry; the indentation arc, where ``L(s) ~ L(j w_min) (j w_min / s)^n`` with ``n`` the low-frequency slope
+of ``|L|`` (integer number of integrators, read from the data), turns ``L`` clockwise by about ``n pi`` from
+``conj(L(j w_min))`` to ``L(j w_min)`` (the exact turn that closes the curve is used); the arc at infinity
+contributes nothing when ``|L(j w_max)| < 1``. Closed-loop right-half-plane poles ``Z = N_cw + P`` where
+``P`` is the number of open-loop right-half-plane poles.
+
+The arc is only right where ``L`` already follows its low-frequency asymptote ``c / s^n``. A measured FRF
+starts at a few Hz, where the slope of a loop with integrators is still in transition (e.g. 2.6 for a gantry
+PID whose integral corner is near the lowest line), and the count then depends on the lowest line. Below
+the measured band the plant is rigid-body dominated and the model holds, so the analysis cases pass a
+:class:`LoopExtension` (:func:`model_extension`): the model's plant from ``EXTENSION_LOW_HZ`` up to the
+first grid line, scaled by one complex factor so that it meets the measured plant at the junction (least
+squares over the first octave of the grid, :func:`junction_scale`), in the loop with the same controller.
+The contour then starts at ``EXTENSION_LOW_HZ`` (1e-5 Hz), where the slope is the structural one (the
+integrators of plant and controller), and the arc is exact. The extension only serves the Nyquist count
+(and warnings); crossovers, margins and ``Ms`` are the grid's.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+
+EXTENSION_LOW_HZ = 1e-5
+"""Lowest frequency of a model extension [Hz]: below the integral corners of practical designs (a gantry PID of
+0.5 Hz bandwidth has its ``det L ~ 1/s^4`` asymptote from about 5e-5 Hz), above where the 2x2 algebra of a
+rigid body loses precision (``det G`` of a rank-one stiffness cancels ``k / (m w^2) ~ 1e13`` at 1e-5 Hz)."""
+EXTENSION_POINTS_PER_DECADE = 100
+"""Density of the extension grid: a lightly damped mode below the first line is still resolved (3 points over
+its half-power band at 3.5 % damping) so the unwrapped phase is continuous."""
+JUNCTION_WARN_GAIN = 2.0
+"""Model and FRF differing by more than this factor [-] at the junction give a warning."""
+JUNCTION_WARN_DEG = 30.0
+"""... or by more than this phase [deg]."""
 
 
 def crossings(freq_hz: np.ndarray, y: np.ndarray, level: float = 0.0) -> np.ndarray:
@@ -72,6 +96,11 @@ class LoopMetrics:
     integrators : int
         Open-loop poles at the origin found from the low-frequency slope.
     warnings : list of str
+    nyquist_low_hz : float or None
+        Lowest frequency of the Nyquist contour [Hz] (the indentation radius): the grid's first frequency, or
+        the extension's (``EXTENSION_LOW_HZ``) when a model extension was used.
+    model_extension : dict or None
+        :meth:`LoopExtension.to_dict` of the extension used for the Nyquist count, None without one.
     """
 
     crossovers_hz: list
@@ -88,6 +117,8 @@ class LoopMetrics:
     open_loop_rhp_poles: int
     integrators: int
     warnings: list = field(default_factory=list)
+    nyquist_low_hz: float | None = None
+    model_extension: dict | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dict (keys carry units)."""
@@ -105,6 +136,8 @@ class LoopMetrics:
             "nyquist_encirclements": int(self.nyquist_encirclements),
             "open_loop_rhp_poles": int(self.open_loop_rhp_poles),
             "integrators": int(self.integrators),
+            "nyquist_low_frequency_hz": _f(self.nyquist_low_hz),
+            "model_extension": self.model_extension,
             "warnings": list(self.warnings),
         }
 
@@ -135,20 +168,24 @@ def margins(freq_hz: np.ndarray, L: np.ndarray) -> tuple[list, list, list, list]
     return list(map(float, wc)), [float(x) for x in pm], w180, gm
 
 
+def low_frequency_slope(freq_hz: np.ndarray, y: np.ndarray, octaves: float = 1.0) -> float:
+    """``-d log|y| / d log f`` fitted over the first ``octaves`` of the grid (at least 3 points) [-]."""
+    f = np.asarray(freq_hz, float)
+    sel = f <= f[0] * 2.0**octaves
+    if sel.sum() < 3:
+        sel = np.arange(f.size) < min(3, f.size)
+    if sel.sum() < 2:
+        return 0.0
+    return float(-np.polyfit(np.log(f[sel]), np.log(np.maximum(np.abs(y[sel]), 1e-300)), 1)[0])
+
+
 def count_integrators(freq_hz: np.ndarray, L: np.ndarray, octaves: float = 1.0) -> int:
     """Number of open-loop poles at the origin from the low-frequency slope of ``|L|`` [-].
 
     The slope is fitted over the first ``octaves`` of the grid (at least 3 points), so measurement noise on
     single points does not change the count.
     """
-    f = np.asarray(freq_hz, float)
-    sel = f <= f[0] * 2.0**octaves
-    if sel.sum() < 3:
-        sel = np.arange(f.size) < min(3, f.size)
-    if sel.sum() < 2:
-        return 0
-    slope = np.polyfit(np.log(f[sel]), np.log(np.abs(L[sel])), 1)[0]
-    return max(0, int(np.round(-slope)))
+    return max(0, int(np.round(low_frequency_slope(freq_hz, L, octaves))))
 
 
 def merge_noisy_crossings(freqs: np.ndarray, rel: float = 0.03) -> np.ndarray:
@@ -172,8 +209,13 @@ def merge_noisy_crossings(freqs: np.ndarray, rel: float = 0.03) -> np.ndarray:
     return np.array(out)
 
 
-def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: int) -> float:
-    """Counter-clockwise winding number of ``1 + L`` around 0 on the indented Nyquist contour."""
+def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: float) -> float:
+    """Counter-clockwise winding number of ``1 + L`` around 0 on the indented Nyquist contour [-].
+
+    ``L`` is any response that behaves like ``c / s^integrators`` on the indentation arc of radius
+    ``2 pi freq_hz[0]`` (``integrators`` may be a fitted, non-integer slope: the turn that closes the curve
+    nearest to it is used). The MIMO criterion counts ``det(I + L) = 1 + (det(I + L) - 1)`` with it.
+    """
     one_plus = 1.0 + L
     ph = np.unwrap(np.angle(one_plus))
     along = ph[-1] - ph[0]  # 0+ -> +inf
@@ -191,27 +233,41 @@ def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: int) -> flo
     return total / (2 * np.pi)
 
 
-def analyze_loop(freq_hz, L, *, open_loop_rhp_poles: int = 0, integrators: int | None = None) -> LoopMetrics:
-    """All loop figures of :class:`LoopMetrics` from ``L(j w)`` on a grid [Hz]."""
+def analyze_loop(freq_hz, L, *, open_loop_rhp_poles: int = 0, integrators: int | None = None,
+                 extension: LoopExtension | None = None) -> LoopMetrics:
+    """All loop figures of :class:`LoopMetrics` from ``L(j w)`` on a grid [Hz].
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n,)
+        Strictly increasing grid [Hz].
+    L : array_like, shape (n,)
+        Loop transfer [-].
+    open_loop_rhp_poles : int
+        Open-loop right-half-plane poles [-].
+    integrators : int, optional
+        Open-loop poles at the origin; default: the rounded low-frequency slope of the contour.
+    extension : LoopExtension, optional
+        The loop below ``freq_hz[0]`` from a model (:func:`model_extension`); used for the Nyquist count only.
+    """
     f = np.asarray(freq_hz, float)
     L = np.asarray(L, complex)
-    warnings = []
     wc, pm, w180, gm = margins(f, L)
     S = 1.0 / (1.0 + L)
     aS = np.abs(S)
     i_ms = int(np.argmax(aS))
-    n_int = count_integrators(f, L) if integrators is None else int(integrators)
-    if abs(L[0]) < 10 and n_int > 0:
-        warnings.append(
-            f"|L| is only {abs(L[0]):.3g} at the lowest frequency {f[0]:g} Hz; "
-            "the Nyquist count near 0 Hz is less reliable"
-        )
+    fc, Lc = (f, L) if extension is None else extension.prepend(f, L)
+    n_int = count_integrators(fc, Lc) if integrators is None else int(integrators)
+    warnings = contour_warnings(fc, low_frequency_slope(fc, Lc), abs(Lc[0]), n_int, extension is not None)
     if abs(L[-1]) >= 1:
         warnings.append(
             f"|L| = {abs(L[-1]):.3g} >= 1 at the highest frequency {f[-1]:g} Hz; "
             "extend the frequency grid for a valid Nyquist count"
         )
-    winding = nyquist_winding(f, L, n_int)
+    if extension is not None:
+        ms_below = float(np.max(np.abs(1.0 / (1.0 + extension.L))))
+        warnings += extension.warnings(float(aS[i_ms]), ms_below)
+    winding = nyquist_winding(fc, Lc, n_int)
     n_ccw = int(np.round(winding))
     if abs(winding - n_ccw) > 0.2:
         warnings.append(f"Nyquist winding number {winding:.2f} is not close to an integer; grid too coarse")
@@ -233,7 +289,139 @@ def analyze_loop(freq_hz, L, *, open_loop_rhp_poles: int = 0, integrators: int |
         int(open_loop_rhp_poles),
         n_int,
         warnings,
+        float(fc[0]),
+        None if extension is None else extension.to_dict(),
     )
+
+
+def contour_warnings(freq_hz: np.ndarray, slope: float, magnitude_low: float, integrators: int | None,
+                     extended: bool) -> list[str]:
+    """Warnings on the indentation at the contour's lowest frequency ``freq_hz[0]`` [Hz] (SISO and MIMO).
+
+    ``slope`` is the fitted low-frequency slope of the counted response [-], ``magnitude_low`` its magnitude
+    there [-], ``integrators`` the open-loop poles at the origin (None: unknown).
+    """
+    out = []
+    f0 = float(freq_hz[0])
+    if abs(slope - round(slope)) > 0.25:
+        fix = "" if extended else "; give a model to extend the loop below the grid"
+        out.append(f"the loop's low-frequency slope at {f0:.3g} Hz is {slope:.2f}, between two integer "
+                   f"asymptotes: the Nyquist count near 0 Hz is uncertain{fix}")
+    elif extended and integrators is not None and round(slope) != integrators:
+        out.append(f"the loop falls as 1/s^{round(slope)} at {f0:.3g} Hz but has {integrators} open-loop poles at "
+                   "the origin: the contour's indentation is larger than the slowest closed-loop pole")
+    if magnitude_low < 10 and (integrators or 0) > 0:
+        out.append(f"|L| is only {magnitude_low:.3g} at the lowest frequency {f0:g} Hz; "
+                   "the Nyquist count near 0 Hz is less reliable")
+    return out
+
+
+# ------------------------------------------------------------------------------------- model extension
+@dataclass(frozen=True)
+class LoopExtension:
+    """The loop below an FRF's band, from the model, for the Nyquist count (module docstring).
+
+    Attributes
+    ----------
+    freq_hz : ndarray, shape (m,)
+        Strictly increasing frequencies [Hz], all below the grid it extends.
+    L : ndarray, shape (..., m)
+        Loop on ``freq_hz`` (scalar loop, or ``(2, 2, m)`` for a 2x2 loop) [-].
+    scale : complex
+        Factor applied to the model's plant so that it meets the grid's plant at the junction [-].
+    junction_hz : (float, float)
+        Band of the grid over which ``scale`` was fitted [Hz].
+    """
+
+    freq_hz: np.ndarray
+    L: np.ndarray
+    scale: complex
+    junction_hz: tuple
+
+    def prepend(self, freq_hz: np.ndarray, L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(freq_hz, L)`` of the whole contour: this extension followed by the grid."""
+        return np.r_[self.freq_hz, freq_hz], np.concatenate([self.L, L], axis=-1)
+
+    def warnings(self, ms_grid: float, ms_below: float) -> list[str]:
+        """Model-FRF mismatch at the junction, and a peak sensitivity [-] below the grid above the grid's."""
+        out = []
+        gain, phase = abs(self.scale), float(np.degrees(np.angle(self.scale)))
+        lo, hi = self.junction_hz
+        if not (1 / JUNCTION_WARN_GAIN <= gain <= JUNCTION_WARN_GAIN) or abs(phase) > JUNCTION_WARN_DEG:
+            out.append(f"the model differs from the FRF at its lowest lines ({lo:.4g}-{hi:.4g} Hz) by a gain of "
+                       f"{gain:.3g} and {phase:+.0f} deg; the Nyquist count below {lo:.4g} Hz uses the model scaled "
+                       "by that factor: check the FRF's low end or the model")
+        if ms_below > ms_grid:
+            out.append(f"the model puts a peak sensitivity of {ms_below:.3g} below the lowest line {lo:.4g} Hz "
+                       f"(above the {ms_grid:.3g} on the grid)")
+        return out
+
+    def to_dict(self) -> dict:
+        """Summary: range [Hz], scale (gain [-], phase [deg]) and junction band [Hz]."""
+        return {"from_hz": float(self.freq_hz[0]), "to_hz": float(self.freq_hz[-1]),
+                "junction_hz": [float(x) for x in self.junction_hz], "scale_gain": float(abs(self.scale)),
+                "scale_phase_deg": float(np.degrees(np.angle(self.scale)))}
+
+
+def extension_grid(first_hz: float, low_hz: float = EXTENSION_LOW_HZ,
+                   points_per_decade: int = EXTENSION_POINTS_PER_DECADE) -> np.ndarray:
+    """Log grid [Hz] from ``low_hz`` up to, not including, ``first_hz`` (empty when ``first_hz <= low_hz``)."""
+    if not first_hz > low_hz:
+        return np.empty(0)
+    n = max(2, int(np.ceil(np.log10(first_hz / low_hz) * points_per_decade)))
+    return np.logspace(np.log10(low_hz), np.log10(first_hz), n + 1)[:-1]
+
+
+def junction_scale(freq_hz: np.ndarray, plant: np.ndarray, model_plant: np.ndarray,
+                   octaves: float = 1.0) -> tuple[complex, tuple[float, float]]:
+    """Complex factor ``c`` [-] with ``c * model_plant ~ plant`` over the first ``octaves`` of the grid.
+
+    Per frequency the least-squares ratio over all channels ``sum conj(M) P / sum |M|^2`` (leading axes are
+    channels, the last one frequency), averaged over the band; returns ``(c, (f_low, f_high))`` [-, Hz].
+    """
+    f = np.asarray(freq_hz, float)
+    sel = f <= f[0] * 2.0**octaves
+    P = np.asarray(plant)[..., sel].reshape(-1, int(sel.sum()))
+    M = np.asarray(model_plant)[..., sel].reshape(-1, int(sel.sum()))
+    den = np.sum(np.abs(M) ** 2, axis=0)
+    num = np.sum(np.conj(M) * P, axis=0)
+    ok = (den > 0) & np.isfinite(num) & np.isfinite(den)
+    c = complex(np.mean(num[ok] / den[ok])) if ok.any() else 1.0 + 0j
+    return c, (float(f[sel][0]), float(f[sel][-1]))
+
+
+def model_extension(freq_hz, plant: np.ndarray, model_plant: Callable[[np.ndarray], np.ndarray],
+                    loop: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None, *,
+                    low_hz: float = EXTENSION_LOW_HZ) -> LoopExtension | None:
+    """The loop below ``freq_hz[0]`` from the model, scaled to meet ``plant`` at the junction.
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n,)
+        Grid of the case [Hz].
+    plant : ndarray, shape (..., n)
+        The plant on the grid (measured FRF, or the model itself) in the same units as ``model_plant``.
+    model_plant : callable
+        ``model_plant(f)`` -> the model's plant on ``f`` [Hz], shape ``(..., len(f))``.
+    loop : callable, optional
+        ``loop(f, G)`` -> the loop on ``f`` for the plant ``G`` (controller, hold and delay applied); default:
+        the scaled plant itself (to form many loops from one extension).
+    low_hz : float
+        Lowest frequency of the extension [Hz].
+
+    Returns
+    -------
+    LoopExtension or None
+        None when the grid already starts at or below ``low_hz``.
+    """
+    f = np.asarray(freq_hz, float)
+    f_ext = extension_grid(float(f[0]), low_hz)
+    if f_ext.size == 0:
+        return None
+    sel = f <= f[0] * 2.0
+    scale, band = junction_scale(f[sel], np.asarray(plant)[..., sel], model_plant(f[sel]))
+    G_ext = scale * model_plant(f_ext)
+    return LoopExtension(f_ext, G_ext if loop is None else loop(f_ext, G_ext), scale, band)
 
 
 def rejection_band(freq_hz: np.ndarray, abs_s: np.ndarray) -> list | None:

@@ -1,14 +1,59 @@
-"""``feedtune analyze``: frequency-domain analysis of a gains file (and, later, of logs)."""
+"""``feedtune analyze``: frequency-domain analysis of a gains file, and time-domain metrics of logs.
+
+* ``feedtune analyze GAINS.toml [--frf F]`` (or ``feedtune analyze gains GAINS.toml``): loop, margins, Ms,
+  Nyquist stability, disturbance and tracking of a design (ball screw here; other machine kinds go to
+  ``feedtune.cli.analyze_gantry_cmd``).
+* ``feedtune analyze track LOG``: maximum and RMS tracking error (whole run, constant-velocity and
+  acceleration parts) and the error spectrum peaks.
+* ``feedtune analyze ropesnap LOG``: peak displacement, 5 % settling time and the amplitude spectral density
+  of a rope-snap (released step force) test.
+
+``analyze`` is a command group whose first argument may also be a gains file: :class:`AnalyzeGroup` routes
+an unknown first token that is an existing file (or ends in ``.toml``/``.json``) to the ``gains`` command.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import typer
+from typer.core import TyperGroup
 
-from .common import JSON_OPTION, print_json
+from .common import JSON_OPTION, fmt, print_json
+from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+
+GAINS_COMMAND = "gains"
+GAINS_SUFFIXES = (".toml", ".json")
+
+#: Units of the ``metrics`` entries printed by ``analyze track|ropesnap --json`` (keys also carry them).
+TRACK_UNITS = {"max_m": "m", "rms_m": "m", "duration_s": "s", "freq_hz": "Hz", "amplitude_m": "m"}
+ROPESNAP_UNITS = {"t_release_s": "s", "baseline_m": "m", "peak_m": "m", "peak_abs_m": "m", "peak_time_s": "s",
+                  "final_m": "m", "settle_band_m": "m", "settling_time_s": "s", "freq_hz": "Hz",
+                  "asd_m_per_rthz": "m/sqrt(Hz)"}
 
 
+class AnalyzeGroup(TyperGroup):
+    """Command group that treats ``analyze FILE ...`` as ``analyze gains FILE ...``."""
+
+    def parse_args(self, ctx, args: list[str]) -> list[str]:
+        """Insert the ``gains`` command before a first argument that is a gains file, not a command."""
+        if args and args[0] not in self.commands and not args[0].startswith("-"):
+            first = Path(args[0])
+            if first.is_file() or first.suffix.lower() in GAINS_SUFFIXES:
+                args = [GAINS_COMMAND, *args]
+        return super().parse_args(ctx, args)
+
+
+app = typer.Typer(
+    cls=AnalyzeGroup,
+    rich_markup_mode=None,
+    no_args_is_help=True,
+    help="Analyze a design (feedtune analyze GAINS.toml [--frf F]) or a log (feedtune analyze track|ropesnap LOG).",
+)
+
+
+# ------------------------------------------------------------------------------------------ gains file
+@app.command(GAINS_COMMAND)
 def analyze(
     gains_file: Path = typer.Argument(..., help="Gains file (.toml or .json) from 'feedtune design'."),
     frf: Path = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u) for the measured and discrete cases."),
@@ -16,13 +61,29 @@ def analyze(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Loop, margins, Ms, rejection band, Nyquist stability, disturbance and tracking of a design."""
+    from ..io import read_document
+
+    doc = read_document(gains_file)
+    if doc.get("kind") != "ballscrew":
+        _analyze_other_machine(doc, gains_file, frf, quantity, as_json)
+        return
+    _analyze_ballscrew(doc, gains_file, frf, quantity, as_json)
+
+
+def _analyze_other_machine(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None,
+                           as_json: bool) -> None:
+    """Hand a non-ball-screw gains document to the gantry/x-axis analysis (it refuses unknown kinds)."""
+    from .analyze_gantry_cmd import analyze_gantry_document
+
+    analyze_gantry_document(doc, gains_file, frf, quantity, as_json)
+
+
+def _analyze_ballscrew(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None, as_json: bool) -> None:
     from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
     from ..design.gains import law_from_document
-    from ..io import read_document
     from .design_cmd import _summary
     from .frf_options import read_optional_frf
 
-    doc = read_document(gains_file)
     law, model, kind = law_from_document(doc, str(gains_file))
     measured = read_optional_frf(frf, quantity)
     analysis = analyze_ballscrew(law, model, measured).to_dict()
@@ -40,3 +101,96 @@ def analyze(
         print_json(result)
     else:
         _summary(result)
+
+
+# ------------------------------------------------------------------------------------------ logs
+def log_result(log_path: Path, kind: str, metrics) -> dict:
+    """The ``--json`` object of ``analyze track|ropesnap``: log, kind, metrics (no spectrum), units."""
+    units = TRACK_UNITS if kind == "track" else ROPESNAP_UNITS
+    return {"log": str(log_path), "kind": kind, "metrics": metrics.to_dict(include_spectrum=False),
+            "units": dict(units)}
+
+
+def _um(x: float | None) -> str:
+    return fmt(None if x is None else x * 1e6, "um")
+
+
+def _print_track(result: dict) -> None:
+    m = result["metrics"]
+    typer.echo(f"Tracking error of {result['log']}:")
+    for label, key in (("whole run", "overall"), ("constant velocity", "constant_velocity"),
+                       ("acceleration", "acceleration")):
+        part = m[key]
+        if part is None:
+            typer.echo(f"  {label:18s} -")
+            continue
+        typer.echo(f"  {label:18s} max {_um(part['max_m'])}, RMS {_um(part['rms_m'])} "
+                   f"over {fmt(part['duration_s'], 's')}")
+    for p in m["peaks"]:
+        typer.echo(f"  spectrum peak {fmt(p['freq_hz'], 'Hz')}: {_um(p['amplitude_m'])}")
+
+
+def _print_ropesnap(result: dict) -> None:
+    m = result["metrics"]
+    how = "detected" if m["release_detected"] else "given"
+    typer.echo(f"Rope snap of {result['log']} (release at {fmt(m['t_release_s'], 's')}, {how}):")
+    typer.echo(f"  peak displacement {_um(m['peak_m'])} at {fmt(m['peak_time_s'], 's')} after the release")
+    settle = fmt(m["settling_time_s"], "s") if m["settled"] else "not settled within the log"
+    typer.echo(f"  5 % settling time {settle} (band {_um(m['settle_band_m'])} around {_um(m['final_m'])})")
+    for p in m["asd_peaks"]:
+        typer.echo(f"  ASD peak {fmt(p['freq_hz'], 'Hz')}: {fmt(p['asd_m_per_rthz'], 'm/sqrt(Hz)')}")
+
+
+@app.command("track")
+def track(
+    log_file: Path = typer.Argument(..., help="Tracking log (.csv, .mat, .mf4), e.g. from 'feedtune simulate track'."),
+    error: str = typer.Option(None, "--error", help="Tracking-error column [m] (default e2 when present)."),
+    reference: str = typer.Option("x_ref", "--reference", help="Commanded table position column [m]."),
+    position: str = typer.Option(None, "--position", help="Measured table position column [m] (default x2_table)."),
+    map_: list[str] = MAP_OPTION,
+    fs: float = FS_OPTION,
+    time: str = TIME_OPTION,
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    skip_rows: int = SKIP_ROWS_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Max and RMS tracking error (whole run, constant velocity, acceleration) and error spectrum peaks."""
+    from ..analysis.log_analysis import analyze_tracking_log
+    from .log_options import read_log_with_options
+
+    log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
+    metrics = analyze_tracking_log(log, error=error, reference=reference, position=position)
+    result = log_result(log_file, "track", metrics)
+    if as_json:
+        print_json(result)
+    else:
+        _print_track(result)
+
+
+@app.command("ropesnap")
+def ropesnap(
+    log_file: Path = typer.Argument(..., help="Rope-snap log (.csv, .mat, .mf4), e.g. 'feedtune simulate ropesnap'."),
+    position: str = typer.Option(None, "--position", help="Table displacement column [m] (default x2_table)."),
+    t_release: float = typer.Option(
+        None, "--t-release", help="Release instant [s] (default: the log's t_release_s metadata, else detected)."
+    ),
+    map_: list[str] = MAP_OPTION,
+    fs: float = FS_OPTION,
+    time: str = TIME_OPTION,
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    skip_rows: int = SKIP_ROWS_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Peak displacement, 5 % settling time and amplitude spectral density after a rope snap."""
+    from ..analysis.log_analysis import analyze_ropesnap_log
+    from .log_options import read_log_with_options
+
+    log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
+    metrics = analyze_ropesnap_log(log, position=position, t_release=t_release)
+    result = log_result(log_file, "ropesnap", metrics)
+    if as_json:
+        print_json(result)
+    else:
+        _print_ropesnap(result)

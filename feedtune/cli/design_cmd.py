@@ -20,6 +20,13 @@ DELAY_OPTION = typer.Option(1, "--delay-samples", help="Computational delay [sam
 QUANTITY_OPTION = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata.")
 OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin).")
 ALLOW_OPTION = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated.")
+FRICTION_OPTION = typer.Option(
+    None, "--friction", help="Friction model file ('feedtune identify friction') to feed forward (eq. 2.1)."
+)
+FRICTION_BAND_OPTION = typer.Option(
+    None, "--friction-band", help="Linear band around zero velocity of the friction feedforward, in the friction "
+    "model's velocity unit (m/s or rad/s); default 0.1 x its smaller Stribeck velocity."
+)
 
 
 def _filters(notch, lpf):
@@ -28,7 +35,23 @@ def _filters(notch, lpf):
     return FilterPack([Notch.parse(n) for n in notch or []], lpf)
 
 
-def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_unstable, as_json):
+def _load_friction(path: Path | None):
+    """The StribeckFriction of a friction model file, or None."""
+    from ..errors import DataError
+    from ..io import load_model
+    from ..models.friction import StribeckFriction
+
+    if path is None:
+        return None
+    model = load_model(path)
+    if not isinstance(model, StribeckFriction):
+        raise DataError(f"{path}: --friction expects a friction model file (kind 'friction'), got a "
+                        f"{type(model).__name__}")
+    return model
+
+
+def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_unstable, as_json, friction=None,
+            friction_band=None):
     """Analyse, check the limits, write the gains file, print the result."""
     from ..design.check import check_design
     from ..design.gains import gains_document
@@ -36,6 +59,7 @@ def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_uns
     from ..io import write_document
     from .frf_options import read_optional_frf
 
+    friction_model = _load_friction(friction)
     frf = read_optional_frf(frf_path, quantity)
     check = check_design(design, frf=frf, ms_max=ms_max, pm_min_deg=pm_min)
     analysis = check.analysis.to_dict()
@@ -51,15 +75,20 @@ def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_uns
         result["gains"].update(design.ppi_gains)
     else:
         result["placed_poles"] = [[float(p.real), float(p.imag)] for p in design.poles]
+    doc = gains_document(design, analysis, friction=friction_model, friction_band=friction_band)
+    if friction_model is not None:
+        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
     written = False
     if out is not None and (check.ok or allow_unstable):
-        write_document(out, gains_document(design, analysis), force=force)
+        write_document(out, doc, force=force)
         result["out"] = str(out)
         written = True
     if as_json:
         print_json(result)
     else:
         _summary(result)
+        if "friction_feedforward" in result:
+            _friction_summary(result["friction_feedforward"])
         if written:
             typer.echo(f"wrote {out}")
     if not check.ok:
@@ -68,6 +97,12 @@ def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_uns
             typer.echo(f"feedtune: warning: {msg} (written because of --allow-unstable)", err=True)
         else:
             raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
+
+
+def _friction_summary(ff: dict) -> None:
+    levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg"))
+    typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], 'rad/s')} / "
+               f"{fmt(ff['omega_neg']['value'], 'rad/s')}, linear band +-{fmt(ff['v_band']['value'], 'rad/s')}")
 
 
 def _summary(result: dict) -> None:
@@ -122,6 +157,8 @@ def ppc(
     ms_max: float = typer.Option(3.5, "--ms-max", help="Largest acceptable peak sensitivity [-]."),
     pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable phase margin [deg]."),
     out: Path = OUT_OPTION,
+    friction: Path = FRICTION_OPTION,
+    friction_band: float = FRICTION_BAND_OPTION,
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
@@ -148,6 +185,8 @@ def ppc(
         force=force,
         allow_unstable=allow_unstable,
         as_json=as_json,
+        friction=friction,
+        friction_band=friction_band,
     )
 
 
@@ -166,6 +205,8 @@ def ppi(
     frf: Path = typer.Option(None, "--frf", help="Measured FRF: tuning and checking use the discrete case on it."),
     quantity: str = QUANTITY_OPTION,
     out: Path = OUT_OPTION,
+    friction: Path = FRICTION_OPTION,
+    friction_band: float = FRICTION_BAND_OPTION,
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
@@ -190,7 +231,7 @@ def ppi(
             filters=filters,
             fs=fs,
             delay_samples=delay_samples,
-            frf=read_optional_frf(frf, quantity),
+            frf=read_optional_frf(frf, quantity, warn=False),  # warned once, when _finish reads it
         )
     _finish(
         design,
@@ -202,4 +243,6 @@ def ppi(
         force=force,
         allow_unstable=allow_unstable,
         as_json=as_json,
+        friction=friction,
+        friction_band=friction_band,
     )

@@ -18,10 +18,28 @@ def mat_channels(items: list[str] | None) -> dict[str, str] | None:
     return out
 
 
-def read_optional_frf(path, quantity=None, mat_freq=None, mat_channel=None):
-    """Read an FRF file when a path is given, else None."""
+def read_optional_frf(path, quantity=None, mat_freq=None, mat_channel=None, *, warn: bool = True):
+    """Read an FRF file when a path is given, else None.
+
+    With ``warn``, prints one warning line on stderr when the file still contains the zero-order hold and the
+    computational delay of a sampled log (the discrete analysis case would count them twice).
+    """
     if path is None:
         return None
     from ..io import read_frf
 
-    return read_frf(path, quantity=quantity, freq_var=mat_freq, channels=mat_channels(mat_channel))
+    frf = read_frf(path, quantity=quantity, freq_var=mat_freq, channels=mat_channels(mat_channel))
+    if warn:
+        warn_sampling(frf, path)
+    return frf
+
+
+def warn_sampling(frf, path) -> None:
+    """Print one warning line when an FRF file still contains the ZOH and delay of a sampled log."""
+    import typer
+
+    from ..frf_sampling import double_counting_warning
+
+    msg = None if frf is None else double_counting_warning(frf, path)
+    if msg:
+        typer.echo(f"feedtune: warning: {msg}", err=True)

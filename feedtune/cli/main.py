@@ -12,7 +12,21 @@ import sys
 
 import typer
 
-from . import analyze_cmd, demo_cmd, design_cmd, export_cmd, identify_cmd, simulate_cmd, trajectory_cmd
+from . import (
+    analyze_cmd,
+    demo_cmd,
+    design_cmd,
+    design_gantry_cmd,
+    export_cmd,
+    frf_cmd,
+    identify_cmd,
+    identify_gantry_cmd,
+    prefilter_cmd,
+    report_cmd,
+    simulate_cmd,
+    simulate_gantry_cmd,
+    trajectory_cmd,
+)
 
 app = typer.Typer(
     rich_markup_mode=None,
@@ -23,10 +37,21 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
+# gantry commands join the machine-independent groups
+identify_cmd.app.command("gantry")(identify_gantry_cmd.gantry)
+identify_cmd.app.command("mass")(identify_gantry_cmd.mass)
+design_cmd.app.command("loopshape")(design_gantry_cmd.loopshape)
+design_cmd.app.command("gantry")(design_gantry_cmd.gantry)
+design_cmd.app.command("pid")(design_gantry_cmd.pid)
+simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
+
 app.add_typer(identify_cmd.app, name="identify")
+app.command("frf")(frf_cmd.frf)
 app.add_typer(design_cmd.app, name="design")
+app.command("prefilter")(prefilter_cmd.prefilter)
+app.add_typer(analyze_cmd.app, name="analyze")
 app.add_typer(export_cmd.app, name="export")
-app.command("analyze")(analyze_cmd.analyze)
+app.command("report")(report_cmd.report)
 app.add_typer(simulate_cmd.app, name="simulate")
 app.command("trajectory")(trajectory_cmd.trajectory)
 app.command("demo")(demo_cmd.demo)

@@ -111,6 +111,10 @@ def frf(
     periods: int = typer.Option(6, "--periods", help="Periods run; the first is dropped as transient."),
     drift: float = typer.Option(0.05, "--drift", help="Constant table speed during the test [m/s] (0: standstill)."),
     gains: Path = typer.Option(None, "--gains", "-g", help="Stabilising controller (default: a weak P-PI)."),
+    keep_sampling: bool = typer.Option(
+        False, "--keep-sampling", help="Keep the zero-order hold and computational delay of the logged u[k] -> x[k] "
+        "in the FRF file (default: removed, so the file is the continuous plant the analysis expects)."
+    ),
     machine: str = MACHINE_OPTION,
     param: list[str] = PARAM_OPTION,
     ideal: bool = IDEAL_OPTION,
@@ -119,7 +123,11 @@ def frf(
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Measure the FRF u -> x1, x2 under a weak stabilising controller; write the log and the FRF."""
+    """Measure the FRF u -> x1, x2 under a weak stabilising controller; write the log and the FRF.
+
+    The FRF file is the continuous plant: the ZOH and the computational delay are divided out unless
+    --keep-sampling is given.
+    """
     from ..sim.demo import experiment_texts
     from ..sim.experiments import measure_frf
 
@@ -140,13 +148,16 @@ def frf(
         controller=ctrl,
         seed=seed,
         engine=engine,
+        keep_sampling=keep_sampling,
     )
     texts = experiment_texts(res, str(out), None if res.tripped else str(frf_path))
     s = res.summary
+    sampling = (f"ZOH and {twin.params.delay_samples}-sample delay at {twin.fs:g} Hz "
+                f"{'kept' if keep_sampling else 'removed'}")
     lines = [
         f"FRF measurement ({s['excitation']}, {fmt(s['rms_V'], 'V')} RMS, {s['band_hz'][0]:g}-"
         f"{s['band_hz'][1]:g} Hz, drift {fmt(s['drift_m_per_s'], 'm/s')}): {s.get('n_lines', 0)} lines, "
-        f"lowest coherence {fmt(s.get('coherence_min'))}"
+        f"lowest coherence {fmt(s.get('coherence_min'))}; {sampling}"
     ]
     _finish(res, texts, force, as_json, lines)
 

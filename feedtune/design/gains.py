@@ -29,6 +29,31 @@ LAW_TEXT = (
 )
 
 
+def law_text(prefilter: bool = False, friction: bool = False) -> str:
+    """The execution order of ``docs/gains.md`` as one line, with the optional pre-filter and friction terms."""
+    if not (prefilter or friction):
+        return LAW_TEXT
+    xp = "xp" if prefilter else "x_r[k+P]"
+    parts = ["every sample k:"]
+    if prefilter:
+        parts.append("xp = x_r[k+P] + prefilter(x_r[k+P]);")
+    parts.append(f"x1r = rotary({xp}); x2r = table({xp}); e1 = x1r - x1[k]; e2 = x2r - x2[k];")
+    parts.append("de_i = (e_i[k] - e_i[k-1]) * fs; ie2 += e2 / fs; u_fb = Kx1 e1 + Kx2 e2 + Kv1 de1 + Kv2 de2 "
+                 "+ Ki2 ie2;")
+    if friction:
+        parts.append(f"v_r = ({xp} - previous {xp}) * fs, 0 on the first sample;")
+    parts.append(f"u = filter_pack(u_fb) + feedforward({xp})" + (" + friction(v_r);" if friction else ";"))
+    parts.append("u is applied delay_samples after x1[k], x2[k] were sampled")
+    return " ".join(parts)
+
+
+def refresh_law_text(doc: dict) -> dict:
+    """Set ``[law].execution`` to match the optional sections the document has (in place; returns ``doc``)."""
+    if isinstance(doc.get("law"), dict):
+        doc["law"]["execution"] = law_text("prefilter" in doc, "friction_feedforward" in doc)
+    return doc
+
+
 def q(value: float, unit: str) -> dict:
     """A number with its unit."""
     return {"value": float(value), "unit": unit}
@@ -62,7 +87,8 @@ def model_section(model: BallScrewModel) -> dict:
     }
 
 
-def gains_document(design: McppcDesign | PpiDesign, analysis: dict | None = None) -> dict:
+def gains_document(design: McppcDesign | PpiDesign, analysis: dict | None = None, *, prefilter=None,
+                   friction=None, friction_band: float | None = None) -> dict:
     """Build the gains document of a ball-screw design.
 
     Parameters
@@ -70,6 +96,14 @@ def gains_document(design: McppcDesign | PpiDesign, analysis: dict | None = None
     design : McppcDesign or PpiDesign
     analysis : dict, optional
         Analysis figures to store for information (``BallScrewAnalysis.to_dict()``).
+    prefilter : PrefilterFit, optional
+        Trajectory pre-filter to add as ``[prefilter]`` (:func:`feedtune.design.prefilter.with_prefilter`).
+    friction : StribeckFriction, optional
+        Friction model to feed forward as ``[friction_feedforward]``
+        (:func:`feedtune.design.friction_ff.with_friction_feedforward`).
+    friction_band : float, optional
+        Half-width of the friction feedforward's linear band around zero velocity, in the friction model's
+        velocity unit (m/s or rad/s); default a tenth of its smaller Stribeck velocity.
     """
     law = design.law()
     paths = law.reference_paths()
@@ -112,7 +146,15 @@ def gains_document(design: McppcDesign | PpiDesign, analysis: dict | None = None
         doc["design"]["closed_loop_poles_rad_s"] = [[float(p.real), float(p.imag)] for p in design.poles]
     if analysis is not None:
         doc["analysis"] = _strip_none(analysis)
-    return doc
+    if prefilter is not None:
+        from .prefilter import with_prefilter
+
+        doc = with_prefilter(doc, prefilter)
+    if friction is not None:
+        from .friction_ff import with_friction_feedforward
+
+        doc = with_friction_feedforward(doc, friction, v_band=friction_band)
+    return refresh_law_text(doc)
 
 
 def _tf_dict(z) -> dict:

@@ -20,16 +20,16 @@ from .log_read import RawLog
 MDF_EXTRA_MESSAGE = "reading MDF4 needs the optional extra: pip install 'feedtune[mdf]'"
 
 
-def _import_asammdf():
+def _import_asammdf(path: str):
     try:
         import asammdf
     except ImportError:
-        raise DataError(MDF_EXTRA_MESSAGE) from None
+        raise DataError(f"{path}: {MDF_EXTRA_MESSAGE}") from None
     return asammdf
 
 
 def _numeric_signals(path: str, channels: Sequence[str] | None) -> list:
-    asammdf = _import_asammdf()
+    asammdf = _import_asammdf(path)
     try:
         with asammdf.MDF(path) as mdf:
             found = [s for s in mdf.iter_channels(skip_master=True)

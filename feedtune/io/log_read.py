@@ -3,8 +3,9 @@
 Each format's reader produces a :class:`RawLog` (the file's columns as found); :func:`assemble_log` then
 applies the user's options the same way for every format:
 
-1. time base: the column named by ``time``, else a column ``t``/``time`` (any case); with ``fs`` [Hz] the
-   time is ``arange(n) / fs`` instead (``fs`` is required when there is no time column);
+1. time base: the column named by ``time`` (a file column or a name given in ``mapping``), else a column
+   ``t``/``time`` (any case), else a mapped name ``t``/``time``; with ``fs`` [Hz] the time is
+   ``arange(n) / fs`` instead (``fs`` is required when there is no time column);
 2. ``mapping`` ``{NEW_NAME: COLUMN}`` renames (and for MATLAB ``var[k]`` picks column ``k`` of a matrix);
    the other columns keep their names;
 3. ``scale`` ``{NAME: factor}`` multiplies signals (or the time, key ``t`` or the time column's name);
@@ -106,6 +107,29 @@ def _check_fs(fs: float | None) -> None:
         raise UsageError(f"fs must be a sample rate > 0 Hz, got {fs}")
 
 
+def _time_spec(raw: RawLog, mapping: dict[str, str], time: str | None, fs: float | None
+               ) -> tuple[str | None, str]:
+    """The file's time column and the name the user calls it by (for ``scale``).
+
+    ``time`` may name a file column or a mapped name (``mapping={"t": "data[0]"}, time="t"``); without
+    ``time`` a file column ``t``/``time`` is used, else a mapped name ``t``/``time``. A mapping entry that
+    becomes the time base is removed from ``mapping``.
+    """
+    if raw.time is not None:
+        return None, "t"
+    if time is not None:
+        if time in mapping:
+            return mapping.pop(time), time
+        return time, time
+    found = _find_time_column(raw)
+    if found is not None:
+        return found, found
+    for cand in TIME_NAMES:
+        if cand in mapping and fs is None:
+            return mapping.pop(cand), cand
+    return None, "t"
+
+
 def assemble_log(
     raw: RawLog,
     *,
@@ -119,18 +143,16 @@ def assemble_log(
     _check_fs(fs)
     if time is not None and fs is not None:
         raise UsageError("give either a time column (time=) or a sample rate (fs=), not both")
-    time_spec = time if time is not None else (None if raw.time is not None else _find_time_column(raw))
     mapping = dict(mapping or {})
+    time_spec, t_name = _time_spec(raw, mapping, time, fs)
     mapped = {new: np.asarray(raw.get(col, "column for " + repr(new)), dtype=float).reshape(-1)
               for new, col in mapping.items()}
     sig_units = {new: raw.units.get(raw.canonical(col), "") for new, col in mapping.items()}
-    t_name = "t"
     if raw.time is not None:
         t = np.asarray(raw.time, dtype=float)
     elif fs is None and time_spec is not None:
         t = np.asarray(raw.get(time_spec, "time column"), dtype=float).reshape(-1)
         t = t * _time_factor(raw, time_spec)
-        t_name = time_spec
     elif fs is not None:
         t = np.arange(_common_length(raw, mapped)) / fs
     else:

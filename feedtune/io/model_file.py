@@ -19,8 +19,9 @@ A ball-screw model file::
     [fit]
     ...free-form information about the identification, written as given
 
-Loading dispatches on ``kind`` through a registry, so other model kinds (the gantry) plug in with
-:func:`register_model_kind`.
+Loading dispatches on ``kind`` through a registry, so other model kinds plug in with
+:func:`register_model_kind`; ``"gantry"``, ``"rigid"`` (:class:`~feedtune.models.rigid.RigidBodyModel`) and
+``"friction"`` (:class:`~feedtune.models.friction.StribeckFriction`) are registered on first use.
 """
 
 from __future__ import annotations
@@ -121,6 +122,8 @@ register_model_kind("ballscrew", ballscrew_from_doc, ballscrew_to_doc, BallScrew
 # kind -> (module, loader, saver, model class).
 _LAZY_KINDS = {
     "gantry": ("feedtune.models.gantry", "gantry_model_from_doc", "gantry_model_to_doc", "GantryModel"),
+    "friction": ("feedtune.models.friction", "stribeck_from_doc", "stribeck_to_doc", "StribeckFriction"),
+    "rigid": ("feedtune.models.rigid", "rigid_from_doc", "rigid_to_doc", "RigidBodyModel"),
 }
 
 

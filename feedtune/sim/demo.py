@@ -6,7 +6,9 @@
 measured FRF) and a P-PI tuned for the same peak sensitivity with a phase-margin floor no tighter than
 MC-PPC's own, exports both gains files and runs every test
 through :class:`~feedtune.sim.runtime.GainsRuntime` reading the exported text only: rope snap and
-tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. The result
+tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. Then it
+identifies the trajectory pre-filter (§3.2.4) from the MC-PPC tracking run at 500 mm/s, exports
+``mcppc_prefilter_gains.toml`` and tracks the three speeds again with it ("MC-PPC+PF"). The result
 holds the comparison table and the text of every file; :func:`write_texts` writes them all or none.
 """
 
@@ -22,14 +24,17 @@ from ..errors import DesignError, UsageError
 
 SPEEDS_M_PER_S = (0.2, 0.5, 1.0)
 """Tracking speeds of Table 3.2 [m/s]."""
-DEMO_MOVE = {"distance": 0.15, "a_max": 5.0, "j_max": 500.0, "dwell_before": 0.05, "dwell_after": 0.2}
-"""The demo's point-to-point move: 150 mm, 5 m/s^2, 500 m/s^3, dwells [m, m/s^2, m/s^3, s, s]."""
+DEMO_MOVE = {"distance": 0.25, "a_max": 9.81, "j_max": 1000.0, "dwell_before": 0.05, "dwell_after": 0.2}
+"""The demo's point-to-point move: 250 mm at 1 g (the thesis ran 200, 500 and 1000 mm/s at 1 g) with 1000 m/s^3
+jerk, and dwells [m, m/s^2, m/s^3, s, s]; long enough to cruise at 1000 mm/s."""
 MS_MAX = 3.5
 """Peak-sensitivity limit of the demo's MC-PPC design, the default of ``feedtune design ppc --ms-max`` [-]."""
 BETAS = (4.0, 3.5, 3.0, 2.5, 2.0, 1.5, 1.0)
 """MC-PPC ``beta`` values tried, largest first (the thesis's drive allowed up to 4) [-]."""
 CONTROLLERS = ("mcppc", "ppi")
-LABELS = {"mcppc": "MC-PPC", "ppi": "P-PI"}
+LABELS = {"mcppc": "MC-PPC", "ppi": "P-PI", "mcppc_prefilter": "MC-PPC+PF"}
+PREFILTER_SPEED = 0.5
+"""Speed of the MC-PPC tracking run the pre-filter is identified from [m/s] (the nearest demo speed)."""
 
 
 @dataclass(frozen=True)
@@ -49,6 +54,9 @@ class DemoResult:
         File name -> file text (CSV logs, FRF, model and gains TOML/JSON, summary JSON).
     twin : dict
         The twin's parameters.
+    prefilter : dict
+        The pre-filter fit (:meth:`~feedtune.design.prefilter.PrefilterFit.to_dict`) and the speed of the
+        run it came from; tracking rows then also hold ``"mcppc_prefilter"`` figures.
     """
 
     rows: list
@@ -56,26 +64,35 @@ class DemoResult:
     designs: dict
     texts: dict = field(repr=False)
     twin: dict = field(repr=False, default_factory=dict)
+    prefilter: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-ready: comparison rows, identified model, designs, twin parameters, file names."""
+        """JSON-ready: comparison rows, identified model, designs, pre-filter, twin parameters, file names."""
         return {"comparison": self.rows, "identified": self.identified, "designs": self.designs,
-                "twin": self.twin, "files": sorted(self.texts),
+                "prefilter": self.prefilter, "twin": self.twin, "files": sorted(self.texts),
                 "units": {"max_um": "um", "rms_um": "um", "peak_um": "um", "settling_time_s": "s",
                           "speed": "mm/s"}}
 
     def table(self) -> str:
-        """The comparison as text, laid out like Table 3.2."""
+        """The comparison as text, laid out like Table 3.2 (plus MC-PPC with the pre-filter when run)."""
+        pf = any("mcppc_prefilter" in row for row in self.rows)
         head = (f"{'test':22s} {'MC-PPC max':>10s} {'RMS':>7s} {'P-PI max':>10s} {'RMS':>7s} "
-                f"{'max -%':>7s} {'RMS -%':>7s}")
+                f"{'max -%':>7s} {'RMS -%':>7s}" + (f" {'MC-PPC+PF max':>13s} {'RMS':>7s}" if pf else ""))
         lines = ["Tracking error of the table [um] (Table 3.2)", head]
         for row in self.rows:
             if "max_um" not in row["mcppc"]:
                 continue
             a, b = row["mcppc"], row["ppi"]
+            c = row.get("mcppc_prefilter")
+            extra = "" if not pf else f" {c['max_um']:13.3f} {c['rms_um']:7.3f}" if c else f" {'-':>13s} {'-':>7s}"
             lines.append(f"{row['test']:22s} {a['max_um']:10.3f} {a['rms_um']:7.3f} {b['max_um']:10.3f} "
                          f"{b['rms_um']:7.3f} {_drop(a['max_um'], b['max_um']):7.1f} "
-                         f"{_drop(a['rms_um'], b['rms_um']):7.1f}")
+                         f"{_drop(a['rms_um'], b['rms_um']):7.1f}{extra}")
+        if self.prefilter:
+            g, u = self.prefilter["gains"], self.prefilter["units"]
+            lines += ["", f"MC-PPC+PF: pre-filter identified from the MC-PPC run at "
+                          f"{self.prefilter['speed_mm_s']:g} mm/s (eq. 3.17-3.20, {self.prefilter['lpf_hz']:g} Hz): "
+                      + ", ".join(f"{k} = {v:.4g} {u[k]}" for k, v in g.items())]
         for row in self.rows:
             if "peak_um" in row["mcppc"]:
                 a, b = row["mcppc"], row["ppi"]
@@ -216,7 +233,8 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
         else:
             designs[name]["design"] = {"beta": design.beta, "pole_hz": design.pole_hz, "zeta": design.zeta}
     rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
-    result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict())
+    prefilter = _prefilter_tests(twin, texts, speeds, seed, engine, rows)
+    result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict(), prefilter)
     texts["summary.json"] = dumps_json(_plain({k: v for k, v in result.to_dict().items() if k != "files"}))
     return result
 
@@ -287,6 +305,43 @@ def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
             row[name] = _figures(res, ("max_um", "rms_um"))
         rows.append(row)
     return rows
+
+
+def _prefilter_tests(twin, texts, speeds, seed, engine, rows) -> dict:
+    """Identify the pre-filter from one MC-PPC run, export it, rerun the tracking speeds with it.
+
+    Adds ``"mcppc_prefilter"`` figures to the tracking rows and the files ``mcppc_prefilter_gains.toml/.json``
+    and ``track_*_mcppc_prefilter.csv`` to ``texts``; returns the fit with the identification speed.
+    """
+    from ..design.prefilter import fit_prefilter, with_prefilter
+    from ..io import dumps_json, dumps_toml
+    from ..io.document import loads_document
+    from .experiments import run_tracking
+
+    speed = min(speeds, key=lambda v: abs(v - PREFILTER_SPEED))
+    mcppc = _runtime_from_text(texts["mcppc_gains.toml"], "mcppc_gains.toml")
+    ident = run_tracking(twin, mcppc, _demo_move(speed, twin.fs), seed=seed, engine=engine)
+    _log_text(ident)
+    fit = fit_prefilter(ident.log)
+    doc = with_prefilter(loads_document(texts["mcppc_gains.toml"], "toml", "mcppc_gains.toml"), fit,
+                         where="mcppc_gains.toml")
+    name = "mcppc_prefilter_gains"
+    texts[f"{name}.toml"], texts[f"{name}.json"] = dumps_toml(doc), dumps_json(doc)
+    runtime = _runtime_from_text(texts[f"{name}.toml"], f"{name}.toml")
+    for v in speeds:
+        res = run_tracking(twin, runtime, _demo_move(v, twin.fs), seed=seed, engine=engine)
+        texts[f"track_{v * 1e3:g}mm_s_mcppc_prefilter.csv"] = _log_text(res)
+        row = next(r for r in rows if r["test"] == f"track {v * 1e3:g} mm/s")
+        row["mcppc_prefilter"] = _figures(res, ("max_um", "rms_um"))
+    return {**fit.to_dict(), "speed_mm_s": speed * 1e3, "gains_file": f"{name}.toml"}
+
+
+def _demo_move(v: float, fs: float):
+    """The demo's point-to-point move at ``v`` [m/s]."""
+    from .trajectory import point_to_point
+
+    return point_to_point(DEMO_MOVE["distance"], v_max=v, a_max=DEMO_MOVE["a_max"], j_max=DEMO_MOVE["j_max"],
+                          fs=fs, dwell_before=DEMO_MOVE["dwell_before"], dwell_after=DEMO_MOVE["dwell_after"])
 
 
 def _log_text(res) -> str:

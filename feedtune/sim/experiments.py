@@ -186,6 +186,7 @@ def measure_frf(
     controller=None,
     seed: int | None = 0,
     engine: str = "auto",
+    keep_sampling: bool = False,
 ) -> ExperimentResult:
     """Measure the FRF ``u -> x1, x2`` under a weak stabilising controller.
 
@@ -214,12 +215,18 @@ def measure_frf(
         Seed of the multisine phases and the measurement noise.
     engine : str
         Simulation engine (see :meth:`BallScrewTwin.simulate`).
+    keep_sampling : bool
+        False (default): the zero-order hold and the computational delay, which the logged ``u[k] -> x[k]``
+        contains, are divided out (:func:`feedtune.frf_sampling.remove_sampling`), so the FRF is the continuous
+        plant (``twin.frequency_response(f, sampled=False)``) that the fit and the analysis expect. True: the
+        FRF as estimated from the log (``sampled=True``), marked ``sampling = "not_removed"``.
 
     Returns
     -------
     ExperimentResult
         ``log`` with ``r, u, x1, x2`` and ``frf`` with ``x1/u``, ``x2/u`` [rad/V] and coherence.
     """
+    from ..frf_sampling import mark_sampling_kept, remove_sampling
     from ..identify.frf_estimate import estimate_frf
 
     kind = str(excitation).strip().lower()
@@ -257,6 +264,11 @@ def measure_frf(
     frf = estimate_frf(log, input="u", outputs=["x1", "x2"], reference="r", method="periodic",
                        period_samples=one.size, transient_periods=1, freq_range=(f_lo, hi))
     frf = replace(frf, meta={**frf.meta, "source": meta["source"]})
+    if keep_sampling:
+        frf = mark_sampling_kept(frf, twin.fs)
+    else:
+        frf = remove_sampling(frf, twin.fs, twin.params.delay_samples)
+    summary["sampling_removed"] = not keep_sampling
     coh = frf.coherence
     summary["n_lines"] = int(frf.freq_hz.size)
     summary["coherence_min"] = float(np.min(coh)) if coh is not None else None

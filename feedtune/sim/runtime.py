@@ -2,10 +2,13 @@
 
 :class:`GainsRuntime` reads nothing but the gains document (``feedtune design ... --out gains.toml``): the
 five gains, the sample rate, the preview, and the second-order sections of the filter pack and of the
-three reference paths. It never rebuilds the law from the stored model, so running it proves that the
+three reference paths, and the optional trajectory pre-filter (``[prefilter]``) and friction feedforward
+(``[friction_feedforward]``). It never rebuilds the law from the stored model, so running it proves that the
 export is complete. :meth:`GainsRuntime.step` executes the law of ``docs/gains.md`` once per sample::
 
-    x1r = rotary(x_r[k+P]); x2r = table(x_r[k+P]); uff = feedforward(x_r[k+P])
+    xp = x_r[k+P] + prefilter(x_r[k+P])          (xp = x_r[k+P] without a [prefilter])
+    x1r = rotary(xp); x2r = table(xp); uff = feedforward(xp)
+    v_r = (xp - xp_prev) fs (0 on the first sample); uff += friction(v_r)   (with a [friction_feedforward])
     e1 = x1r - x1[k]; e2 = x2r - x2[k]            (on the first sample e1_prev = e1, e2_prev = e2)
     de1 = (e1 - e1_prev) fs; de2 = (e2 - e2_prev) fs; ie2 += e2 / fs
     u = filter_pack(Kx1 e1 + Kx2 e2 + Kv1 de1 + Kv2 de2 + Ki2 ie2) + uff
@@ -13,7 +16,8 @@ export is complete. :meth:`GainsRuntime.step` executes the law of ``docs/gains.m
 Every ``*_sos`` list runs in cascade in transposed direct form II (as ``scipy.signal.sosfilt``), states
 zero at start; each section is normalised by its ``a0`` when the file is read.
 
-Fast path: the reference paths do not depend on the measurements, so :meth:`GainsRuntime.reference_signals`
+Fast path: the reference paths (pre-filter and friction feedforward included) do not depend on the
+measurements, so :meth:`GainsRuntime.reference_signals`
 computes them for a whole trajectory at once (``sosfilt``), and the closed-loop simulation of
 :mod:`feedtune.sim.twin` runs only the feedback part per sample (:meth:`GainsRuntime.loop_constants`).
 :meth:`GainsRuntime.replay` evaluates the law for recorded measurements without any per-sample loop.
@@ -32,6 +36,7 @@ import numpy as np
 
 from ..design.ballscrew_law import GAIN_NAMES as GAIN_ORDER
 from ..design.ballscrew_law import GAIN_UNITS
+from ..design.friction_ff import FrictionFeedforward, reference_velocity
 from ..design.gains import check_gains_header, value
 from ..errors import DataError, UsageError
 
@@ -163,12 +168,23 @@ class GainsRuntime:
         Unit of ``u`` (``"V"``).
     source : str
         File name or ``"gains document"``.
+    friction : FrictionFeedforward or None
+        Friction feedforward (``[friction_feedforward]``) [command unit, rad/s].
+    prefilter_info : dict or None
+        ``{"gains": {K_vel [s] .. K_snap [s^4]}, "lpf_hz": Hz}`` of the ``[prefilter]`` (information; the
+        runtime executes ``sos["prefilter"]``, the sections of ``F(z) - 1``).
     """
 
     def __init__(self, gains: dict, sos: dict, fs: float, delay_samples: int, preview_samples: int,
-                 controller: str = "", command_unit: str = "V", source: str = "gains document") -> None:
+                 controller: str = "", command_unit: str = "V", source: str = "gains document",
+                 friction: FrictionFeedforward | None = None, prefilter_info: dict | None = None) -> None:
         self.gains = {k: float(gains[k]) for k in GAIN_ORDER}
         self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
+        self.friction = friction
+        self.prefilter_info = prefilter_info
+        if friction is not None and friction.command_unit != command_unit:
+            raise DataError(f"{source}: friction feedforward is in {friction.command_unit!r}, the command in "
+                            f"{command_unit!r}")
         self.fs = float(fs)
         self.delay_samples = int(delay_samples)
         self.preview_samples = int(preview_samples)
@@ -201,7 +217,15 @@ class GainsRuntime:
         sos = {name: normalized_sos(_section(doc, path, where), f"{where}: {'.'.join(path)}")
                for name, path in SOS_KEYS.items()}
         unit = str(doc.get("units", {}).get("command", "V")) if isinstance(doc.get("units"), dict) else "V"
-        return cls(gains, sos, fs, delay, preview, str(doc.get("controller", "")), unit, where)
+        info = None
+        if doc.get("prefilter") is not None:
+            sos["prefilter"] = normalized_sos(_section(doc, ("prefilter", "prefilter_sos"), where),
+                                              f"{where}: prefilter.prefilter_sos")
+            info = _prefilter_info(doc, where)
+        friction = None
+        if doc.get("friction_feedforward") is not None:
+            friction = FrictionFeedforward.from_section(doc["friction_feedforward"], unit, where)
+        return cls(gains, sos, fs, delay, preview, str(doc.get("controller", "")), unit, where, friction, info)
 
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> GainsRuntime:
@@ -216,6 +240,7 @@ class GainsRuntime:
         for f in self._filters.values():
             f.reset()
         self._e1_prev = self._e2_prev = 0.0
+        self._xp_prev = 0.0
         self._ie2 = 0.0
         self._started = False
 
@@ -235,9 +260,16 @@ class GainsRuntime:
             Command ``u`` [V], to be applied ``delay_samples`` later.
         """
         f = self._filters
-        x1r = f["rotary"].step(x_ref_preview)
-        x2r = f["table"].step(x_ref_preview)
-        uff = f["feedforward"].step(x_ref_preview)
+        xp = x_ref_preview
+        if "prefilter" in f:
+            xp = xp + f["prefilter"].step(xp)
+        x1r = f["rotary"].step(xp)
+        x2r = f["table"].step(xp)
+        uff = f["feedforward"].step(xp)
+        if self.friction is not None:
+            v_r = (xp - self._xp_prev) * self.fs if self._started else 0.0
+            uff += float(self.friction.command(v_r))
+        self._xp_prev = xp
         e1 = x1r - x1
         e2 = x2r - x2
         if not self._started:
@@ -257,8 +289,21 @@ class GainsRuntime:
         P = self.preview_samples
         return x if P == 0 else np.r_[x[P:], np.full(min(P, x.size), x[-1])]
 
+    def prefiltered(self, x_ref) -> np.ndarray:
+        """The reference the paths run on: ``xp = x_r[k+P] + prefilter(x_r[k+P])`` per sample [rad].
+
+        Without a ``[prefilter]`` this is :meth:`previewed`.
+        """
+        from scipy.signal import sosfilt
+
+        p = self.previewed(x_ref)
+        return p + sosfilt(self.sos["prefilter"], p) if "prefilter" in self.sos else p
+
     def reference_signals(self, x_ref) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rotary reference ``x1r`` [rad], table reference ``x2r`` [rad] and feedforward ``uff`` [V] per sample.
+
+        ``uff`` includes the friction feedforward of the backward-difference velocity of the pre-filtered
+        reference when the file has one.
 
         Parameters
         ----------
@@ -267,9 +312,11 @@ class GainsRuntime:
         """
         from scipy.signal import sosfilt
 
-        p = self.previewed(x_ref)
-        return (sosfilt(self.sos["rotary"], p), sosfilt(self.sos["table"], p),
-                sosfilt(self.sos["feedforward"], p))
+        p = self.prefiltered(x_ref)
+        uff = sosfilt(self.sos["feedforward"], p)
+        if self.friction is not None:
+            uff = uff + self.friction.command(reference_velocity(p, self.fs))
+        return sosfilt(self.sos["rotary"], p), sosfilt(self.sos["table"], p), uff
 
     def replay(self, x_ref, x1, x2) -> np.ndarray:
         """The commands the law computes for recorded encoder readings, without a per-sample loop [V].
@@ -308,7 +355,13 @@ class GainsRuntime:
                             f"but the target samples at {fs:g} Hz; design again with --fs {fs:g}")
 
     def to_dict(self) -> dict:
-        """JSON-ready description (gains with units, sampling, section counts)."""
+        """JSON-ready description (gains with units, sampling, section counts, pre-filter, friction)."""
+        from ..design.prefilter import GAIN_UNITS as PREFILTER_UNITS
+
+        pre = None
+        if "prefilter" in self.sos:
+            pre = {**(self.prefilter_info or {}), "sections": int(self.sos["prefilter"].shape[0]),
+                   "units": {**PREFILTER_UNITS, "lpf_hz": "Hz"}}
         return {
             "source": self.source,
             "controller": self.controller,
@@ -317,8 +370,21 @@ class GainsRuntime:
             "delay_samples": self.delay_samples,
             "preview_samples": self.preview_samples,
             "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
+            "prefilter": pre,
+            "friction_feedforward": None if self.friction is None else self.friction.to_dict(),
             "units": {**GAIN_UNITS, "fs_hz": "Hz", "command": self.command_unit},
         }
+
+
+def _prefilter_info(doc: dict, where: str) -> dict | None:
+    """Gains and low-pass of the ``[prefilter]`` (information), None when the section does not give them."""
+    from ..design.prefilter import read_prefilter_gains
+
+    sec = doc["prefilter"]
+    if not isinstance(sec, dict) or "gains" not in sec:
+        return None
+    gains, lpf = read_prefilter_gains(doc, where)
+    return {"gains": gains, "lpf_hz": lpf}
 
 
 def _as_vector(x, name: str, n: int | None = None) -> np.ndarray:

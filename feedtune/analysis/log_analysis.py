@@ -1,0 +1,182 @@
+"""Tracking and rope-snap metrics straight from a recorded (or simulated) log.
+
+These two functions pick the signals of a log the way ``feedtune analyze track|ropesnap`` does, so that the
+command line and the report generator give identical numbers:
+
+* :func:`analyze_tracking_log` -- tracking error ``e2`` (or reference minus position), commanded velocity
+  and acceleration (``v_ref``/``a_ref`` or derivatives of the reference) ->
+  :class:`~feedtune.analysis.metrics.TrackingMetrics`.
+* :func:`analyze_ropesnap_log` -- table displacement ``x2_table`` (or the one position column in m) and
+  the release instant (``meta["t_release_s"]`` or detected) ->
+  :class:`~feedtune.analysis.metrics.RopeSnapMetrics`.
+
+Lengths are in metres [m], times in seconds [s]; a signal in another unit is a :class:`DataError` that
+tells how to convert it (``--scale NAME=FACTOR --unit NAME=m``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+from ..log import Log
+from .metrics import RopeSnapMetrics, TrackingMetrics, ropesnap_metrics, tracking_metrics
+
+#: Preferred signal names written by the twin experiments (feedtune.sim.experiments).
+_ERROR_NAME = "e2"
+_TABLE_POSITION_NAME = "x2_table"
+_VELOCITY_NAME = "v_ref"
+_ACCELERATION_NAME = "a_ref"
+#: Meta key of the release instant written by the rope-snap experiment [s].
+_RELEASE_META_KEY = "t_release_s"
+#: Units accepted for a length (an empty unit is taken as metres).
+_LENGTH_UNITS = ("m", "")
+#: Trajectory derivative names that are never a measured position.
+_REFERENCE_DERIVATIVES = ("v_ref", "a_ref", "j_ref", "s_ref")
+
+
+def _length_signal(log: Log, name: str, role: str) -> np.ndarray:
+    """Signal ``name`` in metres, else a DataError naming its unit and the conversion options."""
+    x = log.get(name)
+    unit = log.unit(name)
+    if unit not in _LENGTH_UNITS:
+        raise DataError(f"{log.source}: {role} {name!r} is in {unit!r}, expected m; convert it with "
+                        f"--scale {name}=FACTOR --unit {name}=m")
+    return x
+
+
+def _position_candidates(log: Log, exclude: set[str]) -> list[str]:
+    """Signals in m that can be a measured table position (not references, errors or derivatives)."""
+    return [name for name, unit in log.units.items()
+            if unit == "m" and name not in exclude and name not in _REFERENCE_DERIVATIVES
+            and not name.endswith("_ref") and name != _ERROR_NAME]
+
+
+def pick_position(log: Log, position: str | None, exclude: set[str]) -> str:
+    """The position column: ``position``, else ``x2_table``, else the single other column in m."""
+    if position is not None:
+        log.get(position)
+        return position
+    if _TABLE_POSITION_NAME in log:
+        return _TABLE_POSITION_NAME
+    candidates = _position_candidates(log, exclude)
+    if len(candidates) == 1:
+        return candidates[0]
+    if not candidates:
+        raise DataError(f"{log.source}: no position column ({_TABLE_POSITION_NAME!r} or a signal in m); "
+                        f"signals: {', '.join(log.signals) or 'none'}; name it with --position "
+                        "(and --unit NAME=m)")
+    raise DataError(f"{log.source}: several position columns in m ({', '.join(candidates)}); "
+                    "choose one with --position")
+
+
+def _check_name(value: str | None, name: str) -> None:
+    if value is not None and (not isinstance(value, str) or not value.strip()):
+        raise UsageError(f"{name}: expected a signal name, got {value!r}")
+
+
+def _commanded_motion(log: Log, reference: str) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Commanded velocity [m/s] and acceleration [m/s^2]: logged, else derived from the reference."""
+    vel = log.get(_VELOCITY_NAME) if _VELOCITY_NAME in log else None
+    acc = log.get(_ACCELERATION_NAME) if _ACCELERATION_NAME in log else None
+    if vel is None and reference in log:
+        vel = np.gradient(_length_signal(log, reference, "reference"), log.t)
+    if acc is None and vel is not None:
+        acc = np.gradient(vel, log.t)
+    return vel, acc
+
+
+def analyze_tracking_log(
+    log: Log, *, error: str | None = None, reference: str = "x_ref", position: str | None = None
+) -> TrackingMetrics:
+    """Tracking-error metrics of a log (thesis Table 3.2, §4.5).
+
+    Parameters
+    ----------
+    log : Log
+        Recorded or simulated run (e.g. ``feedtune simulate track`` output).
+    error : str, optional
+        Column holding the tracking error, commanded minus actual [m]. Default: ``e2`` when present and
+        ``position`` is not given; otherwise ``reference - position``.
+    reference : str
+        Commanded table position [m] (default ``x_ref``).
+    position : str, optional
+        Measured table position [m]. Default ``x2_table``, else the only other signal in m.
+
+    Returns
+    -------
+    TrackingMetrics
+        Max and RMS error [m] over the whole run, the constant-velocity and acceleration parts (from
+        ``v_ref``/``a_ref`` when logged, else from derivatives of the reference; None when the log has
+        neither), and the error amplitude spectrum [m] with its peaks (only for uniform sampling).
+
+    Raises
+    ------
+    DataError
+        A named column is missing, not in m, or no error can be formed.
+    """
+    _check_name(error, "error")
+    _check_name(reference, "reference")
+    _check_name(position, "position")
+    if error is not None:
+        e = _length_signal(log, error, "error")
+    elif position is None and _ERROR_NAME in log:
+        e = _length_signal(log, _ERROR_NAME, "error")
+    else:
+        if reference not in log:
+            raise DataError(f"{log.source}: no tracking error {_ERROR_NAME!r} and no reference {reference!r}; "
+                            f"signals: {', '.join(log.signals) or 'none'} (name them with --error or "
+                            "--reference/--position)")
+        pos_name = pick_position(log, position, {reference})
+        e = _length_signal(log, reference, "reference") - _length_signal(log, pos_name, "position")
+    vel, acc = _commanded_motion(log, reference)
+    return tracking_metrics(log.t, e, vel=vel, acc=acc, spectrum=log.is_uniform())
+
+
+def _release_from_meta(log: Log) -> float | None:
+    """``meta["t_release_s"]`` as a float [s] (CSV metadata arrives as text); None when absent."""
+    value = log.meta.get(_RELEASE_META_KEY)
+    if value is None:
+        return None
+    try:
+        t_release = float(value)
+    except (TypeError, ValueError):
+        raise DataError(f"{log.source}: metadata {_RELEASE_META_KEY} = {value!r} is not a time in s") from None
+    if not math.isfinite(t_release):
+        raise DataError(f"{log.source}: metadata {_RELEASE_META_KEY} = {value!r} is not a finite time in s")
+    return t_release
+
+
+def analyze_ropesnap_log(
+    log: Log, *, position: str | None = None, t_release: float | None = None
+) -> RopeSnapMetrics:
+    """Rope-snap metrics of a log (thesis Fig. 3.14, Fig. 4.17).
+
+    Parameters
+    ----------
+    log : Log
+        Uniformly sampled rope-snap record (e.g. ``feedtune simulate ropesnap`` output).
+    position : str, optional
+        Table displacement [m]. Default ``x2_table``, else the only signal in m.
+    t_release : float, optional
+        Release instant [s] on the log's time axis. Default: ``meta["t_release_s"]`` when the log carries
+        it, else detected from the displacement (the log must start with quiet pre-release data).
+
+    Returns
+    -------
+    RopeSnapMetrics
+        Peak displacement [m], 5 % settling time [s], amplitude spectral density [m/sqrt(Hz)] and peaks.
+
+    Raises
+    ------
+    DataError
+        No usable position column, non-uniform sampling, or no detectable release.
+    """
+    _check_name(position, "position")
+    name = pick_position(log, position, set())
+    x = _length_signal(log, name, "position")
+    if t_release is None:
+        t_release = _release_from_meta(log)
+    return ropesnap_metrics(log.t, x, t_release=t_release)

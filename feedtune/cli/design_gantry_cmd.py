@@ -1,0 +1,316 @@
+"""``feedtune design loopshape|gantry|pid``: the x axis and the gantry of thesis chapter 4.
+
+* ``loopshape``: double-lead-and-integral loop shaping of an axis (eq. 4.17-4.20) from a mass, a gantry model
+  (its ``m_x``) or a measured SISO FRF.
+* ``gantry``: the MIMO law of eq. 4.30 (sensor/actuator averaging, lead, active damping, actuator-level
+  integral) with feedforward and pre-filters scheduled in the table position.
+* ``pid``: the independent-PID baseline tuned to a peak sensitivity (``--ms-max``) or to the one of a MIMO
+  gains file (``--match``).
+
+The commands are registered on the ``design`` group in :mod:`feedtune.cli.main`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .design_cmd import ALLOW_OPTION, DELAY_OPTION, NOTCH_OPTION, OUT_OPTION, QUANTITY_OPTION
+
+FS_OPTION = typer.Option(15000.0, "--fs", help="Sample rate of the target [Hz].")
+LPF_OPTION = typer.Option(None, "--lpf", help="Low-pass frequency [Hz] of the filter pack.")
+LEAD_OPTION = typer.Option(None, "--lead", help="Extra lead stage HZ,DEG in the filter pack (repeatable), "
+                                                "e.g. --lead 154,70.")
+LPF_ZETA_OPTION = typer.Option(0.7, "--lpf-zeta", help="Damping of a 2nd-order low-pass [-].")
+PREFILTER_HZ_OPTION = typer.Option(80.0, "--prefilter-hz", help="Pre-filter low-pass frequency [Hz] (eq. 4.20).")
+X_OPTION = typer.Option(0.0, "--x", help="Table position [m] the gantry design is made at.")
+X_MIN_OPTION = typer.Option(-0.3, "--x-min", help="First table position [m] of the schedule tables.")
+X_MAX_OPTION = typer.Option(0.3, "--x-max", help="Last table position [m] of the schedule tables.")
+X_POINTS_OPTION = typer.Option(13, "--x-points", help="Number of rows of the schedule tables.")
+PRE1_OPTION = typer.Option(None, "--prefilter1", help="Left-side pre-filter gains VEL,ACC,JERK,SNAP "
+                                                      "[s, s^2, s^3, s^4] (eq. 4.32).")
+PRE2_OPTION = typer.Option(None, "--prefilter2", help="Right-side pre-filter gains VEL,ACC,JERK,SNAP.")
+GANTRY_FRF_OPTION = typer.Option(None, "--frf", help="Measured 2x2 position FRF (y1/u1, y1/u2, y2/u1, y2/u2) "
+                                                     "for the measured and discrete cases.")
+
+# ------------------------------------------------------------------------------------------ helpers
+def _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead):
+    from ..design.filters import Notch
+    from ..design.loopshape import LeadStage, LoopFilters
+
+    return LoopFilters([Notch.parse(n) for n in notch or []], lpf, lpf_order, lpf_zeta,
+                       [LeadStage.parse(s) for s in lead or []])
+
+
+def _gantry_model(path: Path):
+    from ..errors import UsageError
+    from ..io import load_model
+    from ..models.gantry import GantryModel
+
+    model = load_model(path)
+    if not isinstance(model, GantryModel):
+        raise UsageError(f"{path}: a gantry model is needed (kind = \"gantry\"), got a {type(model).__name__}")
+    return model
+
+
+def _x_grid(model, x_min: float, x_max: float, x_points: int):
+    from ..design.gantry_mimo import default_x_grid
+
+    return default_x_grid(model, x_min, x_max, x_points)
+
+
+def _write_and_report(result: dict, doc: dict, violations: list[str], *, out, force, allow_unstable,
+                      as_json) -> None:
+    """Write the gains file unless a limit is violated, print the result, raise DesignError on violations."""
+    from ..errors import DesignError
+    from ..io import write_document
+    from .analyze_gantry_cmd import print_summary
+
+    result["check"] = {"ok": not violations, "violations": list(violations)}
+    written = False
+    if out is not None and (not violations or allow_unstable):
+        write_document(out, doc, force=force)
+        result["out"] = str(out)
+        written = True
+    if as_json:
+        print_json(result)
+    else:
+        print_summary(result)
+        if written:
+            typer.echo(f"wrote {out}")
+    if violations:
+        msg = "; ".join(violations)
+        if allow_unstable:
+            typer.echo(f"feedtune: warning: {msg} (written because of --allow-unstable)", err=True)
+        else:
+            raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
+
+
+def _gantry_finish(design, frf, *, ms_max, pm_min, targets, out, force, allow_unstable, as_json) -> None:
+    from ..analysis.gantry import analyze_gantry, limit_violations, reference_from_schedule, target_violations
+    from ..design.gantry_gains import gantry_gains_document, mimo_gain_units, pid_gain_units
+
+    ref = reference_from_schedule(design.schedule, design.x, design.prefilter_hz)
+    analysis = analyze_gantry(design.law, design.model, x=design.x, frf=frf, reference=ref).to_dict()
+    checked = "discrete" if frf is not None else "ideal_discrete"
+    violations = limit_violations(analysis, checked, ms_max=ms_max, pm_min_deg=pm_min)
+    if targets is not None:
+        violations += target_violations(analysis["ideal_discrete"], *targets, name="ideal_discrete")
+    doc = gantry_gains_document(design, analysis)
+    unit = design.model.input_unit
+    units = mimo_gain_units(unit) if design.controller == "mimo" else pid_gain_units(unit)
+    gains = {k: v["value"] for k, v in doc["gains"].items()}
+    result = {"kind": "gantry", "controller": design.controller, "x_m": design.x, "gains": gains,
+              "gain_units": units, "design": doc["design"], "analysis": analysis}
+    if design.controller == "mimo":
+        result["gains"]["lead_gain"] = design.law.lead_gain
+        result["gain_units"]["lead_gain"] = f"{unit}/m"
+    _write_and_report(result, doc, violations, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
+
+
+# ------------------------------------------------------------------------------------------ loopshape
+def loopshape(
+    plant_file: Path = typer.Argument(..., help="Model file (.toml/.json: a gantry model's m_x) or a measured "
+                                                "SISO FRF (.csv/.mat/.uff)."),
+    crossover_hz: float = typer.Option(..., "--crossover-hz", help="Crossover frequency [Hz] (thesis: 130)."),
+    pm_deg: float = typer.Option(..., "--pm-deg", help="Phase margin at the crossover [deg] (thesis: 35)."),
+    pi_lag_deg: float = typer.Option(10.0, "--pi-lag-deg", help="Phase lag of the integral action at the "
+                                                                "crossover [deg]."),
+    max_stage_deg: float = typer.Option(70.0, "--max-stage-deg", help="Largest phase of one lead stage [deg]."),
+    mass: float = typer.Option(None, "--mass", help="Axis mass [V/(m/s^2)] (instead of the model's m_x or the "
+                                                    "FRF estimate)."),
+    channel: str = typer.Option(None, "--channel", help="FRF channel OUT/IN when the FRF has several."),
+    notch: list[str] = NOTCH_OPTION,
+    lpf: float = LPF_OPTION,
+    lpf_order: int = typer.Option(1, "--lpf-order", help="Low-pass order, 1 or 2."),
+    lpf_zeta: float = LPF_ZETA_OPTION,
+    lead: list[str] = LEAD_OPTION,
+    prefilter: str = typer.Option(None, "--prefilter", help="Pre-filter gains VEL,ACC,JERK,SNAP "
+                                                            "[s, s^2, s^3, s^4] (eq. 4.20)."),
+    prefilter_hz: float = PREFILTER_HZ_OPTION,
+    fs: float = FS_OPTION,
+    delay_samples: int = DELAY_OPTION,
+    frf: Path = typer.Option(None, "--frf", help="Measured SISO FRF for the measured and discrete cases."),
+    quantity: str = QUANTITY_OPTION,
+    ms_max: float = typer.Option(None, "--ms-max", help="Largest acceptable peak sensitivity [-]."),
+    pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable phase margin [deg]."),
+    out: Path = OUT_OPTION,
+    force: bool = FORCE_OPTION,
+    allow_unstable: bool = ALLOW_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20)."""
+    from ..analysis.gantry import analyze_axis, limit_violations, target_violations
+    from ..design.gantry_gains import axis_gains_document
+    from ..design.loopshape import PrefilterGains, design_loopshape
+    from .frf_options import read_optional_frf
+
+    if plant_file.suffix.lower() in (".toml", ".json"):
+        from ..io import load_model
+
+        plant = load_model(plant_file)
+    else:
+        plant = read_optional_frf(plant_file, quantity)
+    design = design_loopshape(
+        plant, crossover_hz=crossover_hz, pm_deg=pm_deg, pi_lag_deg=pi_lag_deg,
+        filters=_loop_filters(notch, lpf, lpf_order, lpf_zeta, lead), fs=fs, delay_samples=delay_samples,
+        max_stage_deg=max_stage_deg, prefilter=PrefilterGains.parse(prefilter), prefilter_hz=prefilter_hz,
+        mass=mass, channel=channel)
+    measured = read_optional_frf(frf, quantity)
+    analysis = analyze_axis(design, measured, channel=channel if measured is not None else None).to_dict()
+    checked = "discrete" if analysis["discrete"] is not None else "ideal_discrete"
+    violations = limit_violations(analysis, checked, ms_max=ms_max, pm_min_deg=pm_min)
+    own = design.design_dict()["checked_case"]
+    violations += target_violations(analysis[own], crossover_hz, pm_deg, name=own)
+    doc = axis_gains_document(design, analysis)
+    gains = {k: v["value"] for k, v in doc["gains"].items()}
+    result = {"kind": "axis", "controller": "loopshape", "gains": gains,
+              "gain_units": {k: v["unit"] for k, v in doc["gains"].items()},
+              "lead_stages": [s.to_dict() for s in design.lead_stages], "design": doc["design"],
+              "analysis": analysis}
+    _write_and_report(result, doc, violations, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
+
+
+# ------------------------------------------------------------------------------------------ gantry
+def gantry(
+    model_file: Path = typer.Argument(..., help="Gantry model file from 'feedtune identify gantry'."),
+    crossover_hz: float = typer.Option(60.0, "--crossover-hz", help="CoM-loop crossover [Hz] (thesis: 60)."),
+    pm_deg: float = typer.Option(40.0, "--pm-deg", help="CoM-loop phase margin [deg] (thesis: 40)."),
+    damping_increase: float = typer.Option(5.9, "--damping-increase", help="Increase of the torsional damping "
+                                                                           "by active damping [-] (5.9 = +590 %)."),
+    ki: float = typer.Option(None, "--ki", help="Actuator-level integral gain [V/(m s)]; default "
+                                                "K_D wc tan(--integral-lag-deg)."),
+    integral_lag_deg: float = typer.Option(10.0, "--integral-lag-deg", help="Sets the default --ki [deg]."),
+    notch: list[str] = NOTCH_OPTION,
+    lpf: float = LPF_OPTION,
+    lpf_order: int = typer.Option(2, "--lpf-order", help="Low-pass order, 1 or 2."),
+    lpf_zeta: float = LPF_ZETA_OPTION,
+    lead: list[str] = LEAD_OPTION,
+    x: float = X_OPTION,
+    x_min: float = X_MIN_OPTION,
+    x_max: float = X_MAX_OPTION,
+    x_points: int = X_POINTS_OPTION,
+    prefilter1: str = PRE1_OPTION,
+    prefilter2: str = PRE2_OPTION,
+    prefilter_hz: float = PREFILTER_HZ_OPTION,
+    fs: float = FS_OPTION,
+    delay_samples: int = DELAY_OPTION,
+    frf: Path = GANTRY_FRF_OPTION,
+    quantity: str = QUANTITY_OPTION,
+    ms_max: float = typer.Option(3.0, "--ms-max", help="Largest acceptable max sigma_max(S) [-]."),
+    pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable CoM phase margin [deg]."),
+    out: Path = OUT_OPTION,
+    force: bool = FORCE_OPTION,
+    allow_unstable: bool = ALLOW_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Gantry MIMO control: averaging, lead, active damping, actuator-level integral (eq. 4.22-4.33)."""
+    from ..design.gantry_mimo import design_gantry_mimo
+    from ..design.loopshape import PrefilterGains
+    from .frf_options import read_optional_frf
+
+    model = _gantry_model(model_file)
+    design = design_gantry_mimo(
+        model, crossover_hz=crossover_hz, pm_deg=pm_deg, damping_increase=damping_increase, ki=ki,
+        integral_lag_deg=integral_lag_deg, filters=_loop_filters(notch, lpf, lpf_order, lpf_zeta, lead), fs=fs,
+        delay_samples=delay_samples, x=x, x_grid=_x_grid(model, x_min, x_max, x_points),
+        prefilter1=PrefilterGains.parse(prefilter1, "--prefilter1"),
+        prefilter2=PrefilterGains.parse(prefilter2, "--prefilter2"), prefilter_hz=prefilter_hz)
+    _gantry_finish(design, read_optional_frf(frf, quantity), ms_max=ms_max, pm_min=pm_min,
+                   targets=(crossover_hz, pm_deg), out=out, force=force, allow_unstable=allow_unstable,
+                   as_json=as_json)
+
+
+# ------------------------------------------------------------------------------------------ pid
+def _pair(text: str | None, name: str):
+    from ..errors import UsageError
+
+    if text is None:
+        return None
+    try:
+        vals = [float(v) for v in str(text).split(",")]
+    except ValueError:
+        raise UsageError(f"{name} expects one number or SIDE1,SIDE2, got {text!r}") from None
+    if len(vals) not in (1, 2):
+        raise UsageError(f"{name} expects one number or SIDE1,SIDE2, got {text!r}")
+    return (vals[0], vals[-1])
+
+
+def _matched(match: Path, frf):
+    """Ms of a gantry gains file in the case the PID is checked in, and its filters without the leads."""
+    from ..analysis.gantry import analyze_gantry
+    from ..design.gantry_gains import gantry_law_from_document
+    from ..design.loopshape import LoopFilters
+    from ..io import read_document
+
+    law, model, x, ref = gantry_law_from_document(read_document(match), str(match))
+    a = analyze_gantry(law, model, x=x, frf=frf, reference=ref)
+    h = law.filters
+    return a.cases["discrete" if frf is not None else "ideal_discrete"].metrics.ms, \
+        LoopFilters(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta)
+
+
+def pid(
+    model_file: Path = typer.Argument(..., help="Gantry model file from 'feedtune identify gantry'."),
+    ms_max: float = typer.Option(None, "--ms-max", help="Peak sensitivity max sigma_max(S) to tune for [-]."),
+    match: Path = typer.Option(None, "--match", help="Gantry gains file (e.g. the MIMO design) whose Ms the "
+                                                     "PIDs are tuned to; without filter options its notches "
+                                                     "and low-pass are used (not its leads)."),
+    kp: str = typer.Option(None, "--kp", help="Proportional gain [V/m], one value or SIDE1,SIDE2 (with --kd, "
+                                              "--ki: no tuning)."),
+    kd: str = typer.Option(None, "--kd", help="Derivative gain [V/(m/s)], one value or SIDE1,SIDE2."),
+    ki: str = typer.Option(None, "--ki", help="Integral gain [V/(m s)], one value or SIDE1,SIDE2."),
+    notch: list[str] = NOTCH_OPTION,
+    lpf: float = LPF_OPTION,
+    lpf_order: int = typer.Option(2, "--lpf-order", help="Low-pass order, 1 or 2."),
+    lpf_zeta: float = LPF_ZETA_OPTION,
+    lead: list[str] = LEAD_OPTION,
+    x: float = X_OPTION,
+    x_min: float = X_MIN_OPTION,
+    x_max: float = X_MAX_OPTION,
+    x_points: int = X_POINTS_OPTION,
+    prefilter1: str = PRE1_OPTION,
+    prefilter2: str = PRE2_OPTION,
+    prefilter_hz: float = PREFILTER_HZ_OPTION,
+    fs: float = FS_OPTION,
+    delay_samples: int = DELAY_OPTION,
+    frf: Path = GANTRY_FRF_OPTION,
+    quantity: str = QUANTITY_OPTION,
+    out: Path = OUT_OPTION,
+    force: bool = FORCE_OPTION,
+    allow_unstable: bool = ALLOW_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Independent PID per side behind notches and low-pass, tuned to a peak sensitivity (thesis baseline)."""
+    from ..design.gantry_pid import design_gantry_pid, tune_gantry_pid
+    from ..design.loopshape import PrefilterGains
+    from ..errors import UsageError
+    from .frf_options import read_optional_frf
+
+    model = _gantry_model(model_file)
+    measured = read_optional_frf(frf, quantity)
+    filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
+    given = [g is not None for g in (kp, kd, ki)]
+    if any(given) and not all(given):
+        raise UsageError("give all of --kp, --kd and --ki, or none of them to tune for --ms-max/--match")
+    if match is not None and ms_max is not None:
+        raise UsageError("give either --ms-max or --match, not both")
+    if match is not None:
+        ms_max, matched_filters = _matched(match, measured)
+        if not (notch or lpf is not None or lead):
+            filters = matched_filters  # the thesis' PIDs: identical notch and low-pass filters
+    common = dict(filters=filters, fs=fs, delay_samples=delay_samples, x=x,
+                  x_grid=_x_grid(model, x_min, x_max, x_points),
+                  prefilter1=PrefilterGains.parse(prefilter1, "--prefilter1"),
+                  prefilter2=PrefilterGains.parse(prefilter2, "--prefilter2"), prefilter_hz=prefilter_hz)
+    if all(given):
+        design = design_gantry_pid(model, kp=_pair(kp, "--kp"), kd=_pair(kd, "--kd"), ki=_pair(ki, "--ki"), **common)
+    elif ms_max is None:
+        raise UsageError("give --ms-max, --match GAINS or all of --kp, --kd, --ki")
+    else:
+        design = tune_gantry_pid(model, ms_max=ms_max, frf=measured, **common)
+    limit = None if ms_max is None else ms_max * (1 + 1e-6)
+    _gantry_finish(design, measured, ms_max=limit, pm_min=None, targets=None, out=out, force=force,
+                   allow_unstable=allow_unstable, as_json=as_json)

@@ -1,0 +1,182 @@
+"""``feedtune frf``: frequency response and coherence estimated from an excitation log.
+
+``--remove-sampling DELAY_SAMPLES`` divides out the zero-order hold and the computational delay (sample rate from
+the log) when the log's input is the controller's computed command and its outputs the controller's encoder
+readings, so the FRF file is the continuous plant the analysis and the fits expect
+(:func:`feedtune.frf_sampling.remove_sampling`). Without it the FRF is written as estimated and its metadata say
+``sampling: not_removed``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair, print_json
+from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+
+#: Coherence level counted in the summary ("lines with coherence >= 0.9").
+GOOD_COHERENCE = 0.9
+
+#: Metadata keys of the sampling record (reported under "sampling", not "estimate").
+SAMPLING_KEYS = ("sampling", "sampling_fs_hz", "sampling_delay_samples")
+
+
+def split_names(text: str, option: str) -> list[str]:
+    """``"x1,x2"`` -> ``["x1", "x2"]``; UsageError for an empty list or an empty name."""
+    from ..errors import UsageError
+
+    names = [n.strip() for n in text.split(",")]
+    if not names or any(not n for n in names):
+        raise UsageError(f"{option} expects comma-separated signal names such as x1,x2, got {text!r}")
+    return names
+
+
+def coherence_stats(coherence) -> dict | None:
+    """Minimum, median, mean [-] and the number of lines with coherence >= 0.9 of one channel."""
+    import numpy as np
+
+    if coherence is None:
+        return None
+    c = np.asarray(coherence, dtype=float)
+    return {"min": float(c.min()), "median": float(np.median(c)), "mean": float(c.mean()),
+            "lines_above_0_9": int(np.count_nonzero(c >= GOOD_COHERENCE))}
+
+
+def frf_summary(frf, log_path: Path) -> dict:
+    """JSON-ready summary of an estimated FRF: lines, band, resolution, coherence per channel, method."""
+    channels = {ch: {"coherence": coherence_stats(frf.channel_coherence(ch))} for ch in frf.channels}
+    meta = dict(frf.meta)
+    return {
+        "log": str(log_path),
+        "method": meta.get("method"),
+        "estimator": meta.get("estimator"),
+        "lines": int(frf.freq_hz.size),
+        "band_hz": [float(frf.freq_hz[0]), float(frf.freq_hz[-1])],
+        "quantity": frf.quantity,
+        "channels": channels,
+        "unit": f"{frf.output_unit or '-'}/{frf.input_unit or '-'}",
+        "estimate": {k: v for k, v in meta.items() if k not in ("source", "method", "estimator", *SAMPLING_KEYS)},
+        "sampling": sampling_record(meta),
+        "units": {"band_hz": "Hz", "coherence": "-", "frf": f"{frf.output_unit or '-'}/{frf.input_unit or '-'}",
+                  "fs_hz": "Hz", "delay_samples": "samples"},
+    }
+
+
+def sampling_record(meta) -> dict:
+    """The sampling record of an estimate's metadata: removed (bool), fs_hz [Hz], delay_samples [samples]."""
+    from ..frf_sampling import REMOVED, SAMPLING_DELAY_KEY, SAMPLING_FS_KEY, SAMPLING_KEY
+
+    fs, delay = meta.get(SAMPLING_FS_KEY), meta.get(SAMPLING_DELAY_KEY)
+    return {"removed": meta.get(SAMPLING_KEY) == REMOVED, "fs_hz": None if fs is None else float(fs),
+            "delay_samples": None if delay is None else float(delay)}
+
+
+def _check_delay_samples(delay_samples: float | None) -> None:
+    """UsageError naming --remove-sampling for a negative or non-finite delay."""
+    import math
+
+    from ..errors import UsageError
+
+    if delay_samples is not None and not (math.isfinite(delay_samples) and delay_samples >= 0):
+        raise UsageError(f"--remove-sampling expects the computational delay in samples (>= 0, e.g. 1), "
+                         f"got {delay_samples:g}")
+
+
+def _print_summary(result: dict) -> None:
+    est = result["estimate"]
+    lo, hi = result["band_hz"]
+    typer.echo(f"FRF from {result['log']}: {result['estimator']} ({result['method']})")
+    typer.echo(f"  {result['lines']} lines, {fmt(lo, 'Hz')} .. {fmt(hi, 'Hz')}, unit {result['unit']} "
+               f"({result['quantity']})")
+    if "period_samples" in est:
+        typer.echo(f"  period {est['period_samples']} samples ({est['period_s']} s, {est['period_detection']}); "
+                   f"{est['periods_averaged']} of {est['periods_total']} periods averaged, "
+                   f"{est['excited_lines']} excited lines")
+    elif "nperseg" in est:
+        typer.echo(f"  {est['segments']} segments of {est['nperseg']} samples, overlap {est['overlap']}, "
+                   f"resolution {est['resolution_hz']} Hz")
+    smp = result["sampling"]
+    if smp["removed"]:
+        typer.echo(f"  ZOH and computational delay ({smp['delay_samples']:g} sample(s) at {smp['fs_hz']:g} Hz) "
+                   "removed: continuous plant")
+    else:
+        typer.echo(f"  sampled at {smp['fs_hz']:g} Hz; ZOH and computational delay not removed "
+                   "(use --remove-sampling DELAY_SAMPLES when the input is the controller's command)")
+    for ch, info in result["channels"].items():
+        c = info["coherence"]
+        if c is None:
+            continue
+        typer.echo(f"  {ch}: coherence min {c['min']:.3f}, median {c['median']:.3f}, mean {c['mean']:.3f}; "
+                   f"{c['lines_above_0_9']} of {result['lines']} lines >= {GOOD_COHERENCE}")
+    if "out" in result:
+        typer.echo(f"wrote {result['out']}")
+
+
+def frf(
+    log_file: Path = typer.Argument(..., help="Excitation log (.csv, .mat, .mf4)."),
+    input_: str = typer.Option("u", "--input", "-i", help="Plant input signal (command) [V, A or N]."),
+    output: str = typer.Option(..., "--output", "-y", help="Output signals, comma-separated, e.g. x1,x2."),
+    reference: str = typer.Option(
+        None, "--reference", "-r", help="Excitation injected into a closed loop: indirect estimate G = S_ry/S_ru."
+    ),
+    method: str = typer.Option("h1", "--method", help="h1 (Welch) or periodic (multisine, per-line averaging)."),
+    period_samples: int = typer.Option(
+        None, "--period-samples", help="Period of a periodic excitation [samples] (default: detected)."
+    ),
+    transient_periods: int = typer.Option(1, "--transient-periods", help="Leading periods dropped (periodic)."),
+    nperseg: int = typer.Option(None, "--nperseg", help="Welch segment length [samples] (h1)."),
+    overlap: float = typer.Option(0.5, "--overlap", help="Welch overlap as a fraction of --nperseg (h1)."),
+    band: tuple[float, float] = typer.Option(None, "--band", help="Keep LO HI [Hz]."),
+    quantity: str = typer.Option("position", "--quantity", help="What the outputs measure: position, velocity, "
+                                 "acceleration."),
+    map_: list[str] = MAP_OPTION,
+    fs: float = FS_OPTION,
+    time: str = TIME_OPTION,
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    skip_rows: int = SKIP_ROWS_OPTION,
+    remove_sampling: float = typer.Option(
+        None, "--remove-sampling", metavar="DELAY_SAMPLES",
+        help="Divide out the zero-order hold and a computational delay of DELAY_SAMPLES samples (sample rate from "
+        "the log). Use it when the input is the controller's computed command and the outputs its encoder "
+        "readings, so the FRF is the continuous plant the analysis expects.",
+    ),
+    out: Path = typer.Option(None, "--out", "-o", help="FRF file to write (.csv, .mat or .uff)."),
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Estimate the FRF input -> outputs and its coherence from a log (Welch H1, periodic, or indirect).
+
+    With --remove-sampling the ZOH and the computational delay of a controller's own log are removed.
+    """
+    from ..frf_sampling import mark_sampling_kept
+    from ..frf_sampling import remove_sampling as remove_zoh_and_delay
+    from ..identify.frf_estimate import estimate_frf
+    from ..io import ensure_writable, write_frf
+    from ..io.frf_read import frf_format
+    from .log_options import read_log_with_options
+
+    outputs = split_names(output, "--output")
+    freq_range = parse_float_pair(band, "--band")
+    _check_delay_samples(remove_sampling)
+    if out is not None:
+        frf_format(out)
+        ensure_writable(out, force)
+    log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
+    estimate = estimate_frf(log, input=input_, outputs=outputs, reference=reference, method=method,
+                            period_samples=period_samples, transient_periods=transient_periods, nperseg=nperseg,
+                            overlap=overlap, freq_range=freq_range, quantity=quantity)
+    if remove_sampling is None:
+        estimate = mark_sampling_kept(estimate, log.fs)
+    else:
+        estimate = remove_zoh_and_delay(estimate, log.fs, remove_sampling)
+    result = frf_summary(estimate, log_file)
+    if out is not None:
+        write_frf(estimate, out, force=force)
+        result["out"] = str(out)
+    if as_json:
+        print_json(result)
+    else:
+        _print_summary(result)

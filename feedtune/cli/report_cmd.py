@@ -1,0 +1,81 @@
+"""``feedtune report``: one self-contained HTML document (optional PDF) showing the tuning from the user's files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, print_json
+
+HTML_SUFFIXES = (".html", ".htm")
+
+
+def check_report_paths(out: Path, pdf: bool, force: bool) -> list[Path]:
+    """The files the report will write (HTML, and the PDF beside it); refuse them before any work is done."""
+    from ..errors import UsageError
+    from ..io import ensure_writable
+    from ..report.build import pdf_path_for
+
+    if out.suffix.lower() not in HTML_SUFFIXES:
+        raise UsageError(f"--out {out}: the report is an HTML file; give a name ending in .html")
+    paths = [out] + ([pdf_path_for(out)] if pdf else [])
+    return [ensure_writable(p, force) for p in paths]
+
+
+def report(
+    inputs: list[Path] = typer.Argument(
+        ..., help="Model, gains, FRF and log files, or folders holding them (classified by content)."
+    ),
+    out: Path = typer.Option(..., "--out", "-o", help="HTML file to write (.html)."),
+    pdf: bool = typer.Option(False, "--pdf", help="Also write a PDF with the same figures and tables (OUT.pdf)."),
+    title: str = typer.Option(None, "--title", help="Report title."),
+    log_kind: list[str] = typer.Option(
+        None, "--log-kind", help="FILE=KIND: what run a log holds (track, cut, ropesnap, contour, friction; frf and "
+        "mass logs are listed only), for logs without feedtune metadata; repeatable."
+    ),
+    strict: bool = typer.Option(
+        False, "--strict", help="Files in a folder that cannot be read or classified are errors, not warnings."
+    ),
+    ms_max: float = typer.Option(2.5, "--ms-max", help="Flag designs with a peak sensitivity above this [-]."),
+    pm_min: float = typer.Option(30.0, "--pm-min", help="Flag phase margins below this [deg]."),
+    gm_min: float = typer.Option(3.0, "--gm-min", help="Flag |gain margins| below this [dB]."),
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Build a report: summary, identification, design and time-domain sections for the files given."""
+    from ..errors import UsageError
+    from ..report.build import build_report, write_report
+    from ..report.collect import parse_log_kinds
+    from ..report.sections import ReportLimits
+
+    for name, value in (("--ms-max", ms_max), ("--pm-min", pm_min), ("--gm-min", gm_min)):
+        if not value > 0:
+            raise UsageError(f"{name} must be > 0, got {value:g}")
+    check_report_paths(out, pdf, force)
+    limits = ReportLimits(ms_max=ms_max, pm_min_deg=pm_min, gm_min_db=gm_min)
+    built = build_report(inputs, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict, limits=limits)
+    written = write_report(built, out, pdf=pdf, force=force)
+    result = report_summary(built, written)
+    if as_json:
+        print_json(result)
+        return
+    typer.echo(f"report with {result['figures']} figures and {result['tables']} tables: "
+               + ", ".join(result["sections"]))
+    for w in result["warnings"]:
+        typer.echo(f"warning: {w}")
+    for p, size in zip(result["files"], result["sizes_bytes"], strict=True):
+        typer.echo(f"wrote {p} ({size / 1e6:.2f} MB)")
+
+
+def report_summary(built, written: list[Path]) -> dict:
+    """The ``--json`` object: files, sizes [bytes], section titles, figure and table counts, warnings."""
+    return {
+        "files": [str(p) for p in written],
+        "sizes_bytes": [p.stat().st_size for p in written],
+        "sections": [s.title for s in built.sections],
+        "figures": len(built.figures()),
+        "tables": len(built.tables()),
+        "warnings": list(built.warnings),
+        "units": {"sizes_bytes": "bytes"},
+    }

@@ -1,0 +1,330 @@
+"""``feedtune simulate gantry frf|mass|ropesnap|track|contour``: experiments on the gantry digital twin.
+
+Registered in :mod:`feedtune.cli.main` as the ``gantry`` group of ``feedtune simulate``. Every command
+writes CSV logs (and FRFs) all-or-nothing, never replaces a file without ``--force``, and exits with status
+1 after writing the log of a run a safety limit stopped (the log carries a ``# trip:`` line).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+
+app = typer.Typer(
+    rich_markup_mode=None,
+    help="Run experiments on the linear-motor T-gantry twin (thesis chapter 4); write logs and FRFs.",
+    no_args_is_help=True,
+)
+
+PARAM_OPTION = typer.Option(
+    None, "--param", "-p",
+    help="Twin parameter NAME=VALUE (repeatable), e.g. k=150e3, base_hz=none, mode320.zeta=0.05, "
+         "pwm_noise_v=0; see docs/gantry_twin.md.")
+IDEAL_OPTION = typer.Option(False, "--ideal", help="Twin without structural, pitching or base modes, noise, "
+                                                   "quantization or saturation (eq. 4.16 alone).")
+SEED_OPTION = typer.Option(0, "--seed", help="Seed of the noise (and multisine phases).")
+ENGINE_OPTION = typer.Option("auto", "--engine", help="Plant step: auto, numba or python.")
+OUT_OPTION = typer.Option(..., "--out", "-o", help="Log file to write (.csv).")
+GAINS_OPTION = typer.Option(..., "--gains", "-g", help="Gantry gains file (kind gantry) from feedtune design "
+                                                       "gantry|pid.")
+OPT_GAINS_OPTION = typer.Option(None, "--gains", "-g", help="Gantry gains file (kind gantry); default: the built-in "
+                                                            "holding controller (CoM/yaw PID, 20 Hz).")
+AXIS_GAINS_OPTION = typer.Option(None, "--axis-gains", help="x-axis gains file (kind axis) from feedtune design "
+                                                            "loopshape; default: the built-in holding PID.")
+X_OPTION = typer.Option(0.0, "--x", help="Table position [m].")
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def _twin(params: list[str] | None, ideal: bool):
+    from ..errors import UsageError
+    from ..sim.gantry_twin import GantryTwin, GantryTwinParams
+
+    base = GantryTwinParams.ideal() if ideal else GantryTwinParams()
+    overrides = {}
+    for item in params or []:
+        key, sep, val = item.partition("=")
+        if not sep or not key.strip():
+            raise UsageError(f"--param expects NAME=VALUE, got {item!r}")
+        overrides[key.strip()] = val.strip()
+    return GantryTwin(base.with_overrides(overrides))
+
+
+def _runtime(path: Path | None, kind: str, option: str):
+    """The runtime of a gains file of the given kind ("gantry" or "axis"), or None."""
+    if path is None:
+        return None
+    from ..errors import UsageError
+    from ..sim.gantry_runtime import AxisRuntime, GantryRuntime, load_runtime
+
+    rt = load_runtime(path)
+    expected = GantryRuntime if kind == "gantry" else AxisRuntime
+    if not isinstance(rt, expected):
+        raise UsageError(f"{option} {path}: expected a gains file of kind {kind!r}, got a {type(rt).__name__}")
+    return rt
+
+
+def _check_csv(out: Path, option: str = "--out") -> None:
+    from ..errors import UsageError
+
+    if out.suffix.lower() != ".csv":
+        raise UsageError(f"{option} {out}: logs are written as .csv")
+
+
+def _with_x(path: Path, x: float, several: bool) -> Path:
+    """``log.csv`` -> ``log_x-0.3.csv`` when several positions are run."""
+    return path.with_name(f"{path.stem}_x{x:g}{path.suffix}") if several else path
+
+
+def _positions(xs: list[float] | None) -> list[float]:
+    from ..errors import UsageError
+
+    xs = list(xs or [0.0])
+    if len(set(xs)) != len(xs):
+        raise UsageError(f"--x positions must be distinct, got {', '.join(f'{v:g}' for v in xs)}")
+    return xs
+
+
+def _finish(results: list, texts: dict, force: bool, as_json: bool, lines: list[str], extra: dict | None = None
+            ) -> None:
+    """Write every file all-or-nothing, print, and turn a trip into an error after writing its log."""
+    from ..errors import DataError
+    from ..sim.demo import write_texts
+
+    written = write_texts(texts, force=force)
+    out = results[0].to_dict() if len(results) == 1 else {"runs": [r.to_dict() for r in results]}
+    out.update(extra or {})
+    out["files"] = [str(p) for p in written]
+    if as_json:
+        print_json(out)
+    else:
+        for line in lines:
+            typer.echo(line)
+        for p in written:
+            typer.echo(f"wrote {p}")
+    tripped = [r for r in results if r.tripped]
+    if tripped:
+        raise DataError(f"{tripped[0].run.trip_message}; the log up to the trip was written")
+
+
+def _log_text(result) -> str:
+    from ..io.log_csv import log_to_csv_text
+
+    return log_to_csv_text(result.log)
+
+
+# ------------------------------------------------------------------------------------------ commands
+@app.command("frf")
+def frf(
+    out: Path = OUT_OPTION,
+    x: list[float] = typer.Option(None, "--x", help="Table position [m] (repeatable: one run per position; "
+                                                    "file names get _x<POS> appended)."),
+    frf_out: Path = typer.Option(None, "--frf-out", help="FRF file (.csv; default: the log name + _frf.csv)."),
+    rms: float = typer.Option(0.5, "--rms", help="RMS of the multisine added to u1, then u2 [V]."),
+    f_lo: float = typer.Option(2.0, "--f-lo", help="Lowest excited frequency [Hz]."),
+    f_hi: float = typer.Option(1000.0, "--f-hi", help="Highest excited frequency [Hz]."),
+    period: float = typer.Option(0.5, "--period", help="Multisine period [s] (line spacing 1/period)."),
+    periods: int = typer.Option(4, "--periods", help="Periods per input; the first of each is dropped."),
+    keep_delay: bool = typer.Option(False, "--keep-delay", help="Keep the computational delay and the ZOH half "
+                                                                "sample in the FRF (default: removed)."),
+    gains: Path = OPT_GAINS_OPTION,
+    axis_gains: Path = AXIS_GAINS_OPTION,
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Measure the 2x2 FRF (u1, u2) -> (y1, y2) [m/V] at each table position under a stabilising controller."""
+    from ..io.frf_csv import frf_to_csv_text
+    from ..sim.gantry_experiments import measure_gantry_frf
+
+    _check_csv(out)
+    if frf_out is not None:
+        _check_csv(frf_out, "--frf-out")
+    xs = _positions(x)
+    twin = _twin(param, ideal)
+    g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    several = len(xs) > 1
+    results, texts, lines = [], {}, []
+    for xi in xs:
+        res = measure_gantry_frf(twin, xi, rms=rms, f_lo=f_lo, f_hi=f_hi, period_s=period, periods=periods,
+                                 controller=g, axis=a, remove_delay=not keep_delay, seed=seed, engine=engine)
+        results.append(res)
+        log_path = _with_x(out, xi, several)
+        texts[str(log_path)] = _log_text(res)
+        if res.tripped:
+            break
+        frf_path = _with_x(frf_out, xi, several) if frf_out is not None else log_path.with_name(
+            log_path.stem + "_frf.csv")
+        texts[str(frf_path)] = frf_to_csv_text(res.frf)
+        s = res.summary
+        lines.append(f"FRF at x = {xi:g} m ({fmt(s['rms_V'], 'V')} RMS per input, {s['band_hz'][0]:g}-"
+                     f"{s['band_hz'][1]:g} Hz): {s['n_lines']} lines, lowest coherence {fmt(s['coherence_min'])}")
+    _finish(results, texts, force, as_json, lines)
+
+
+@app.command("mass")
+def mass(
+    out: Path = OUT_OPTION,
+    x: list[float] = typer.Option(None, "--x", help="Table position [m] (repeatable; file names get _x<POS>)."),
+    axis_run: bool = typer.Option(True, "--axis/--no-axis", help="Also run the table back and forth "
+                                                                 "(OUT_axis.csv) for m_x."),
+    distance: float = typer.Option(0.1, "--distance", help="Length of the back-and-forth move [m]."),
+    v_max: float = typer.Option(0.1, "--v-max", help="Velocity limit [m/s]."),
+    a_max: float = typer.Option(0.5, "--a-max", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(2.5, "--j-max", help="Jerk limit [m/s^3]."),
+    cycles: int = typer.Option(1, "--cycles", help="Back-and-forth cycles."),
+    gains: Path = OPT_GAINS_OPTION,
+    axis_gains: Path = AXIS_GAINS_OPTION,
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Mass runs: slow y moves at each table position (u1, u2, ay_ref logged) for feedtune identify mass."""
+    from ..sim.gantry_experiments import run_axis_mass, run_mass
+
+    _check_csv(out)
+    xs = _positions(x)
+    twin = _twin(param, ideal)
+    g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    move = {"distance": distance, "v_max": v_max, "a_max": a_max, "j_max": j_max}
+    several = len(xs) > 1
+    results, texts, lines = [], {}, []
+    for xi in xs:
+        res = run_mass(twin, xi, controller=g, axis=a, move=move, cycles=cycles, seed=seed, engine=engine)
+        results.append(res)
+        texts[str(_with_x(out, xi, several))] = _log_text(res)
+        lines.append(f"mass run at x = {xi:g} m: {fmt(res.run.t[-1], 's')}")
+    if axis_run and not any(r.tripped for r in results):
+        res = run_axis_mass(twin, x_start=min(xs), controller=g, axis=a, move=move, cycles=cycles, seed=seed,
+                            engine=engine)
+        results.append(res)
+        texts[str(out.with_name(f"{out.stem}_axis{out.suffix}"))] = _log_text(res)
+        lines.append(f"x-axis run from x = {min(xs):g} m: {fmt(res.run.t[-1], 's')}")
+    lines.append("identify with: feedtune identify mass LOGS --x POSITIONS [--axis-log AXIS_LOG]")
+    _finish(results, texts, force, as_json, lines)
+
+
+@app.command("ropesnap")
+def ropesnap(
+    gains: Path = GAINS_OPTION,
+    out: Path = OUT_OPTION,
+    axis_gains: Path = AXIS_GAINS_OPTION,
+    x: float = X_OPTION,
+    force_n: float = typer.Option(57.0, "--rope-force", help="Rope force on the table before the release [N] "
+                                                             "(converted with force_constant_n_per_v)."),
+    t_release: float = typer.Option(0.5, "--t-release", help="Release time [s]."),
+    after: float = typer.Option(0.5, "--after", help="Time simulated after the release [s]."),
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Rope snap (thesis 4.5): a table force released at --t-release; logs the table displacement y_table."""
+    from ..sim.gantry_experiments import run_gantry_ropesnap
+
+    _check_csv(out)
+    twin = _twin(param, ideal)
+    g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    res = run_gantry_ropesnap(twin, g, a, force_n=force_n, x=x, t_release=t_release, after_s=after, seed=seed,
+                              engine=engine)
+    lines = []
+    if not res.tripped:
+        st = res.summary["settling_time_s"]
+        lines = [f"rope snap ({fmt(force_n, 'N')} = {fmt(res.summary['force_V'], 'V')}) with {g.controller}: "
+                 f"peak {res.summary['peak_um']:.4g} um, 5 % settling "
+                 f"{'not reached' if st is None else f'{st:.4g} s'}"]
+    _finish([res], {str(out): _log_text(res)}, force, as_json, lines)
+
+
+@app.command("track")
+def track(
+    gains: Path = GAINS_OPTION,
+    out: Path = OUT_OPTION,
+    axis_gains: Path = AXIS_GAINS_OPTION,
+    x: float = X_OPTION,
+    test: str = typer.Option(None, "--test", help="Thesis test: 1mm_s (1 mm/s, 2.8 mm/s^2, 10 mm/s^3, 2 mm) or "
+                                                  "200mm_s (200 mm/s, 2 m/s^2, 50 m/s^3, 100 mm)."),
+    distance: float = typer.Option(0.1, "--distance", help="Move length [m] (without --test)."),
+    v_max: float = typer.Option(0.2, "--v-max", help="Velocity limit [m/s]."),
+    a_max: float = typer.Option(2.0, "--a-max", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(50.0, "--j-max", help="Jerk limit [m/s^3]."),
+    s_max: float = typer.Option(None, "--s-max", help="Snap limit [m/s^4] (jerk-continuous profile)."),
+    dwell_before: float = typer.Option(0.05, "--dwell-before", help="Rest before the move [s]."),
+    dwell_after: float = typer.Option(0.2, "--dwell-after", help="Rest after the move [s]."),
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Track a y move with the table at --x; logs y_ref and derivatives, y1, y2, u1, u2 and the errors e1, e2."""
+    from ..sim.gantry_experiments import run_gantry_tracking, tracking_trajectory
+
+    _check_csv(out)
+    twin = _twin(param, ideal)
+    g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    move = test if test is not None else {"distance": distance, "v_max": v_max, "a_max": a_max, "j_max": j_max,
+                                          "s_max": s_max}
+    tr = tracking_trajectory(move, twin.fs, dwell_before=dwell_before, dwell_after=dwell_after)
+    res = run_gantry_tracking(twin, g, tr, a, x=x, seed=seed, engine=engine)
+    lines = [] if res.tripped else [
+        f"tracking {tr.limits['v_max'] * 1e3:g} mm/s at x = {x:g} m with {g.controller}: max error "
+        f"{res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um (y1 and y2)"]
+    _finish([res], {str(out): _log_text(res)}, force, as_json, lines)
+
+
+@app.command("contour")
+def contour(
+    gains: Path = GAINS_OPTION,
+    axis_gains: Path = typer.Option(..., "--axis-gains", help="x-axis gains file (kind axis) from feedtune design "
+                                                              "loopshape."),
+    out: Path = OUT_OPTION,
+    shape: str = typer.Option("circle", "--shape", help="circle or diamond."),
+    feature: str = typer.Option(None, "--feature", help="Thesis test: 1um, 1mm or 200mm (size, feed and limits "
+                                                        "of 4.5)."),
+    size: float = typer.Option(0.2, "--size", help="Circle diameter or diamond side [m] (without --feature)."),
+    v_max: float = typer.Option(0.2, "--v-max", help="Feed limit [m/s]."),
+    a_max: float = typer.Option(2.0, "--a-max", help="Tangential acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(50.0, "--j-max", help="Tangential jerk limit [m/s^3]."),
+    clockwise: bool = typer.Option(False, "--clockwise", help="Run clockwise (default counter-clockwise)."),
+    x0: float = typer.Option(0.1, "--x0", help="Table position at the start point [m] (circle: its rightmost "
+                                               "point; diamond: its lowest corner)."),
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """x-y contour: the table on x under --axis-gains, the gantry on y under --gains; logs the contour error."""
+    from ..sim.contour import THESIS_FEATURES, contour_path
+    from ..sim.gantry_experiments import run_contour
+
+    _check_csv(out)
+    twin = _twin(param, ideal)
+    g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    lim = {"size_m": size, "v_max": v_max, "a_max": a_max, "j_max": j_max}
+    if feature is not None:
+        from ..errors import UsageError
+
+        if feature not in THESIS_FEATURES:
+            raise UsageError(f"--feature must be one of {', '.join(THESIS_FEATURES)}, got {feature!r}")
+        lim = THESIS_FEATURES[feature]
+    path = contour_path(shape, lim["size_m"], v_max=lim["v_max"], a_max=lim["a_max"], j_max=lim["j_max"],
+                        fs=twin.fs, start=(x0, 0.0), clockwise=clockwise, dwell_before=0.05, dwell_after=0.2)
+    res = run_contour(twin, g, a, path, seed=seed, engine=engine)
+    lines = [] if res.tripped else [
+        f"{path.shape} {path.size_m * 1e3:g} mm at {lim['v_max'] * 1e3:g} mm/s with {g.controller}: contour "
+        f"error max {res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um"]
+    _finish([res], {str(out): _log_text(res)}, force, as_json, lines)

@@ -1,0 +1,468 @@
+"""MIMO control of the linear-motor T-gantry (thesis §4.4.2, eq. 4.22-4.33).
+
+Sensor averaging ``ybar = alpha1 y1 + alpha2 y2`` (eq. 4.23) and actuator averaging ``f_i = alpha_i f_T``
+turn the 2x2 plant into ``Gbar = alpha^T G alpha = 1/(m s^2)`` whatever the yaw mode (eq. 4.24), because
+``alpha^T [-a1, a2]^T = 0``. The feedback law of eq. 4.30 is::
+
+    K(s) = h(s) diag(alpha) { [1, 1]^T D(s) [alpha1, alpha2] + beta [[1, -1], [-1, 1]] s + (ki/s) I }
+
+* ``D(s) = K_D prod_i (Td_i s + 1)/(s/a_i + 1)`` (eq. 4.26, usually one stage) makes the CoM loop
+  ``h (D + ki/s) / (m s^2)`` cross over at ``crossover_hz`` with phase margin ``pm_deg`` on the discrete
+  loop (ZOH, delay and the matched filters counted, like :func:`feedtune.design.loopshape.design_loopshape`).
+* Active damping (eq. 4.27-4.28) adds ``2 a1 a2 beta`` to the torsional damping ``c``:
+  ``beta = damping_increase c / (2 a1 a2)`` at the design position.
+* Actuator-level integral action (eq. 4.29) ``diag(alpha) ki/s`` on each side's error.
+* ``h(s)`` is the filter pack (notches, low-pass, second lead).
+
+Feedforward ``u_ff = M(x) [y_r1'', y_r2'']`` (eq. 4.31) and per-side pre-filters (eq. 4.32) use the tables of
+:class:`GantrySchedule`, scheduled in the table position ``x`` (eq. 4.33).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import DesignError, UsageError
+from ..lti import Zpk
+from ..models.gantry import GantryModel
+from .discretize import backward_difference, backward_euler_integrator, matched
+from .loopshape import (
+    TWO_PI,
+    LeadStage,
+    LoopFilters,
+    PrefilterGains,
+    check_sampling,
+    preview_samples,
+    split_lead,
+    wrap_deg,
+    zoh_double_integrator,
+)
+
+
+# ------------------------------------------------------------------------------------- averaging
+def averaging_vectors(alpha) -> tuple[np.ndarray, np.ndarray]:
+    """Sensor averaging row ``[alpha1, alpha2]`` and actuator averaging column ``[alpha1, alpha2]^T``."""
+    a = np.asarray(alpha, float).reshape(2)
+    return a.reshape(1, 2), a.reshape(2, 1)
+
+
+def averaged_plant(model: GantryModel, x: float, freq_hz, alpha=None) -> np.ndarray:
+    """``alpha^T G(x) alpha`` [m/V] on a grid [Hz] (eq. 4.24); equals ``1/(m s^2)`` when ``alpha = alpha(x)``.
+
+    Parameters
+    ----------
+    model : GantryModel
+    x : float
+        Table position [m].
+    freq_hz : array_like
+        Grid [Hz], > 0.
+    alpha : (float, float), optional
+        The averaging weights; the model's ``alpha(x)`` by default.
+    """
+    a = np.asarray(model.alpha(x) if alpha is None else alpha, float)
+    G = model.frequency_response(freq_hz, x)
+    return np.einsum("i,ijn,j->n", a, G, a)
+
+
+def damping_gain(model: GantryModel, damping_increase: float, x: float = 0.0) -> float:
+    """``beta`` [V/(m/s)] that raises the torsional damping by ``damping_increase * c`` at ``x`` (eq. 4.28)."""
+    if not (math.isfinite(damping_increase) and damping_increase >= 0):
+        raise UsageError(f"--damping-increase must be a number >= 0 (5.9 = +590 %), got {damping_increase}")
+    a1, a2 = model.arms(x)
+    return float(damping_increase * model.c / (2.0 * a1 * a2))
+
+
+def torsional_damping(model: GantryModel, beta: float, x: float = 0.0) -> float:
+    """Torsional damping with active damping ``c + 2 a1 a2 beta`` [V m s] at ``x`` (eq. 4.28)."""
+    a1, a2 = model.arms(x)
+    return float(model.c + 2.0 * a1 * a2 * beta)
+
+
+# -------------------------------------------------------------------------------------- the law
+def _s_values(freq_hz) -> np.ndarray:
+    return TWO_PI * 1j * np.asarray(freq_hz, float)
+
+
+@dataclass(frozen=True)
+class MimoLaw:
+    """The feedback law of eq. 4.30 at one table position.
+
+    Attributes
+    ----------
+    alpha : (float, float)
+        Mass distribution used for averaging [-].
+    lead_gain : float
+        ``K_D`` [V/m].
+    lead_stages : tuple of LeadStage
+        Stages of ``D(s)``.
+    beta : float
+        Active damping gain [V/(m/s)].
+    ki : float
+        Actuator-level integral gain [V/(m s)].
+    filters : LoopFilters
+        ``h(s)``.
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    """
+
+    alpha: tuple
+    lead_gain: float
+    lead_stages: tuple
+    beta: float
+    ki: float
+    filters: LoopFilters
+    fs: float
+    delay_samples: int = 1
+
+    controller = "mimo"
+
+    def lead(self) -> Zpk:
+        """Continuous ``D(s)`` [V/m]."""
+        d = Zpk.constant(self.lead_gain)
+        for s in self.lead_stages:
+            d = d * s.zpk()
+        return d
+
+    def lead_discrete(self) -> Zpk:
+        """Matched ``D(z)``."""
+        return matched(self.lead(), self.fs).tf
+
+    def filter_pack_discrete(self) -> Zpk:
+        """Matched ``h(z)``."""
+        return matched(self.filters.zpk(), self.fs).tf
+
+    @property
+    def integrators(self) -> int:
+        """Controller poles at the origin (one per channel with integral action)."""
+        return 2 if self.ki != 0 else 0
+
+    def _assemble(self, h, d, deriv, integ) -> np.ndarray:
+        a1, a2 = self.alpha
+        n = h.size
+        K = np.empty((2, 2, n), complex)
+        b = self.beta * deriv
+        i = self.ki * integ
+        K[0, 0] = a1 * (d * a1 + b + i)
+        K[0, 1] = a1 * (d * a2 - b)
+        K[1, 0] = a2 * (d * a1 - b)
+        K[1, 1] = a2 * (d * a2 + b + i)
+        return K * h
+
+    def response(self, freq_hz) -> np.ndarray:
+        """Continuous ``K(j w)`` [V/m], shape ``(2, 2, n)``."""
+        f = np.asarray(freq_hz, float)
+        s = _s_values(f)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self._assemble(self.filters.zpk().freqresp(f), self.lead().freqresp(f), s, 1.0 / s)
+
+    def response_discrete(self, freq_hz) -> np.ndarray:
+        """Discrete ``K(e^{j w T})`` [V/m] (backward difference and backward-Euler integral)."""
+        f = np.asarray(freq_hz, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self._assemble(self.filter_pack_discrete().freqresp(f), self.lead_discrete().freqresp(f),
+                                  backward_difference(self.fs).freqresp(f),
+                                  backward_euler_integrator(self.fs).freqresp(f))
+
+    def rhp_poles(self, discrete: bool) -> int:
+        """Controller poles in the right half plane (outside the unit circle)."""
+        zs = (self.filter_pack_discrete(), self.lead_discrete()) if discrete else (self.filters.zpk(), self.lead())
+        if discrete:
+            return int(sum(np.sum(np.abs(z.poles) > 1 + 1e-9) for z in zs))
+        return int(sum(np.sum(z.poles.real > 1e-9) for z in zs))
+
+    def to_dict(self) -> dict:
+        """Gains and filters with units."""
+        return {"controller": "mimo", "alpha": list(self.alpha), "lead_gain_V_per_m": self.lead_gain,
+                "lead_stages": [s.to_dict() for s in self.lead_stages], "beta_V_per_m_s": self.beta,
+                "ki_V_per_m_s": self.ki, "filters": self.filters.to_dict(), "fs_hz": self.fs,
+                "delay_samples": self.delay_samples}
+
+
+# ---------------------------------------------------------------------------------------- schedule
+@dataclass(frozen=True)
+class GantrySchedule:
+    """Tables over the table position for eq. 4.33 (linear interpolation, clamped at the ends).
+
+    Attributes
+    ----------
+    x : ndarray
+        Table positions [m], strictly increasing.
+    alpha1, alpha2 : ndarray
+        Mass distribution [-].
+    m11, m12, m22 : ndarray
+        Feedforward mass matrix ``M(x)`` [V/(m/s^2)] (eq. 4.31).
+    prefilter1, prefilter2 : ndarray, shape (n_x, 4)
+        Per-side pre-filter gains ``k_vel, k_acc, k_jerk, k_snap`` [s, s^2, s^3, s^4] (eq. 4.32).
+    """
+
+    x: np.ndarray
+    alpha1: np.ndarray
+    alpha2: np.ndarray
+    m11: np.ndarray
+    m12: np.ndarray
+    m22: np.ndarray
+    prefilter1: np.ndarray
+    prefilter2: np.ndarray
+
+    def table(self) -> np.ndarray:
+        """Rows ``alpha1, alpha2, m11, m12, m22, k_*_1, k_*_2``, shape ``(n_x, 13)``."""
+        return np.column_stack([self.alpha1, self.alpha2, self.m11, self.m12, self.m22,
+                                self.prefilter1, self.prefilter2])
+
+    def at(self, x: float) -> np.ndarray:
+        """One interpolated row at ``x`` [m]."""
+        return np.array([np.interp(x, self.x, col) for col in self.table().T])
+
+    def mass_matrix(self, x: float) -> np.ndarray:
+        """``M(x)`` [V/(m/s^2)] interpolated."""
+        r = self.at(x)
+        return np.array([[r[2], r[3]], [r[3], r[4]]])
+
+    def prefilters(self, x: float) -> tuple[PrefilterGains, PrefilterGains]:
+        """Per-side pre-filter gains at ``x``."""
+        r = self.at(x)
+        return PrefilterGains(*r[5:9]), PrefilterGains(*r[9:13])
+
+
+def default_x_grid(model: GantryModel, x_min: float = -0.3, x_max: float = 0.3, n: int = 13) -> np.ndarray:
+    """Schedule grid [m]: ``n`` points over ``[x_min, x_max]`` (UsageError if alpha leaves (0, 1))."""
+    if not (math.isfinite(x_min) and math.isfinite(x_max) and x_min < x_max):
+        raise UsageError(f"schedule range must satisfy x_min < x_max [m], got {x_min:g}, {x_max:g}")
+    if int(n) < 2:
+        raise UsageError(f"the schedule needs at least 2 positions, got {n}")
+    grid = np.linspace(x_min, x_max, int(n))
+    for xx in (x_min, x_max):
+        model.alpha(xx)
+    return grid
+
+
+def gantry_schedule(model: GantryModel, x_grid, prefilter1: PrefilterGains | None = None,
+                    prefilter2: PrefilterGains | None = None) -> GantrySchedule:
+    """Tables of ``alpha(x)``, ``M(x)`` (eq. 4.3 at each x) and constant per-side pre-filter gains."""
+    xs = np.asarray(x_grid, float)
+    if xs.ndim != 1 or xs.size < 1 or np.any(np.diff(xs) <= 0):
+        raise UsageError("schedule positions must be a strictly increasing list [m]")
+    alphas = np.array([model.alpha(v) for v in xs])
+    Ms = np.array([model.at(v).M for v in xs])
+    p1 = np.tile((prefilter1 or PrefilterGains()).values(), (xs.size, 1))
+    p2 = np.tile((prefilter2 or PrefilterGains()).values(), (xs.size, 1))
+    return GantrySchedule(xs, alphas[:, 0], alphas[:, 1], Ms[:, 0, 0], Ms[:, 0, 1], Ms[:, 1, 1], p1, p2)
+
+
+# ----------------------------------------------------------------------------------------- design
+@dataclass(frozen=True)
+class GantryMimoDesign:
+    """A gantry MIMO design (eq. 4.22-4.33).
+
+    Attributes
+    ----------
+    model : GantryModel
+    x : float
+        Design table position [m].
+    law : MimoLaw
+    schedule : GantrySchedule
+    crossover_hz, pm_deg : float
+        CoM-loop targets [Hz, deg].
+    damping_increase : float
+        Requested increase of the torsional damping [-] (5.9 = +590 %).
+    integral : str
+        How ``ki`` was chosen.
+    prefilter_hz : float
+        Pre-filter low-pass [Hz].
+    iterations : int
+    """
+
+    model: GantryModel
+    x: float
+    law: MimoLaw
+    schedule: GantrySchedule
+    crossover_hz: float
+    pm_deg: float
+    damping_increase: float
+    integral: str
+    prefilter_hz: float
+    iterations: int
+    extra: dict = field(default_factory=dict)
+
+    kind = "gantry"
+    controller = "mimo"
+
+    @property
+    def fs(self) -> float:
+        """Sample rate [Hz]."""
+        return self.law.fs
+
+    @property
+    def delay_samples(self) -> int:
+        """Computational delay [samples]."""
+        return self.law.delay_samples
+
+    @property
+    def preview_samples(self) -> int:
+        """Reference look-ahead [samples]."""
+        return preview_samples(self.law.fs)
+
+    def design_dict(self) -> dict:
+        """Design parameters and results, units in the keys."""
+        a1, a2 = self.model.arms(self.x)
+        return {
+            "method": "sensor/actuator averaging, lead D(s), active damping, actuator-level integral (eq. 4.30)",
+            "x_m": self.x,
+            "crossover_hz": self.crossover_hz,
+            "pm_deg": self.pm_deg,
+            "damping_increase": self.damping_increase,
+            "torsional_damping_V_m_s": self.model.c,
+            "torsional_damping_with_active_damping_V_m_s": torsional_damping(self.model, self.law.beta, self.x),
+            "arms_m": [a1, a2],
+            "lead_gain_V_per_m": self.law.lead_gain,
+            "lead_stages": [s.to_dict() for s in self.law.lead_stages],
+            "integral": self.integral,
+            "iterations": self.iterations,
+            "prefilter_hz": self.prefilter_hz,
+            "checked_case": "ideal_discrete",
+            **self.extra,
+        }
+
+
+def _unit_magnitude_gain(A: complex, B: complex) -> float | None:
+    """Largest ``K > 0`` with ``|K A + B| = 1`` (None if there is none)."""
+    a = abs(A) ** 2
+    b = 2.0 * (A * np.conj(B)).real
+    c = abs(B) ** 2 - 1.0
+    disc = b * b - 4 * a * c
+    if a == 0 or disc < 0:
+        return None
+    k = (-b + math.sqrt(disc)) / (2 * a)
+    return k if k > 0 else None
+
+
+def design_gantry_mimo(
+    model: GantryModel,
+    *,
+    crossover_hz: float = 60.0,
+    pm_deg: float = 40.0,
+    damping_increase: float = 5.9,
+    ki: float | None = None,
+    integral_lag_deg: float = 10.0,
+    filters: LoopFilters | None = None,
+    fs: float = 15000.0,
+    delay_samples: int = 1,
+    x: float = 0.0,
+    x_grid=None,
+    prefilter1: PrefilterGains | None = None,
+    prefilter2: PrefilterGains | None = None,
+    prefilter_hz: float = 80.0,
+    max_stage_deg: float = 70.0,
+) -> GantryMimoDesign:
+    """Design the gantry MIMO controller of eq. 4.30 at table position ``x`` (see the module docstring).
+
+    Parameters
+    ----------
+    model : GantryModel
+    crossover_hz : float
+        Crossover of the CoM loop [Hz] (thesis: 60).
+    pm_deg : float
+        Phase margin of the CoM loop [deg] (thesis: 40).
+    damping_increase : float
+        Increase of the torsional damping by active damping [-] (thesis: 5.9 = +590 %).
+    ki : float, optional
+        Actuator-level integral gain [V/(m s)]. Default: ``ki = K_D wc tan(integral_lag_deg)``, so that the
+        integral corner ``ki / K_D`` lies where a PI would lag ``integral_lag_deg`` at the crossover
+        (the x-axis rule of eq. 4.17); 0 disables the integral.
+    integral_lag_deg : float
+        See ``ki`` [deg].
+    filters : LoopFilters, optional
+        ``h(s)``: notches, low-pass, second lead.
+    fs : float
+        Sample rate [Hz] (thesis: 15 kHz).
+    delay_samples : int
+        Computational delay [samples].
+    x : float
+        Design table position [m] (alpha, beta and the lead are computed there).
+    x_grid : array_like, optional
+        Schedule positions [m]; default 13 points over -0.3..0.3 m.
+    prefilter1, prefilter2 : PrefilterGains, optional
+        Per-side pre-filter gains (eq. 4.32), constant over x.
+    prefilter_hz : float
+        Pre-filter low-pass frequency [Hz] (thesis: 80).
+    max_stage_deg : float
+        Largest phase of one stage of ``D(s)`` [deg].
+
+    Raises
+    ------
+    UsageError
+        Bad parameter. DesignError: the crossover cannot be reached with a positive gain.
+    """
+    check_sampling(fs, delay_samples)
+    if not (math.isfinite(crossover_hz) and 0 < crossover_hz < fs / 2):
+        raise UsageError(f"--crossover-hz must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, "
+                         f"got {crossover_hz}")
+    if not 0 < pm_deg < 90:
+        raise UsageError(f"--pm-deg must lie in (0, 90) deg, got {pm_deg}")
+    if ki is not None and not (math.isfinite(ki) and ki >= 0):
+        raise UsageError(f"--ki must be a gain >= 0 [V/(m s)], got {ki}")
+    if ki is None and not 0 < integral_lag_deg < 45:
+        raise UsageError(f"integral lag must lie in (0, 45) deg, got {integral_lag_deg}")
+    pack = filters or LoopFilters()
+    pack.check_nyquist(fs)
+    alpha = model.alpha(x)
+    beta = damping_gain(model, damping_increase, x)
+    wc = TWO_PI * crossover_hz
+    fc = [float(crossover_hz)]
+    plant = zoh_double_integrator(model.m, fs, fc)[0] * np.exp(-1j * wc * delay_samples / fs)
+    h = matched(pack.zpk(), fs).tf.freqresp(fc)[0]
+    integ = backward_euler_integrator(fs).freqresp(fc)[0]
+    ratio = wc * math.tan(math.radians(integral_lag_deg)) if ki is None else 0.0
+    target = -180.0 + pm_deg
+
+    def loop_parts(stages) -> tuple[complex, complex]:
+        d = matched(_stages_zpk(stages), fs).tf.freqresp(fc)[0]
+        A = h * plant * (d + ratio * integ)
+        B = 0.0 if ki is None else ki * h * plant * integ
+        return A, B
+
+    A0, B0 = loop_parts(())
+    k0 = _unit_magnitude_gain(A0, B0)
+    lead = float(wrap_deg(target - np.angle((k0 or 1.0) * A0 + B0, deg=True)))
+    for count in range(1, 51):
+        iterations = count
+        stages = tuple(LeadStage(crossover_hz, p) for p in split_lead(lead, max_stage_deg))
+        A, B = loop_parts(stages)
+        k = _unit_magnitude_gain(A, B)
+        if k is None:
+            raise DesignError(f"the integral gain --ki {ki:g} V/(m s) alone exceeds unit loop gain at "
+                              f"{crossover_hz:g} Hz; lower --ki or raise --crossover-hz")
+        err = float(wrap_deg(target - np.angle(k * A + B, deg=True)))
+        if abs(err) < 1e-6:
+            break
+        lead += err
+        if abs(lead) > 270:
+            raise DesignError(f"the CoM loop needs {lead:.0f} deg of lead at {crossover_hz:g} Hz; lower "
+                              "--crossover-hz or --pm-deg, or change the filter pack")
+    else:
+        raise DesignError(f"lead design did not converge at {crossover_hz:g} Hz (phase error {err:.3g} deg)")
+    ki_value = float(ratio * k) if ki is None else float(ki)
+    law = MimoLaw(tuple(float(a) for a in alpha), float(k), stages, beta, ki_value, pack, float(fs),
+                  int(delay_samples))
+    how = (f"ki = K_D wc tan({integral_lag_deg:g} deg)" if ki is None else "given")
+    grid = default_x_grid(model) if x_grid is None else x_grid
+    return GantryMimoDesign(model, float(x), law, gantry_schedule(model, grid, prefilter1, prefilter2),
+                            float(crossover_hz), float(pm_deg), float(damping_increase), how, float(prefilter_hz),
+                            iterations)
+
+
+def _stages_zpk(stages) -> Zpk:
+    d = Zpk.constant(1.0)
+    for s in stages:
+        d = d * s.zpk()
+    return d
+
+
+def with_beta(design: GantryMimoDesign, beta: float) -> GantryMimoDesign:
+    """The same design with another active-damping gain [V/(m/s)] (e.g. 0 to see the loop without it)."""
+    return replace(design, law=replace(design.law, beta=float(beta)))

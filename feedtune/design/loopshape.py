@@ -1,0 +1,655 @@
+"""Classical loop shaping of a direct-drive axis (thesis §4.4.1, eq. 4.17-4.20) and the shared gantry pieces.
+
+The x axis of the gantry is a double integrator ``G_x = 1/(m_x s^2)`` [m/V] (or a measured SISO FRF). The
+controller of eq. 4.18 is::
+
+    C(s) = K (Ti s + 1)/s * prod_i (Td_i s + 1)/(s/a_i + 1) * F(s)
+
+* ``Ti`` gives the integral part a phase lag ``pi_lag_deg`` at the crossover: ``Ti = 1/(wc tan(lag))``.
+* The lead needed at the crossover ``wc`` (eq. 4.17) is ``phi = -180 + PM - angle(G F ZOH delay PI)(j wc)``;
+  it is split into ``ceil(phi / max_stage_deg)`` equal stages centred at ``wc`` (a single stage gives less
+  than 90 deg). Each stage has the thesis' lead ratio ``gamma = sqrt((1 + sin phi_i)/(1 - sin phi_i))``:
+  zero at ``wc / gamma``, pole at ``a = gamma wc`` (126 deg -> two stages of 63 deg, gamma = 4.2).
+* ``F(s)`` is the filter pack (notches, low-pass, extra leads: :class:`LoopFilters`).
+* ``K`` makes ``|L(j wc)| = 1``.
+
+The phase of the filters, of the zero-order hold and of the computational delay, and the distortion of the
+pole-zero-matched controller, are all counted: the lead and the gain are iterated on the *discrete* loop
+(ZOH-discretized model or measured FRF x ZOH x delay, with the matched controller) until the crossover and
+phase margin hold there. Feedforward is ``u_ff = m_x x_r''`` (eq. 4.19) and the trajectory pre-filter
+(eq. 4.20) ``x_r' = x_r + sum_n k_n s^n G_lpf^(n+1) x_r`` with ``G_lpf = w_f/(s + w_f)`` (80 Hz in the
+thesis) for ``n = 1..4`` (velocity, acceleration, jerk, snap).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import DataError, DesignError, UsageError
+from ..frf import Frf
+from ..lti import Zpk, delay_response
+from .discretize import matched
+from .filters import FilterPack, Notch, lowpass1, lowpass2
+
+TWO_PI = 2 * np.pi
+
+
+# ------------------------------------------------------------------------------------------ lead stages
+def thesis_gamma(phase_deg: float) -> float:
+    """Thesis lead ratio ``gamma = a / wc = sqrt((1 + sin phi)/(1 - sin phi))`` [-] of one stage.
+
+    Examples
+    --------
+    >>> round(thesis_gamma(63.0), 2)
+    4.17
+    """
+    phi = math.radians(float(phase_deg))
+    if not -math.pi / 2 < phi < math.pi / 2:
+        raise UsageError(f"a lead stage gives between -90 and 90 deg, got {phase_deg}")
+    return math.sqrt((1 + math.sin(phi)) / (1 - math.sin(phi)))
+
+
+def split_lead(phase_deg: float, max_stage_deg: float = 70.0) -> list[float]:
+    """Equal stages [deg] that add up to ``phase_deg``, none larger than ``max_stage_deg`` in magnitude.
+
+    Examples
+    --------
+    >>> split_lead(126.0)
+    [63.0, 63.0]
+    """
+    if not 0 < max_stage_deg < 90:
+        raise UsageError(f"max_stage_deg must lie in (0, 90) deg, got {max_stage_deg}")
+    if abs(phase_deg) < 1e-9:
+        return []
+    n = math.ceil(abs(phase_deg) / max_stage_deg - 1e-12)
+    return [float(phase_deg) / n] * n
+
+
+@dataclass(frozen=True)
+class LeadStage:
+    """One lead (or lag, for a negative phase) stage ``(s/wz + 1)/(s/wp + 1)`` centred at ``center_hz``.
+
+    Parameters
+    ----------
+    center_hz : float
+        Frequency of the largest phase [Hz].
+    phase_deg : float
+        Phase at ``center_hz`` [deg], in (-90, 90); unit gain at 0 Hz.
+    """
+
+    center_hz: float
+    phase_deg: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "center_hz", _positive(self.center_hz, "lead centre frequency [Hz]"))
+        object.__setattr__(self, "phase_deg", float(self.phase_deg))
+        thesis_gamma(self.phase_deg)
+
+    @property
+    def gamma(self) -> float:
+        """Thesis lead ratio ``a / wc`` [-]."""
+        return thesis_gamma(self.phase_deg)
+
+    @property
+    def zero_hz(self) -> float:
+        """Zero frequency ``1/(2 pi Td)`` [Hz]."""
+        return self.center_hz / self.gamma
+
+    @property
+    def pole_hz(self) -> float:
+        """Pole frequency ``a/(2 pi)`` [Hz]."""
+        return self.center_hz * self.gamma
+
+    def zpk(self) -> Zpk:
+        """Continuous ``(Td s + 1)/(s/a + 1)``, unit gain at 0 Hz."""
+        wz, wp = TWO_PI * self.zero_hz, TWO_PI * self.pole_hz
+        return Zpk([-wz], [-wp], wp / wz)
+
+    def to_dict(self) -> dict:
+        """``center_hz, phase_deg, gamma, zero_hz, pole_hz``."""
+        return {"center_hz": self.center_hz, "phase_deg": self.phase_deg, "gamma": self.gamma,
+                "zero_hz": self.zero_hz, "pole_hz": self.pole_hz}
+
+    @classmethod
+    def parse(cls, text: str) -> LeadStage:
+        """From the command-line form ``HZ,DEG`` (e.g. ``154,70``)."""
+        parts = [p.strip() for p in str(text).split(",")]
+        if len(parts) != 2:
+            raise UsageError(f"--lead expects HZ,DEG (e.g. 154,70), got {text!r}")
+        try:
+            hz, deg = (float(p) for p in parts)
+        except ValueError:
+            raise UsageError(f"--lead expects two numbers HZ,DEG, got {text!r}") from None
+        if not 0 < deg < 90:
+            raise UsageError(f"--lead phase must lie between 0 and 90 deg, got {deg:g}")
+        return cls(hz, deg)
+
+
+def _positive(v, name: str) -> float:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise UsageError(f"{name} must be a number, got {v!r}") from None
+    if not (math.isfinite(x) and x > 0):
+        raise UsageError(f"{name} must be a finite number > 0, got {v!r}")
+    return x
+
+
+# --------------------------------------------------------------------------------------- filter pack
+@dataclass(frozen=True)
+class LoopFilters:
+    """Filter pack of a loop-shaped controller: notches, a 1st- or 2nd-order low-pass and extra leads.
+
+    Parameters
+    ----------
+    notches : sequence of Notch
+        ``(s^2 + 2 zz wn s + wn^2)/(s^2 + 2 zp wn s + wn^2)`` each.
+    lpf_hz : float or None
+        Low-pass frequency [Hz]; None for none.
+    lpf_order : int
+        1 (``w/(s + w)``) or 2 (``w^2/(s^2 + 2 zeta w s + w^2)``).
+    lpf_zeta : float
+        Damping of the 2nd-order low-pass [-].
+    leads : sequence of LeadStage
+        Extra lead stages inside the pack (the gantry's second lead at 154 Hz, 70 deg).
+    """
+
+    notches: Sequence[Notch] = field(default_factory=tuple)
+    lpf_hz: float | None = None
+    lpf_order: int = 1
+    lpf_zeta: float = 0.7
+    leads: Sequence[LeadStage] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "notches", tuple(self.notches))
+        object.__setattr__(self, "leads", tuple(self.leads))
+        if self.lpf_hz is not None:
+            object.__setattr__(self, "lpf_hz", _positive(self.lpf_hz, "low-pass frequency [Hz]"))
+        if self.lpf_order not in (1, 2):
+            raise UsageError(f"low-pass order must be 1 or 2, got {self.lpf_order!r}")
+        if not (math.isfinite(self.lpf_zeta) and self.lpf_zeta > 0):
+            raise UsageError(f"low-pass damping must be > 0, got {self.lpf_zeta!r}")
+
+    @classmethod
+    def from_filter_pack(cls, pack: FilterPack) -> LoopFilters:
+        """The ball-screw :class:`~feedtune.design.filters.FilterPack` (notches, 1st-order low-pass)."""
+        return cls(pack.notches, pack.lpf_hz, 1)
+
+    def zpk(self) -> Zpk:
+        """The combined continuous transfer function (unit gain at 0 Hz)."""
+        g = Zpk.constant(1.0)
+        for n in self.notches:
+            g = g * n.zpk()
+        for stage in self.leads:
+            g = g * stage.zpk()
+        if self.lpf_hz is not None:
+            g = g * (lowpass1(self.lpf_hz) if self.lpf_order == 1 else lowpass2(self.lpf_hz, self.lpf_zeta))
+        return g
+
+    def check_nyquist(self, fs: float) -> None:
+        """UsageError when a filter frequency is at or above the Nyquist frequency ``fs/2`` [Hz]."""
+        for n in self.notches:
+            if n.freq_hz >= fs / 2:
+                raise UsageError(f"--notch {n.freq_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz")
+        for stage in self.leads:
+            if stage.pole_hz >= fs / 2:
+                raise UsageError(f"--lead {stage.center_hz:g} Hz has its pole at {stage.pole_hz:g} Hz, at or "
+                                 f"above the Nyquist frequency {fs / 2:g} Hz")
+        if self.lpf_hz is not None and self.lpf_hz >= fs / 2:
+            raise UsageError(f"--lpf {self.lpf_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz")
+
+    def to_dict(self) -> dict:
+        """Plain description (frequencies in Hz, phases in deg)."""
+        return {
+            "notches": [{"freq_hz": n.freq_hz, "zeta_z": n.zeta_z, "zeta_p": n.zeta_p} for n in self.notches],
+            "lpf_hz": self.lpf_hz,
+            "lpf_order": self.lpf_order,
+            "lpf_zeta": self.lpf_zeta,
+            "leads": [{"center_hz": s.center_hz, "phase_deg": s.phase_deg} for s in self.leads],
+        }
+
+    @classmethod
+    def from_dict(cls, d, where: str = "filters") -> LoopFilters:
+        """Inverse of :meth:`to_dict`; DataError names the bad entry."""
+        if not isinstance(d, dict):
+            raise DataError(f"{where}: expected a table with notches, lpf_hz, lpf_order, leads")
+        try:
+            notches = [Notch(float(n["freq_hz"]), float(n["zeta_z"]), float(n["zeta_p"]))
+                       for n in d.get("notches", [])]
+            leads = [LeadStage(float(s["center_hz"]), float(s["phase_deg"])) for s in d.get("leads", [])]
+            lpf = d.get("lpf_hz")
+            return cls(notches, None if lpf in (None, 0, "none") else float(lpf), int(d.get("lpf_order", 1)),
+                       float(d.get("lpf_zeta", 0.7)), leads)
+        except (KeyError, TypeError, ValueError, UsageError) as exc:
+            raise DataError(f"{where}: invalid filter description ({exc})") from None
+
+
+# ----------------------------------------------------------------------------------------- pre-filter
+PREFILTER_ORDERS = {"vel": 1, "acc": 2, "jerk": 3, "snap": 4}
+
+
+@dataclass(frozen=True)
+class PrefilterGains:
+    """Trajectory pre-filter gains of eq. 4.20/4.32.
+
+    Attributes
+    ----------
+    k_vel, k_acc, k_jerk, k_snap : float
+        Gains on the low-pass filtered velocity [s], acceleration [s^2], jerk [s^3] and snap [s^4].
+    """
+
+    k_vel: float = 0.0
+    k_acc: float = 0.0
+    k_jerk: float = 0.0
+    k_snap: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in PREFILTER_ORDERS:
+            v = float(getattr(self, f"k_{name}"))
+            if not math.isfinite(v):
+                raise UsageError(f"pre-filter gain k_{name} must be finite, got {v}")
+            object.__setattr__(self, f"k_{name}", v)
+
+    def values(self) -> tuple[float, float, float, float]:
+        """``(k_vel, k_acc, k_jerk, k_snap)`` [s, s^2, s^3, s^4]."""
+        return (self.k_vel, self.k_acc, self.k_jerk, self.k_snap)
+
+    @classmethod
+    def parse(cls, text: str | None, option: str = "--prefilter") -> PrefilterGains:
+        """From ``VEL,ACC,JERK,SNAP`` [s, s^2, s^3, s^4]; ``None`` gives zeros."""
+        if text is None:
+            return cls()
+        parts = [p.strip() for p in str(text).split(",")]
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            raise UsageError(f"{option} expects four numbers VEL,ACC,JERK,SNAP [s, s^2, s^3, s^4], "
+                             f"got {text!r}") from None
+        if len(vals) != 4:
+            raise UsageError(f"{option} expects four numbers VEL,ACC,JERK,SNAP, got {text!r}")
+        return cls(*vals)
+
+    def to_dict(self) -> dict:
+        """Gains with a units entry."""
+        return {"k_vel": self.k_vel, "k_acc": self.k_acc, "k_jerk": self.k_jerk, "k_snap": self.k_snap,
+                "units": {"k_vel": "s", "k_acc": "s^2", "k_jerk": "s^3", "k_snap": "s^4"}}
+
+
+def prefilter_terms(lpf_hz: float) -> list[Zpk]:
+    """``s^n G_lpf^(n+1)`` for ``n = 1..4`` with ``G_lpf = w/(s + w)`` at ``lpf_hz`` [Hz] (eq. 4.20)."""
+    w = TWO_PI * _positive(lpf_hz, "pre-filter low-pass frequency [Hz]")
+    return [Zpk(np.zeros(n), np.full(n + 1, -w), w ** (n + 1)) for n in PREFILTER_ORDERS.values()]
+
+
+def prefilter_response(gains: PrefilterGains, lpf_hz: float, freq_hz, fs: float | None = None) -> np.ndarray:
+    """``x_r'/x_r = 1 + sum_n k_n s^n G_lpf^(n+1)`` on a grid [Hz]; discrete (matched) when ``fs`` is given."""
+    f = np.asarray(freq_hz, float)
+    out = np.ones(f.shape, complex)
+    for k, term in zip(gains.values(), prefilter_terms(lpf_hz), strict=True):
+        if k != 0.0:
+            out += k * (term.freqresp(f) if fs is None else matched(term, fs).tf.freqresp(f))
+    return out
+
+
+def reference_filters(lpf_hz: float, fs: float) -> dict[str, Zpk]:
+    """Discrete reference filters shared by the axis and gantry laws (all ``dt = 1/fs``).
+
+    ``prefilter_vel`` .. ``prefilter_snap`` are the matched ``s^n G_lpf^(n+1)`` (proper, no delay);
+    ``acceleration`` is the matched ``s^2`` made causal with ``P = 2`` poles at ``z = 0`` and ``position``
+    is ``z^-P``: fed with the reference ``P`` samples ahead they realise ``s^2`` and ``1`` without delay.
+    """
+    from .ballscrew_law import reference_path
+
+    out = {}
+    for name, term in zip(PREFILTER_ORDERS, prefilter_terms(lpf_hz), strict=True):
+        m = matched(term, fs)
+        if m.delay_samples != 0:  # pragma: no cover - s^n G^(n+1) is strictly proper
+            raise DesignError(f"pre-filter term {name} is not causal after discretization")
+        out[f"prefilter_{name}"] = m.tf
+    preview = preview_samples(fs)
+    out["acceleration"] = reference_path(Zpk([0.0, 0.0], [], 1.0), fs, preview).discrete
+    out["position"] = reference_path(Zpk.constant(1.0), fs, preview).discrete
+    return out
+
+
+def preview_samples(fs: float) -> int:
+    """Reference look-ahead ``P`` [samples] the matched ``s^2`` feedforward needs (2)."""
+    return matched(Zpk([0.0, 0.0], [], 1.0), fs).delay_samples
+
+
+def check_sampling(fs: float, delay_samples: int) -> None:
+    """UsageError unless ``fs`` [Hz] > 0 and ``delay_samples`` is an integer >= 0."""
+    if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+        raise UsageError(f"--fs must be a sample rate > 0 Hz, got {fs}")
+    if int(delay_samples) != delay_samples or delay_samples < 0:
+        raise UsageError(f"--delay-samples must be an integer >= 0, got {delay_samples}")
+
+
+# ----------------------------------------------------------------------------------------- x-axis plant
+@dataclass(frozen=True)
+class AxisPlant:
+    """The plant of a loop-shaped axis: a double integrator ``1/(m s^2)`` and/or a measured position FRF.
+
+    Attributes
+    ----------
+    mass : float
+        Control-signal equivalent mass [V/(m/s^2)] (feedforward, ideal analysis cases; design plant
+        when there is no FRF).
+    frf : Frf or None
+        Measured SISO position FRF [m/V]; when given, the design uses it.
+    channel : str or None
+        The FRF channel used (``"OUT/IN"``).
+    source : str
+        Where the plant came from (for the gains file).
+    mass_method : str
+        ``"given"`` or how the mass was estimated from the FRF.
+    """
+
+    mass: float
+    frf: Frf | None = None
+    channel: str | None = None
+    source: str = "double integrator"
+    mass_method: str = "given"
+
+    def response(self, freq_hz) -> np.ndarray:
+        """Continuous plant response [m/V] on a grid [Hz]: the FRF (interpolated) or ``1/(m s^2)``."""
+        f = np.asarray(freq_hz, float)
+        if self.frf is None:
+            return 1.0 / (self.mass * (TWO_PI * 1j * f) ** 2)
+        return frf_at(self.frf, self.channel, f)
+
+    def to_dict(self) -> dict:
+        """Description with units."""
+        return {"kind": "axis", "mass": self.mass, "frf": None if self.frf is None else self.frf.source,
+                "channel": self.channel, "source": self.source, "mass_method": self.mass_method,
+                "units": {"mass": "V/(m/s^2)"}}
+
+
+def frf_at(frf: Frf, channel: str, freq_hz: np.ndarray) -> np.ndarray:
+    """Position FRF channel interpolated at ``freq_hz`` (log-frequency, magnitude and unwrapped phase)."""
+    pos = frf.as_quantity("position")
+    keep = pos.freq_hz > 0
+    fg, h = pos.freq_hz[keep], pos.channel(channel)[keep]
+    f = np.asarray(freq_hz, float)
+    if np.any(f < fg[0] * (1 - 1e-9)) or np.any(f > fg[-1] * (1 + 1e-9)):
+        raise DataError(f"{frf.source}: the FRF covers {fg[0]:g}-{fg[-1]:g} Hz; {f.min():g}-{f.max():g} Hz needed")
+    lf = np.log(fg)
+    mag = np.interp(np.log(f), lf, np.log(np.abs(h)))
+    ph = np.interp(np.log(f), lf, np.unwrap(np.angle(h)))
+    return np.exp(mag + 1j * ph)
+
+
+def axis_plant(plant, *, mass: float | None = None, channel: str | None = None,
+               crossover_hz: float | None = None) -> AxisPlant:
+    """Normalise what a user gives as the x-axis plant.
+
+    Parameters
+    ----------
+    plant : float, GantryModel, model with ``mass`` or ``m_x``, Frf, or AxisPlant
+        A mass [V/(m/s^2)], a gantry model (its ``m_x``), a rigid-body model (its ``mass``) or a measured
+        SISO FRF.
+    mass : float, optional
+        Mass [V/(m/s^2)] overriding the model's or the FRF estimate.
+    channel : str, optional
+        FRF channel ``"OUT/IN"`` when the FRF has several.
+    crossover_hz : float, optional
+        With an FRF and no ``mass``: the mass is estimated from the accelerance below ``crossover_hz/3``.
+    """
+    if isinstance(plant, AxisPlant):
+        return plant
+    if isinstance(plant, Frf):
+        ch = channel
+        if ch is None:
+            if len(plant.channels) != 1:
+                raise UsageError(f"{plant.source}: the FRF has channels {', '.join(plant.channels)}; "
+                                 "choose one with --channel OUT/IN")
+            ch = plant.channels[0]
+        elif not plant.has(ch):
+            raise DataError(f"{plant.source}: no channel {ch!r}; available: {', '.join(plant.channels)}")
+        if mass is not None:
+            return AxisPlant(_positive(mass, "--mass [V/(m/s^2)]"), plant, ch, plant.source, "given")
+        m, how = _mass_from_frf(plant, ch, crossover_hz)
+        return AxisPlant(m, plant, ch, plant.source, how)
+    if mass is not None:
+        return AxisPlant(_positive(mass, "--mass [V/(m/s^2)]"), source="given mass")
+    if isinstance(plant, (int, float)) and not isinstance(plant, bool):
+        return AxisPlant(_positive(plant, "x-axis mass [V/(m/s^2)]"), source="given mass")
+    if getattr(plant, "position_unit", "m") != "m":
+        raise UsageError(f"the x-axis plant must be a linear axis in m; this {type(plant).__name__} is in "
+                         f"{plant.position_unit}")
+    for attr in ("m_x", "mass"):
+        if hasattr(plant, attr):
+            return AxisPlant(_positive(getattr(plant, attr), f"model {attr} [V/(m/s^2)]"),
+                             source=f"{type(plant).__name__}.{attr}")
+    raise UsageError(f"cannot use a {type(plant).__name__} as the x-axis plant; give a mass, a gantry or "
+                     "rigid-body model, or a measured FRF")
+
+
+def _mass_from_frf(frf: Frf, channel: str, crossover_hz: float | None) -> tuple[float, str]:
+    """Median of ``1/|accelerance|`` over the low-frequency part of the FRF (thesis §4.3.1)."""
+    acc = frf.as_quantity("acceleration")
+    f = acc.freq_hz
+    hi = (crossover_hz / 3.0) if crossover_hz else f[f > 0][0] * 10.0
+    sel = (f > 0) & (f <= hi)
+    if sel.sum() < 3:
+        sel = (f > 0) & (np.arange(f.size) < np.flatnonzero(f > 0)[0] + 5)
+    m = float(np.median(1.0 / np.abs(acc.channel(channel)[sel])))
+    if not (math.isfinite(m) and m > 0):
+        raise DataError(f"{frf.source}: cannot estimate the mass from the low-frequency accelerance; give --mass")
+    return m, f"median of 1/|accelerance| over {f[sel][0]:.3g}-{f[sel][-1]:.3g} Hz"
+
+
+# --------------------------------------------------------------------------------------- the x-axis design
+@dataclass(frozen=True)
+class LoopShapeDesign:
+    """A loop-shaped axis controller (eq. 4.18) with feedforward (4.19) and pre-filter (4.20).
+
+    Attributes
+    ----------
+    plant : AxisPlant
+    crossover_hz, pm_deg, pi_lag_deg : float
+        Design targets [Hz, deg, deg].
+    gain : float
+        ``K`` [V/(m s)].
+    ti_s : float
+        Integral time ``Ti`` [s].
+    lead_stages : tuple of LeadStage
+        The lead stages centred at the crossover.
+    filters : LoopFilters
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    prefilter : PrefilterGains
+    prefilter_hz : float
+        Pre-filter low-pass frequency [Hz].
+    iterations : int
+        Lead/gain iterations on the discrete loop.
+    """
+
+    plant: AxisPlant
+    crossover_hz: float
+    pm_deg: float
+    pi_lag_deg: float
+    gain: float
+    ti_s: float
+    lead_stages: tuple
+    filters: LoopFilters
+    fs: float
+    delay_samples: int
+    prefilter: PrefilterGains
+    prefilter_hz: float
+    iterations: int
+    max_stage_deg: float = 70.0
+
+    kind = "loopshape"
+
+    @property
+    def lead_deg(self) -> float:
+        """Total phase lead of the stages at the crossover [deg]."""
+        return float(sum(s.phase_deg for s in self.lead_stages))
+
+    def pi_zpk(self) -> Zpk:
+        """``(Ti s + 1)/s``."""
+        return Zpk([-1.0 / self.ti_s], [0.0], self.ti_s)
+
+    def controller(self) -> Zpk:
+        """Continuous ``C(s)`` [V/m] of eq. 4.18 including the filter pack."""
+        c = self.pi_zpk() * self.filters.zpk() * self.gain
+        for stage in self.lead_stages:
+            c = c * stage.zpk()
+        return c
+
+    def controller_discrete(self) -> Zpk:
+        """Pole-zero-matched ``C(z)`` at ``fs``."""
+        return matched(self.controller(), self.fs).tf
+
+    def feedforward(self) -> Zpk:
+        """``m_x s^2`` [V/m] (eq. 4.19)."""
+        return Zpk([0.0, 0.0], [], self.plant.mass)
+
+    @property
+    def preview_samples(self) -> int:
+        """Reference look-ahead of the discrete feedforward [samples]."""
+        return preview_samples(self.fs)
+
+    def design_dict(self) -> dict:
+        """Design parameters and results with units in the keys."""
+        return {
+            "method": "loop shaping (thesis eq. 4.17-4.18), iterated on the discrete loop",
+            "crossover_hz": self.crossover_hz,
+            "pm_deg": self.pm_deg,
+            "pi_lag_deg": self.pi_lag_deg,
+            "max_stage_deg": self.max_stage_deg,
+            "lead_deg": self.lead_deg,
+            "lead_stages": [s.to_dict() for s in self.lead_stages],
+            "gain_V_per_m_s": self.gain,
+            "ti_s": self.ti_s,
+            "iterations": self.iterations,
+            "plant": self.plant.to_dict(),
+            "prefilter_hz": self.prefilter_hz,
+            "checked_case": "discrete" if self.plant.frf is not None else "ideal_discrete",
+        }
+
+
+def zoh_double_integrator(mass: float, fs: float, freq_hz) -> np.ndarray:
+    """Exact ZOH discretization of ``1/(m s^2)``: ``T^2 (z + 1) / (2 m (z - 1)^2)`` at ``z = e^{j w T}`` [m/V]."""
+    T = 1.0 / fs
+    z = np.exp(TWO_PI * 1j * np.asarray(freq_hz, float) * T)
+    return T * T * (z + 1) / (2 * mass * (z - 1) ** 2)
+
+
+def design_plant_response(plant: AxisPlant, fs: float, delay_samples: int, freq_hz) -> np.ndarray:
+    """The plant as the discrete controller sees it [m/V]: ZOH model or FRF x ZOH, times the delay."""
+    from ..lti import zoh_response
+
+    f = np.asarray(freq_hz, float)
+    if plant.frf is None:
+        g = zoh_double_integrator(plant.mass, fs, f)
+    else:
+        g = plant.response(f) * zoh_response(f, fs)
+    return g * delay_response(f, delay_samples, fs)
+
+
+def wrap_deg(a):
+    """Angle [deg] wrapped to (-180, 180]."""
+    return -((-np.asarray(a, float) + 180.0) % 360.0 - 180.0)
+
+
+def design_loopshape(
+    plant,
+    *,
+    crossover_hz: float,
+    pm_deg: float,
+    pi_lag_deg: float = 10.0,
+    filters: LoopFilters | FilterPack | None = None,
+    fs: float = 15000.0,
+    delay_samples: int = 1,
+    max_stage_deg: float = 70.0,
+    prefilter: PrefilterGains | None = None,
+    prefilter_hz: float = 80.0,
+    mass: float | None = None,
+    channel: str | None = None,
+) -> LoopShapeDesign:
+    """Double-lead-and-integral loop shaping of an axis (thesis eq. 4.17-4.18), see the module docstring.
+
+    Parameters
+    ----------
+    plant : float, GantryModel, rigid-body model, Frf or AxisPlant
+        The axis: a mass [V/(m/s^2)] (double integrator) or a measured SISO position FRF [m/V].
+    crossover_hz : float
+        Crossover frequency [Hz] of the discrete loop.
+    pm_deg : float
+        Phase margin at the crossover [deg].
+    pi_lag_deg : float
+        Phase lag of ``(Ti s + 1)/(Ti s)`` at the crossover [deg]; 0 for no integral action is not allowed.
+    filters : LoopFilters or FilterPack, optional
+        Filter pack (notches, low-pass, extra leads).
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    max_stage_deg : float
+        Largest phase of one lead stage [deg].
+    prefilter : PrefilterGains, optional
+        Pre-filter gains (eq. 4.20); zeros by default.
+    prefilter_hz : float
+        Pre-filter low-pass frequency [Hz].
+    mass : float, optional
+        Mass [V/(m/s^2)] overriding the model's (or the FRF estimate).
+    channel : str, optional
+        FRF channel when the FRF has several.
+
+    Returns
+    -------
+    LoopShapeDesign
+
+    Raises
+    ------
+    UsageError
+        Invalid parameters (crossover above the Nyquist frequency, PM outside (0, 90) ...).
+    DesignError
+        The iteration did not converge (e.g. the required lead exceeds what the stages can give).
+    """
+    check_sampling(fs, delay_samples)
+    wc_hz = _positive(crossover_hz, "--crossover-hz")
+    if wc_hz >= fs / 2:
+        raise UsageError(f"--crossover-hz {wc_hz:g} must be below the Nyquist frequency {fs / 2:g} Hz")
+    if not 0 < pm_deg < 90:
+        raise UsageError(f"--pm-deg must lie in (0, 90) deg, got {pm_deg}")
+    if not 0 < pi_lag_deg < 45:
+        raise UsageError(f"--pi-lag-deg must lie in (0, 45) deg, got {pi_lag_deg}")
+    pack = filters if isinstance(filters, LoopFilters) else (
+        LoopFilters.from_filter_pack(filters) if isinstance(filters, FilterPack) else LoopFilters())
+    pack.check_nyquist(fs)
+    ap = axis_plant(plant, mass=mass, channel=channel, crossover_hz=wc_hz)
+    wc = TWO_PI * wc_hz
+    ti = 1.0 / (wc * math.tan(math.radians(pi_lag_deg)))
+    base = LoopShapeDesign(ap, wc_hz, float(pm_deg), float(pi_lag_deg), 1.0, ti, (), pack, float(fs),
+                           int(delay_samples), prefilter or PrefilterGains(), float(prefilter_hz), 0,
+                           float(max_stage_deg))
+    p_c = design_plant_response(ap, fs, delay_samples, [wc_hz])[0]
+    target = -180.0 + pm_deg
+    other = p_c * matched(base.controller(), fs).tf.freqresp([wc_hz])[0]  # K = 1, no lead
+    lead = float(wrap_deg(target - np.angle(other, deg=True)))
+    design = base
+    for it in range(1, 31):
+        stages = tuple(LeadStage(wc_hz, p) for p in split_lead(lead, max_stage_deg))
+        trial = replace(base, lead_stages=stages, gain=1.0)
+        loop = p_c * trial.controller_discrete().freqresp([wc_hz])[0]
+        err = float(wrap_deg(target - np.angle(loop, deg=True)))
+        design = replace(trial, gain=float(1.0 / abs(loop)), iterations=it)
+        if abs(err) < 1e-6:
+            break
+        lead += err
+        if abs(lead) >= 90.0 * 4:
+            raise DesignError(f"loop shaping needs more than {lead:.0f} deg of lead at {wc_hz:g} Hz; "
+                              "lower --crossover-hz or --pm-deg, or change the filters")
+    else:
+        raise DesignError(f"loop shaping did not converge at {wc_hz:g} Hz (phase error {err:.3g} deg)")
+    return design
+

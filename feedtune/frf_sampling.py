@@ -1,0 +1,183 @@
+"""What an FRF means with respect to sampling: the continuous plant, or the plant seen through a controller.
+
+feedtune's analysis and fits expect the **continuous** plant response (what a dynamic signal analyser measuring
+from the amplifier input to the encoders sees): the analysis's ``discrete`` case multiplies it by the zero-order
+hold ``(1 - e^{-sT})/(sT)`` and the computational delay ``e^{-s d T}`` itself. An FRF estimated from a
+controller's own log (logged command ``u[k]`` -> encoder reading ``x[k]``) already contains both; analysed as is,
+they would be counted twice (about 4 deg of extra lag at 160 Hz at 20 kHz with one sample of delay).
+
+:func:`remove_sampling` divides them out and records that in the FRF's metadata (flat keys, so the record
+survives a CSV round trip):
+
+* ``sampling = "removed"``, ``sampling_fs_hz``, ``sampling_delay_samples``: ZOH and delay divided out;
+* ``sampling = "not_removed"``, ``sampling_fs_hz``: estimated from a log sampled at ``sampling_fs_hz`` and left
+  as estimated (:func:`mark_sampling_kept`).
+
+:func:`sampling_state` reads the record back (also recognising FRFs written before it existed);
+:func:`double_counting_warning` is the one-line warning the analysis commands print for a ``not_removed`` FRF.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from .errors import DataError, UsageError
+from .frf import Frf
+
+#: Metadata key holding the sampling state of an FRF.
+SAMPLING_KEY = "sampling"
+SAMPLING_FS_KEY = "sampling_fs_hz"
+SAMPLING_DELAY_KEY = "sampling_delay_samples"
+REMOVED = "removed"
+NOT_REMOVED = "not_removed"
+UNKNOWN = "unknown"
+
+#: Metadata ``method`` values written by :func:`feedtune.identify.frf_estimate.estimate_frf` (a sampled log).
+_LOG_ESTIMATE_METHODS = ("h1", "periodic")
+
+
+def _sample_rate(fs: float) -> float:
+    try:
+        value = float(fs)
+    except (TypeError, ValueError):
+        raise UsageError(f"sample rate fs must be a number in Hz, got {fs!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise UsageError(f"sample rate fs must be > 0 Hz and finite, got {fs!r}")
+    return value
+
+
+def _delay(delay_samples: float) -> float:
+    try:
+        value = float(delay_samples)
+    except (TypeError, ValueError):
+        raise UsageError(f"delay_samples must be a number of samples >= 0, got {delay_samples!r}") from None
+    if isinstance(delay_samples, bool) or not (math.isfinite(value) and value >= 0):
+        raise UsageError(f"delay_samples must be a number of samples >= 0, got {delay_samples!r}")
+    return value
+
+
+def _number_text(value: float) -> str:
+    """Shortest text of a number (``20000``, ``1``, ``0.5``) for the metadata."""
+    return f"{value:.12g}"
+
+
+def sampling_response(freq_hz: np.ndarray, fs: float, delay_samples: float) -> np.ndarray:
+    """Zero-order hold times computational delay, ``(1 - e^{-sT})/(sT) e^{-s d T}``, on a grid [Hz].
+
+    Parameters
+    ----------
+    freq_hz : ndarray
+        Frequency grid [Hz].
+    fs : float
+        Controller sample rate [Hz] (``T = 1/fs`` [s]).
+    delay_samples : float
+        Computational delay ``d`` [samples].
+
+    Returns
+    -------
+    ndarray of complex
+        The factor [-] a controller's log adds to the continuous plant response.
+    """
+    from .lti import delay_response, zoh_response
+
+    return zoh_response(freq_hz, fs) * delay_response(freq_hz, delay_samples, fs)
+
+
+def remove_sampling(frf: Frf, fs: float, delay_samples: float) -> Frf:
+    """The continuous plant response: ``frf`` divided by the ZOH and the computational delay.
+
+    Use it for an FRF estimated from a controller's own log (input: the computed command ``u[k]``, outputs: the
+    encoder readings ``x[k]``), which contains the zero-order hold and ``delay_samples`` of computational delay.
+
+    Parameters
+    ----------
+    frf : Frf
+        The FRF as estimated; every line must lie at or below the Nyquist frequency ``fs / 2``.
+    fs : float
+        Sample rate of the log / controller [Hz].
+    delay_samples : float
+        Computational delay [samples] (``u[k]`` acts from sample ``k + delay_samples``); 0 removes the ZOH only.
+
+    Returns
+    -------
+    Frf
+        Response divided by :func:`sampling_response` (coherence, quantity and units unchanged); ``meta`` records
+        ``sampling = "removed"``, ``sampling_fs_hz`` [Hz] and ``sampling_delay_samples`` [samples].
+
+    Raises
+    ------
+    UsageError
+        ``fs`` or ``delay_samples`` out of range.
+    DataError
+        The FRF already had its sampling removed, or has lines above ``fs / 2``.
+    """
+    fs = _sample_rate(fs)
+    delay = _delay(delay_samples)
+    if sampling_state(frf) == REMOVED:
+        raise DataError(f"{frf.source}: ZOH and delay were already removed from this FRF (metadata "
+                        f"{_removed_text(frf.meta)}); removing them again would double the correction")
+    f_max = float(frf.freq_hz[-1])
+    if f_max > fs / 2 * (1 + 1e-12):
+        raise DataError(f"{frf.source}: the FRF reaches {f_max:g} Hz, above the Nyquist frequency "
+                        f"{fs / 2:g} Hz of the sampling to remove (fs = {fs:g} Hz); check fs")
+    response = frf.response / sampling_response(frf.freq_hz, fs, delay)
+    meta = {**frf.meta, SAMPLING_KEY: REMOVED, SAMPLING_FS_KEY: _number_text(fs),
+            SAMPLING_DELAY_KEY: _number_text(delay)}
+    return replace(frf, response=response, meta=meta)
+
+
+def mark_sampling_kept(frf: Frf, fs: float) -> Frf:
+    """``frf`` with ``meta`` saying it was estimated from a log sampled at ``fs`` [Hz] and left as estimated."""
+    fs = _sample_rate(fs)
+    meta = {k: v for k, v in frf.meta.items() if k != SAMPLING_DELAY_KEY}
+    meta.update({SAMPLING_KEY: NOT_REMOVED, SAMPLING_FS_KEY: _number_text(fs)})
+    return replace(frf, meta=meta)
+
+
+def _removed_text(meta) -> str:
+    fs = meta.get(SAMPLING_FS_KEY)
+    delay = meta.get(SAMPLING_DELAY_KEY)
+    if fs is None and "delay_removed_s" in meta:
+        return f"delay_removed_s = {meta['delay_removed_s']}"
+    return f"{SAMPLING_FS_KEY} = {fs}, {SAMPLING_DELAY_KEY} = {delay}"
+
+
+def sampling_state(frf: Frf) -> str:
+    """``"removed"``, ``"not_removed"`` or ``"unknown"``: what ``frf.meta`` says about ZOH and delay.
+
+    ``sampling`` decides when present. Without it, ``delay_removed_s`` (the gantry twin's earlier record) means
+    removed, and a ``method`` of ``h1`` or ``periodic`` (an FRF estimated from a sampled log by
+    ``feedtune frf`` before the record existed) means not removed. Anything else (a file from a signal analyser,
+    a model response) is unknown.
+    """
+    meta = frf.meta
+    state = str(meta.get(SAMPLING_KEY, "")).strip().lower()
+    if state in (REMOVED, NOT_REMOVED):
+        return state
+    if "delay_removed_s" in meta:
+        return REMOVED
+    if str(meta.get("method", "")).strip().lower() in _LOG_ESTIMATE_METHODS:
+        return NOT_REMOVED
+    return UNKNOWN
+
+
+def double_counting_warning(frf: Frf, path: object | None = None) -> str | None:
+    """One-line warning for an FRF estimated from a sampled log whose ZOH and delay were not removed, else None.
+
+    Parameters
+    ----------
+    frf : Frf
+    path : path-like, optional
+        File name used in the message (default ``frf.source``).
+    """
+    if sampling_state(frf) != NOT_REMOVED:
+        return None
+    name = frf.source if path is None else str(path)
+    fs = frf.meta.get(SAMPLING_FS_KEY)
+    at = f" at {fs} Hz" if fs else ""
+    return (f"{name} was estimated from a sampled log{at} without removing the ZOH and the computational delay; "
+            "if its input is the controller's command, the discrete case counts them twice "
+            "(feedtune frf --remove-sampling DELAY_SAMPLES)")

@@ -1,0 +1,367 @@
+"""Design section: pole map, loop with crossovers, Nyquist, sensitivity with Ms, disturbance and tracking
+transfer of every ball-screw gains file, overlaid (the MC-PPC vs P-PI comparison of thesis Figs. 3.6,
+3.10-3.13).
+
+The analysis is the one ``feedtune analyze GAINS [--frf F] --json`` prints:
+:func:`feedtune.design.gains.law_from_document` rebuilds the law stored in the file (no redesign) and
+:func:`feedtune.analysis.ballscrew.analyze_ballscrew` evaluates it, with the first given FRF holding
+``x1/u`` and ``x2/u`` for the measured and discrete cases.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from .collect import FrfInput, GainsInput, Inputs
+from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
+from .figures import (
+    Curve,
+    loop_figure,
+    magnitude_figure,
+    nyquist_figure,
+    pole_map_figure,
+    sensitivity_figure,
+)
+from .sections import Colors, ReportLimits, controller_label, parameter_table, quantity_value
+
+PREFILTER_SUFFIX = " + pre-filter"
+CASE_TITLES = {
+    "ideal": "model, continuous controller",
+    "ideal_discrete": "model (ZOH), discrete controller",
+    "measured": "measured FRF, continuous controller",
+    "discrete": "measured FRF, discrete controller + ZOH + delay",
+}
+
+
+@dataclass(frozen=True)
+class BallScrewDesign:
+    """One analysed gains file: display label, colour, the law and model it holds, the analysis objects
+    and the ``feedtune analyze --json`` dictionary."""
+
+    name: str
+    label: str
+    color: str
+    law: object
+    model: object
+    analysis: object
+    result: dict
+    prefilter: tuple | None = None
+
+    @property
+    def main_case(self) -> str:
+        """``discrete`` when a measured FRF was given, else ``ideal_discrete``."""
+        return "discrete" if self.analysis.cases.get("discrete") is not None else "ideal_discrete"
+
+
+def analysis_frf(inputs: Inputs) -> FrfInput | None:
+    """The FRF used for the measured and discrete cases: the first one with both ``x1/u`` and ``x2/u``."""
+    for fi in inputs.frfs:
+        if fi.frf.has("x1/u") and fi.frf.has("x2/u"):
+            return fi
+    return None
+
+
+def analyze_gains(gi: GainsInput, frf) -> tuple[object, object, object, dict]:
+    """``(law, model, analysis, result)`` exactly as ``feedtune analyze`` computes them (result = its JSON)."""
+    from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
+    from ..design.gains import law_from_document
+
+    law, model, kind = law_from_document(gi.doc, str(gi.path))
+    analysis = analyze_ballscrew(law, model, frf)
+    gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc["gains"].items()}
+    if "ppi_gains" in gi.doc:
+        gains.update({k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc["ppi_gains"].items()})
+    poles = closed_loop_poles(law, model)
+    result = {"kind": kind, "gains": gains, "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles],
+              "analysis": analysis.to_dict()}
+    return law, model, analysis, result
+
+
+def design_label(gi: GainsInput, prefilter) -> str:
+    """``MC-PPC``, ``P-PI``...; with `` + pre-filter`` when the gains file has one (as its tracking runs)."""
+    return controller_label(gi.controller) + (PREFILTER_SUFFIX if prefilter is not None else "")
+
+
+def prefilter_of(gi: GainsInput) -> tuple[dict, float] | None:
+    """``(gains, lpf_hz)`` of the gains file's trajectory pre-filter (eq. 3.17-3.20), or None without one."""
+    if "prefilter" not in gi.doc:
+        return None
+    from ..design.prefilter import read_prefilter_gains
+
+    return read_prefilter_gains(gi.doc, str(gi.path))
+
+
+# ------------------------------------------------------------------------------------------ tables
+def _gain_units(doc: Mapping) -> dict:
+    units = {}
+    for sec in ("gains", "ppi_gains"):
+        for k, v in (doc.get(sec) or {}).items():
+            units[k] = quantity_value(v)[1]
+    return units
+
+
+def _margins_table(designs: list[BallScrewDesign]) -> Table:
+    rows = []
+    for d in designs:
+        for case, figures in d.result["analysis"].items():
+            if figures is None:
+                continue
+            k = ["design", d.name, "analysis", case]
+            rows.append([
+                text_cell(d.label), text_cell(CASE_TITLES.get(case, case)),
+                Cell(figures["stable"], key=[*k, "stable"]),
+                Cell(figures["crossovers_hz"], "Hz", key=[*k, "crossovers_hz"]),
+                Cell(figures["phase_margin_deg"], "deg", key=[*k, "phase_margin_deg"]),
+                Cell(figures["gain_margin_db"], "dB", key=[*k, "gain_margin_db"]),
+                Cell(figures["ms"], "", key=[*k, "ms"]),
+                Cell(figures["ms_freq_hz"], "Hz", key=[*k, "ms_freq_hz"]),
+                Cell(figures["rejection_band_hz"], "Hz", key=[*k, "rejection_band_hz"]),
+                Cell(figures["tracking_bandwidth_hz"], "Hz", key=[*k, "tracking_bandwidth_hz"]),
+            ])
+    return Table("Stability, margins and bandwidth per analysis case (feedtune analyze)",
+                 ["controller", "case", "stable", "crossovers", "phase margin", "gain margin", "Ms", "Ms at",
+                  "|S| < 1 band", "tracking bandwidth (±3 dB)"], rows,
+                 "Phase margin: the crossover whose margin is closest to 0; gain margin: the phase crossover "
+                 "closest to 0 dB (negative: the gain may only be reduced).")
+
+
+def _poles_table(d: BallScrewDesign) -> Table:
+    rows = []
+    poles = d.result["closed_loop_poles"]
+    order = sorted(range(len(poles)), key=lambda i: abs(complex(*poles[i])))
+    for i in order:
+        re, im = poles[i]
+        if im < 0:
+            continue
+        p = complex(re, im)
+        wn = abs(p)
+        rows.append([Cell(re, "rad/s", key=["design", d.name, "closed_loop_poles", i, 0]),
+                     Cell(im, "rad/s", key=["design", d.name, "closed_loop_poles", i, 1]),
+                     Cell(wn / (2 * np.pi), "Hz"), Cell(-re / wn if wn else None, "")])
+    return Table(f"Closed-loop poles of {d.label} ({d.name}), model with filter pack (conjugates listed once)",
+                 ["real part", "imaginary part", "natural frequency", "damping [-]"], rows)
+
+
+def _filters_paragraph(d: BallScrewDesign, doc: Mapping) -> Paragraph | None:
+    cont = (doc.get("filters") or {}).get("continuous") or {}
+    parts = [f"notch {n.get('freq_hz', 0):g} Hz (zeta_z {n.get('zeta_z', 0):g}, zeta_p {n.get('zeta_p', 0):g})"
+             for n in cont.get("notches") or []]
+    if cont.get("lpf_hz"):
+        parts.append(f"low-pass {cont['lpf_hz']:g} Hz")
+    if not parts:
+        return None
+    fs = quantity_value((doc.get("sampling") or {}).get("fs_hz"))[0]
+    rate = f" at {fs:g} Hz sampling" if fs else ""
+    return Paragraph(f"{d.label} ({d.name}): filter pack " + ", ".join(parts) + rate + ".")
+
+
+# ------------------------------------------------------------------------------------------ figures
+def _curves(designs, case_of, attr: str, *, ideal_dashed: bool = False, label_suffix: str = "") -> list[Curve]:
+    out = []
+    for d in designs:
+        case = d.analysis.cases.get(case_of(d))
+        if case is None or getattr(case, attr) is None:
+            continue
+        out.append(Curve(case.freq_hz, getattr(case, attr), d.label + label_suffix, d.color,
+                         "--" if ideal_dashed else "-", 1.0 if ideal_dashed else 1.5))
+    return out
+
+
+def feedback_groups(designs: list[BallScrewDesign]) -> list[BallScrewDesign]:
+    """One design per distinct feedback (same gains and analysis, e.g. a design and its copy with a
+    pre-filter), labelled with every member's label, for the figures of feedback quantities."""
+    import json
+    from dataclasses import replace
+
+    groups: dict[str, list[BallScrewDesign]] = {}
+    for d in designs:
+        key = json.dumps([d.result["gains"], d.result["analysis"]], sort_keys=True, default=str)
+        groups.setdefault(key, []).append(d)
+    return [replace(g[0], label=" = ".join(d.label for d in g)) if len(g) > 1 else g[0] for g in groups.values()]
+
+
+def _case_name(designs) -> str:
+    return CASE_TITLES[designs[0].main_case]
+
+
+def _pole_map(designs: list[BallScrewDesign]) -> FigureBlock:
+    open_loop = designs[0].model.poles()
+    closed = [(d.label, d.color, np.array([complex(*p) for p in d.result["closed_loop_poles"]])) for d in designs]
+    top = max(m.freq_hz for d in designs for m in d.model.modes()) if designs[0].model.modes() else 100.0
+    fig = pole_map_figure(open_loop, closed, zoom_rad_s=2 * np.pi * 3 * top)
+    return FigureBlock("design-poles", "Open-loop poles of the design model and closed-loop poles of each "
+                       "controller including its filter pack (thesis Fig. 3.6).", fig)
+
+
+def _loop(designs) -> FigureBlock:
+    main = _curves(designs, lambda d: d.main_case, "L")
+    ideal = _curves(designs, lambda d: "ideal", "L", ideal_dashed=True, label_suffix=" (model, continuous)")
+    cross = {d.label: d.analysis.cases[d.main_case].metrics.crossovers_hz for d in designs}
+    fig = loop_figure(main + ideal, cross)
+    return FigureBlock("design-loop", f"Loop transfer L = K1 G11 + K2 G21 (eq. 3.24/3.25), solid: "
+                       f"{_case_name(designs)}, dashed: model with the continuous controller; circles: "
+                       "crossovers (thesis Fig. 3.10a-b).", fig)
+
+
+def _nyquist(designs) -> FigureBlock:
+    main = _curves(designs, lambda d: d.main_case, "L")
+    ms = {d.label: d.analysis.cases[d.main_case].metrics.ms for d in designs}
+    return FigureBlock("design-nyquist", f"Nyquist plot of L ({_case_name(designs)}), dotted circles: distance "
+                       "1/Ms from -1 (thesis Fig. 3.10c-d).", nyquist_figure(main, ms))
+
+
+def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
+    main = _curves(designs, lambda d: d.main_case, "S")
+    ideal = _curves(designs, lambda d: "ideal", "S", ideal_dashed=True, label_suffix=" (model, continuous)")
+    peaks = {d.label: (d.analysis.cases[d.main_case].metrics.ms_freq_hz, d.analysis.cases[d.main_case].metrics.ms)
+             for d in designs}
+    return FigureBlock("design-sensitivity", f"Sensitivity S = 1/(1 + L), solid: {_case_name(designs)}; "
+                       "|S| < 1 (below 0 dB) where disturbances are rejected (thesis Fig. 3.11).",
+                       sensitivity_figure(main + ideal, peaks, limits.ms_max))
+
+
+def _disturbance(designs) -> FigureBlock:
+    curves = []
+    for d in designs:
+        lead_um = d.model.lead_m_per_rad * 1e6
+        for case, style in (("ideal", "-"), ("ideal_discrete", "--")):
+            c = d.analysis.cases.get(case)
+            if c is not None and c.disturbance is not None:
+                suffix = "" if case == "ideal" else " (discrete)"
+                curves.append(Curve(c.freq_hz, c.disturbance * lead_um, d.label + suffix, d.color, style,
+                                    1.5 if case == "ideal" else 1.0))
+    unit = designs[0].model.input_unit
+    fig = magnitude_figure(curves, ylabel=f"|x2/d2| [µm/{unit}]")
+    return FigureBlock("design-disturbance", "Disturbance transfer from a force d2 on the table to the table "
+                       "position x2 (eq. 3.26/3.27), on the model; solid: continuous, dashed: discrete "
+                       "controller (thesis Fig. 3.12).", fig)
+
+
+def _prefiltered(designs) -> list[Curve]:
+    from ..design.prefilter import prefilter_response
+
+    out = []
+    for d in designs:
+        case = d.analysis.cases.get(d.main_case)
+        if d.prefilter is None or case is None:
+            continue
+        gains, lpf_hz = d.prefilter
+        F = prefilter_response(case.freq_hz, gains, lpf_hz, d.law.fs)
+        out.append(Curve(case.freq_hz, case.tracking * F, f"{d.label}, feedforward and pre-filter", d.color,
+                         "-.", 1.6))
+    return out
+
+
+def _tracking(designs) -> FigureBlock:
+    leaders = feedback_groups(designs)
+    with_ff = _curves(leaders, lambda d: d.main_case, "tracking", label_suffix=", feedforward")
+    without = _curves(leaders, lambda d: d.main_case, "tracking_no_ff", label_suffix=", feedback only")
+    without = [Curve(c.x, c.y, c.label, c.color, ":", 1.2) for c in without]
+    pre = _prefiltered(designs)
+    fig = magnitude_figure(with_ff + without + pre, ylabel="|x2/x_r| [dB]", db=True, phase=True)
+    extra = " and with the trajectory pre-filter of the gains file (dash-dot)" if pre else ""
+    return FigureBlock("design-tracking", f"Command tracking x2/x_r ({_case_name(designs)}) with the rotary "
+                       "command generator and feedforward (solid), with feedback only (dotted)" + extra +
+                       " (thesis Fig. 3.13).", fig)
+
+
+# ------------------------------------------------------------------------------------------ warnings
+def design_warnings(d: BallScrewDesign, limits: ReportLimits) -> list[str]:
+    """Instability in any case; margins and Ms of the main case outside the limits."""
+    out = []
+    for case, figures in d.result["analysis"].items():
+        if figures is not None and not figures["stable"]:
+            out.append(f"{d.label} ({d.name}) is UNSTABLE in the {CASE_TITLES.get(case, case)} case")
+    m = d.result["analysis"][d.main_case]
+    if m["ms"] > limits.ms_max:
+        out.append(f"{d.label} ({d.name}): Ms = {m['ms']:.3g} above the limit {limits.ms_max:g} "
+                   f"({CASE_TITLES[d.main_case]})")
+    pm = m["phase_margin_deg"]
+    if pm is not None and pm < limits.pm_min_deg:
+        out.append(f"{d.label} ({d.name}): phase margin {pm:.3g} deg below {limits.pm_min_deg:g} deg")
+    gm = m["gain_margin_db"]
+    if gm is not None and abs(gm) < limits.gm_min_db:
+        out.append(f"{d.label} ({d.name}): gain margin {gm:.3g} dB within ±{limits.gm_min_db:g} dB")
+    return out
+
+
+# ------------------------------------------------------------------------------------------ section
+def _unanalysed_section(gains: list[GainsInput], names: Mapping) -> Section | None:
+    """Gains files of machine kinds this feedtune does not analyse, listed."""
+    if not gains:
+        return None
+    rows = [[text_cell(names[g.path]), text_cell(g.kind), text_cell(controller_label(g.controller))] for g in gains]
+    return Section("design-other", "Gains for other machines",
+                   [Table("Gains files not analysed", ["file", "machine", "controller"], rows),
+                    Paragraph("feedtune analyses gains files for ball-screw drives, gantries and x axes; these "
+                              "machine kinds are listed only.")])
+
+
+def build_designs(inputs: Inputs, names: Mapping, colors: Colors) -> tuple[list[BallScrewDesign], str | None]:
+    """Analyse every ball-screw gains file; also return the name of the FRF used (or None)."""
+    fi = analysis_frf(inputs)
+    frf = fi.frf if fi is not None else None
+    ballscrew = [g for g in inputs.gains if g.kind == "ballscrew"]
+    prefilters = [prefilter_of(g) for g in ballscrew]
+    labels = [design_label(g, p) for g, p in zip(ballscrew, prefilters, strict=True)]
+    designs = []
+    for g, pre, label in zip(ballscrew, prefilters, labels, strict=True):
+        if labels.count(label) > 1:
+            label = f"{label} ({g.path.stem})"
+        law, model, analysis, result = analyze_gains(g, frf)
+        designs.append(BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre))
+    return designs, (names[fi.path] if fi is not None else None)
+
+
+def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: dict, warnings: list[str],
+                   colors: Colors) -> tuple[Section | None, list[BallScrewDesign]]:
+    """The design section (None without gains files) and the analysed designs (ball screw, gantry, axis).
+
+    Fills ``data["design"][file] = {kind, gains, closed_loop_poles, analysis, frf}`` (the first four equal
+    ``feedtune analyze FILE [--frf F] --json``) and appends stability/margin warnings.
+    """
+    from .gantry_design import machine_subsections
+
+    designs, frf_name = build_designs(inputs, names, colors)
+    machines, machine_designs = machine_subsections(inputs, names, limits, data, warnings, colors)
+    other = _unanalysed_section([g for g in inputs.gains if g.kind not in ("ballscrew", "gantry", "axis")], names)
+    if not designs and not machines and other is None:
+        return None, []
+    store = data.setdefault("design", {})
+    subs: list[Section] = []
+    if designs:
+        blocks: list = []
+        where = f"the measured FRF {frf_name}" if frf_name else "the design model only (no measured FRF given)"
+        blocks.append(Paragraph(f"Each gains file is analysed as stored (no redesign) against {where}; the "
+                                "numbers equal feedtune analyze GAINS" + (f" --frf {frf_name}" if frf_name else "")
+                                + " --json."))
+        for d in designs:
+            store[d.name] = {**d.result, "frf": frf_name}
+            doc = next(g.doc for g in inputs.gains if names[g.path] == d.name)
+            blocks.append(parameter_table(f"Gains of {d.label} ({d.name})", d.result["gains"],
+                                          ["design", d.name, "gains"], units=_gain_units(doc)))
+            para = _filters_paragraph(d, doc)
+            if para is not None:
+                blocks.append(para)
+            if d.prefilter is not None:
+                store[d.name]["prefilter"] = {"gains": d.prefilter[0], "lpf_hz": d.prefilter[1]}
+                blocks.append(parameter_table(
+                    f"Trajectory pre-filter of {d.label} (eq. 3.17-3.20, G = low-pass at {d.prefilter[1]:g} Hz)",
+                    d.prefilter[0], ["design", d.name, "prefilter", "gains"],
+                    units={"K_vel": "s", "K_acc": "s^2", "K_jerk": "s^3", "K_snap": "s^4"}))
+            found = design_warnings(d, limits)
+            warnings.extend(found)
+            blocks.extend(Alert(w) for w in found)
+        blocks.append(_margins_table(designs))
+        blocks.extend(_poles_table(d) for d in designs)
+        leaders = feedback_groups(designs)
+        blocks += [_pole_map(leaders), _loop(leaders), _nyquist(leaders), _sensitivity(leaders, limits),
+                   _disturbance(leaders), _tracking(designs)]
+        subs.append(Section("design-ballscrew", "Ball-screw controllers", blocks))
+    subs += machines
+    if other is not None:
+        subs.append(other)
+    return Section("design", "Design", [], subs), [*designs, *machine_designs]

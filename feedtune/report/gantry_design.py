@@ -1,0 +1,259 @@
+"""Design subsections for gantry (2x2 MIMO or independent PID) and loop-shaped x-axis gains files (thesis §4.4).
+
+The analysis is the one ``feedtune analyze GAINS [--frf F] --json`` prints for these kinds
+(``feedtune.cli.analyze_gantry_cmd``): :func:`feedtune.design.gantry_gains.gantry_law_from_document` +
+:func:`feedtune.analysis.gantry.analyze_gantry` for a gantry, :func:`~feedtune.design.gantry_gains.
+axis_design_from_document` + :func:`~feedtune.analysis.gantry.analyze_axis` for an axis. The measured FRF is
+the first input FRF with the four channels ``y1/u1, y1/u2, y2/u1, y2/u2`` (gantry) or with a single channel
+(axis). Figures: singular values of L, S and SG against G, the MIMO Nyquist plot of det(I + L) and the CoM
+tracking (Figs. 4.13-4.15); for the axis the SISO loop, Nyquist, sensitivity (Fig. 4.9), disturbance and
+tracking.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from .collect import FrfInput, GainsInput, Inputs
+from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
+from .design import CASE_TITLES, design_warnings
+from .figures import (
+    Curve,
+    det_nyquist_figure,
+    loop_figure,
+    magnitude_figure,
+    nyquist_figure,
+    sensitivity_figure,
+    singular_value_figure,
+)
+from .sections import Colors, ReportLimits, parameter_table, quantity_value
+
+GANTRY_CHANNELS = ("y1/u1", "y1/u2", "y2/u1", "y2/u2")
+MACHINE_LABELS = {"mimo": "MIMO", "pid": "PID", "loopshape": "x-axis loop shaping"}
+
+
+@dataclass(frozen=True)
+class MachineDesign:
+    """One analysed gantry or axis gains file (same attributes as the ball-screw designs for the summary)."""
+
+    name: str
+    label: str
+    color: str
+    kind: str
+    analysis: object
+    result: dict
+    frf: str | None
+
+    @property
+    def main_case(self) -> str:
+        """``discrete`` when a measured FRF was given, else ``ideal_discrete``."""
+        return "discrete" if self.analysis.cases.get("discrete") is not None else "ideal_discrete"
+
+
+def gantry_frf(inputs: Inputs, x_m: float | None = None) -> FrfInput | None:
+    """The FRF with the four gantry channels measured at table position ``x_m`` [m] (``x_m`` in its
+    metadata), else the first with the four channels."""
+    candidates = [f for f in inputs.frfs if all(f.frf.has(ch) for ch in GANTRY_CHANNELS)]
+    if x_m is not None:
+        for f in candidates:
+            try:
+                if abs(float(f.frf.meta.get("x_m", "nan")) - x_m) < 1e-9:
+                    return f
+            except ValueError:
+                continue
+    return candidates[0] if candidates else None
+
+
+def design_position(gi: GainsInput) -> float:
+    """Table position [m] a gantry gains file was designed at: ``[design] x_m``, 0 when absent (as the
+    gains reader)."""
+    design = gi.doc.get("design")
+    value, _ = quantity_value(design.get("x_m", 0.0) if isinstance(design, Mapping) else 0.0)
+    return 0.0 if value is None else value
+
+
+def axis_frf(inputs: Inputs) -> FrfInput | None:
+    """The first single-channel FRF."""
+    return next((f for f in inputs.frfs if len(f.frf.channels) == 1), None)
+
+
+def _units(doc: Mapping) -> dict:
+    return {k: v["unit"] for k, v in doc.get("gains", {}).items() if isinstance(v, dict) and "unit" in v}
+
+
+def analyze_machine_gains(gi: GainsInput, frf) -> tuple[object, dict]:
+    """``(analysis, result)`` of a gantry or axis gains file, ``result`` as ``feedtune analyze --json``."""
+    from ..design.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
+
+    where = str(gi.path)
+    kind = check_header(gi.doc, where, (GANTRY_KIND, AXIS_KIND))
+    gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc.get("gains", {}).items()}
+    if kind == AXIS_KIND:
+        from ..analysis.gantry import analyze_axis
+        from ..design.gantry_gains import axis_design_from_document
+
+        design = axis_design_from_document(gi.doc, where)
+        analysis = analyze_axis(design, frf)
+        return analysis, {"kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _units(gi.doc),
+                          "lead_stages": [s.to_dict() for s in design.lead_stages],
+                          "analysis": analysis.to_dict()}
+    from ..analysis.gantry import analyze_gantry
+    from ..design.gantry_gains import gantry_law_from_document
+
+    law, model, x, reference = gantry_law_from_document(gi.doc, where)
+    analysis = analyze_gantry(law, model, x=x, frf=frf, reference=reference)
+    return analysis, {"kind": kind, "controller": law.controller, "x_m": x, "gains": gains,
+                      "gain_units": _units(gi.doc), "analysis": analysis.to_dict()}
+
+
+def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors) -> list[MachineDesign]:
+    """Analyse every gantry and axis gains file."""
+    a_frf = axis_frf(inputs)
+    out = []
+    for gi in inputs.gains:
+        if gi.kind not in ("gantry", "axis"):
+            continue
+        fi = gantry_frf(inputs, design_position(gi)) if gi.kind == "gantry" else a_frf
+        analysis, result = analyze_machine_gains(gi, fi.frf if fi is not None else None)
+        label = MACHINE_LABELS.get(result["controller"], result["controller"])
+        out.append(MachineDesign(names[gi.path], label, "", gi.kind, analysis, result,
+                                 names[fi.path] if fi is not None else None))
+    labels = [d.label for d in out]
+    from dataclasses import replace
+
+    out = [replace(d, label=f"{d.label} ({d.name})") if labels.count(d.label) > 1 else d for d in out]
+    return [replace(d, color=colors(d.label)) for d in out]
+
+
+# ------------------------------------------------------------------------------------------ tables
+def _margins_table(designs: list[MachineDesign], gantry: bool) -> Table:
+    rows = []
+    for d in designs:
+        for case, m in d.result["analysis"].items():
+            if m is None:
+                continue
+            k = ["design", d.name, "analysis", case]
+            row = [text_cell(d.label), text_cell(CASE_TITLES.get(case, case)), Cell(m["stable"], key=[*k, "stable"]),
+                   Cell(m["crossovers_hz"], "Hz", key=[*k, "crossovers_hz"]),
+                   Cell(m["phase_margin_deg"], "deg", key=[*k, "phase_margin_deg"]),
+                   Cell(m["gain_margin_db"], "dB", key=[*k, "gain_margin_db"]),
+                   Cell(m["ms"], "", key=[*k, "ms"]), Cell(m["ms_freq_hz"], "Hz", key=[*k, "ms_freq_hz"]),
+                   Cell(m["rejection_band_hz"], "Hz", key=[*k, "rejection_band_hz"])]
+            if gantry:
+                row.append(Cell(m.get("damping_band_hz"), "Hz", key=[*k, "damping_band_hz"]))
+            rows.append(row)
+    columns = ["controller", "case", "stable", "CoM crossovers" if gantry else "crossovers", "phase margin",
+               "gain margin", "max sigma(S)" if gantry else "Ms", "at", "rejection band"]
+    if gantry:
+        columns.append("active damping band")
+    note = ("Crossovers and margins of the centre-of-mass loop alpha^T L [1 1]^T; stability by the MIMO Nyquist "
+            "criterion on det(I + L)." if gantry else "")
+    return Table("Stability, margins and bandwidth per analysis case (feedtune analyze)", columns, rows, note)
+
+
+# ------------------------------------------------------------------------------------------ figures
+def _case(d: MachineDesign):
+    return d.analysis.cases[d.main_case]
+
+
+def _gantry_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[FigureBlock]:
+    from ..analysis.mimo import return_difference_det, singular_values
+
+    case_name = CASE_TITLES[designs[0].main_case]
+    sv = {d.label: {k: singular_values(getattr(_case(d), k)) for k in ("L", "S", "SG", "G_open")} for d in designs}
+
+    def curves(key):
+        return [(d.label, d.color, _case(d).freq_hz, *sv[d.label][key]) for d in designs]
+
+    g_hi, g_lo = sv[designs[0].label]["G_open"]
+    disturbance = [("open loop G", "0.45", _case(designs[0]).freq_hz, g_hi * 1e6, g_lo * 1e6)]
+    disturbance += [(f"{lb}: S G", c, f, hi * 1e6, lo * 1e6) for lb, c, f, hi, lo in curves("SG")]
+    peaks = {d.label: (_case(d).metrics.ms_freq_hz, _case(d).metrics.ms) for d in designs}
+    det = [Curve(_case(d).freq_hz, return_difference_det(_case(d).L), d.label, d.color) for d in designs]
+    tracking = [Curve(_case(d).freq_hz, _case(d).tracking, f"{d.label}, feedforward and pre-filters", d.color)
+                for d in designs]
+    tracking += [Curve(_case(d).freq_hz, _case(d).tracking_no_ff, f"{d.label}, feedback only", d.color, ":", 1.2)
+                 for d in designs]
+    return [
+        FigureBlock("gantry-sv-loop", f"Upper and lower singular values of the loop L = G K ({case_name}) "
+                    "(thesis Fig. 4.13 left).", singular_value_figure(curves("L"), ylabel="sigma(L) [dB]")),
+        FigureBlock("gantry-nyquist", f"MIMO Nyquist plot: det(I + L) ({case_name}); stability from its "
+                    "encirclements of the origin (thesis Fig. 4.13 right).", det_nyquist_figure(det)),
+        FigureBlock("gantry-sv-sensitivity", "Upper and lower singular values of the sensitivity S = (I + L)^-1; "
+                    "Ms = max sigma(S) marked (thesis Fig. 4.14).",
+                    singular_value_figure(curves("S"), ylabel="sigma(S) [dB]", peaks=peaks,
+                                          ms_limit=limits.ms_max)),
+        FigureBlock("gantry-sv-disturbance", "Singular values of the open-loop plant G and of the closed-loop "
+                    "disturbance transfer S G from actuator forces to the encoders (thesis Fig. 4.15).",
+                    singular_value_figure(disturbance, ylabel="sigma [dB re 1 µm/V]", level_db=None)),
+        FigureBlock("gantry-tracking", f"Centre-of-mass tracking ybar/y_r ({case_name}) with feedforward and "
+                    "pre-filters and with feedback only.",
+                    magnitude_figure(tracking, ylabel="|ybar/y_r| [dB]", db=True, phase=True)),
+    ]
+
+
+def _axis_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[FigureBlock]:
+    case_name = CASE_TITLES[designs[0].main_case]
+    loop = [Curve(_case(d).freq_hz, _case(d).L, d.label, d.color) for d in designs]
+    sens = [Curve(_case(d).freq_hz, _case(d).S, d.label, d.color) for d in designs]
+    cross = {d.label: _case(d).metrics.crossovers_hz for d in designs}
+    ms = {d.label: _case(d).metrics.ms for d in designs}
+    peaks = {d.label: (_case(d).metrics.ms_freq_hz, _case(d).metrics.ms) for d in designs}
+    dist = [Curve(_case(d).freq_hz, _case(d).disturbance * 1e6, d.label, d.color) for d in designs]
+    track = [Curve(_case(d).freq_hz, _case(d).tracking, f"{d.label}, feedforward and pre-filter", d.color)
+             for d in designs]
+    track += [Curve(_case(d).freq_hz, _case(d).tracking_no_ff, f"{d.label}, feedback only", d.color, ":", 1.2)
+              for d in designs]
+    return [
+        FigureBlock("axis-loop", f"x-axis loop gain ({case_name}), crossovers marked (thesis Fig. 4.9 left).",
+                    loop_figure(loop, cross)),
+        FigureBlock("axis-nyquist", f"x-axis Nyquist plot ({case_name}) (thesis Fig. 4.9 right).",
+                    nyquist_figure(loop, ms)),
+        FigureBlock("axis-sensitivity", f"x-axis sensitivity ({case_name}) (thesis Fig. 4.9 centre).",
+                    sensitivity_figure(sens, peaks, limits.ms_max)),
+        FigureBlock("axis-disturbance", f"x-axis disturbance transfer x/d = G S ({case_name}).",
+                    magnitude_figure(dist, ylabel="|x/d| [µm/V]")),
+        FigureBlock("axis-tracking", f"x-axis tracking x/x_r ({case_name}).",
+                    magnitude_figure(track, ylabel="|x/x_r| [dB]", db=True, phase=True)),
+    ]
+
+
+# ------------------------------------------------------------------------------------------ section
+def _subsection(kind: str, designs: list[MachineDesign], store: dict, limits: ReportLimits,
+                warnings: list[str]) -> Section:
+    gantry = kind == "gantry"
+    frf = designs[0].frf
+    where = f"the measured FRF {frf}" if frf else "the design model only (no measured FRF given)"
+    blocks: list = [Paragraph(f"Each gains file is analysed as stored against {where}; the numbers equal "
+                              "feedtune analyze GAINS" + (f" --frf {frf}" if frf else "") + " --json.")]
+    for d in designs:
+        store[d.name] = {**d.result, "frf": d.frf}
+        blocks.append(parameter_table(f"Gains of {d.label} ({d.name})", d.result["gains"],
+                                      ["design", d.name, "gains"], units=d.result.get("gain_units")))
+        if gantry:
+            blocks.append(Paragraph(f"{d.label} ({d.name}) analysed at the table position x = "
+                                    f"{d.result['x_m']:.4g} m of its design."))
+        found = design_warnings(d, limits)
+        warnings.extend(found)
+        blocks.extend(Alert(w) for w in found)
+    blocks.append(_margins_table(designs, gantry))
+    blocks += _gantry_figures(designs, limits) if gantry else _axis_figures(designs, limits)
+    title = "Gantry controllers (y axis, two drives)" if gantry else "x-axis controller"
+    return Section(f"design-{kind}", title, blocks)
+
+
+def machine_subsections(inputs: Inputs, names: Mapping, limits: ReportLimits, data: dict, warnings: list[str],
+                        colors: Colors) -> tuple[list[Section], list[MachineDesign]]:
+    """Gantry and axis design subsections (empty list without such gains files) and the analysed designs."""
+    designs = build_machine_designs(inputs, names, colors)
+    store = data.setdefault("design", {}) if designs else {}
+    subs = []
+    for kind in ("gantry", "axis"):
+        group = [d for d in designs if d.kind == kind]
+        if group:
+            subs.append(_subsection(kind, group, store, limits, warnings))
+    return subs, designs
+
+
+__all__ = ["MachineDesign", "analyze_machine_gains", "machine_subsections"]

@@ -1,0 +1,136 @@
+"""Helpers shared by the report's section builders: names, labels, colours, limits and small tables."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .content import Cell, Table, text_cell
+from .figures import PALETTE
+
+CONTROLLER_LABELS = {"mcppc": "MC-PPC", "ppi": "P-PI", "pid": "PID", "mimo": "MIMO"}
+"""Display names of the controller kinds written in gains files and twin logs."""
+BASELINE_CONTROLLERS = ("P-PI", "PID")
+"""Labels taken as the baseline of improvement percentages (the industry controllers), in this order."""
+
+
+@dataclass(frozen=True)
+class ReportLimits:
+    """Thresholds of the summary's warnings.
+
+    Attributes
+    ----------
+    ms_max : float
+        Peak sensitivity above which a design is flagged [-] (thesis §3.3: keep Ms below 1.5-2.5).
+    pm_min_deg : float
+        Smallest acceptable phase margin [deg] (the thesis tunes both controllers to about 30 deg).
+    gm_min_db : float
+        Smallest acceptable |gain margin| [dB].
+    coherence_min : float
+        Coherence [-] below which FRF points inside the fit band are flagged.
+    nrmse_max : float
+        Normalised RMS fit error [-] above which a model fit is called poor.
+    saturation_samples : int
+        Consecutive samples at the command's largest magnitude that count as saturation.
+    """
+
+    ms_max: float = 2.5
+    pm_min_deg: float = 30.0
+    gm_min_db: float = 3.0
+    coherence_min: float = 0.8
+    nrmse_max: float = 0.2
+    saturation_samples: int = 10
+
+    def to_dict(self) -> dict:
+        """JSON-ready thresholds with units in the keys."""
+        return {"ms_max": self.ms_max, "pm_min_deg": self.pm_min_deg, "gm_min_db": self.gm_min_db,
+                "coherence_min": self.coherence_min, "nrmse_max": self.nrmse_max,
+                "saturation_samples": self.saturation_samples}
+
+
+def controller_label(name: str | None) -> str:
+    """``"mcppc"`` -> ``"MC-PPC"``; other names unchanged; empty -> ``"controller"``."""
+    if not name:
+        return "controller"
+    return CONTROLLER_LABELS.get(str(name).strip().lower(), str(name).strip())
+
+
+def display_names(paths: Iterable[Path]) -> dict[Path, str]:
+    """A unique short name per file: the file name, or the path where two files share a name."""
+    paths = list(paths)
+    counts: dict[str, int] = {}
+    for p in paths:
+        counts[p.name] = counts.get(p.name, 0) + 1
+    return {p: (p.name if counts[p.name] == 1 else str(p)) for p in paths}
+
+
+@dataclass
+class Colors:
+    """Colours handed out to labels in order of first use (the same label keeps its colour everywhere)."""
+
+    assigned: dict = field(default_factory=dict)
+
+    def __call__(self, label: str) -> str:
+        if label not in self.assigned:
+            self.assigned[label] = PALETTE[len(self.assigned) % len(PALETTE)]
+        return self.assigned[label]
+
+
+def baseline_of(labels: list[str]) -> str | None:
+    """The label improvements are measured against: P-PI (or PID) when present, else the last one."""
+    if len(labels) < 2:
+        return None
+    for base in BASELINE_CONTROLLERS:
+        for label in labels:
+            if label == base or label.startswith(base + " "):
+                return label
+    return labels[-1]
+
+
+def improvement_pct(value: float | None, baseline: float | None) -> float | None:
+    """``100 (1 - value / baseline)`` [%]: the reduction of an error relative to the baseline."""
+    if value is None or baseline is None or not baseline or not math.isfinite(value) or not math.isfinite(baseline):
+        return None
+    return 100.0 * (1.0 - value / baseline)
+
+
+def quantity_value(entry) -> tuple[float | None, str]:
+    """``(value, unit)`` of a document entry ``{value, unit}`` or a bare number (``(None, "")`` otherwise)."""
+    if isinstance(entry, Mapping) and "value" in entry:
+        v = entry.get("value")
+        return (float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None), str(
+            entry.get("unit", ""))
+    if isinstance(entry, (int, float)) and not isinstance(entry, bool):
+        return float(entry), ""
+    return None, ""
+
+
+def parameter_table(title: str, params: Mapping, key: list, *, std: Mapping | None = None,
+                    units: Mapping | None = None, note: str = "") -> Table:
+    """Parameters ``{name: {value, unit} or number}`` with their standard deviations when given.
+
+    ``key`` is the data path of ``params``; values are looked up as ``key + [name, "value"]`` for quantities
+    and ``key + [name]`` for bare numbers. ``std`` values sit at ``std_key`` (``std["__key__"]``).
+    """
+    std = dict(std or {})
+    std_key = std.pop("__key__", None)
+    rows = []
+    for name, entry in params.items():
+        value, unit = quantity_value(entry)
+        if value is None:
+            continue
+        unit = unit or str((units or {}).get(name, ""))
+        unit = "" if unit == "-" else unit
+        vkey = [*key, name, "value"] if isinstance(entry, Mapping) else [*key, name]
+        row = [text_cell(name), Cell(value, unit, key=vkey)]
+        if std:
+            s = std.get(name)
+            sv = float(s) if isinstance(s, (int, float)) and not isinstance(s, bool) else None
+            row.append(Cell(sv, unit, key=None if sv is None or std_key is None else [*std_key, name]))
+            rel = None if sv is None or not value else 100.0 * sv / abs(value)
+            row.append(text_cell("> 1000 %") if rel is not None and rel > 1000 else Cell(rel, "%"))
+        rows.append(row)
+    columns = ["parameter", "value", "standard deviation", "relative std"] if std else ["parameter", "value"]
+    return Table(title, columns, rows, note)

@@ -1,0 +1,182 @@
+"""Summary (the verdict in numbers and every warning) and the list of inputs."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from .collect import Inputs
+from .content import Alert, Cell, Paragraph, Section, Table, text_cell
+from .design import CASE_TITLES
+from .sections import ReportLimits
+
+
+def _verdict_table(designs: list) -> Table:
+    rows = []
+    for d in designs:
+        case = d.main_case
+        m = d.result["analysis"][case]
+        k = ["design", d.name, "analysis", case]
+        rows.append([text_cell(d.label), text_cell(CASE_TITLES[case]), Cell(m["stable"], key=[*k, "stable"]),
+                     Cell(m["crossovers_hz"], "Hz", key=[*k, "crossovers_hz"]),
+                     Cell(m["phase_margin_deg"], "deg", key=[*k, "phase_margin_deg"]),
+                     Cell(m["gain_margin_db"], "dB", key=[*k, "gain_margin_db"]),
+                     Cell(m["ms"], "", key=[*k, "ms"]),
+                     Cell(m["tracking_bandwidth_hz"], "Hz", key=[*k, "tracking_bandwidth_hz"])])
+    return Table("Controllers", ["controller", "case", "stable", "crossovers", "phase margin", "gain margin", "Ms",
+                                 "tracking bandwidth (±3 dB)"], rows)
+
+
+def _span(values: list[float]) -> tuple[float, float] | None:
+    vals = [v for v in values if v is not None]
+    return (min(vals), max(vals)) if vals else None
+
+
+def reductions(data: Mapping) -> dict:
+    """Per controller: the range of max and RMS tracking-error reductions over the runs, the rope-snap peak and
+    settling-time reductions and the range of maximum contour-error reductions against the baseline [%]."""
+    out: dict = {}
+    tracking = (data.get("comparison") or {}).get("tracking") or {}
+    for row in tracking.get("rows", []):
+        for label, red in row["reduction_pct"].items():
+            entry = out.setdefault(label, {"baseline": row["baseline"], "max": [], "rms": []})
+            entry["max"].append(red["max"])
+            entry["rms"].append(red["rms"])
+    result = {}
+    for label, entry in out.items():
+        result[label] = {"baseline": entry["baseline"], "tracking_max_pct": _span(entry["max"]),
+                         "tracking_rms_pct": _span(entry["rms"])}
+    for test, per in ((data.get("comparison") or {}).get("ropesnap") or {}).items():
+        for label, red in per.items():
+            r = result.setdefault(label, {"baseline": red["baseline"]})
+            r.setdefault("ropesnap", {})[test] = {"peak_pct": red["peak"], "settling_time_pct": red["settling_time"]}
+    contour: dict = {}
+    for per in ((data.get("comparison") or {}).get("contour") or {}).values():
+        for label, red in per.items():
+            contour.setdefault(label, (red["baseline"], []))[1].append(red["max"])
+    for label, (baseline, values) in contour.items():
+        result.setdefault(label, {"baseline": baseline})["contour_max_pct"] = _span(values)
+    return result
+
+
+def _range_text(span) -> str:
+    if span is None:
+        return "-"
+    lo, hi = span
+    return f"{lo:.3g} %" if abs(hi - lo) < 0.05 else f"{lo:.3g} to {hi:.3g} %"
+
+
+def _reduction_table(red: dict) -> Table | None:
+    rows = []
+    for label, r in red.items():
+        snap = next(iter((r.get("ropesnap") or {}).values()), {})
+        rows.append([text_cell(label), text_cell(r["baseline"] or "-"),
+                     text_cell(_range_text(r.get("tracking_max_pct"))),
+                     text_cell(_range_text(r.get("tracking_rms_pct"))),
+                     Cell(snap.get("peak_pct"), "%", digits=3), Cell(snap.get("settling_time_pct"), "%", digits=3),
+                     text_cell(_range_text(r.get("contour_max_pct")))])
+    if not rows:
+        return None
+    return Table("Error reduction against the baseline controller (positive: smaller error)",
+                 ["controller", "baseline", "max tracking error", "RMS tracking error", "rope-snap peak",
+                  "rope-snap 5 % settling time", "max contour error"], rows,
+                 "Ranges over the tracking and cutting runs of the Table 3.2 comparison and over the contours.")
+
+
+def _fit_table(data: Mapping) -> Table | None:
+    rows = []
+    for name, model in (data.get("identification") or {}).items():
+        quality = ((model.get("fit") or {}).get("fit") or {}) if isinstance(model.get("fit"), Mapping) else {}
+        for ch, q in quality.items():
+            if isinstance(q, Mapping) and "nrmse" in q:
+                rows.append([text_cell(name), text_cell(ch),
+                             Cell(q["nrmse"], "", key=["identification", name, "fit", "fit", ch, "nrmse"])])
+    return Table("Model fit", ["model", "channel", "NRMSE"], rows) if rows else None
+
+
+def _design_sentence(designs: list) -> str:
+    parts = []
+    for d in designs:
+        m = d.result["analysis"][d.main_case]
+        wc = m["crossovers_hz"]
+        cross = f"crossover {wc[0]:.4g} Hz" + (f" (first of {len(wc)})" if len(wc) > 1 else "") if wc else \
+            "no crossover"
+        pm = "-" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.3g} deg"
+        parts.append(f"{d.label}: {'stable' if m['stable'] else 'UNSTABLE'}, {cross}, Ms {m['ms']:.3g}, "
+                     f"phase margin {pm}")
+    cases = {d.main_case for d in designs}
+    if len(cases) > 1:
+        return "; ".join(f"{p} ({CASE_TITLES[d.main_case]})" for p, d in zip(parts, designs, strict=True)) + "."
+    return "; ".join(parts) + f" ({CASE_TITLES[designs[0].main_case]})."
+
+
+def _reduction_sentence(red: dict) -> str | None:
+    parts = []
+    for label, r in red.items():
+        items = []
+        if r.get("tracking_max_pct") is not None:
+            items.append(f"the maximum tracking error by {_range_text(r['tracking_max_pct'])}")
+        if r.get("tracking_rms_pct") is not None:
+            items.append(f"the RMS tracking error by {_range_text(r['tracking_rms_pct'])}")
+        for snap in (r.get("ropesnap") or {}).values():
+            if snap.get("peak_pct") is not None:
+                items.append(f"the rope-snap peak by {snap['peak_pct']:.3g} %")
+            if snap.get("settling_time_pct") is not None:
+                items.append(f"the rope-snap settling time by {snap['settling_time_pct']:.3g} %")
+        if r.get("contour_max_pct") is not None:
+            items.append(f"the maximum contour error by {_range_text(r['contour_max_pct'])}")
+        if items:
+            parts.append(f"Against {r['baseline']}, {label} reduces " + ", ".join(items) + ".")
+    return " ".join(parts) or None
+
+
+def summary_section(designs: list, data: dict, warnings: list[str],
+                    limits: ReportLimits) -> Section:
+    """The summary shown first: the verdict in words and numbers, error reductions, model fit, warnings."""
+    blocks: list = []
+    red = reductions(data)
+    if designs:
+        blocks.append(Paragraph(_design_sentence(designs)))
+    sentence = _reduction_sentence(red)
+    if sentence:
+        blocks.append(Paragraph(sentence + " Negative values are increases."))
+    if designs:
+        blocks.append(_verdict_table(designs))
+    data["summary"] = {"reductions": red, "warnings": list(warnings), "limits": limits.to_dict()}
+    table = _reduction_table(red)
+    if table is not None:
+        blocks.append(table)
+    fit = _fit_table(data)
+    if fit is not None:
+        blocks.append(fit)
+    if warnings:
+        blocks.append(Paragraph(f"Warnings ({len(warnings)}):"))
+        blocks.extend(Alert(w) for w in warnings)
+    else:
+        blocks.append(Paragraph(f"No warnings: every design is stable with Ms <= {limits.ms_max:g}, phase margin >= "
+                                f"{limits.pm_min_deg:g} deg and |gain margin| >= {limits.gm_min_db:g} dB; no poor "
+                                "fit, low coherence, saturation or tripped run was found in the inputs."))
+    return Section("summary", "Summary", blocks)
+
+
+def inputs_section(inputs: Inputs, names: Mapping) -> Section:
+    """The files used, what each was taken for, and the files left out."""
+    rows = []
+    for m in inputs.models:
+        rows.append([text_cell(names[m.path]), text_cell(f"model ({m.kind})"), text_cell(m.note or str(m.path))])
+    for g in inputs.gains:
+        rows.append([text_cell(names[g.path]), text_cell(f"gains ({g.kind}, {g.controller or '-'})"),
+                     text_cell(str(g.path))])
+    for f in inputs.frfs:
+        rows.append([text_cell(names[f.path]), text_cell(f"FRF ({f.frf.quantity}, {', '.join(f.frf.channels)})"),
+                     text_cell(f"{f.frf.freq_hz.size} lines, {f.frf.freq_hz[0]:g}-{f.frf.freq_hz[-1]:g} Hz")])
+    for li in inputs.logs:
+        how = {"meta": "from its metadata", "option": "from --log-kind", "columns": "from its columns"}[li.kind_from]
+        rows.append([text_cell(names[li.path]), text_cell(f"log ({li.kind}, {how})"),
+                     text_cell(f"{li.log.n} samples at {li.log.fs:.6g} Hz, signals {', '.join(li.log.signals)}")])
+    for o in inputs.others:
+        rows.append([text_cell(o.path.name), text_cell("listed only"), text_cell(o.description)])
+    blocks: list = [Table("Files", ["file", "taken as", "details"], rows)]
+    if inputs.skipped:
+        blocks.append(Table("Files left out", ["file", "reason"],
+                            [[text_cell(str(s.path)), text_cell(s.reason)] for s in inputs.skipped]))
+    return Section("inputs", "Inputs", blocks)

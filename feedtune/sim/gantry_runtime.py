@@ -1,0 +1,517 @@
+"""Per-sample runtime of gantry and x-axis gains files, executed exactly as a real-time target would.
+
+:class:`GantryRuntime` runs a ``kind = "gantry"`` file (``controller = "mimo"``: sensor/actuator averaging,
+lead, active damping and actuator-level integral of thesis eq. 4.30; or ``"pid"``: one PID per side), and
+:class:`AxisRuntime` a ``kind = "axis"`` file (the loop-shaped x axis, eq. 4.18). Both read nothing but the
+document: sampling, gains, second-order sections and the x-position schedule. The execution order is the
+one of ``docs/gantry_gains.md`` (also stored in the file as ``law.execution``)::
+
+    r = y_r[k+P]                                   previewed reference [m]
+    d_n = prefilter_n(r)                           s^n G_lpf^(n+1), n = vel, acc, jerk, snap (eq. 4.20/4.32)
+    s = schedule(x[k])                             alpha1, alpha2, M(x), pre-filter gains (eq. 4.33)
+    ra_i = r + sum_n k_n_i d_n                     per-side pre-filtered reference, P samples ahead
+    acc_i = acceleration(ra_i); yr_i = position(ra_i)
+    uff = M(x) [acc_1, acc_2]                      inertia feedforward (eq. 4.31)
+    e_i = yr_i - y_i[k]                            (first sample: previous errors = current errors)
+    mimo: v = lead(alpha1 e_1 + alpha2 e_2); dd = d/dt (e_1 - e_2); ie_i += e_i / fs
+          w_1 = alpha1 (v + beta dd + ki ie_1);  w_2 = alpha2 (v - beta dd + ki ie_2)
+    pid:  w_i = kp_i e_i + kd_i d/dt e_i + ki_i ie_i
+    u_i = filter_pack(w_i) + uff_i                 applied delay_samples later
+
+``d/dt`` is the backward difference times ``fs``, the integrals are backward Euler. Every ``*_sos`` list is a
+cascade in transposed direct form II (as ``scipy.signal.sosfilt``), states zero at start, each section
+normalised by its ``a0`` when the file is read. The schedule is interpolated linearly in ``x`` and clamped
+at the first and last row.
+
+:meth:`GantryRuntime.replay` and :meth:`AxisRuntime.replay` evaluate the same law for recorded signals
+without a per-sample loop (``sosfilt``); :func:`load_runtime` dispatches on the file's ``kind``.
+
+Units: positions [m], commands in the drive's unit (V), time [s].
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from bisect import bisect_right
+
+import numpy as np
+
+from ..design.gains import value
+from ..errors import DataError, UsageError
+from .runtime import GainsRuntime, _as_vector, normalized_sos, read_sampling
+
+_PREFILTER_KEYS = ("prefilter_vel_sos", "prefilter_acc_sos", "prefilter_jerk_sos", "prefilter_snap_sos")
+
+
+# ------------------------------------------------------------------------------------------- helpers
+class _Cascade:
+    """Cascaded second-order sections (``a0 = 1``), transposed direct form II, one sample at a time."""
+
+    __slots__ = ("rows", "w")
+
+    def __init__(self, sos: np.ndarray) -> None:
+        self.rows = [(float(r[0]), float(r[1]), float(r[2]), float(r[4]), float(r[5])) for r in sos]
+        self.w = [[0.0, 0.0] for _ in self.rows]
+
+    def reset(self) -> None:
+        for w in self.w:
+            w[0] = w[1] = 0.0
+
+    def step(self, x: float) -> float:
+        for (b0, b1, b2, a1, a2), w in zip(self.rows, self.w):  # noqa: B905 - equal lengths by construction
+            y = b0 * x + w[0]
+            w[0] = b1 * x - a1 * y + w[1]
+            w[1] = b2 * x - a2 * y
+            x = y
+        return x
+
+
+def _sos(doc: dict, sec_name: str, key: str, where: str) -> np.ndarray:
+    from ..design.gantry_gains import entry, section
+
+    return normalized_sos(entry(section(doc, sec_name, where), sec_name, key, where), f"{where}: {sec_name}.{key}")
+
+
+def _sosfilt(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
+    from scipy.signal import sosfilt
+
+    return sosfilt(sos, x)
+
+
+def _previewed(x: np.ndarray, preview: int) -> np.ndarray:
+    """``x[k + P]`` for every ``k``, holding the last value past the end."""
+    return x if preview == 0 else np.r_[x[preview:], np.full(min(preview, x.size), x[-1])]
+
+
+def _check_target(fs_file: float, fs: float, where: str) -> None:
+    if not math.isclose(fs_file, fs, rel_tol=1e-9):
+        raise DataError(f"{where}: gains were designed for fs = {fs_file:g} Hz, but the target samples at "
+                        f"{fs:g} Hz; design again with --fs {fs:g}")
+
+
+def _finite_position(x: float) -> float:
+    if x != x or x in (math.inf, -math.inf):  # NaN or infinite
+        raise UsageError(f"table position x must be finite [m], got {x}")
+    return x
+
+
+# ------------------------------------------------------------------------------------------ gantry
+class GantryRuntime:
+    """Executes a gantry gains document (``kind = "gantry"``, ``controller`` ``"mimo"`` or ``"pid"``).
+
+    Create it with :meth:`from_document` or :meth:`from_file`; call :meth:`reset` before a run and
+    :meth:`step` once per sample.
+
+    Attributes
+    ----------
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Samples between sampling ``y1[k], y2[k]`` and applying ``u`` (assumed by the design).
+    preview_samples : int
+        ``P``: :meth:`step` expects the reference ``y_r[k+P]``.
+    controller : str
+        ``"mimo"`` or ``"pid"``.
+    source : str
+        File name or ``"gains document"``.
+    command_unit : str
+        Unit of ``u1, u2`` (``"V"``).
+    gains : dict
+        MIMO: ``beta`` [V/(m/s)], ``ki`` [V/(m s)]; PID: ``kp1, kp2`` [V/m], ``kd1, kd2`` [V/(m/s)],
+        ``ki1, ki2`` [V/(m s)].
+    sos : dict of ndarray
+        Normalised sections: ``filter_pack``, ``lead`` (MIMO), ``position``, ``acceleration`` and
+        ``prefilter_vel`` .. ``prefilter_snap``.
+    schedule_x : ndarray
+        Table positions [m] of the schedule.
+    schedule : ndarray, shape (n_x, 13)
+        Rows of :data:`feedtune.design.gantry_gains.SCHEDULE_COLUMNS`.
+    """
+
+    def __init__(self, *, controller: str, gains: dict, sos: dict, schedule_x, schedule, fs: float,
+                 delay_samples: int, preview_samples: int, command_unit: str = "V",
+                 source: str = "gains document") -> None:
+        self.controller = controller
+        self.gains = {k: float(v) for k, v in gains.items()}
+        self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
+        self.schedule_x = np.asarray(schedule_x, float)
+        self.schedule = np.asarray(schedule, float)
+        self.fs = float(fs)
+        self.delay_samples = int(delay_samples)
+        self.preview_samples = int(preview_samples)
+        self.command_unit = command_unit
+        self.source = source
+        # per-sample data as plain Python floats and lists (faster than numpy for scalars)
+        self._prefilter_on = bool(np.any(self.schedule[:, 5:] != 0.0))
+        ncol = self.schedule.shape[1] if self._prefilter_on else 5
+        self._x = [float(v) for v in self.schedule_x]
+        self._rows = [tuple(float(v) for v in row[:ncol]) for row in self.schedule]
+        self._segments = [(self._x[i], 1.0 / (self._x[i + 1] - self._x[i]), self._rows[i],
+                           tuple(b - a for a, b in zip(self._rows[i], self._rows[i + 1], strict=True)))
+                          for i in range(len(self._x) - 1)]
+        self._beta = self.gains.get("beta", 0.0)
+        self._ki = self.gains.get("ki", 0.0)
+        self._pid = tuple(self.gains.get(k, 0.0) for k in ("kp1", "kd1", "ki1", "kp2", "kd2", "ki2"))
+        self._h = (_Cascade(self.sos["filter_pack"]), _Cascade(self.sos["filter_pack"]))
+        self._pos = (_Cascade(self.sos["position"]), _Cascade(self.sos["position"]))
+        self._acc = (_Cascade(self.sos["acceleration"]), _Cascade(self.sos["acceleration"]))
+        self._pre = tuple(_Cascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
+        self._lead = _Cascade(self.sos["lead"]) if controller == "mimo" else None
+        self.reset()
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_document(cls, doc: dict, where: str = "gains document") -> GantryRuntime:
+        """Read a gantry gains document (dict from :func:`feedtune.io.read_document`).
+
+        Raises
+        ------
+        DataError
+            Not a gantry gains file of schema version 1, unknown controller, or a missing or invalid
+            entry (named in the message).
+        """
+        from ..design.gantry_gains import (
+            GANTRY_CONTROLLERS,
+            GANTRY_KIND,
+            check_header,
+            command_unit,
+            mimo_gain_units,
+            pid_gain_units,
+            read_gains,
+            read_schedule,
+        )
+
+        check_header(doc, where, (GANTRY_KIND,))
+        controller = doc.get("controller")
+        if controller not in GANTRY_CONTROLLERS:
+            raise DataError(f"{where}: controller {controller!r} unknown; expected 'mimo' or 'pid'")
+        fs, delay, preview = read_sampling(doc, where)
+        unit = command_unit(doc)
+        units = mimo_gain_units(unit) if controller == "mimo" else pid_gain_units(unit)
+        gains = read_gains(doc, units, where)
+        sos = {"filter_pack": _sos(doc, "filters", "filter_pack_sos", where)}
+        if controller == "mimo":
+            sos["lead"] = _sos(doc, "filters", "lead_sos", where)
+        for key in ("position_sos", "acceleration_sos", *_PREFILTER_KEYS):
+            sos[key[:-4]] = _sos(doc, "reference", key, where)
+        x, table = read_schedule(doc, where)
+        return cls(controller=str(controller), gains=gains, sos=sos, schedule_x=x, schedule=table, fs=fs,
+                   delay_samples=delay, preview_samples=preview, command_unit=unit, source=where)
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str]) -> GantryRuntime:
+        """Read a ``.toml`` or ``.json`` gantry gains file."""
+        from ..io import read_document
+
+        return cls.from_document(read_document(path), str(path))
+
+    # ------------------------------------------------------------------ per sample
+    def reset(self) -> None:
+        """Zero every filter state and integrator; the next sample is the first."""
+        for f in (*self._h, *self._pos, *self._acc, *self._pre):
+            f.reset()
+        if self._lead is not None:
+            self._lead.reset()
+        self._e1_prev = self._e2_prev = 0.0
+        self._ie1 = self._ie2 = 0.0
+        self._started = False
+        self._last_x = None
+        self._last_row = self._rows[0]
+
+    def schedule_at(self, x: float) -> tuple:
+        """The schedule row at table position ``x`` [m] (linear interpolation, clamped at the ends).
+
+        Without an active pre-filter only the first five columns (alpha1, alpha2, m11, m12, m22) are
+        interpolated.
+        """
+        if x == self._last_x:
+            return self._last_row
+        xs = self._x
+        i = bisect_right(xs, _finite_position(x))
+        if i == 0:
+            row = self._rows[0]
+        elif i == len(xs):
+            row = self._rows[-1]
+        else:
+            x0, inv_dx, r0, dr = self._segments[i - 1]
+            w = (x - x0) * inv_dx
+            row = tuple([a + w * b for a, b in zip(r0, dr)])  # noqa: B905 - equal lengths by construction
+        self._last_x, self._last_row = x, row
+        return row
+
+    def step(self, y_ref_preview: float, y1: float, y2: float, x: float) -> tuple[float, float]:
+        """One sample of the law (``docs/gantry_gains.md``).
+
+        Parameters
+        ----------
+        y_ref_preview : float
+            Gantry reference ``y_r[k + preview_samples]`` [m].
+        y1, y2 : float
+            Left and right encoder readings at ``k`` [m].
+        x : float
+            Table (x-axis) position [m] used for the schedule.
+
+        Returns
+        -------
+        (float, float)
+            Commands ``u1, u2`` [V], to be applied ``delay_samples`` later.
+        """
+        r = y_ref_preview
+        s = self.schedule_at(x)
+        if self._prefilter_on:
+            p = self._pre
+            d0, d1, d2, d3 = p[0].step(r), p[1].step(r), p[2].step(r), p[3].step(r)
+            ra1 = r + s[5] * d0 + s[6] * d1 + s[7] * d2 + s[8] * d3
+            ra2 = r + s[9] * d0 + s[10] * d1 + s[11] * d2 + s[12] * d3
+        else:
+            ra1 = ra2 = r
+        acc1 = self._acc[0].step(ra1)
+        acc2 = self._acc[1].step(ra2)
+        e1 = self._pos[0].step(ra1) - y1
+        e2 = self._pos[1].step(ra2) - y2
+        if not self._started:
+            self._e1_prev, self._e2_prev, self._started = e1, e2, True
+        fs = self.fs
+        ie1 = self._ie1 = self._ie1 + e1 / fs
+        ie2 = self._ie2 = self._ie2 + e2 / fs
+        if self._lead is not None:
+            a1, a2 = s[0], s[1]
+            v = self._lead.step(a1 * e1 + a2 * e2)
+            dd = self._beta * ((e1 - e2) - (self._e1_prev - self._e2_prev)) * fs
+            ki = self._ki
+            w1 = a1 * (v + dd + ki * ie1)
+            w2 = a2 * (v - dd + ki * ie2)
+        else:
+            kp1, kd1, ki1, kp2, kd2, ki2 = self._pid
+            w1 = kp1 * e1 + kd1 * (e1 - self._e1_prev) * fs + ki1 * ie1
+            w2 = kp2 * e2 + kd2 * (e2 - self._e2_prev) * fs + ki2 * ie2
+        self._e1_prev, self._e2_prev = e1, e2
+        return (self._h[0].step(w1) + s[2] * acc1 + s[3] * acc2,
+                self._h[1].step(w2) + s[3] * acc1 + s[4] * acc2)
+
+    # ------------------------------------------------------------------ vectorised
+    def previewed(self, y_ref) -> np.ndarray:
+        """The sequence ``y_r[k + P]`` fed to :meth:`step`, holding the last value past the end [m]."""
+        return _previewed(_as_vector(y_ref, "y_ref"), self.preview_samples)
+
+    def schedule_table(self, x) -> np.ndarray:
+        """Schedule rows for a sequence of positions [m], shape ``(n, 13)`` (vectorised :meth:`schedule_at`)."""
+        xs = _as_vector(x, "x")
+        return np.column_stack([np.interp(xs, self.schedule_x, col) for col in self.schedule.T])
+
+    def replay(self, y_ref, y1, y2, x) -> tuple[np.ndarray, np.ndarray]:
+        """Commands ``(u1, u2)`` [V] for recorded signals, without a per-sample loop.
+
+        Equals :meth:`reset` followed by :meth:`step` on every sample with ``previewed(y_ref)``.
+
+        Parameters
+        ----------
+        y_ref : array_like, shape (n,)
+            Gantry reference ``y_r[k]`` [m] (the preview is taken from it).
+        y1, y2 : array_like, shape (n,)
+            Encoder readings [m].
+        x : array_like, shape (n,) or float
+            Table position [m] per sample (a scalar for a fixed table).
+        """
+        r = self.previewed(y_ref)
+        n = r.size
+        y1, y2 = _as_vector(y1, "y1", n), _as_vector(y2, "y2", n)
+        s = self.schedule_table(np.broadcast_to(np.asarray(x, float), (n,)))
+        if self._prefilter_on:
+            d = np.column_stack([_sosfilt(self.sos[k[:-4]], r) for k in _PREFILTER_KEYS])
+            ra1 = r + np.sum(s[:, 5:9] * d, axis=1)
+            ra2 = r + np.sum(s[:, 9:13] * d, axis=1)
+        else:
+            ra1 = ra2 = r
+        acc1, acc2 = _sosfilt(self.sos["acceleration"], ra1), _sosfilt(self.sos["acceleration"], ra2)
+        e1 = _sosfilt(self.sos["position"], ra1) - y1
+        e2 = _sosfilt(self.sos["position"], ra2) - y2
+        fs, g = self.fs, self.gains
+        ie1, ie2 = np.cumsum(e1) / fs, np.cumsum(e2) / fs
+        if self.controller == "mimo":
+            a1, a2 = s[:, 0], s[:, 1]
+            v = _sosfilt(self.sos["lead"], a1 * e1 + a2 * e2)
+            diff = e1 - e2
+            dd = g["beta"] * np.diff(diff, prepend=diff[0]) * fs
+            w1 = a1 * (v + dd + g["ki"] * ie1)
+            w2 = a2 * (v - dd + g["ki"] * ie2)
+        else:
+            w1 = g["kp1"] * e1 + g["kd1"] * np.diff(e1, prepend=e1[0]) * fs + g["ki1"] * ie1
+            w2 = g["kp2"] * e2 + g["kd2"] * np.diff(e2, prepend=e2[0]) * fs + g["ki2"] * ie2
+        h = self.sos["filter_pack"]
+        return (_sosfilt(h, w1) + s[:, 2] * acc1 + s[:, 3] * acc2,
+                _sosfilt(h, w2) + s[:, 3] * acc1 + s[:, 4] * acc2)
+
+    # ------------------------------------------------------------------ checks and description
+    def check_target(self, fs: float, where: str | None = None) -> None:
+        """DataError unless the file was made for sample rate ``fs`` [Hz]."""
+        _check_target(self.fs, fs, where or self.source)
+
+    def to_dict(self) -> dict:
+        """JSON-ready description (gains with units, sampling, section counts, schedule range)."""
+        from ..design.gantry_gains import mimo_gain_units, pid_gain_units
+
+        units = mimo_gain_units(self.command_unit) if self.controller == "mimo" else pid_gain_units(self.command_unit)
+        return {
+            "source": self.source,
+            "kind": "gantry",
+            "controller": self.controller,
+            "gains": dict(self.gains),
+            "fs_hz": self.fs,
+            "delay_samples": self.delay_samples,
+            "preview_samples": self.preview_samples,
+            "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
+            "schedule_x_m": [float(self.schedule_x[0]), float(self.schedule_x[-1])],
+            "schedule_rows": int(self.schedule_x.size),
+            "prefilter_active": self._prefilter_on,
+            "units": {**units, "fs_hz": "Hz", "schedule_x_m": "m", "command": self.command_unit},
+        }
+
+
+# -------------------------------------------------------------------------------------------- axis
+class AxisRuntime:
+    """Executes a loop-shaped axis gains document (``kind = "axis"``, thesis eq. 4.18-4.20).
+
+    Attributes
+    ----------
+    fs, delay_samples, preview_samples, controller, source, command_unit
+        As :class:`GantryRuntime` (``controller = "loopshape"``).
+    mass : float
+        Feedforward mass ``m_x`` [V/(m/s^2)] (eq. 4.19).
+    prefilter_gains : tuple of float
+        ``k_vel`` [s], ``k_acc`` [s^2], ``k_jerk`` [s^3], ``k_snap`` [s^4] (eq. 4.20).
+    sos : dict of ndarray
+        ``controller`` (K (Ti s + 1)/s x leads x filters, matched), ``position``, ``acceleration``,
+        ``prefilter_vel`` .. ``prefilter_snap``.
+    """
+
+    def __init__(self, *, sos: dict, mass: float, prefilter_gains, fs: float, delay_samples: int,
+                 preview_samples: int, controller: str = "loopshape", command_unit: str = "V",
+                 source: str = "gains document") -> None:
+        self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
+        self.mass = float(mass)
+        self.prefilter_gains = tuple(float(v) for v in prefilter_gains)
+        self.fs = float(fs)
+        self.delay_samples = int(delay_samples)
+        self.preview_samples = int(preview_samples)
+        self.controller = controller
+        self.command_unit = command_unit
+        self.source = source
+        self._prefilter_on = any(v != 0.0 for v in self.prefilter_gains)
+        self._c = _Cascade(self.sos["controller"])
+        self._pos = _Cascade(self.sos["position"])
+        self._acc = _Cascade(self.sos["acceleration"])
+        self._pre = tuple(_Cascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
+        self.reset()
+
+    @classmethod
+    def from_document(cls, doc: dict, where: str = "gains document") -> AxisRuntime:
+        """Read an axis gains document; DataError names the missing or invalid entry."""
+        from ..design.gantry_gains import AXIS_KIND, PREFILTER_TERMS, PREFILTER_UNITS, check_header, command_unit
+        from ..design.gantry_gains import entry as get
+        from ..design.gantry_gains import section as sec
+
+        check_header(doc, where, (AXIS_KIND,))
+        fs, delay, preview = read_sampling(doc, where)
+        unit = command_unit(doc)
+        sos = {"controller": _sos(doc, "filters", "controller_sos", where)}
+        for key in ("position_sos", "acceleration_sos", *_PREFILTER_KEYS):
+            sos[key[:-4]] = _sos(doc, "reference", key, where)
+        ff = sec(doc, "feedforward", where)
+        mass = value(get(ff, "feedforward", "mass", where), f"{where}: feedforward.mass", f"{unit}/(m/s^2)")
+        pre = sec(doc, "prefilter", where)
+        gains = [value(get(pre, "prefilter", f"k_{t}", where), f"{where}: prefilter.k_{t}", PREFILTER_UNITS[t])
+                 for t in PREFILTER_TERMS]
+        return cls(sos=sos, mass=mass, prefilter_gains=gains, fs=fs, delay_samples=delay, preview_samples=preview,
+                   controller=str(doc.get("controller", "loopshape")), command_unit=unit, source=where)
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str]) -> AxisRuntime:
+        """Read a ``.toml`` or ``.json`` axis gains file."""
+        from ..io import read_document
+
+        return cls.from_document(read_document(path), str(path))
+
+    def reset(self) -> None:
+        """Zero every filter state; the next sample is the first."""
+        for f in (self._c, self._pos, self._acc, *self._pre):
+            f.reset()
+
+    def step(self, x_ref_preview: float, x: float) -> float:
+        """One sample: reference ``x_r[k + preview_samples]`` [m] and encoder ``x[k]`` [m] -> ``u_x`` [V]."""
+        r = x_ref_preview
+        if self._prefilter_on:
+            k, p = self.prefilter_gains, self._pre
+            ra = r + k[0] * p[0].step(r) + k[1] * p[1].step(r) + k[2] * p[2].step(r) + k[3] * p[3].step(r)
+        else:
+            ra = r
+        uff = self.mass * self._acc.step(r)
+        return self._c.step(self._pos.step(ra) - x) + uff
+
+    def previewed(self, x_ref) -> np.ndarray:
+        """The sequence ``x_r[k + P]`` fed to :meth:`step`, holding the last value past the end [m]."""
+        return _previewed(_as_vector(x_ref, "x_ref"), self.preview_samples)
+
+    def replay(self, x_ref, x) -> np.ndarray:
+        """Commands [V] for a recorded reference ``x_r[k]`` and encoder ``x[k]`` [m], without a per-sample loop."""
+        r = self.previewed(x_ref)
+        xm = _as_vector(x, "x", r.size)
+        ra = r.copy()
+        if self._prefilter_on:
+            for k, key in zip(self.prefilter_gains, _PREFILTER_KEYS, strict=True):
+                ra = ra + k * _sosfilt(self.sos[key[:-4]], r)
+        e = _sosfilt(self.sos["position"], ra) - xm
+        return _sosfilt(self.sos["controller"], e) + self.mass * _sosfilt(self.sos["acceleration"], r)
+
+    def check_target(self, fs: float, where: str | None = None) -> None:
+        """DataError unless the file was made for sample rate ``fs`` [Hz]."""
+        _check_target(self.fs, fs, where or self.source)
+
+    def to_dict(self) -> dict:
+        """JSON-ready description."""
+        return {
+            "source": self.source,
+            "kind": "axis",
+            "controller": self.controller,
+            "mass": self.mass,
+            "prefilter_gains": dict(zip(("k_vel", "k_acc", "k_jerk", "k_snap"), self.prefilter_gains, strict=True)),
+            "fs_hz": self.fs,
+            "delay_samples": self.delay_samples,
+            "preview_samples": self.preview_samples,
+            "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
+            "units": {"mass": f"{self.command_unit}/(m/s^2)", "k_vel": "s", "k_acc": "s^2", "k_jerk": "s^3",
+                      "k_snap": "s^4", "fs_hz": "Hz", "command": self.command_unit},
+        }
+
+
+# ------------------------------------------------------------------------------------------ dispatch
+def load_runtime(path_or_doc, where: str | None = None) -> GainsRuntime | GantryRuntime | AxisRuntime:
+    """The runtime of a gains file or document, chosen by its ``kind`` (ballscrew, gantry, axis).
+
+    Parameters
+    ----------
+    path_or_doc : path-like or dict
+        A ``.toml``/``.json`` gains file, or the document read from one.
+    where : str, optional
+        Name used in error messages (default: the path, or ``"gains document"``).
+
+    Raises
+    ------
+    DataError
+        Unreadable file, or a ``kind`` that is not ballscrew, gantry or axis.
+    """
+    if isinstance(path_or_doc, dict):
+        doc, name = path_or_doc, where or "gains document"
+    else:
+        from ..io import read_document
+
+        doc, name = read_document(path_or_doc), where or str(path_or_doc)
+    kind = doc.get("kind")
+    if kind == "ballscrew":
+        return GainsRuntime.from_document(doc, name)
+    if kind == "gantry":
+        return GantryRuntime.from_document(doc, name)
+    if kind == "axis":
+        return AxisRuntime.from_document(doc, name)
+    raise DataError(f"{name}: gains file kind {kind!r} unknown; expected 'ballscrew', 'gantry' or 'axis'")

@@ -1,0 +1,951 @@
+"""Digital twin of the thesis's linear-motor T-gantry (§4.2-4.3): the identified model plus what it lacks.
+
+The twin is the yaw model of eq. 4.1-4.4 with the table-position dependent inertia of eq. 4.16
+(:class:`~feedtune.models.gantry.GantryModel`, positions in m, commands and forces in V, the thesis's
+control-signal equivalents) plus
+
+* the **x-axis table** (mass ``m_x``, its own linear motor, position ``x`` along the beam): ``x`` sets
+  ``alpha(x)`` and ``J(x)`` of the gantry; the reaction of the x motor force ``f_x`` turns the gantry by the
+  torque ``-x_reaction_arm_m * f_x`` [V m] (its line of action is offset from the gantry's guideway);
+* two lightly damped **structural modes** in the motor-to-encoder paths (320 Hz, unattributed in the thesis,
+  and the 382 Hz bending of the beam about z, both ends in phase): modal coordinates ``eta`` driven by the
+  generalised forces, read by the encoders with their mode shapes;
+* the **216 Hz pitching mode** of the gantry, excited only by forces on the table (rope, cutting force), not
+  by the motors (they act at the CoM height, §4.3.3): it deflects the table relative to the beam (static
+  compliance 1/32.5 N/um, §4.5) and the encoders see a fraction of it;
+* a **machine-base mode** near 23 Hz (§4.5): the reaction ``-(f1 + f2)`` of the y motors and a random floor
+  force drive the base; the encoders and the interferometer measure relative to it;
+* **encoder quantization** (4 um signal period interpolated 1024 times) and noise, **PWM-like white noise**
+  on every motor force, **command saturation** (+-10 V), 15 kHz sampling and one sample of computational
+  delay (the command computed from the readings at sample ``k`` is held from sample ``k + 1``).
+
+Coordinates: ``y1``, ``y2`` (left/right encoders) relative to the base [m]; the base ``yb`` absolute [m];
+``x`` [m] the table. With ``f = [f1, f2]`` the motor forces, ``tau`` the x-reaction torque and ``F_t`` the
+table force, the generalised forces on ``(y1, y2)`` are ``g = f + tau/L [-1, 1] + F_t w(x)`` with the
+lever weights ``w(x) = [1 - p/L, p/L]`` of the table at ``p = table_offset + x`` from the left actuator, and
+(eq. 4.3)::
+
+    M(x) (y'' + [1, 1] yb'') + C y' + K y = g
+    m_b yb'' + c_b yb' + k_b yb = -(f1 + f2) + F_floor
+    eta_r'' + 2 zeta_r w_r eta_r' + w_r^2 eta_r = (gain_r / m) phi_r . g
+    q'' + 2 zeta_p w_p q' + w_p^2 q = w_p^2 C_t F_t
+    m_x x'' = f_x
+
+Encoders read ``y_i + sum_r phi_ri eta_r + frac w_i(x) q`` (plus noise, quantized); the interferometer on the
+table reads ``w(x) . y + q``.
+
+Integration: the 12 linear states are discretized exactly for inputs held over a sample (``expm`` of the
+augmented matrix) at every point of a grid in ``x`` (``x_min_m .. x_max_m`` in steps of ``x_grid_m``, 5 mm by
+default: 201 points over +-0.5 m), and the step uses the matrices linearly interpolated at the table's
+current position (``x`` changes slowly against the sample rate; the terms proportional to ``x'`` that a
+moving mass adds are neglected). The x axis is integrated exactly. One compiled function (numba when
+installed, the same code in plain Python otherwise) advances the plant by one sample, so the closed loop
+costs one Python call of each controller's ``step`` plus about a microsecond per sample.
+
+Every value is a field of :class:`GantryTwinParams` (``with_overrides`` takes ``name=value`` strings); the
+seed makes noise repeatable; a following-error envelope, an I2t overload limit and the table's travel stop
+a run with a clear message.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+from ..models.gantry import PARAM_NAMES as MODEL_PARAMS
+from ..models.gantry import THESIS_GANTRY, GantryModel
+from .twin import numba_available, zoh
+
+ENGINES = ("auto", "numba", "python")
+N_STATES = 12
+N_INPUTS = 5
+STATE_NAMES = ("y1", "y2", "v1", "v2", "yb", "vb", "eta320", "eta320_dot", "eta382", "eta382_dot", "q", "q_dot")
+INPUT_NAMES = ("f1", "f2", "tau_x", "F_table", "F_floor")
+# record columns of the kernel
+REC = ("y1", "y2", "x", "u1", "u2", "ux", "y1_true", "y2_true", "x_true", "y_table", "y_base")
+N_REC = len(REC)
+N_NOISE = 6  # encoder y1, y2, x; force noise f1, f2, fx
+N_EXT = 5  # table force, floor force, excitation on u1, u2, ux
+TRAVEL_TOL_M = 1e-3
+
+
+# ------------------------------------------------------------------------------------------ parameters
+def _finite(v, name: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise UsageError(f"twin parameter {name} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _positive(v, name: str, unit: str) -> float:
+    if _finite(v, name) <= 0:
+        raise UsageError(f"twin parameter {name} must be > 0 {unit}".rstrip() + f", got {v!r}")
+    return float(v)
+
+
+def _non_negative(v, name: str) -> float:
+    if _finite(v, name) < 0:
+        raise UsageError(f"twin parameter {name} must be >= 0, got {v!r}")
+    return float(v)
+
+
+@dataclass(frozen=True)
+class StructuralMode:
+    """A lightly damped mode in the motor-to-encoder paths, in modal form.
+
+    Parameters
+    ----------
+    freq_hz : float
+        Natural frequency [Hz].
+    zeta : float
+        Damping ratio [-].
+    gain : float
+        Total gantry mass over the modal mass, ``m / m_r`` [-]: at resonance the mode adds
+        ``gain * phi_i phi_j / (2 zeta)`` times the rigid-body response ``1 / (m w^2)`` to ``y_i / u_j``.
+    shape : (float, float)
+        Mode shape at the left and right encoder/actuator [-].
+    """
+
+    freq_hz: float
+    zeta: float = 0.02
+    gain: float = 0.05
+    shape: tuple[float, float] = (1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        _positive(self.freq_hz, "mode freq_hz", "Hz")
+        _non_negative(self.zeta, "mode zeta")
+        _non_negative(self.gain, "mode gain")
+        try:
+            a, b = (float(v) for v in self.shape)
+        except (TypeError, ValueError):
+            raise UsageError(f"mode shape must be two numbers (left, right), got {self.shape!r}") from None
+        if not (math.isfinite(a) and math.isfinite(b)):
+            raise UsageError(f"mode shape must be finite, got {self.shape!r}")
+        object.__setattr__(self, "shape", (a, b))
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (Hz, -)."""
+        return {"freq_hz": self.freq_hz, "zeta": self.zeta, "gain": self.gain, "shape": list(self.shape)}
+
+
+@dataclass(frozen=True)
+class GantryTwinParams:
+    """Every parameter of the gantry twin (defaults: the thesis's T-gantry, §4.2-4.5).
+
+    Parameters
+    ----------
+    model : GantryModel
+        Eq. 4.16 (``m, L, J0, d, m_x, c, k, alpha1_0, dalpha1_dx``) [V, m, s]; ``m_x`` is also the x-axis mass.
+    force_constant_n_per_v : float
+        Motor force per volt of command [N/V] (assumed, the thesis gives forces in V); converts the rope
+        force and the machine compliance given in N.
+    table_offset_m : float or None
+        Distance from the left actuator to the table at ``x = 0`` [m]; None: ``L / 2`` (the centre).
+    x_min_m, x_max_m : float
+        Travel of the table [m]; also the range of the discretization grid. Leaving it stops the run.
+    x_grid_m : float
+        Spacing of the grid in ``x`` on which the discrete matrices are precomputed [m].
+    mode320, bending : StructuralMode or None
+        The 320 Hz mode (shape assumed ``(1, -0.6)``) and the 382 Hz beam bending (ends in phase, ``(1, 1)``).
+    pitch_hz : float or None
+        Pitching mode [Hz], excited only by table forces; None: none.
+    pitch_zeta : float
+        Its damping ratio [-].
+    table_compliance_m_per_n : float
+        Static deflection of the table per table force [m/N] (thesis: 32.5 N/um).
+    pitch_encoder_fraction : float
+        Fraction of the table's pitching deflection the encoders see [-].
+    base_hz : float or None
+        Machine-base mode [Hz]; None: rigid base.
+    base_zeta : float
+        Its damping ratio [-].
+    base_mass_ratio : float
+        Base mass over the gantry mass ``m`` [-].
+    floor_m : float
+        RMS base displacement caused by the random floor force [m].
+    x_reaction_arm_m : float
+        Arm of the x motor's reaction torque on the gantry [m].
+    pwm_noise_v : float
+        RMS white noise on every motor force, per sample [V].
+    quantization_m : float
+        Encoder resolution [m] (all three encoders; 0: none).
+    noise_m : float
+        RMS white encoder noise [m].
+    u_max : float or None
+        Command saturation [V]; None: none.
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    envelope_m : float
+        Following-error trip: ``|y_ref - y1|``, ``|y_ref - y2|`` or ``|x_ref - x|`` above this stops the run [m].
+    overload_rms : float or None
+        I2t trip: a first-order mean of ``u^2`` of any motor above ``overload_rms^2`` stops the run [V].
+    overload_tau_s : float
+        Time constant of that mean [s].
+    """
+
+    model: GantryModel = THESIS_GANTRY
+    force_constant_n_per_v: float = 30.0
+    table_offset_m: float | None = None
+    x_min_m: float = -0.5
+    x_max_m: float = 0.5
+    x_grid_m: float = 0.005
+    mode320: StructuralMode | None = StructuralMode(320.0, 0.02, 0.05, (1.0, -0.6))
+    bending: StructuralMode | None = StructuralMode(382.0, 0.015, 0.05, (1.0, 1.0))
+    pitch_hz: float | None = 216.0
+    pitch_zeta: float = 0.03
+    table_compliance_m_per_n: float = 1.0 / 32.5e6
+    pitch_encoder_fraction: float = 0.1
+    base_hz: float | None = 23.0
+    base_zeta: float = 0.05
+    base_mass_ratio: float = 30.0
+    floor_m: float = 5e-9
+    x_reaction_arm_m: float = 0.05
+    pwm_noise_v: float = 0.005
+    quantization_m: float = 4e-6 / 1024
+    noise_m: float = 1e-9
+    u_max: float | None = 10.0
+    fs: float = 15000.0
+    delay_samples: int = 1
+    envelope_m: float = 0.5e-3
+    overload_rms: float | None = 7.0
+    overload_tau_s: float = 0.1
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, GantryModel):
+            raise UsageError("twin parameter model must be a GantryModel")
+        for name in ("force_constant_n_per_v", "x_grid_m", "fs", "envelope_m", "overload_tau_s",
+                     "base_mass_ratio"):
+            _positive(getattr(self, name), name, "")
+        for name in ("pitch_hz", "base_hz", "u_max", "overload_rms", "table_offset_m"):
+            if getattr(self, name) is not None:
+                _positive(getattr(self, name), name, "")
+        for name in ("pitch_zeta", "table_compliance_m_per_n", "pitch_encoder_fraction", "base_zeta", "floor_m",
+                     "pwm_noise_v", "quantization_m", "noise_m"):
+            _non_negative(getattr(self, name), name)
+        for name in ("x_min_m", "x_max_m", "x_reaction_arm_m"):
+            _finite(getattr(self, name), name)
+        if not self.x_min_m < self.x_max_m:
+            raise UsageError(f"twin parameters need x_min_m < x_max_m, got {self.x_min_m:g} .. {self.x_max_m:g} m")
+        if self.x_grid_m > (self.x_max_m - self.x_min_m) / 2:
+            raise UsageError(f"twin parameter x_grid_m = {self.x_grid_m:g} m is too coarse for the travel "
+                             f"{self.x_min_m:g} .. {self.x_max_m:g} m")
+        d = self.delay_samples
+        if isinstance(d, bool) or int(d) != d or d < 0:
+            raise UsageError(f"twin parameter delay_samples must be an integer >= 0, got {d!r}")
+        object.__setattr__(self, "delay_samples", int(d))
+        for name in ("mode320", "bending"):
+            mode = getattr(self, name)
+            if mode is not None and mode.freq_hz >= self.fs / 2:
+                raise UsageError(f"twin parameter {name}.freq_hz = {mode.freq_hz:g} Hz is above the Nyquist "
+                                 f"frequency {self.fs / 2:g} Hz")
+        for x in (self.x_min_m, self.x_max_m):
+            self.model.alpha(x)  # UsageError when the travel puts the CoM outside the span
+
+    @classmethod
+    def ideal(cls, model: GantryModel = THESIS_GANTRY, fs: float = 15000.0, delay_samples: int = 1
+              ) -> GantryTwinParams:
+        """Eq. 4.16 alone: no structural, pitching or base modes, no noise, quantization or saturation."""
+        return cls(model=model, mode320=None, bending=None, pitch_hz=None, base_hz=None, floor_m=0.0,
+                   x_reaction_arm_m=0.0, pwm_noise_v=0.0, quantization_m=0.0, noise_m=0.0, u_max=None, fs=fs,
+                   delay_samples=delay_samples, overload_rms=None)
+
+    @property
+    def table_offset(self) -> float:
+        """Distance from the left actuator to the table at ``x = 0`` [m]."""
+        return self.model.L / 2 if self.table_offset_m is None else float(self.table_offset_m)
+
+    @property
+    def rope_v_per_n(self) -> float:
+        """Command-equivalent force per newton [V/N]."""
+        return 1.0 / self.force_constant_n_per_v
+
+    def x_grid(self) -> np.ndarray:
+        """The table positions [m] at which the discrete matrices are precomputed."""
+        n = max(2, round((self.x_max_m - self.x_min_m) / self.x_grid_m) + 1)
+        return np.linspace(self.x_min_m, self.x_max_m, n)
+
+    def with_overrides(self, overrides: dict) -> GantryTwinParams:
+        """A copy with parameters replaced from ``{"name": value}`` (values may be strings).
+
+        Names: the fields of this class; the model parameters ``m L J0 d m_x c k alpha1_0 dalpha1_dx``;
+        ``mode320`` / ``bending`` = ``none``, or ``mode320.freq_hz``, ``.zeta``, ``.gain``, ``.shape``
+        (``shape=1,-0.6``); ``pitch_hz``, ``base_hz``, ``u_max``, ``overload_rms`` = ``none`` switch those off.
+        """
+        p = self
+        for key, raw in overrides.items():
+            p = _override(p, str(key).strip(), raw)
+        return p
+
+    def to_dict(self) -> dict:
+        """JSON-ready parameters with units."""
+        out: dict = {"model": self.model.params()}
+        for f in fields(self):
+            if f.name == "model":
+                continue
+            v = getattr(self, f.name)
+            out[f.name] = v.to_dict() if isinstance(v, StructuralMode) else v
+        out["table_offset_m"] = self.table_offset
+        out["units"] = {
+            "model": "V, m, s (eq. 4.16 units)", "force_constant_n_per_v": "N/V", "table_offset_m": "m",
+            "x_min_m": "m", "x_max_m": "m", "x_grid_m": "m", "mode320": "Hz, -, -, -", "bending": "Hz, -, -, -",
+            "pitch_hz": "Hz", "pitch_zeta": "-", "table_compliance_m_per_n": "m/N", "pitch_encoder_fraction": "-",
+            "base_hz": "Hz", "base_zeta": "-", "base_mass_ratio": "-", "floor_m": "m (RMS)",
+            "x_reaction_arm_m": "m", "pwm_noise_v": "V (RMS)", "quantization_m": "m", "noise_m": "m (RMS)",
+            "u_max": "V", "fs": "Hz", "delay_samples": "samples", "envelope_m": "m", "overload_rms": "V",
+            "overload_tau_s": "s"}
+        return out
+
+
+def _parse_number(raw, key: str):
+    if raw is None or (isinstance(raw, (int, float)) and not isinstance(raw, bool)):
+        return raw
+    text = str(raw).strip()
+    if text.lower() in ("none", "off", "null"):
+        return None
+    try:
+        return int(text) if text.lstrip("+-").isdigit() else float(text)
+    except ValueError:
+        raise UsageError(f"twin parameter {key}: expected a number or 'none', got {raw!r}") from None
+
+
+def _override_mode(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
+    base, _, attr = key.partition(".")
+    if not attr:
+        if _parse_number(raw, key) is not None:
+            raise UsageError(f"twin parameter {key} can only be set to 'none' (or set {key}.freq_hz etc.)")
+        return replace(p, **{base: None})
+    mode = getattr(p, base) or getattr(GantryTwinParams(), base)
+    if attr == "shape":
+        try:
+            value = tuple(float(v) for v in str(raw).split(","))
+        except ValueError:
+            raise UsageError(f"twin parameter {key}: expected LEFT,RIGHT numbers, got {raw!r}") from None
+        if len(value) != 2:
+            raise UsageError(f"twin parameter {key}: expected two numbers LEFT,RIGHT, got {raw!r}")
+    elif attr in ("freq_hz", "zeta", "gain"):
+        value = _parse_number(raw, key)
+        if value is None:
+            raise UsageError(f"twin parameter {key} needs a number")
+    else:
+        raise UsageError(f"twin parameter {key}: expected {base}.freq_hz|zeta|gain|shape")
+    return replace(p, **{base: replace(mode, **{attr: value})})
+
+
+def _override(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
+    names = {f.name for f in fields(GantryTwinParams)} - {"model"}
+    if key in MODEL_PARAMS:
+        value = _parse_number(raw, key)
+        if value is None:
+            raise UsageError(f"twin parameter {key} needs a number")
+        try:
+            return replace(p, model=replace(p.model, **{key: float(value)}))
+        except DataError as exc:
+            raise UsageError(f"twin parameter {key}: {exc}") from None
+    if key.split(".")[0] in ("mode320", "bending"):
+        return _override_mode(p, key, raw)
+    if key not in names:
+        known = sorted(names | set(MODEL_PARAMS) | {"mode320.{freq_hz,zeta,gain,shape}", "bending.{...}"})
+        raise UsageError(f"unknown twin parameter {key!r}; known: {', '.join(known)}")
+    return replace(p, **{key: _parse_number(raw, key)})
+
+
+# ------------------------------------------------------------------------------------------ state space
+def table_weights(p: GantryTwinParams, x):
+    """Lever weights ``(1 - s, s)``, ``s = (table_offset + x) / L``, of the table between the actuators [-].
+
+    ``x`` [m] may be a number or an array (the weights are then arrays).
+    """
+    s = (p.table_offset + (float(x) if np.ndim(x) == 0 else np.asarray(x, float))) / p.model.L
+    return 1.0 - s, s
+
+
+def continuous_system(p: GantryTwinParams, x: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, B)`` of the 12 linear states (:data:`STATE_NAMES`) at table position ``x`` [m].
+
+    Inputs (:data:`INPUT_NAMES`): motor forces ``f1, f2`` [V], x-reaction torque ``tau_x`` [V m], table
+    force ``F_table`` [V] (positive +y), floor force on the base ``F_floor`` [V].
+    """
+    model = p.model
+    at = model.at(x)
+    L = model.L
+    w1, w2 = table_weights(p, x)
+    Bg = np.array([[1.0, 0.0, -1.0 / L, w1, 0.0], [0.0, 1.0, 1.0 / L, w2, 0.0]])
+    A = np.zeros((N_STATES, N_STATES))
+    B = np.zeros((N_STATES, N_INPUTS))
+    if p.base_hz is not None:
+        mb = p.base_mass_ratio * model.m
+        wb = 2 * np.pi * p.base_hz
+        A[4, 5] = 1.0
+        A[5, 4] = -(wb**2)
+        A[5, 5] = -2 * p.base_zeta * wb
+        B[5, [0, 1]] = -1.0 / mb
+        B[5, 4] = 1.0 / mb
+    Minv = np.linalg.inv(at.M)
+    A[0, 2] = A[1, 3] = 1.0
+    A[2:4, 0:2] = -Minv @ at.K
+    A[2:4, 2:4] = -Minv @ at.C
+    B[2:4] = Minv @ Bg
+    A[2:4] -= A[5]  # relative coordinates: minus the base acceleration
+    B[2:4] -= B[5]
+    for j, mode in ((6, p.mode320), (8, p.bending)):
+        if mode is None:
+            continue
+        w = 2 * np.pi * mode.freq_hz
+        A[j, j + 1] = 1.0
+        A[j + 1, j] = -(w**2)
+        A[j + 1, j + 1] = -2 * mode.zeta * w
+        B[j + 1] = mode.gain / model.m * (np.asarray(mode.shape) @ Bg)
+    if p.pitch_hz is not None:
+        wp = 2 * np.pi * p.pitch_hz
+        A[10, 11] = 1.0
+        A[11, 10] = -(wp**2)
+        A[11, 11] = -2 * p.pitch_zeta * wp
+        B[11, 3] = wp**2 * p.table_compliance_m_per_n * p.force_constant_n_per_v
+    return A, B
+
+
+def encoder_matrix(p: GantryTwinParams, x: float) -> np.ndarray:
+    """Rows ``y1``, ``y2`` of the encoder readings (without noise and quantization) on the 12 states."""
+    C = np.zeros((2, N_STATES))
+    C[0, 0] = C[1, 1] = 1.0
+    w = table_weights(p, x)
+    for i in range(2):
+        for j, mode in ((6, p.mode320), (8, p.bending)):
+            if mode is not None:
+                C[i, j] = mode.shape[i]
+        C[i, 10] = p.pitch_encoder_fraction * w[i]
+    return C
+
+
+def floor_force_rms(p: GantryTwinParams) -> float:
+    """RMS of the white floor force per sample [V] that moves the (free) base by ``floor_m`` RMS."""
+    if p.base_hz is None or p.floor_m == 0:
+        return 0.0
+    from scipy.linalg import solve_discrete_lyapunov
+
+    mb = p.base_mass_ratio * p.model.m
+    wb = 2 * np.pi * p.base_hz
+    A = np.array([[0.0, 1.0], [-(wb**2), -2 * p.base_zeta * wb]])
+    Ad, Bd = zoh(A, np.array([[0.0], [1.0 / mb]]), 1.0 / p.fs)
+    P = solve_discrete_lyapunov(Ad, Bd @ Bd.T)
+    return p.floor_m / math.sqrt(P[0, 0])
+
+
+# ------------------------------------------------------------------------------------------ the kernel
+# indices into the parameter vector of the kernel
+(P_XMIN, P_DX, P_NGRID, P_L, P_OFFSET, P_FRAC, P_PA1, P_PA2, P_PB1, P_PB2, P_Q, P_UMAX, P_ENV, P_I2T_A,
+ P_I2T_LIM, P_DELAY, P_MX, P_H, P_ARM, P_ORIGIN, P_XLO, P_XHI) = range(22)
+N_PAR = 22
+
+
+def _measure(k, z, zx, par, noise, rec):
+    """Encoder readings at sample ``k`` from the state (noise added, quantized); recorded in ``rec``."""
+    x = zx[0]
+    s = (par[P_OFFSET] + x) / par[P_L]
+    w1 = 1.0 - s
+    q = z[10]
+    frac = par[P_FRAC]
+    y1t = z[0] + par[P_PA1] * z[6] + par[P_PB1] * z[8] + frac * w1 * q
+    y2t = z[1] + par[P_PA2] * z[6] + par[P_PB2] * z[8] + frac * s * q
+    origin = par[P_ORIGIN]
+    y1 = origin + y1t + noise[k * 6]
+    y2 = origin + y2t + noise[k * 6 + 1]
+    xm = x + noise[k * 6 + 2]
+    res = par[P_Q]
+    if res > 0.0:
+        y1 = math.floor(y1 / res + 0.5) * res
+        y2 = math.floor(y2 / res + 0.5) * res
+        xm = math.floor(xm / res + 0.5) * res
+    o = k * 11
+    rec[o] = y1
+    rec[o + 1] = y2
+    rec[o + 2] = xm
+    rec[o + 6] = origin + z[0]
+    rec[o + 7] = origin + z[1]
+    rec[o + 8] = x
+    rec[o + 9] = origin + w1 * z[0] + s * z[1] + q
+    rec[o + 10] = z[4]
+    return y1, y2, xm
+
+
+def _step(k, u1, u2, ux, z, zx, znew, buf, work, tabA, tabB, par, noise, ext, ref, rec):
+    """Apply the commands computed at sample ``k`` and advance the plant to sample ``k + 1``.
+
+    Returns a status: 0 running, 1 following-error envelope, 2 I2t overload, 3 non-finite command, 4 the
+    table left its travel (sample ``k`` is recorded; the plant is not advanced).
+    """
+    o = k * 5
+    c1 = u1 + ext[o + 2]
+    c2 = u2 + ext[o + 3]
+    cx = ux + ext[o + 4]
+    umax = par[P_UMAX]
+    r = k * 11
+    if not (abs(c1) <= 1e300 and abs(c2) <= 1e300 and abs(cx) <= 1e300):
+        rec[r + 3] = 0.0
+        rec[r + 4] = 0.0
+        rec[r + 5] = 0.0
+        return 3
+    c1 = min(max(c1, -umax), umax)
+    c2 = min(max(c2, -umax), umax)
+    cx = min(max(cx, -umax), umax)
+    rec[r + 3] = c1
+    rec[r + 4] = c2
+    rec[r + 5] = cx
+    d = int(par[P_DELAY])
+    nb = d + 1
+    j = (k % nb) * 3
+    buf[j] = c1
+    buf[j + 1] = c2
+    buf[j + 2] = cx
+    a = par[P_I2T_A]
+    work[0] += (c1 * c1 - work[0]) * a
+    work[1] += (c2 * c2 - work[1]) * a
+    work[2] += (cx * cx - work[2]) * a
+    env = par[P_ENV]
+    yr = ref[2 * k]
+    xr = ref[2 * k + 1]
+    if not (abs(yr - rec[r]) <= env and abs(yr - rec[r + 1]) <= env and abs(xr - rec[r + 2]) <= env):
+        return 1
+    lim = par[P_I2T_LIM]
+    if work[0] > lim or work[1] > lim or work[2] > lim:
+        return 2
+    x = zx[0]
+    if x < par[P_XLO] or x > par[P_XHI]:
+        return 4
+    f1 = 0.0
+    f2 = 0.0
+    fx = 0.0
+    if k >= d:
+        j = ((k - d) % nb) * 3
+        f1 = buf[j]
+        f2 = buf[j + 1]
+        fx = buf[j + 2]
+    f1 += noise[k * 6 + 3]
+    f2 += noise[k * 6 + 4]
+    fx += noise[k * 6 + 5]
+    work[3] = f1
+    work[4] = f2
+    work[5] = -par[P_ARM] * fx
+    work[6] = ext[o]
+    work[7] = ext[o + 1]
+    # linear interpolation of the discrete matrices at the table position
+    ng = int(par[P_NGRID])
+    sx = (x - par[P_XMIN]) / par[P_DX]
+    i = int(sx) if sx > 0.0 else 0
+    if i > ng - 2:
+        i = ng - 2
+    w = min(max(sx - i, 0.0), 1.0)
+    n = 12
+    ni = 5
+    oa0 = i * n * n
+    oa1 = oa0 + n * n
+    ob0 = i * n * ni
+    ob1 = ob0 + n * ni
+    for row in range(n):
+        s0 = 0.0
+        s1 = 0.0
+        ra = row * n
+        for c in range(n):
+            zc = z[c]
+            s0 += tabA[oa0 + ra + c] * zc
+            s1 += tabA[oa1 + ra + c] * zc
+        rb = row * ni
+        for c in range(ni):
+            uc = work[3 + c]
+            s0 += tabB[ob0 + rb + c] * uc
+            s1 += tabB[ob1 + rb + c] * uc
+        znew[row] = s0 + w * (s1 - s0)
+    for row in range(n):
+        z[row] = znew[row]
+    h = par[P_H]
+    acc = fx / par[P_MX]
+    zx[0] += h * zx[1] + 0.5 * h * h * acc
+    zx[1] += h * acc
+    return 0
+
+
+_COMPILED: dict = {}
+
+
+def _kernels(engine: str):
+    """``(measure, step)``: numba-compiled, or the plain-Python functions."""
+    if _choose_engine(engine) == "python":
+        return _measure, _step
+    if "step" not in _COMPILED:
+        import numba
+
+        _COMPILED["measure"] = numba.njit(cache=True, nogil=True)(_measure)
+        _COMPILED["step"] = numba.njit(cache=True, nogil=True)(_step)
+    return _COMPILED["measure"], _COMPILED["step"]
+
+
+def _choose_engine(engine: str) -> str:
+    if engine not in ENGINES:
+        raise UsageError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if engine == "auto":
+        return "numba" if numba_available() else "python"
+    if engine == "numba" and not numba_available():
+        raise UsageError("engine 'numba' requested but numba is not installed (pip install numba)")
+    return engine
+
+
+# ------------------------------------------------------------------------------------------ results
+@dataclass(frozen=True)
+class GantryRun:
+    """One closed-loop run of the gantry twin (all positions [m], commands [V], time [s]).
+
+    The controllers start ``lead_samples`` (their reference preview) before ``t = 0`` with the references
+    at rest; those samples have ``t < 0``.
+
+    Attributes
+    ----------
+    t : ndarray
+        Time [s].
+    y1, y2, x : ndarray
+        Encoder readings (noise, quantization, structural modes and pitching included) [m].
+    y1_true, y2_true, x_true : ndarray
+        Rigid-body encoder positions relative to the base and the table position [m].
+    y_table : ndarray
+        Interferometer reading of the table in y: the beam at the table plus the pitching deflection [m].
+    y_base : ndarray
+        Machine-base displacement [m].
+    u1, u2, ux : ndarray
+        Commands computed at each sample after saturation, excitation included [V]; applied
+        ``delay_samples`` later.
+    y_ref, x_ref : ndarray
+        References at each sample [m].
+    tripped : bool
+        A safety limit stopped the run at ``t[-1]``.
+    trip_message : str
+        Why ("" when it did not stop).
+    n_requested : int
+        Samples requested from ``t = 0``.
+    lead_samples : int
+        Samples before ``t = 0``.
+    """
+
+    t: np.ndarray
+    y1: np.ndarray
+    y2: np.ndarray
+    x: np.ndarray
+    y1_true: np.ndarray
+    y2_true: np.ndarray
+    x_true: np.ndarray
+    y_table: np.ndarray
+    y_base: np.ndarray
+    u1: np.ndarray
+    u2: np.ndarray
+    ux: np.ndarray
+    y_ref: np.ndarray
+    x_ref: np.ndarray
+    tripped: bool
+    trip_message: str
+    n_requested: int
+    lead_samples: int = 0
+
+    ARRAYS = ("t", "y1", "y2", "x", "y1_true", "y2_true", "x_true", "y_table", "y_base", "u1", "u2", "ux",
+              "y_ref", "x_ref")
+
+    def from_zero(self) -> GantryRun:
+        """The samples with ``t >= 0`` (at least one)."""
+        k = min(self.lead_samples, self.t.size - 1)
+        return replace(self, **{a: getattr(self, a)[k:] for a in self.ARRAYS}, lead_samples=self.lead_samples - k)
+
+    def to_dict(self) -> dict:
+        """Summary: duration [s], samples, trip."""
+        return {"duration_s": float(self.t[-1]), "n_samples": int(np.sum(self.t >= 0)),
+                "n_requested": self.n_requested, "tripped": self.tripped, "trip_message": self.trip_message}
+
+
+# ------------------------------------------------------------------------------------------ the twin
+@dataclass(frozen=True)
+class _Tables:
+    xs: np.ndarray
+    Ad: np.ndarray  # (n_grid, 12, 12)
+    Bd: np.ndarray  # (n_grid, 12, 5)
+
+
+class GantryTwin:
+    """The gantry twin built from :class:`GantryTwinParams` (see the module docstring).
+
+    Parameters
+    ----------
+    params : GantryTwinParams, optional
+        Defaults to the thesis's gantry.
+    """
+
+    def __init__(self, params: GantryTwinParams | None = None) -> None:
+        self.params = params or GantryTwinParams()
+        self._tables: _Tables | None = None
+
+    @property
+    def fs(self) -> float:
+        """Sample rate [Hz]."""
+        return self.params.fs
+
+    @property
+    def model(self) -> GantryModel:
+        """The rigid/yaw model of eq. 4.16 inside the twin."""
+        return self.params.model
+
+    def tables(self) -> _Tables:
+        """Exact ZOH matrices on the grid :meth:`GantryTwinParams.x_grid` (computed once)."""
+        if self._tables is None:
+            from scipy.linalg import expm
+
+            xs = self.params.x_grid()
+            aug = np.zeros((xs.size, N_STATES + N_INPUTS, N_STATES + N_INPUTS))
+            for i, x in enumerate(xs):
+                aug[i, :N_STATES, :N_STATES], aug[i, :N_STATES, N_STATES:] = continuous_system(self.params, x)
+            E = expm(aug / self.fs)  # batched: exact ZOH at every grid point
+            self._tables = _Tables(xs, np.ascontiguousarray(E[:, :N_STATES, :N_STATES]),
+                                   np.ascontiguousarray(E[:, :N_STATES, N_STATES:]))
+        return self._tables
+
+    def discrete_system(self, x: float) -> tuple[np.ndarray, np.ndarray]:
+        """Exact zero-order-hold ``(Ad, Bd)`` over one sample at table position ``x`` [m]."""
+        A, B = continuous_system(self.params, x)
+        return zoh(A, B, 1.0 / self.fs)
+
+    def interpolated_system(self, x: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(Ad, Bd)`` as the simulation uses them: linear interpolation on the grid at ``x`` [m]."""
+        tb = self.tables()
+        dx = tb.xs[1] - tb.xs[0]
+        i = int(np.clip(np.floor((x - tb.xs[0]) / dx), 0, tb.xs.size - 2))
+        w = float(np.clip((x - tb.xs[0]) / dx - i, 0.0, 1.0))
+        return (1 - w) * tb.Ad[i] + w * tb.Ad[i + 1], (1 - w) * tb.Bd[i] + w * tb.Bd[i + 1]
+
+    # ------------------------------------------------------------------ analytic responses
+    def frequency_response(self, freq_hz, x: float, *, sampled: bool = True) -> np.ndarray:
+        """The twin's own ``(u1, u2) -> (y1, y2)`` encoder response at table position ``x`` [m/V].
+
+        Parameters
+        ----------
+        freq_hz : array_like
+            Grid [Hz].
+        x : float
+            Table position [m].
+        sampled : bool
+            True: what a measurement from the logged commands to the encoder readings sees (exact ZOH
+            discretization times ``z^-delay``). False: the continuous plant.
+
+        Returns
+        -------
+        ndarray of complex, shape (2, 2, n_freq)
+        """
+        f = np.asarray(freq_hz, float).reshape(-1)
+        C = encoder_matrix(self.params, x)
+        if sampled:
+            Ad, Bd = self.discrete_system(x)
+            zz = np.exp(2j * np.pi * f / self.fs)
+            Mz = zz[:, None, None] * np.eye(N_STATES) - Ad[None]
+            X = np.linalg.solve(Mz, np.broadcast_to(Bd[:, :2], (f.size, N_STATES, 2)))
+            X = X * zz[:, None, None] ** (-self.params.delay_samples)
+        else:
+            A, B = continuous_system(self.params, x)
+            s = 2j * np.pi * f
+            Ms = s[:, None, None] * np.eye(N_STATES) - A[None]
+            X = np.linalg.solve(Ms, np.broadcast_to(B[:, :2], (f.size, N_STATES, 2)))
+        return np.einsum("ij,fjk->ikf", C, X)
+
+    def frf(self, freq_hz, x: float, *, sampled: bool = True):
+        """:meth:`frequency_response` as an :class:`~feedtune.frf.Frf` (``y1, y2`` [m] over ``u1, u2`` [V])."""
+        from ..frf import Frf
+
+        f = np.asarray(freq_hz, float)
+        return Frf(f, self.frequency_response(f, x, sampled=sampled), ("y1", "y2"), ("u1", "u2"), "position",
+                   input_unit="V", output_unit="m",
+                   meta={"source": f"gantry twin analytic FRF at x = {x:g} m" + (" (sampled)" if sampled else ""),
+                         "x_m": f"{x:g}"})
+
+    # ------------------------------------------------------------------ simulation
+    def simulate(self, gantry, axis, y_ref, *, x_ref=0.0, table_force=None, excitation=None, seed: int | None = 0,
+                 engine: str = "auto", n_samples: int | None = None) -> GantryRun:
+        """Run the closed loop: ``gantry`` on ``y1, y2`` and ``axis`` on the table.
+
+        The controllers see references and readings relative to where the run starts (``y_ref[0]``,
+        ``x_ref[0]``), as a target whose filters are initialised at the current position; the gantry
+        controller gets the absolute table position ``x`` for its schedule. The logs hold absolute values.
+
+        Parameters
+        ----------
+        gantry : object
+            Gantry controller: ``fs``, ``preview_samples``, ``reset()``, ``check_target(fs)`` and
+            ``step(y_ref[k+P], y1, y2, x) -> (u1, u2)`` [m -> V] (e.g. ``GantryRuntime``).
+        axis : object
+            x-axis controller: same attributes and ``step(x_ref[k+P], x) -> u_x`` [V] (e.g. ``AxisRuntime``).
+        y_ref : array_like, shape (n,)
+            Gantry reference [m]; the gantry starts at rest at ``y_ref[0]``.
+        x_ref : float or array_like, shape (n,)
+            Table reference [m]; the table starts at rest at ``x_ref[0]``.
+        table_force : array_like, shape (n,), optional
+            Force on the table in +y [V] held over each sample (rope); excites the pitching mode.
+        excitation : array_like, shape (n, 2) or (n, 3), optional
+            Signals added to ``u1, u2`` (and ``u_x``) before saturation [V].
+        seed : int or None
+            Seed of the encoder, force and floor noise.
+        engine : {"auto", "numba", "python"}
+            Compiled or plain-Python plant step.
+        n_samples : int, optional
+            Samples to run (default ``len(y_ref)``); a longer reference feeds the previews.
+
+        Returns
+        -------
+        GantryRun
+        """
+        for ctrl, name in ((gantry, "gantry controller"), (axis, "x-axis controller")):
+            _check_controller(ctrl, name)
+            ctrl.check_target(self.fs)
+        y_ref = _vector(y_ref, "y_ref")
+        n = y_ref.size if n_samples is None else int(n_samples)
+        if not 2 <= n <= y_ref.size:
+            raise UsageError(f"n_samples must be between 2 and len(y_ref) = {y_ref.size}, got {n_samples!r}")
+        x_ref = np.full(y_ref.size, float(x_ref)) if np.ndim(x_ref) == 0 else _vector(x_ref, "x_ref", y_ref.size)
+        if not np.all((x_ref >= self.params.x_min_m) & (x_ref <= self.params.x_max_m)):
+            raise UsageError(f"x_ref leaves the table travel {self.params.x_min_m:g} .. {self.params.x_max_m:g} m")
+        force = np.zeros(n) if table_force is None else _vector(table_force, "table_force", n)
+        exc = np.zeros((n, 3))
+        if excitation is not None:
+            e = np.asarray(excitation, float)
+            if e.ndim != 2 or e.shape[0] != n or e.shape[1] not in (2, 3) or not np.all(np.isfinite(e)):
+                raise UsageError(f"excitation: expected a finite array of shape ({n}, 2) or ({n}, 3) [V]")
+            exc[:, : e.shape[1]] = e
+        pg, pa = int(gantry.preview_samples), int(axis.preview_samples)
+        lead = max(pg, pa)
+        total = n + lead
+        tail = max(pg, pa) + 1
+        y_full = np.r_[np.full(lead, y_ref[0]), y_ref, np.full(tail, y_ref[-1])]
+        x_full = np.r_[np.full(lead, x_ref[0]), x_ref, np.full(tail, x_ref[-1])]
+        ext = np.zeros((total, N_EXT))
+        ext[lead:, 0] = force
+        ext[:lead, 0] = force[0]
+        ext[lead:, 2:5] = exc
+        noise = self._noise(total, seed)
+        ext[:, 1] = noise[1]
+        ref = np.column_stack([y_full[:total], x_full[:total]])
+        gantry.reset()
+        axis.reset()
+        k_done, status, rec = self._run(gantry, axis, y_full, x_full, pg, pa, float(y_ref[0]), float(x_ref[0]),
+                                        noise[0], ext, ref, total, engine)
+        m = min(k_done + 1, total)
+        rec = rec[:m]
+        tripped = status != 0
+        t = (np.arange(m) - lead) / self.fs
+        msg = self._trip_message(status, t[-1], ref[m - 1], rec[-1]) if tripped else ""
+        cols = {name: rec[:, i] for i, name in enumerate(REC)}
+        return GantryRun(t, cols["y1"], cols["y2"], cols["x"], cols["y1_true"], cols["y2_true"], cols["x_true"],
+                         cols["y_table"], cols["y_base"], cols["u1"], cols["u2"], cols["ux"], ref[:m, 0].copy(),
+                         ref[:m, 1].copy(), tripped, msg, n, lead)
+
+    def _noise(self, n: int, seed: int | None) -> tuple[np.ndarray, np.ndarray]:
+        """``(per-sample noise (n, 6), floor force (n,))`` from one generator."""
+        p = self.params
+        rng = np.random.default_rng(seed)
+        noise = np.zeros((n, N_NOISE))
+        if p.noise_m > 0:
+            noise[:, :3] = p.noise_m * rng.standard_normal((n, 3))
+        if p.pwm_noise_v > 0:
+            noise[:, 3:] = p.pwm_noise_v * rng.standard_normal((n, 3))
+        sigma_floor = floor_force_rms(p)
+        floor = sigma_floor * rng.standard_normal(n) if sigma_floor > 0 else np.zeros(n)
+        return noise, floor
+
+    def _parameter_vector(self, y_origin: float) -> np.ndarray:
+        p = self.params
+        tb = self.tables()
+        par = np.zeros(N_PAR)
+        par[P_XMIN] = tb.xs[0]
+        par[P_DX] = tb.xs[1] - tb.xs[0]
+        par[P_NGRID] = tb.xs.size
+        par[P_L] = p.model.L
+        par[P_OFFSET] = p.table_offset
+        par[P_FRAC] = p.pitch_encoder_fraction if p.pitch_hz is not None else 0.0
+        for idx, mode in (((P_PA1, P_PA2), p.mode320), ((P_PB1, P_PB2), p.bending)):
+            if mode is not None:
+                par[idx[0]], par[idx[1]] = mode.shape
+        par[P_Q] = p.quantization_m
+        par[P_UMAX] = np.inf if p.u_max is None else p.u_max
+        par[P_ENV] = p.envelope_m
+        par[P_I2T_A] = 1.0 - math.exp(-1.0 / (p.fs * p.overload_tau_s))
+        par[P_I2T_LIM] = np.inf if p.overload_rms is None else p.overload_rms**2
+        par[P_DELAY] = p.delay_samples
+        par[P_MX] = p.model.m_x
+        par[P_H] = 1.0 / p.fs
+        par[P_ARM] = p.x_reaction_arm_m
+        par[P_ORIGIN] = y_origin
+        par[P_XLO] = p.x_min_m - TRAVEL_TOL_M
+        par[P_XHI] = p.x_max_m + TRAVEL_TOL_M
+        return par
+
+    def _run(self, gantry, axis, y_full, x_full, pg, pa, y0, x0, noise, ext, ref, total, engine):
+        """The per-sample loop: controllers in Python, plant in the kernel. Returns (k_done, status, rec)."""
+        measure, step = _kernels(engine)
+        tb = self.tables()
+        arrays = [np.zeros(N_STATES), np.array([x0, 0.0]), np.zeros(N_STATES),
+                  np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(8), tb.Ad.ravel(), tb.Bd.ravel(),
+                  self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(), np.zeros(total * N_REC)]
+        if _choose_engine(engine) == "python":
+            arrays = [a.tolist() for a in arrays]
+        z, zx, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec = arrays
+        y1, y2, x = measure(0, z, zx, par, nz, rec)
+        g_step, a_step = gantry.step, axis.step
+        yr = (y_full - y0).tolist()  # the controllers' filters start at zero: positions relative to the start
+        xr = (x_full - x0).tolist()
+        status = 0
+        k = 0
+        last = total - 1
+        for k in range(total):
+            u1, u2 = g_step(yr[k + pg], y1 - y0, y2 - y0, x)
+            ux = a_step(xr[k + pa], x - x0)
+            status = step(k, float(u1), float(u2), float(ux), z, zx, znew, buf, work, tabA, tabB, par, nz, ex, rf,
+                          rec)
+            if status:
+                break
+            if k < last:
+                y1, y2, x = measure(k + 1, z, zx, par, nz, rec)
+        return k, int(status), np.asarray(rec, float).reshape(total, N_REC)
+
+    def _trip_message(self, status: int, t: float, ref_row: np.ndarray, rec_row: np.ndarray) -> str:
+        p = self.params
+        if status == 3:
+            return f"run stopped at t = {t:.6g} s: a controller returned a non-finite command"
+        if status == 2:
+            return (f"overload trip at t = {t:.6g} s: the RMS command of a motor over {p.overload_tau_s:g} s "
+                    f"exceeded {p.overload_rms:g} V (drive I2t protection; is a controller unstable on this "
+                    "machine?)")
+        if status == 4:
+            return (f"travel trip at t = {t:.6g} s: the table at x = {rec_row[8]:.6g} m left its travel "
+                    f"{p.x_min_m:g} .. {p.x_max_m:g} m")
+        errs = {"y1": ref_row[0] - rec_row[0], "y2": ref_row[0] - rec_row[1], "x": ref_row[1] - rec_row[2]}
+        which = max(errs, key=lambda key: abs(errs[key]))
+        return (f"following-error trip at t = {t:.6g} s: the {which} error {abs(errs[which]) * 1e3:.4g} mm left "
+                f"the safety envelope of {p.envelope_m * 1e3:.4g} mm (is a controller unstable on this machine?)")
+
+
+def _check_controller(ctrl, name: str) -> None:
+    missing = [a for a in ("fs", "preview_samples", "reset", "step", "check_target") if not hasattr(ctrl, a)]
+    if missing:
+        raise UsageError(f"{name} lacks {', '.join(missing)}; expected a GantryRuntime/AxisRuntime-like object")
+    pv = ctrl.preview_samples
+    if isinstance(pv, bool) or int(pv) != pv or pv < 0:
+        raise UsageError(f"{name}: preview_samples must be an integer >= 0, got {pv!r}")
+
+
+def _vector(x, name: str, n: int | None = None) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise UsageError(f"{name}: expected a sequence of numbers") from None
+    if a.size < 2 or (n is not None and a.size != n):
+        raise UsageError(f"{name}: expected {n if n is not None else 'at least 2'} samples, got {a.size}")
+    if not np.all(np.isfinite(a)):
+        raise UsageError(f"{name}: contains NaN or infinite values")
+    return a
+
+
+__all__ = ["GantryRun", "GantryTwin", "GantryTwinParams", "StructuralMode", "continuous_system",
+           "encoder_matrix", "floor_force_rms", "table_weights"]
