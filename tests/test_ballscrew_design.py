@@ -184,6 +184,24 @@ def test_tracking_with_model_inversion_is_unity_for_ideal_continuous():
     assert np.allclose(case.tracking, 1.0, atol=1e-8)
 
 
+def test_measured_case_is_extended_below_the_frf_by_the_model_and_warns_on_a_mismatch():
+    from dataclasses import replace
+
+    law = design_mcppc(MODEL, filters=THESIS_FILTER_PACK).law()
+    frf = MODEL.frf(np.logspace(np.log10(5.0), np.log10(9990.0), 2000))
+    ok = analyze_ballscrew(law, MODEL, frf=frf).cases["measured"].metrics
+    assert ok.stable and ok.contour_low_hz == pytest.approx(1e-5)
+    assert ok.integrators == 2  # below the 0.07 Hz real pole G ~ 1/(b s); K2 ~ Ki2/s
+    assert ok.model_extension["scale_gain"] == pytest.approx(1.0, rel=1e-9)
+    assert not any("differs from the FRF" in w for w in ok.warnings)
+    # an FRF of the opposite sign (e.g. a reversed encoder): the extension follows the FRF, the loop is positive
+    # feedback and unstable, and the mismatch with the model is reported
+    flipped = analyze_ballscrew(law, MODEL, frf=replace(frf, response=-frf.response)).cases["measured"].metrics
+    assert abs(flipped.model_extension["scale_phase_deg"]) == pytest.approx(180.0, abs=1e-6)
+    assert any("differs from the FRF" in w for w in flipped.warnings)
+    assert not flipped.stable
+
+
 def test_bad_design_parameters():
     with pytest.raises(UsageError, match="beta"):
         design_mcppc(MODEL, beta=0.5)

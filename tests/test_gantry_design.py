@@ -237,6 +237,12 @@ def test_measured_and_discrete_cases_on_the_model_frf(mimo, tmp_path, capsys, mo
     assert a["measured"]["ms"] == pytest.approx(a["ideal"]["ms"], rel=1e-3)
     assert a["discrete"]["ms"] == pytest.approx(a["ideal_discrete"]["ms"], rel=0.02)
     assert a["discrete"]["crossovers_hz"][0] == pytest.approx(60.0, abs=1.0)
+    for case in ("measured", "discrete"):  # the Nyquist contour continues below 0.5 Hz with the model
+        ext = a[case]["model_extension"]
+        assert a[case]["nyquist_low_frequency_hz"] == pytest.approx(1e-5)
+        assert ext["scale_gain"] == pytest.approx(1.0, rel=1e-9) and abs(ext["scale_phase_deg"]) < 1e-6
+        assert ext["junction_hz"] == pytest.approx([0.5, 1.0], rel=3e-3)  # the FRF's first octave
+        assert a[case]["nyquist_low_frequency_slope"] == pytest.approx(4.0, abs=0.05)  # rigid body + 2 integrals
     path = tmp_path / "gantry_frf.csv"
     write_frf(frf, path)
     code, out, err = run(["design", "gantry", model_file, *THESIS_H_ARGS, "--frf", path, "--json"], capsys,

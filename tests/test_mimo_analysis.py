@@ -147,8 +147,8 @@ VARIANTS = {
     "whole controller sign-flipped": replace(MIMO.law, lead_gain=-MIMO.law.lead_gain, ki=-MIMO.law.ki,
                                              beta=-MIMO.law.beta),
     "PID baseline": PID.law,
-    # low bandwidth, no lead: at 0.5 Hz tr L ~ 1/s^3 still dominates det L ~ 1/s^4 (the indentation must follow
-    # the local slope, not the 4 poles at the origin)
+    # low bandwidth, no lead: at 0.5 Hz tr L ~ 1/s^3 still dominates det L ~ 1/s^4 (the analysis continues the
+    # contour with the model down to 1e-5 Hz, where det L dominates)
     "PID 8 Hz, notches and low-pass only": PidLaw(**pid_gains(MODEL, 0.0, 8.0, 0.7, 2.0), fs=15000.0,
                                                   filters=LoopFilters(THESIS_H.notches, 450.0, 2, 0.7)),
     # 120 Hz: stable in continuous time, unstable with the discrete controller and delay; 180 Hz: unstable
@@ -228,6 +228,22 @@ def test_diagonal_loop_reduces_to_the_siso_analysis(gain):
         assert siso.stable and mimo.phase_margin_deg == pytest.approx(35.0, abs=0.01)
     if gain == 12.0:
         assert not siso.stable
+
+
+@pytest.mark.parametrize("gain, first_hz", [(1.0, 400.0), (1.0, 800.0), (0.02, 20.0), (0.02, 200.0)])
+def test_diagonal_loop_counts_like_the_siso_loop_when_the_grid_starts_above_crossover(gain, first_hz):
+    # |det(I + L) - 1| < 1 at the first line: the indentation arc of det(I + L) = 1 + (det(I + L) - 1) stays
+    # near 1 (as 1 + L does for the SISO loop) and must not be counted as a turn about the origin
+    f, ell = _siso_loop(gain)
+    keep = f >= first_hz
+    f, ell = f[keep], ell[keep]
+    siso = analyze_loop(f, ell, integrators=2)
+    L = np.zeros((2, 2, f.size), complex)
+    L[0, 0] = L[1, 1] = ell
+    ny = mimo_nyquist(f, L, integrators=4)
+    assert abs(ell[0]) < 0.5
+    assert ny.encirclements == 2 * siso.nyquist_encirclements == 0
+    assert ny.stable and siso.stable
 
 
 def test_one_sided_loop_counts_like_the_siso_loop():

@@ -35,7 +35,7 @@ from ..errors import DataError
 from ..frf import Frf
 from ..lti import delay_response, zoh_response
 from ..models.gantry import GantryModel
-from .loop import LoopMetrics, analyze_loop, model_extension
+from .loop import LoopExtension, LoopMetrics, analyze_loop, model_extension
 from .mimo import MimoMetrics, analyze_mimo, com_loop, level_bands, matmul, matvec, sensitivity, singular_values
 
 CASES = ("ideal", "ideal_discrete", "measured", "discrete")
@@ -219,7 +219,7 @@ def _gantry_case(name, f, G, H, K, weights, reference, fs, integrators, rhp, ext
 
 
 def gantry_extension(f, G, model: GantryModel, x: float, controller, fs: float | None = None,
-                     delay_samples: int = 0, zoh_in_plant: bool = False):
+                     delay_samples: int = 0, zoh_in_plant: bool = False) -> LoopExtension | None:
     """The 2x2 loop below ``f[0]`` from the model at ``x`` [m], scaled to meet ``G`` [m/V] at the junction.
 
     Parameters

@@ -15,8 +15,9 @@ contributes nothing when ``|L(j w_max)| < 1``. Closed-loop right-half-plane pole
 ``P`` is the number of open-loop right-half-plane poles.
 
 The arc is only right where ``L`` already follows its low-frequency asymptote ``c / s^n``. A measured FRF
-starts at a few Hz, where the slope of a loop with integrators is still in transition (e.g. 2.6 for a gantry
-PID whose integral corner is near the lowest line), and the count then depends on the lowest line. Below
+starts at a few Hz, where the slope of a loop with integrators is still in transition (1.2-2.9 for
+``det(I + L) - 1`` of gantry PIDs of 2-8 Hz bandwidth at lowest lines of 2-20 Hz), and the count then
+depends on the lowest line. Below
 the measured band the plant is rigid-body dominated and the model holds, so the analysis cases pass a
 :class:`LoopExtension` (:func:`model_extension`): the model's plant from ``EXTENSION_LOW_HZ`` up to the
 first grid line, scaled by one complex factor so that it meets the measured plant at the junction (least
@@ -96,7 +97,7 @@ class LoopMetrics:
     integrators : int
         Open-loop poles at the origin found from the low-frequency slope.
     warnings : list of str
-    nyquist_low_hz : float or None
+    contour_low_hz : float or None
         Lowest frequency of the Nyquist contour [Hz] (the indentation radius): the grid's first frequency, or
         the extension's (``EXTENSION_LOW_HZ``) when a model extension was used.
     model_extension : dict or None
@@ -117,7 +118,7 @@ class LoopMetrics:
     open_loop_rhp_poles: int
     integrators: int
     warnings: list = field(default_factory=list)
-    nyquist_low_hz: float | None = None
+    contour_low_hz: float | None = None
     model_extension: dict | None = None
 
     def to_dict(self) -> dict:
@@ -136,7 +137,7 @@ class LoopMetrics:
             "nyquist_encirclements": int(self.nyquist_encirclements),
             "open_loop_rhp_poles": int(self.open_loop_rhp_poles),
             "integrators": int(self.integrators),
-            "nyquist_low_frequency_hz": _f(self.nyquist_low_hz),
+            "nyquist_low_frequency_hz": _f(self.contour_low_hz),
             "model_extension": self.model_extension,
             "warnings": list(self.warnings),
         }
@@ -308,8 +309,8 @@ def contour_warnings(freq_hz: np.ndarray, slope: float, magnitude_low: float, in
         out.append(f"the loop's low-frequency slope at {f0:.3g} Hz is {slope:.2f}, between two integer "
                    f"asymptotes: the Nyquist count near 0 Hz is uncertain{fix}")
     elif extended and integrators is not None and round(slope) != integrators:
-        out.append(f"the loop falls as 1/s^{round(slope)} at {f0:.3g} Hz but has {integrators} open-loop poles at "
-                   "the origin: the contour's indentation is larger than the slowest closed-loop pole")
+        out.append(f"the loop falls as 1/s^{round(slope)} at {f0:.3g} Hz although it has {integrators} open-loop "
+                   f"poles at the origin: closed-loop poles slower than about {f0:.3g} Hz are not counted")
     if magnitude_low < 10 and (integrators or 0) > 0:
         out.append(f"|L| is only {magnitude_low:.3g} at the lowest frequency {f0:g} Hz; "
                    "the Nyquist count near 0 Hz is less reliable")

@@ -14,10 +14,13 @@ algebra (products, adjugate inverses, determinants, singular values); there is n
   radius ``2 pi f_0`` (the contour's lowest frequency) around the open-loop poles at ``s = 0`` (``z = 1``),
   on which ``det(I + L) ~ c / s^n`` turns clockwise by about ``n pi``. ``n`` is the *local* slope of
   ``|det(I + L) - 1|`` at ``f_0``: with integrating controllers ``tr L ~ 1/s^3`` dominates
-  ``det L ~ 1/s^4`` down to ``L^2 ki / (2 k)`` rad/s, and between the two asymptotes the slope (e.g. 2.6 at
-  the 2 Hz lowest line of a measured FRF) does not say how far the arc turns. The analysis cases therefore
-  extend the loop below the grid with the model (:func:`feedtune.analysis.loop.model_extension`, down to
-  1e-5 Hz, where the slope is the structural 4 for practical designs). A discrete loop is analysed on the
+  ``det L ~ 1/s^4`` down to ``L^2 ki / (2 k)`` rad/s, and between the two asymptotes the slope (1.2-2.9 for
+  gantry PIDs of 2-8 Hz bandwidth at lowest lines of 2-20 Hz) does not say how far the arc turns. The
+  analysis cases therefore extend the loop below the grid with the model
+  (:func:`feedtune.analysis.loop.model_extension`, down to 1e-5 Hz, where the slope is the structural 4 for
+  practical designs). The arc is that of ``det(I + L) - 1`` drawn about 1, so where
+  ``|det(I + L) - 1| < 1`` at the first line it adds no turn about the origin (counting a full turn of
+  ``det(I + L)`` there, as this module did before, miscounted by one). A discrete loop is analysed on the
   unit circle: the grid must end at ``fs / 2``.
 """
 

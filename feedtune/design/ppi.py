@@ -121,12 +121,21 @@ def design_ppi(
 
 
 def _candidate_loops(model, filters, fs, delay, frf, f):
-    """Plant-and-filter responses of the worst case, precomputed once for the search."""
-    from ..analysis.ballscrew import zoh_plant
+    """Plant-and-filter responses of the worst case, precomputed once for the search.
 
-    T = 1.0 / fs
-    z1 = np.exp(-2j * np.pi * f * T)
-    Fd = matched(filters.zpk(), fs).tf.freqresp(f)
+    Returns ``(A11, A21, D, I)`` on ``f`` and the same four on the extension below ``f[0]``
+    (:func:`feedtune.analysis.loop.model_extension`: the model, scaled to meet the FRF, down to 1e-5 Hz) so that
+    each candidate's Nyquist count does not depend on the lowest line of the grid or of the FRF.
+    """
+    from ..analysis.ballscrew import zoh_plant
+    from ..analysis.loop import model_extension
+
+    def parts(fr, G11, G21, H):
+        T = 1.0 / fs
+        z1 = np.exp(-2j * np.pi * fr * T)
+        Fd = matched(filters.zpk(), fs).tf.freqresp(fr)
+        return G11 * H * Fd, G21 * H * Fd, (1 - z1) / T, T / (1 - z1)
+
     if frf is not None:
         pos = frf.as_quantity("position")
 
@@ -135,12 +144,28 @@ def _candidate_loops(model, filters, fs, delay, frf, f):
             return np.interp(f, pos.freq_hz, h.real) + 1j * np.interp(f, pos.freq_hz, h.imag)
 
         G11, G21 = on_grid("x1/u"), on_grid("x2/u")
-        H = zoh_response(f, fs) * delay_response(f, delay, fs)
+
+        def hold(fr):
+            return zoh_response(fr, fs) * delay_response(fr, delay, fs)
+
+        def model_plant(fr):
+            g = model.frequency_response(fr)
+            return np.array([g["G11"], g["G21"]])
     else:
         g = zoh_plant(model, fs, f)
         G11, G21 = g["G11"], g["G21"]
-        H = delay_response(f, delay, fs)
-    return G11 * H * Fd, G21 * H * Fd, (1 - z1) / T, T / (1 - z1)
+
+        def hold(fr):
+            return delay_response(fr, delay, fs)
+
+        def model_plant(fr):
+            g = model.frequency_response(fr)
+            return np.array([g["G11"], g["G21"]]) * zoh_response(fr, fs)
+
+    ext = model_extension(f, np.array([G11, G21]), model_plant)
+    grid = parts(f, G11, G21, hold(f))
+    below = None if ext is None else (ext, parts(ext.freq_hz, ext.L[0], ext.L[1], hold(ext.freq_hz)))
+    return grid, below
 
 
 INTEGRAL_RATIOS = (2.0, 3.0, 4.0, 6.0, 10.0)
@@ -168,7 +193,7 @@ def tune_ppi(
     past the last feasible value the interval to the first infeasible one is refined with 12 more values,
     so that a binding ``ms_max`` is met closely rather than to the coarse grid's step (9 %).
     """
-    from ..analysis.loop import analyze_loop
+    from ..analysis.loop import LoopExtension, analyze_loop
 
     check_sampling(fs, delay_samples)
     if not (np.isfinite(ms_max) and ms_max > 1):
@@ -178,7 +203,7 @@ def tune_ppi(
     f_hi = fs / 2 * 0.999 if frf is None else min(fs / 2 * 0.999, float(frf.freq_hz[-1]))
     f_lo = 0.5 if frf is None else max(0.5, float(frf.freq_hz[frf.freq_hz > 0][0]))
     f = np.logspace(np.log10(f_lo), np.log10(f_hi), 3000)
-    A11, A21, D, I = _candidate_loops(model, filters, fs, delay_samples, frf, f)
+    (A11, A21, D, I), below = _candidate_loops(model, filters, fs, delay_samples, frf, f)
     M = model.total_inertia
 
     def best_at(wv: float):
@@ -193,7 +218,12 @@ def tune_ppi(
                 ms = float(np.max(np.abs(1 / (1 + L))))
                 if ms > ms_max:
                     continue
-                res = analyze_loop(f, L)
+                ext = None
+                if below is not None:
+                    e, (a11, a21, d, i) = below
+                    ext = LoopExtension(e.freq_hz, (g["Kx1"] + g["Kv1"] * d) * a11 + (g["Kx2"] + g["Ki2"] * i) * a21,
+                                        e.scale, e.junction_hz)
+                res = analyze_loop(f, L, extension=ext)
                 if not res.stable or res.phase_margin_deg is None or abs(res.phase_margin_deg) < pm_min_deg:
                     continue
                 bw = float(res.crossovers_hz[0])

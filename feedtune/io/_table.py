@@ -47,8 +47,13 @@ class TextTable:
     data: np.ndarray
     has_header: bool = True
     comments: list[str] = field(default_factory=list)
-    lines: list[str] = field(default_factory=list, repr=False)
+    text: str = field(default="", repr=False)
     first_data_index: int = 0
+
+    @property
+    def lines(self) -> list[str]:
+        """The file's lines (split on demand: only error messages need them)."""
+        return self.text.splitlines()
 
     def column(self, name: str) -> np.ndarray:
         """One column as a float vector."""
@@ -183,32 +188,47 @@ def parse_table(
     """
     if skip_rows < 0:
         raise DataError(f"{name}: skip_rows must be >= 0, got {skip_rows}")
-    lines = text.splitlines()
     metadata: dict[str, list[str]] = {}
     comments: list[str] = []
-    k = skip_rows
-    while k < len(lines) and not _is_data_line(lines[k]):
-        s = lines[k].strip()
+    head = _lines_with_offsets(text)
+    k, line, offset = -1, None, len(text)
+    for k, item in enumerate(head):
+        line, offset = item
+        if k < skip_rows:
+            continue
+        if _is_data_line(line):
+            break
+        s = line.strip()
         m = _META_RE.match(s)
         if m:
             metadata.setdefault(m.group(1).strip().lower(), []).append(m.group(2))
         elif s:
             comments.append(s.lstrip("#").strip())
-        k += 1
-    if k >= len(lines):
+    else:
         raise DataError(f"{name}: empty {what} file (no header and no data rows)")
-    sep = _guess_delimiter(lines[k])
-    cells = _split_cells(lines[k], sep)
+    sep = _guess_delimiter(line)
+    cells = _split_cells(line, sep)
     if all(_is_number(c) for c in cells if c):
         if require_header:
             raise DataError(f"{name}: line {k + 1}: expected a header row of column names, found numbers")
         columns = [f"col{j}" for j in range(len(cells))]
-        has_header, first = False, k
+        has_header, first, body = False, k, text[offset:]
     else:
         columns = _unique_names(cells)
-        has_header, first = True, k + 1
-    data = _parse_numbers(lines, first, columns, sep, name)
-    return TextTable(name, metadata, columns, data, has_header, comments, lines, first)
+        next_line = text.find("\n", offset)
+        has_header, first, body = True, k + 1, ("" if next_line < 0 else text[next_line + 1:])
+    data = _parse_numbers(body, text, first, columns, sep, name)
+    return TextTable(name, metadata, columns, data, has_header, comments, text, first)
+
+
+def _lines_with_offsets(text: str):
+    """``(line, offset)`` of each line of ``text`` in turn, without splitting the whole text."""
+    pos, n = 0, len(text)
+    while pos < n:
+        j = text.find("\n", pos)
+        end = n if j < 0 else j
+        yield text[pos:end].rstrip("\r"), pos
+        pos = end + 1
 
 
 def _data_line_numbers(lines: list[str], first: int) -> np.ndarray:
@@ -216,12 +236,12 @@ def _data_line_numbers(lines: list[str], first: int) -> np.ndarray:
     return np.array([j + 1 for j in range(first, len(lines)) if _is_data_line(lines[j])], dtype=int)
 
 
-def _parse_numbers(lines: list[str], first: int, columns: list[str], sep: str, name: str) -> np.ndarray:
+def _parse_numbers(body: str, text: str, first: int, columns: list[str], sep: str, name: str) -> np.ndarray:
     import pandas as pd
 
-    if not any(_is_data_line(x) for x in lines[first:]):
+    if not any(_is_data_line(line) for line, _ in _lines_with_offsets(body)):
         raise DataError(f"{name}: no data rows below the header")
-    body = "\n".join(lines[first:])
+    lines = _LazyLines(text)
     df = _read_frame(body, sep, len(columns), ".", lines, first, name)
     if sep == ";" and any(df[c].dtype.kind not in "biuf" for c in df.columns):
         comma = _read_frame(body, sep, len(columns), ",", lines, first, name)
@@ -239,7 +259,7 @@ def _parse_numbers(lines: list[str], first: int, columns: list[str], sep: str, n
         bad = num.isna().to_numpy() & col.notna().to_numpy()
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            line = _data_line_numbers(lines, first)[i]
+            line = _data_line_numbers(lines.get(), first)[i]
             cell = str(col.iloc[i])
             hint = "; pass skip_rows to skip extra header lines" if i == 0 else ""
             raise DataError(f"{name}: line {line}, column {columns[j]!r}: {cell!r} is not a number{hint}")
@@ -247,13 +267,26 @@ def _parse_numbers(lines: list[str], first: int, columns: list[str], sep: str, n
     finite = np.isfinite(values)
     if not finite.all():
         i, j = (int(v) for v in np.argwhere(~finite)[0])
-        line = _data_line_numbers(lines, first)[i]
+        line = _data_line_numbers(lines.get(), first)[i]
         what = "empty or NaN cell" if np.isnan(values[i, j]) else "infinite value"
         raise DataError(f"{name}: line {line}, column {columns[j]!r}: {what} (NaN/inf are not accepted)")
     return values
 
 
-def _read_frame(body: str, sep: str, n_columns: int, decimal: str, lines: list[str], first: int, name: str):
+class _LazyLines:
+    """The lines of a text, split only when an error message needs a line number."""
+
+    def __init__(self, text: str) -> None:
+        self._text = text
+        self._lines: list[str] | None = None
+
+    def get(self) -> list[str]:
+        if self._lines is None:
+            self._lines = self._text.splitlines()
+        return self._lines
+
+
+def _read_frame(body: str, sep: str, n_columns: int, decimal: str, lines: _LazyLines, first: int, name: str):
     import pandas as pd
 
     try:
@@ -263,7 +296,7 @@ def _read_frame(body: str, sep: str, n_columns: int, decimal: str, lines: list[s
     except pd.errors.EmptyDataError:
         raise DataError(f"{name}: no data rows below the header") from None
     except (pd.errors.ParserError, ValueError):
-        raise DataError(_field_count_message(lines, first, n_columns, sep, name)) from None
+        raise DataError(_field_count_message(lines.get(), first, n_columns, sep, name)) from None
 
 
 def _field_count_message(lines: list[str], first: int, n_columns: int, sep: str, name: str) -> str:
