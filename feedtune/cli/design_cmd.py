@@ -9,7 +9,9 @@ import typer
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
 
 app = typer.Typer(
-    rich_markup_mode=None, help="Design controllers (MC-PPC, P-PI) from identified models.", no_args_is_help=True
+    rich_markup_mode=None,
+    help="Design controllers from identified models: MC-PPC, P-PI (ball screw); MIMO, PID, loop shaping (gantry).",
+    no_args_is_help=True,
 )
 
 NOTCH_HELP = "Notch HZ,ZETA_Z,ZETA_P (repeatable), e.g. --notch 420,0.55,0.7 --notch 1080,0.05,0.7."

@@ -10,7 +10,7 @@ from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
 
 app = typer.Typer(
     rich_markup_mode=None,
-    help="Run experiments on the ball-screw digital twin; write logs (and FRFs).",
+    help="Run experiments on the digital twins (ball screw; gantry ...); write logs (and FRFs).",
     no_args_is_help=True,
 )
 
