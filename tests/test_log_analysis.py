@@ -50,6 +50,18 @@ def test_tracking_parts_are_the_hand_values():
     assert m.constant_velocity.rms == pytest.approx(A_CRUISE / math.sqrt(2), rel=1e-9)
 
 
+def test_gantry_logs_use_their_y_reference_derivatives():
+    # the gantry twin logs y_ref, vy_ref, ay_ref: the motion phases come from them, as from v_ref/a_ref
+    log, cruise, accel = _trapezoid_log()
+    rename = {"x_ref": "y_ref", "v_ref": "vy_ref", "a_ref": "ay_ref"}
+    gantry = Log(log.t, {rename.get(k, k): v for k, v in log.signals.items()},
+                 {rename.get(k, k): u for k, u in log.units.items()})
+    m = analyze_tracking_log(gantry)
+    assert m.acceleration.n_samples == int(accel.sum()) == 400
+    assert m.constant_velocity.n_samples == int(cruise.sum()) == 600
+    assert m.constant_velocity.max_abs == pytest.approx(A_CRUISE, rel=1e-9)
+
+
 def test_tracking_error_from_reference_minus_position_is_the_same():
     log, _, _ = _trapezoid_log()
     direct = analyze_tracking_log(log).to_dict()

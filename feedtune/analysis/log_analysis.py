@@ -27,6 +27,8 @@ from .metrics import RopeSnapMetrics, TrackingMetrics, ropesnap_metrics, trackin
 #: Preferred signal names written by the twin experiments (feedtune.sim.experiments).
 _ERROR_NAME = "e2"
 _TABLE_POSITION_NAME = "x2_table"
+_DEFAULT_REFERENCE = "x_ref"
+_GANTRY_REFERENCE = "y_ref"
 _VELOCITY_NAME = "v_ref"
 _ACCELERATION_NAME = "a_ref"
 #: Meta key of the release instant written by the rope-snap experiment [s].
@@ -78,9 +80,17 @@ def _check_name(value: str | None, name: str) -> None:
 
 
 def _commanded_motion(log: Log, reference: str) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """Commanded velocity [m/s] and acceleration [m/s^2]: logged, else derived from the reference."""
-    vel = log.get(_VELOCITY_NAME) if _VELOCITY_NAME in log else None
-    acc = log.get(_ACCELERATION_NAME) if _ACCELERATION_NAME in log else None
+    """Commanded velocity [m/s] and acceleration [m/s^2]: logged, else derived from the reference.
+
+    The logged names follow the reference: ``v_ref``/``a_ref`` for ``x_ref``, ``vy_ref``/``ay_ref`` for
+    ``y_ref`` (the gantry twin's logs). When the default ``x_ref`` is absent, a logged ``y_ref`` is used.
+    """
+    if reference == _DEFAULT_REFERENCE and reference not in log and _GANTRY_REFERENCE in log:
+        reference = _GANTRY_REFERENCE
+    stem = reference[: -len("_ref")] if reference.endswith("_ref") else reference
+    names = (_VELOCITY_NAME, _ACCELERATION_NAME) if stem == "x" else (f"v{stem}_ref", f"a{stem}_ref")
+    vel = log.get(names[0]) if names[0] in log else None
+    acc = log.get(names[1]) if names[1] in log else None
     if vel is None and reference in log:
         vel = np.gradient(_length_signal(log, reference, "reference"), log.t)
     if acc is None and vel is not None:
