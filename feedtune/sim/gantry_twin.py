@@ -57,7 +57,7 @@ import numpy as np
 from ..errors import DataError, UsageError
 from ..models.gantry import PARAM_NAMES as MODEL_PARAMS
 from ..models.gantry import THESIS_GANTRY, GantryModel
-from .twin import numba_available, zoh
+from .twin import numba_available, parse_override_value, zoh
 
 ENGINES = ("auto", "numba", "python")
 N_STATES = 12
@@ -300,22 +300,10 @@ class GantryTwinParams:
         return out
 
 
-def _parse_number(raw, key: str):
-    if raw is None or (isinstance(raw, (int, float)) and not isinstance(raw, bool)):
-        return raw
-    text = str(raw).strip()
-    if text.lower() in ("none", "off", "null"):
-        return None
-    try:
-        return int(text) if text.lstrip("+-").isdigit() else float(text)
-    except ValueError:
-        raise UsageError(f"twin parameter {key}: expected a number or 'none', got {raw!r}") from None
-
-
 def _override_mode(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
     base, _, attr = key.partition(".")
     if not attr:
-        if _parse_number(raw, key) is not None:
+        if parse_override_value(raw, key) is not None:
             raise UsageError(f"twin parameter {key} can only be set to 'none' (or set {key}.freq_hz etc.)")
         return replace(p, **{base: None})
     mode = getattr(p, base) or getattr(GantryTwinParams(), base)
@@ -327,7 +315,7 @@ def _override_mode(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
         if len(value) != 2:
             raise UsageError(f"twin parameter {key}: expected two numbers LEFT,RIGHT, got {raw!r}")
     elif attr in ("freq_hz", "zeta", "gain"):
-        value = _parse_number(raw, key)
+        value = parse_override_value(raw, key)
         if value is None:
             raise UsageError(f"twin parameter {key} needs a number")
     else:
@@ -338,7 +326,7 @@ def _override_mode(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
 def _override(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
     names = {f.name for f in fields(GantryTwinParams)} - {"model"}
     if key in MODEL_PARAMS:
-        value = _parse_number(raw, key)
+        value = parse_override_value(raw, key)
         if value is None:
             raise UsageError(f"twin parameter {key} needs a number")
         try:
@@ -350,7 +338,7 @@ def _override(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
     if key not in names:
         known = sorted(names | set(MODEL_PARAMS) | {"mode320.{freq_hz,zeta,gain,shape}", "bending.{...}"})
         raise UsageError(f"unknown twin parameter {key!r}; known: {', '.join(known)}")
-    return replace(p, **{key: _parse_number(raw, key)})
+    return replace(p, **{key: parse_override_value(raw, key)})
 
 
 # ------------------------------------------------------------------------------------------ state space

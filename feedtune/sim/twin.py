@@ -233,8 +233,15 @@ def _non_negative(v, name: str) -> float:
     return float(v)
 
 
-def _parse_value(raw, key: str):
-    if raw is None or isinstance(raw, (int, float)):
+def parse_override_value(raw, key: str):
+    """A ``--param NAME=VALUE`` value: a number (int when integral text), or None for none/off/null.
+
+    Raises
+    ------
+    UsageError
+        Neither a number nor none/off/null (names the parameter).
+    """
+    if raw is None or (isinstance(raw, (int, float)) and not isinstance(raw, bool)):
         return raw
     text = str(raw).strip()
     if text.lower() in ("none", "off", "null"):
@@ -246,7 +253,7 @@ def _parse_value(raw, key: str):
 
 
 def _override(p: TwinParams, key: str, raw) -> TwinParams:
-    value = _parse_value(raw, key) if key != "torsional_hz" else raw
+    value = parse_override_value(raw, key) if key != "torsional_hz" else raw
     names = {f.name for f in fields(TwinParams)}
     if key in ("m1", "m2", "b1", "b2", "k", "c", "lead_m_per_rad"):
         if value is None:
