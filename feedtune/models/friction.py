@@ -166,6 +166,8 @@ class StribeckFriction:
     @classmethod
     def from_doc(cls, doc: Mapping[str, object], where: str = "friction model") -> StribeckFriction:
         """Build the model from a document written by :meth:`to_doc` (errors name ``where`` and the key)."""
+        from ..io.document import value_of
+
         model = doc.get("model", "stribeck")
         if model != "stribeck":
             raise DataError(f"{where}: model = {model!r}; only 'stribeck' (eq. 2.1) friction is known")
@@ -187,7 +189,7 @@ class StribeckFriction:
                     continue
                 raise DataError(f"{where}: params.{name} is missing")
             unit = velocity_unit if name in OMEGA_NAMES else command_unit
-            values[name] = _param_value(params[name], unit, f"{where}: params.{name}")
+            values[name] = value_of(params[name], unit, f"{where}: params.{name}")
         try:
             return cls(**values, command_unit=command_unit, velocity_unit=velocity_unit)
         except DataError as exc:
@@ -203,20 +205,6 @@ def _unit_string(doc: Mapping[str, object], key: str, where: str) -> str:
     if not isinstance(unit, str) or not unit:
         raise DataError(f"{where}: {key} must be a unit string (e.g. \"V\", \"rad/s\"), got {unit!r}")
     return unit
-
-
-def _param_value(entry: object, unit: str, where: str) -> float:
-    """Number of a bare number or a ``{value, unit}`` quantity whose unit must be ``unit``."""
-    if isinstance(entry, Mapping):
-        if "value" not in entry:
-            raise DataError(f"{where}: expected a number or {{ value = ..., unit = ... }}")
-        got = entry.get("unit")
-        if got is not None and str(got) != unit:
-            raise DataError(f"{where}: unit {got!r} where {unit!r} is expected")
-        entry = entry["value"]
-    if isinstance(entry, bool) or not isinstance(entry, (int, float, np.integer, np.floating)):
-        raise DataError(f"{where}: expected a number, got {entry!r}")
-    return float(entry)
 
 
 def stribeck_to_doc(model: StribeckFriction) -> dict:

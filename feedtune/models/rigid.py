@@ -162,6 +162,8 @@ class RigidBodyModel:
     @classmethod
     def from_doc(cls, doc: Mapping[str, object], where: str = "rigid-body model") -> RigidBodyModel:
         """Build the model from a document written by :meth:`to_doc` (errors name ``where`` and the key)."""
+        from ..io.document import value_of
+
         command_unit = doc.get("command_unit")
         position_unit = doc.get("position_unit")
         for key, unit in (("command_unit", command_unit), ("position_unit", position_unit)):
@@ -183,25 +185,11 @@ class RigidBodyModel:
                     values[name] = None
                     continue
                 raise DataError(f"{where}: params.{name} is missing")
-            values[name] = _param_value(params[name], probe.units[name], f"{where}: params.{name}")
+            values[name] = value_of(params[name], probe.units[name], f"{where}: params.{name}")
         try:
             return cls(**values, command_unit=command_unit, position_unit=position_unit)
         except DataError as exc:
             raise DataError(f"{where}: {exc}") from None
-
-
-def _param_value(entry: object, unit: str, where: str) -> float:
-    """Number of a bare number or a ``{value, unit}`` quantity whose unit must be ``unit``."""
-    if isinstance(entry, Mapping):
-        if "value" not in entry:
-            raise DataError(f"{where}: expected a number or {{ value = ..., unit = ... }}")
-        got = entry.get("unit")
-        if got is not None and str(got) != unit:
-            raise DataError(f"{where}: unit {got!r} where {unit!r} is expected")
-        entry = entry["value"]
-    if isinstance(entry, bool) or not isinstance(entry, (int, float, np.integer, np.floating)):
-        raise DataError(f"{where}: expected a number, got {entry!r}")
-    return float(entry)
 
 
 def rigid_to_doc(model: RigidBodyModel) -> dict:
