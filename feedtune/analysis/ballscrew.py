@@ -22,6 +22,7 @@ FRF's ``x1/u`` and ``x2/u`` over its first octave, with the case's hold, delay a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,11 +30,11 @@ import numpy as np
 from ..design.ballscrew_law import BallScrewLaw
 from ..errors import DataError
 from ..frf import Frf
-from ..lti import Zpk, delay_response, zoh_response
+from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
+from .cases import PlantCase, measured_cases, model_cases
 from .loop import LoopMetrics, analyze_loop, model_extension
-
-CASES = ("ideal", "ideal_discrete", "measured", "discrete")
+from .resolution import lightly_damped
 
 
 @dataclass(frozen=True)
@@ -108,7 +109,8 @@ def default_grid(fs: float, n: int = 4000) -> np.ndarray:
     return np.logspace(np.log10(0.5), np.log10(fs / 2 * 0.999), n)
 
 
-def _plant_from_frf(frf: Frf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _plant_from_frf(frf: Frf) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Lines [Hz], ``x1/u`` and ``x2/u`` [rad/V] and their coherence (None when not measured) of a measured FRF."""
     pos = frf.as_quantity("position")
     if not (pos.has("x1/u") and pos.has("x2/u")):
         raise DataError(
@@ -116,7 +118,11 @@ def _plant_from_frf(frf: Frf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         )
     f = pos.freq_hz
     keep = f > 0
-    return f[keep], pos.channel("x1/u")[keep], pos.channel("x2/u")[keep]
+    coh = None
+    if pos.coherence is not None:
+        c = np.array([pos.channel_coherence("x1/u")[keep], pos.channel_coherence("x2/u")[keep]])
+        coh = c if np.all(np.isfinite(c)) else None
+    return f[keep], pos.channel("x1/u")[keep], pos.channel("x2/u")[keep], coh
 
 
 def _rhp(z: Zpk) -> int:
@@ -125,36 +131,136 @@ def _rhp(z: Zpk) -> int:
     return int(np.sum(np.abs(z.poles) > 1 + 1e-9))
 
 
-def _case(name, f, G11, G21, K1, K2, H, ff, R1, G13=None, G23=None, rhp=0, integrators=None,
-          extension=None) -> CaseResponse:
-    K1e, K2e = K1 * H, K2 * H
-    L = K1e * G11 + K2e * G21
-    S = 1.0 / (1.0 + L)
-    tracking = G21 * H * (ff + K1 * R1 + K2) * S
-    tracking_no_ff = G21 * (K1e + K2e) * S
-    dist = None
-    if G13 is not None:
-        dist = (G23 + K1e * (G11 * G23 - G13 * G21)) * S
-    metrics = analyze_loop(f, L, open_loop_rhp_poles=rhp, integrators=integrators, extension=extension)
-    return CaseResponse(name, f, L, S, tracking, tracking_no_ff, dist, metrics)
-
-
 def zoh_plant(model: BallScrewModel, fs: float, freq_hz: np.ndarray) -> dict[str, np.ndarray]:
     """Exact zero-order-hold discretization of the model, evaluated at ``z = exp(j w T)``.
 
     Returns G11, G13, G21, G23 [rad/V] (disturbance inputs also held, as a sampled-data approximation).
     """
+    return _zoh_tf(model, fs)(freq_hz)
+
+
+def _zoh_tf(model: BallScrewModel, fs: float):
+    """A function evaluating :func:`zoh_plant` on any grid (the discretization computed once)."""
     from scipy.signal import cont2discrete, ss2tf
 
     A, B, C = model.state_space()
     Ad, Bd, Cd, Dd, _ = cont2discrete((A, B, C, np.zeros((2, 3))), 1.0 / fs, method="zoh")
-    z = np.exp(2j * np.pi * np.asarray(freq_hz) / fs)
-    out = {}
+    polys = {}
     for j, inp in ((0, "1"), (2, "3")):
         num, den = ss2tf(Ad, Bd, Cd, Dd, input=j)
         for i, outp in ((0, "G1"), (1, "G2")):
-            out[outp + inp] = np.polyval(num[i], z) / np.polyval(den, z)
-    return out
+            polys[outp + inp] = (num[i], den)
+
+    def evaluate(freq_hz) -> dict[str, np.ndarray]:
+        z = np.exp(2j * np.pi * np.asarray(freq_hz, float) / fs)
+        return {k: np.polyval(n, z) / np.polyval(d, z) for k, (n, d) in polys.items()}
+
+    return evaluate
+
+
+# ------------------------------------------------------------------------------------------- plant cases
+def plant_cases(model: BallScrewModel, fs: float, delay_samples: float, frf: Frf | None = None,
+                freq_hz: np.ndarray | None = None) -> dict[str, PlantCase | None]:
+    """The four :class:`~feedtune.analysis.cases.PlantCase` of the module docstring; the plant is ``[G11, G21]``
+    [rad/V] (shape ``(2, n)``), the model cases' disturbance ``[G13, G23]`` [rad/V]; ``measured``/``discrete`` are
+    None without an FRF.
+
+    Parameters
+    ----------
+    model : BallScrewModel
+    fs : float
+        Controller sample rate [Hz].
+    delay_samples : float
+        Computational delay [samples].
+    frf : Frf, optional
+        Measured ``x1/u``, ``x2/u`` [rad/V].
+    freq_hz : ndarray, optional
+        Base grid of the model cases [Hz] (default :func:`default_grid`).
+    """
+    f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
+    feats = np.vstack([lightly_damped(model.poles()),
+                       *[lightly_damped(np.roots(n)) for n in model.numerators().values() if np.size(n) > 1]])
+    zoh_tf = _zoh_tf(model, fs)
+
+    def pick(fn, a, b):
+        def out(fr):
+            g = fn(fr)
+            return np.array([g[a], g[b]])
+
+        return out
+
+    cases: dict[str, PlantCase | None] = dict(model_cases(
+        f, fs, delay_samples, model_plant=pick(model.frequency_response, "G11", "G21"),
+        zoh_plant=pick(zoh_tf, "G11", "G21"), features=feats,
+        disturbance=pick(model.frequency_response, "G13", "G23"), zoh_disturbance=pick(zoh_tf, "G13", "G23")))
+    if frf is None:
+        cases["measured"] = cases["discrete"] = None
+        return cases
+    fm, G11, G21, coh = _plant_from_frf(frf)
+    cases.update(measured_cases(fm, np.array([G11, G21]), fs, delay_samples,
+                                model_plant=pick(model.frequency_response, "G11", "G21"), coherence=coh))
+    return cases
+
+
+# ------------------------------------------------------------------------------------------- law side
+def controller_features(law: BallScrewLaw, discrete: bool) -> np.ndarray:
+    """Lightly damped poles and zeros (Hz, damping) of the law's feedback paths."""
+    ks = (law.K1d(), law.K2d()) if discrete else (law.K1(), law.K2())
+    return np.vstack([lightly_damped(r, k.dt) for k in ks for r in (k.poles, k.zeros)])
+
+
+def loop_function(law: BallScrewLaw, pc: PlantCase) -> Callable[[np.ndarray], np.ndarray]:
+    """``L(f) = hold (K1 G11 + K2 G21)`` of the law on a plant case, at any frequency [Hz]."""
+    K1, K2 = (law.K1d(), law.K2d()) if pc.discrete else (law.K1(), law.K2())
+
+    def evaluate(fr):
+        g = pc.plant(fr)
+        return pc.hold(fr) * (K1.freqresp(fr) * g[0] + K2.freqresp(fr) * g[1])
+
+    return evaluate
+
+
+def analyze_case(law: BallScrewLaw, pc: PlantCase, *, responses: bool = True) -> CaseResponse:
+    """One analysis case of a law on a plant case: the figures (refined) and, with ``responses``, the curves on the
+    case's base grid (without: ``L`` only, for searches)."""
+    f = pc.freq_hz
+    if pc.discrete:
+        K1z, K2z = law.K1d(), law.K2d()
+        K = (K1z.freqresp(f), K2z.freqresp(f))
+        rhp = _rhp(K1z) + _rhp(K2z)
+    else:
+        K1s, K2s = law.K1(), law.K2()
+        K = (K1s.freqresp(f), K2s.freqresp(f))
+        rhp = _rhp(K1s) + _rhp(K2s)
+    g = pc.plant(f)
+    H = pc.hold(f)
+    L = H * (K[0] * g[0] + K[1] * g[1])
+    evaluate = loop_function(law, pc)
+
+    def ext_loop(fe, ge):
+        K1, K2 = (law.K1d(), law.K2d()) if pc.discrete else (law.K1(), law.K2())
+        return pc.hold(fe) * (K1.freqresp(fe) * ge[0] + K2.freqresp(fe) * ge[1])
+
+    extension = model_extension(f, g, pc.model_plant, ext_loop)
+    feats = np.vstack([pc.features, controller_features(law, pc.discrete)])
+    metrics = analyze_loop(f, evaluate=evaluate, features=feats, open_loop_rhp_poles=rhp, extension=extension,
+                           noise_db=pc.noise_db, measured=pc.measured)
+    S = 1.0 / (1.0 + L)
+    if not responses:
+        return CaseResponse(pc.name, f, L, S, None, None, None, metrics)
+    paths = law.reference_paths()
+    if pc.discrete:
+        zP = np.exp(2j * np.pi * f / law.fs) ** paths["feedforward"].preview_samples
+        ff, R1 = paths["feedforward"].discrete.freqresp(f) * zP, paths["rotary"].discrete.freqresp(f) * zP
+    else:
+        ff, R1 = law.feedforward.freqresp(f), law.rotary_reference.freqresp(f)
+    tracking = g[1] * H * (ff + K[0] * R1 + K[1]) * S
+    tracking_no_ff = g[1] * H * (K[0] + K[1]) * S
+    dist = None
+    if pc.disturbance is not None:
+        d = pc.disturbance(f)  # [G13, G23]
+        dist = (d[1] + H * K[0] * (g[0] * d[1] - d[0] * g[1])) * S
+    return CaseResponse(pc.name, f, L, S, tracking, tracking_no_ff, dist, metrics)
 
 
 def analyze_ballscrew(
@@ -166,7 +272,7 @@ def analyze_ballscrew(
     ----------
     law : BallScrewLaw
     model : BallScrewModel
-        The design model (ideal cases).
+        The design model (ideal cases; the loop below the FRF's band in the measured cases).
     frf : Frf, optional
         Measured ``x1/u`` and ``x2/u`` (measured and discrete cases).
     freq_hz : ndarray, optional
@@ -176,83 +282,8 @@ def analyze_ballscrew(
     -------
     BallScrewAnalysis
     """
-    f = default_grid(law.fs) if freq_hz is None else np.asarray(freq_hz, float)
-    K1, K2 = law.K1(), law.K2()
-    K1d, K2d = law.K1d(), law.K2d()
-    paths = law.reference_paths()
-    rhp_c = _rhp(K1) + _rhp(K2)
-    rhp_d = _rhp(K1d) + _rhp(K2d)
-    cases: dict[str, CaseResponse | None] = {}
-
-    def responses(freq: np.ndarray) -> dict[str, np.ndarray]:
-        """Every controller response on one grid; s and z are computed once (no repeated exp)."""
-        s = 2j * np.pi * freq
-        z = np.exp(s / law.fs)
-        zP = z ** paths["feedforward"].preview_samples
-        return {
-            "K1": K1.evaluate(s),
-            "K2": K2.evaluate(s),
-            "ff": law.feedforward.evaluate(s),
-            "R1": law.rotary_reference.evaluate(s),
-            "K1d": K1d.evaluate(z),
-            "K2d": K2d.evaluate(z),
-            "ffd": paths["feedforward"].discrete.evaluate(z) * zP,
-            "R1d": paths["rotary"].discrete.evaluate(z) * zP,
-        }
-
-    def model_plant(fr: np.ndarray, zoh: bool = False) -> np.ndarray:
-        """``[G11, G21]`` of the model [rad/V], shape ``(2, n)`` (times the hold when ``zoh``)."""
-        gm = model.frequency_response(fr)
-        return np.array([gm["G11"], gm["G21"]]) * (zoh_response(fr, law.fs) if zoh else 1.0)
-
-    def extension(fr: np.ndarray, G11, G21, discrete: bool, zoh_in_plant: bool = False):
-        """The loop below ``fr[0]`` from the model, scaled to meet ``(G11, G21)`` at the junction."""
-
-        def loop(fe, g):
-            re = responses(fe)
-            if not discrete:
-                return re["K1"] * g[0] + re["K2"] * g[1]
-            h = delay_response(fe, law.delay_samples, law.fs) * (1.0 if zoh_in_plant else zoh_response(fe, law.fs))
-            return h * (re["K1d"] * g[0] + re["K2d"] * g[1])
-
-        return model_extension(fr, np.array([G11, G21]), lambda fe: model_plant(fe, zoh_in_plant), loop)
-
-    g = model.frequency_response(f)
-    r = responses(f)
-    cases["ideal"] = _case(
-        "ideal", f, g["G11"], g["G21"], r["K1"], r["K2"], 1.0, r["ff"], r["R1"], g["G13"], g["G23"], rhp_c,
-        extension=extension(f, g["G11"], g["G21"], False),
-    )
-    fd = np.r_[f[f < law.fs / 2], law.fs / 2]  # the z-domain contour closes at the Nyquist frequency
-    gd = zoh_plant(model, law.fs, fd)
-    rd = responses(fd)
-    Hd = delay_response(fd, law.delay_samples, law.fs)
-    cases["ideal_discrete"] = _case(
-        "ideal_discrete",
-        fd,
-        gd["G11"],
-        gd["G21"],
-        rd["K1d"],
-        rd["K2d"],
-        Hd,
-        rd["ffd"],
-        rd["R1d"],
-        gd["G13"],
-        gd["G23"],
-        rhp_d,
-        extension=extension(fd, gd["G11"], gd["G21"], True, zoh_in_plant=True),
-    )
-    if frf is None:
-        cases["measured"] = cases["discrete"] = None
-    else:
-        fm, G11m, G21m = _plant_from_frf(frf)
-        rm = r if np.array_equal(fm, f) else responses(fm)
-        cases["measured"] = _case("measured", fm, G11m, G21m, rm["K1"], rm["K2"], 1.0, rm["ff"], rm["R1"], rhp=rhp_c,
-                                  extension=extension(fm, G11m, G21m, False))
-        H = zoh_response(fm, law.fs) * delay_response(fm, law.delay_samples, law.fs)
-        cases["discrete"] = _case("discrete", fm, G11m, G21m, rm["K1d"], rm["K2d"], H, rm["ffd"], rm["R1d"], rhp=rhp_d,
-                                  extension=extension(fm, G11m, G21m, True))
-    return BallScrewAnalysis(cases)
+    cases = plant_cases(model, law.fs, law.delay_samples, frf, freq_hz)
+    return BallScrewAnalysis({name: None if pc is None else analyze_case(law, pc) for name, pc in cases.items()})
 
 
 def closed_loop_poles(law: BallScrewLaw, model: BallScrewModel) -> np.ndarray:

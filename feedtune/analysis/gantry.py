@@ -35,20 +35,18 @@ from ..errors import DataError
 from ..frf import Frf
 from ..lti import delay_response, zoh_response
 from ..models.gantry import GantryModel
+from .cases import CASES as CASES  # re-exported: the case names
+from .cases import PlantCase, measured_cases, model_cases
 from .loop import LoopExtension, LoopMetrics, analyze_loop, model_extension
 from .mimo import MimoMetrics, analyze_mimo, com_loop, level_bands, matmul, matvec, sensitivity, singular_values
+from .resolution import lightly_damped
 
-CASES = ("ideal", "ideal_discrete", "measured", "discrete")
 GANTRY_CHANNELS = (("y1/u1", "y1/u2"), ("y2/u1", "y2/u2"))
 
 
 def default_grid(fs: float, n: int = 4000) -> np.ndarray:
     """Analysis grid for the model cases [Hz]: 0.5 Hz to just below ``fs/2``, log-spaced."""
     return np.logspace(np.log10(0.5), np.log10(fs / 2 * 0.999), n)
-
-
-def _discrete_grid(f: np.ndarray, fs: float) -> np.ndarray:
-    return np.r_[f[f < fs / 2], fs / 2]
 
 
 def _max_lag(f, t, f_max):
@@ -179,14 +177,24 @@ class GantryAnalysis:
 
 def zoh_gantry(model: GantryModel, x: float, fs: float, freq_hz) -> np.ndarray:
     """Exact ZOH discretization of the gantry at ``x`` evaluated at ``z = e^{j w T}``, ``(2, 2, n)`` [m/V]."""
+    return _zoh_gantry_fn(model, x, fs)(freq_hz)
+
+
+def _zoh_gantry_fn(model: GantryModel, x: float, fs: float):
+    """A function evaluating :func:`zoh_gantry` on any grid (the discretization computed once)."""
     from scipy.signal import cont2discrete
 
     A, B, C = model.state_space(x)
     Ad, Bd, Cd, _, _ = cont2discrete((A, B, C, np.zeros((2, 2))), 1.0 / fs, method="zoh")
-    z = np.exp(2j * np.pi * np.asarray(freq_hz, float) / fs)
-    Zi = z[:, None, None] * np.eye(4) - Ad  # (n, 4, 4)
-    X = np.linalg.solve(Zi, np.broadcast_to(Bd, (z.size, 4, 2)))
-    return np.moveaxis(Cd @ X, 0, -1)
+    n = Ad.shape[0]
+
+    def evaluate(freq_hz) -> np.ndarray:
+        z = np.exp(2j * np.pi * np.asarray(freq_hz, float) / fs)
+        Zi = z[:, None, None] * np.eye(n) - Ad  # (n_f, n, n)
+        X = np.linalg.solve(Zi, np.broadcast_to(Bd, (z.size, n, 2)))
+        return np.moveaxis(Cd @ X, 0, -1)
+
+    return evaluate
 
 
 def gantry_frf_matrix(frf: Frf) -> tuple[np.ndarray, np.ndarray]:
@@ -201,20 +209,53 @@ def gantry_frf_matrix(frf: Frf) -> tuple[np.ndarray, np.ndarray]:
     return pos.freq_hz[keep], G
 
 
-def _gantry_case(name, f, G, H, K, weights, reference, fs, integrators, rhp, extension=None) -> GantryCase:
+def analyze_gantry_case(law, pc: PlantCase, weights, reference: GantryReference | None = None, *,
+                        integrators: int | None = None) -> GantryCase:
+    """One gantry case of a law (MIMO or PID) on a plant case (plant ``(2, 2, n)`` [m/V]).
+
+    Parameters
+    ----------
+    law : MimoLaw or PidLaw
+    pc : PlantCase
+        From :func:`gantry_plant_cases`.
+    weights : (float, float)
+        Mass distribution ``alpha(x)`` of the CoM output.
+    reference : GantryReference, optional
+        For the tracking curves (None: no tracking curves, for searches).
+    integrators : int, optional
+        Open-loop poles at the origin; default ``2 + law.integrators`` (rigid body and integrating channels).
+    """
+    f = pc.freq_hz
+    K = law.response_discrete if pc.discrete else law.response
+    n_int = 2 + law.integrators if integrators is None else int(integrators)
+    G = pc.plant(f)
+    H = pc.hold(f)
     Ge = G * H
-    L = matmul(Ge, K)
+    Kf = K(f)
+    L = matmul(Ge, Kf)
     S = sensitivity(L)
+
+    def evaluate(fr):
+        return matmul(pc.plant(fr) * pc.hold(fr), K(fr))
+
+    def ext_loop(fr, g):
+        return matmul(g * pc.hold(fr), K(fr))
+
+    extension = model_extension(f, G, pc.model_plant, ext_loop)
+    feats = np.vstack([pc.features, law_features(law, pc.discrete)])
+    metrics = analyze_mimo(f, evaluate=evaluate, features=feats, weights=weights, integrators=n_int,
+                           open_loop_rhp_poles=law.rhp_poles(pc.discrete), extension=extension, noise_db=pc.noise_db,
+                           measured=pc.measured)
     SG = matmul(S, G)
-    r, ff = reference.responses(f, fs)
+    if reference is None:
+        return GantryCase(pc.name, f, Ge, L, S, SG, G, None, None, tuple(weights), metrics)
+    r, ff = reference.responses(f, law.fs if pc.discrete else None)
     ones = np.ones((2, f.size), complex)
     SGe = matmul(S, Ge)
-    y = matvec(SGe, matvec(K, r) + ff)
-    y0 = matvec(SGe, matvec(K, ones))
+    y = matvec(SGe, matvec(Kf, r) + ff)
+    y0 = matvec(SGe, matvec(Kf, ones))
     w1, w2 = weights
-    metrics = analyze_mimo(f, L, weights=weights, integrators=integrators, open_loop_rhp_poles=rhp, S=S,
-                           extension=extension)
-    return GantryCase(name, f, Ge, L, S, SG, G, w1 * y[0] + w2 * y[1], w1 * y0[0] + w2 * y0[1], tuple(weights),
+    return GantryCase(pc.name, f, Ge, L, S, SG, G, w1 * y[0] + w2 * y[1], w1 * y0[0] + w2 * y0[1], tuple(weights),
                       metrics)
 
 
@@ -222,27 +263,8 @@ def gantry_extension(f, G, model: GantryModel, x: float, controller, fs: float |
                      delay_samples: int = 0, zoh_in_plant: bool = False) -> LoopExtension | None:
     """The 2x2 loop below ``f[0]`` from the model at ``x`` [m], scaled to meet ``G`` [m/V] at the junction.
 
-    Parameters
-    ----------
-    f : ndarray
-        Grid of the case [Hz].
-    G : ndarray, shape (2, 2, n)
-        The case's plant on ``f`` [m/V] (FRF or model; with the hold when ``zoh_in_plant``).
-    model : GantryModel
-    x : float
-        Table position [m].
-    controller : callable
-        ``controller(f)`` -> ``K`` on ``f``, shape ``(2, 2, m)`` [V/m].
-    fs : float, optional
-        Sample rate [Hz] of a discrete case: the hold and ``delay_samples`` join the loop.
-    delay_samples : int
-        Computational delay [samples] (discrete cases).
-    zoh_in_plant : bool
-        ``G`` already holds the zero-order hold (the exact ZOH model of ``ideal_discrete``).
-
-    Returns
-    -------
-    LoopExtension or None
+    ``controller(f)`` -> ``K`` [V/m] ``(2, 2, m)``; with ``fs`` [Hz] the hold and ``delay_samples`` join the loop
+    (``zoh_in_plant``: ``G`` already holds the zero-order hold).
     """
 
     def plant(fr):
@@ -257,6 +279,42 @@ def gantry_extension(f, G, model: GantryModel, x: float, controller, fs: float |
     return model_extension(f, G, plant, loop)
 
 
+def law_features(law, discrete: bool) -> np.ndarray:
+    """Lightly damped poles and zeros (Hz, damping) of a gantry law's filter pack."""
+    from ..design.discretize import matched
+
+    h = law.filters.zpk()
+    if discrete:
+        h = matched(h, law.fs).tf
+    return np.vstack([lightly_damped(h.poles, h.dt), lightly_damped(h.zeros, h.dt)])
+
+
+def model_features(model: GantryModel, x: float) -> np.ndarray:
+    """Lightly damped poles (Hz, damping) of the gantry model at ``x`` [m]."""
+    A, _, _ = model.state_space(x)
+    return lightly_damped(np.linalg.eigvals(A))
+
+
+def gantry_plant_cases(model: GantryModel, x: float, fs: float, delay_samples: float, frf: Frf | None = None,
+                       freq_hz=None) -> dict[str, PlantCase | None]:
+    """The four :class:`~feedtune.analysis.cases.PlantCase` of the gantry at table position ``x`` [m]; plant
+    ``(2, 2, n)`` [m/V]; ``measured``/``discrete`` None without an FRF."""
+    f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
+
+    def model_plant(fr):
+        return model.frequency_response(fr, x)
+
+    zoh_model = _zoh_gantry_fn(model, x, fs)
+    cases: dict[str, PlantCase | None] = dict(model_cases(f, fs, delay_samples, model_plant=model_plant,
+                                                          zoh_plant=zoh_model, features=model_features(model, x)))
+    if frf is None:
+        cases["measured"] = cases["discrete"] = None
+        return cases
+    fm, Gm = gantry_frf_matrix(frf)
+    cases.update(measured_cases(fm, Gm, fs, delay_samples, model_plant=model_plant, coherence=_gantry_coherence(frf)))
+    return cases
+
+
 def analyze_gantry(law, model: GantryModel, *, x: float = 0.0, frf: Frf | None = None,
                    reference: GantryReference | None = None, freq_hz=None) -> GantryAnalysis:
     """Analyse a gantry law (MIMO or PID) in all cases (module docstring).
@@ -265,7 +323,7 @@ def analyze_gantry(law, model: GantryModel, *, x: float = 0.0, frf: Frf | None =
     ----------
     law : MimoLaw or PidLaw
         Provides ``response``, ``response_discrete``, ``integrators``, ``rhp_poles``, ``fs``,
-        ``delay_samples``.
+        ``delay_samples``, ``filters``.
     model : GantryModel
         Design model (ideal cases; CoM weights ``alpha(x)``; the loop below the FRF's band in the measured
         cases).
@@ -280,31 +338,21 @@ def analyze_gantry(law, model: GantryModel, *, x: float = 0.0, frf: Frf | None =
     """
     from ..design.loopshape import PrefilterGains
 
-    fs, delay = law.fs, law.delay_samples
-    f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
-    weights = model.alpha(x)
     ref = reference or GantryReference(model.at(x).M, PrefilterGains(), PrefilterGains(), 80.0)
-    n_int = 2 + law.integrators  # rigid body + integrating channels
-    K, Kd = law.response, law.response_discrete
-    cases: dict[str, GantryCase | None] = {}
-    G = model.frequency_response(f, x)
-    cases["ideal"] = _gantry_case("ideal", f, G, 1.0, K(f), weights, ref, None, n_int, law.rhp_poles(False),
-                                  gantry_extension(f, G, model, x, K))
-    fd = _discrete_grid(f, fs)
-    Gd = zoh_gantry(model, x, fs, fd)
-    cases["ideal_discrete"] = _gantry_case("ideal_discrete", fd, Gd, delay_response(fd, delay, fs), Kd(fd), weights,
-                                           ref, fs, n_int, law.rhp_poles(True),
-                                           gantry_extension(fd, Gd, model, x, Kd, fs, delay, zoh_in_plant=True))
-    if frf is None:
-        cases["measured"] = cases["discrete"] = None
-    else:
-        fm, Gm = gantry_frf_matrix(frf)
-        cases["measured"] = _gantry_case("measured", fm, Gm, 1.0, K(fm), weights, ref, None, n_int,
-                                         law.rhp_poles(False), gantry_extension(fm, Gm, model, x, K))
-        H = zoh_response(fm, fs) * delay_response(fm, delay, fs)
-        cases["discrete"] = _gantry_case("discrete", fm, Gm, H, Kd(fm), weights, ref, fs, n_int, law.rhp_poles(True),
-                                         gantry_extension(fm, Gm, model, x, Kd, fs, delay))
-    return GantryAnalysis(cases)
+    weights = model.alpha(x)
+    cases = gantry_plant_cases(model, x, law.fs, law.delay_samples, frf, freq_hz)
+    return GantryAnalysis({name: None if pc is None else analyze_gantry_case(law, pc, weights, ref)
+                           for name, pc in cases.items()})
+
+
+def _gantry_coherence(frf: Frf) -> np.ndarray | None:
+    """Coherence ``(2, 2, n)`` of the four gantry channels on the positive lines, None when not all measured."""
+    pos = frf.as_quantity("position")
+    if pos.coherence is None:
+        return None
+    keep = pos.freq_hz > 0
+    c = np.array([[pos.channel_coherence(ch)[keep] for ch in row] for row in GANTRY_CHANNELS])
+    return c if np.all(np.isfinite(c)) else None
 
 
 # ------------------------------------------------------------------------------------- axis cases
@@ -357,13 +405,76 @@ class AxisAnalysis:
         return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
 
 
-def _axis_case(name, f, G, H, C, ff, pre, rhp, extension=None) -> AxisCase:
-    L = G * H * C
+def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisCase:
+    """One case of a loop-shaped axis design on a plant case (plant ``(n,)`` [m/V]); without ``responses`` the
+    tracking curves are None (for searches)."""
+    from ..design.discretize import matched
+    from ..design.loopshape import prefilter_response
+
+    fs = design.fs
+    C = design.controller_discrete() if pc.discrete else design.controller()
+    rhp = int(np.sum(np.abs(C.poles) > 1 + 1e-9)) if pc.discrete else int(np.sum(C.poles.real > 1e-9))
+    f = pc.freq_hz
+    G, H = pc.plant(f), pc.hold(f)
+    Cf = C.freqresp(f)
+    L = G * H * Cf
     S = 1.0 / (1.0 + L)
-    tracking = G * H * (ff + C * pre) * S
-    tracking_no_ff = L * S
-    return AxisCase(name, f, L, S, tracking, tracking_no_ff, G * S,
-                    analyze_loop(f, L, open_loop_rhp_poles=rhp, extension=extension))
+
+    def evaluate(fr):
+        return pc.plant(fr) * pc.hold(fr) * C.freqresp(fr)
+
+    def ext_loop(fe, g):
+        return g * pc.hold(fe) * C.freqresp(fe)
+
+    extension = model_extension(f, G, pc.model_plant, ext_loop)
+    feats = np.vstack([pc.features, lightly_damped(C.poles, C.dt), lightly_damped(C.zeros, C.dt)])
+    metrics = analyze_loop(f, evaluate=evaluate, features=feats, open_loop_rhp_poles=rhp, extension=extension,
+                           noise_db=pc.noise_db, measured=pc.measured)
+    if not responses:
+        return AxisCase(pc.name, f, L, S, None, None, G * S, metrics)
+    if pc.discrete:
+        ffm = matched(design.feedforward(), fs)
+        ff = ffm.tf.freqresp(f) * np.exp(2j * np.pi * f * ffm.delay_samples / fs)
+        pre = prefilter_response(design.prefilter, design.prefilter_hz, f, fs)
+    else:
+        ff = design.feedforward().freqresp(f)
+        pre = prefilter_response(design.prefilter, design.prefilter_hz, f)
+    tracking = G * H * (ff + Cf * pre) * S
+    return AxisCase(pc.name, f, L, S, tracking, L * S, G * S, metrics)
+
+
+def axis_plant_cases(design, frf: Frf | None = None, *, channel: str | None = None,
+                     freq_hz=None) -> dict[str, PlantCase | None]:
+    """The four plant cases of a loop-shaped axis: the double integrator ``1/(m s^2)`` of the design's mass and the
+    measured SISO FRF (by default the design's own, if it was designed on one) [m/V]."""
+    from ..design.loopshape import frf_at, zoh_double_integrator
+
+    fs, delay = design.fs, design.delay_samples
+    f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
+    m = design.plant.mass
+
+    def rigid(fr):
+        return 1.0 / (m * (2j * np.pi * np.asarray(fr, float)) ** 2)
+
+    cases: dict[str, PlantCase | None] = dict(model_cases(
+        f, fs, delay, model_plant=rigid, zoh_plant=lambda fr: zoh_double_integrator(m, fs, fr),
+        features=np.empty((0, 2))))
+    meas = frf if frf is not None else design.plant.frf
+    if meas is None:
+        cases["measured"] = cases["discrete"] = None
+        return cases
+    ch = channel or (design.plant.channel if meas is design.plant.frf else None)
+    if ch is None:
+        if len(meas.channels) != 1:
+            raise DataError(f"{meas.source}: the FRF has channels {', '.join(meas.channels)}; choose one")
+        ch = meas.channels[0]
+    pos = meas.as_quantity("position")
+    keep = pos.freq_hz > 0
+    fm = pos.freq_hz[keep]
+    coh = pos.channel_coherence(ch)
+    coh = None if coh is None or not np.all(np.isfinite(coh[keep])) else coh[keep]
+    cases.update(measured_cases(fm, frf_at(meas, ch, fm), fs, delay, model_plant=rigid, coherence=coh))
+    return cases
 
 
 def analyze_axis(design, frf: Frf | None = None, *, channel: str | None = None, freq_hz=None) -> AxisAnalysis:
@@ -379,62 +490,8 @@ def analyze_axis(design, frf: Frf | None = None, *, channel: str | None = None, 
     freq_hz : array_like, optional
         Grid for the model cases [Hz].
     """
-    from ..design.discretize import matched
-    from ..design.loopshape import frf_at, prefilter_response, zoh_double_integrator
-
-    fs, delay = design.fs, design.delay_samples
-    f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
-    C, Cd = design.controller(), design.controller_discrete()
-    ffc = design.feedforward()
-    ffm = matched(ffc, fs)
-    rhp_c = int(np.sum(C.poles.real > 1e-9))
-    rhp_d = int(np.sum(np.abs(Cd.poles) > 1 + 1e-9))
-    m = design.plant.mass
-
-    def resp(fr, discrete):
-        if discrete:
-            ff = ffm.tf.freqresp(fr) * np.exp(2j * np.pi * fr * ffm.delay_samples / fs)
-            return Cd.freqresp(fr), ff, prefilter_response(design.prefilter, design.prefilter_hz, fr, fs)
-        return C.freqresp(fr), ffc.freqresp(fr), prefilter_response(design.prefilter, design.prefilter_hz, fr)
-
-    def rigid(fr):
-        return 1.0 / (m * (2j * np.pi * fr) ** 2)
-
-    def extension(fr, G, discrete, zoh_in_plant=False):
-        K = Cd if discrete else C
-
-        def plant(fe):
-            return rigid(fe) * zoh_response(fe, fs) if zoh_in_plant else rigid(fe)
-
-        def loop(fe, g):
-            h = delay_response(fe, delay, fs) * (1.0 if zoh_in_plant else zoh_response(fe, fs)) if discrete else 1.0
-            return g * h * K.freqresp(fe)
-
-        return model_extension(fr, G, plant, loop)
-
-    cases: dict[str, AxisCase | None] = {}
-    G = rigid(f)
-    cases["ideal"] = _axis_case("ideal", f, G, 1.0, *resp(f, False), rhp_c, extension(f, G, False))
-    fd = _discrete_grid(f, fs)
-    Gd = zoh_double_integrator(m, fs, fd)
-    cases["ideal_discrete"] = _axis_case("ideal_discrete", fd, Gd, delay_response(fd, delay, fs), *resp(fd, True),
-                                         rhp_d, extension(fd, Gd, True, zoh_in_plant=True))
-    meas = frf if frf is not None else design.plant.frf
-    if meas is None:
-        cases["measured"] = cases["discrete"] = None
-    else:
-        ch = channel or (design.plant.channel if meas is design.plant.frf else None)
-        if ch is None:
-            if len(meas.channels) != 1:
-                raise DataError(f"{meas.source}: the FRF has channels {', '.join(meas.channels)}; choose one")
-            ch = meas.channels[0]
-        pos = meas.as_quantity("position")
-        fm = pos.freq_hz[pos.freq_hz > 0]
-        Gm = frf_at(meas, ch, fm)
-        cases["measured"] = _axis_case("measured", fm, Gm, 1.0, *resp(fm, False), rhp_c, extension(fm, Gm, False))
-        H = zoh_response(fm, fs) * delay_response(fm, delay, fs)
-        cases["discrete"] = _axis_case("discrete", fm, Gm, H, *resp(fm, True), rhp_d, extension(fm, Gm, True))
-    return AxisAnalysis(cases)
+    cases = axis_plant_cases(design, frf, channel=channel, freq_hz=freq_hz)
+    return AxisAnalysis({name: None if pc is None else analyze_axis_case(design, pc) for name, pc in cases.items()})
 
 
 # ------------------------------------------------------------------------------------------- checks

@@ -1,7 +1,14 @@
-"""Vectorised SISO loop analysis on a frequency grid: crossovers, margins, sensitivity, Nyquist stability.
+"""SISO loop analysis: every crossover and margin, peak and disk margins, rejection bands, Nyquist stability.
 
-All functions take the loop transfer ``L(j w)`` sampled on a strictly increasing grid ``freq_hz`` [Hz]
-(positive frequencies). No per-frequency Python loop.
+:func:`analyze_loop` takes the loop ``L(j w)`` either as a function that evaluates it at any frequency (the
+analysis cases build one: models and controllers exactly, a measured FRF interpolated between its lines) or as
+samples on a strictly increasing grid ``freq_hz`` [Hz]. With a function, the grid is refined until the loop is
+resolved (:mod:`feedtune.analysis.resolution`: around crossovers, where the phase turns fast, around lightly damped
+poles and zeros), crossings are bracketed and peaks zoomed, so that the figures do not depend on the grid. Samples
+that do not resolve the loop are refused (:class:`~feedtune.analysis.resolution.ResolutionError`), never judged.
+
+Every crossover is kept: crossings are merged only in a measured loop and only where the FRF's scatter explains them
+(:func:`~feedtune.analysis.margins.merge_chatter`, listed in ``merged_crossovers``).
 
 Nyquist criterion with open-loop poles at the origin
 ----------------------------------------------------
@@ -15,16 +22,18 @@ contributes nothing when ``|L(j w_max)| < 1``. Closed-loop right-half-plane pole
 ``P`` is the number of open-loop right-half-plane poles.
 
 The arc is only right where ``L`` already follows its low-frequency asymptote ``c / s^n``. A measured FRF
-starts at a few Hz, where the slope of a loop with integrators is still in transition (1.2-2.9 for
-``det(I + L) - 1`` of gantry PIDs of 2-8 Hz bandwidth at lowest lines of 2-20 Hz), and the count then
-depends on the lowest line. Below
-the measured band the plant is rigid-body dominated and the model holds, so the analysis cases pass a
-:class:`LoopExtension` (:func:`model_extension`): the model's plant from ``EXTENSION_LOW_HZ`` up to the
-first grid line, scaled by one complex factor so that it meets the measured plant at the junction (least
-squares over the first octave of the grid, :func:`junction_scale`), in the loop with the same controller.
-The contour then starts at ``EXTENSION_LOW_HZ`` (1e-5 Hz), where the slope is the structural one (the
-integrators of plant and controller), and the arc is exact. The extension only serves the Nyquist count
-(and warnings); crossovers, margins and ``Ms`` are the grid's.
+starts at a few Hz, where the slope of a loop with integrators is still in transition, and the count then
+depends on the lowest line. Below the measured band the plant is rigid-body dominated and the model holds, so
+the analysis cases pass a :class:`LoopExtension` (:func:`model_extension`): the model's plant from
+``EXTENSION_LOW_HZ`` up to the first grid line, scaled by one complex factor so that it meets the measured plant at
+the junction (least squares over the first octave of the grid, :func:`junction_scale`), in the loop with the same
+controller. The contour then starts at ``EXTENSION_LOW_HZ`` (1e-5 Hz), where the slope is the structural one, and
+the arc is exact. The extension is part of the contour: crossovers, margins, ``Ms`` and bands below the grid come
+from it (crossovers there are listed in ``below_band_crossovers_hz``).
+
+Without an extension, a loop with integrators whose grid starts where ``|L| < 10`` (the loop below the grid may still
+wind around -1 there, and the arc is not yet far from it) is refused
+(:class:`BandLimitedError`) unless ``below_grid="assume"``: the count would depend on what the grid does not show.
 """
 
 from __future__ import annotations
@@ -34,60 +43,51 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import DataError
+from .margins import crossings, disk_margins, interp_complex, level_bands, merge_chatter, peak, phase_crossovers
+from .resolution import INTERPOLATION, SAMPLE_SLACK, check_samples, resolve, unresolved
+
 EXTENSION_LOW_HZ = 1e-5
 """Lowest frequency of a model extension [Hz]: below the integral corners of practical designs (a gantry PID of
 0.5 Hz bandwidth has its ``det L ~ 1/s^4`` asymptote from about 5e-5 Hz), above where the 2x2 algebra of a
 rigid body loses precision (``det G`` of a rank-one stiffness cancels ``k / (m w^2) ~ 1e13`` at 1e-5 Hz)."""
 EXTENSION_POINTS_PER_DECADE = 100
-"""Density of the extension grid: a lightly damped mode below the first line is still resolved (3 points over
-its half-power band at 3.5 % damping) so the unwrapped phase is continuous."""
+"""Density of the extension grid before refinement."""
 JUNCTION_WARN_GAIN = 2.0
 """Model and FRF differing by more than this factor [-] at the junction give a warning."""
 JUNCTION_WARN_DEG = 30.0
 """... or by more than this phase [deg]."""
+ASYMPTOTE_MIN_GAIN = 10.0
+"""Smallest ``|L|`` [-] at the contour's low end of a loop with integrators for the arc to be trusted."""
 
 
-def crossings(freq_hz: np.ndarray, y: np.ndarray, level: float = 0.0) -> np.ndarray:
-    """Frequencies [Hz] where ``y`` crosses ``level``, linearly interpolated in ``log f``."""
-    f = np.asarray(freq_hz, float)
-    d = np.asarray(y, float) - level
-    idx = np.flatnonzero(np.signbit(d[:-1]) != np.signbit(d[1:]))
-    if idx.size == 0:
-        return np.empty(0)
-    lf = np.log(np.maximum(f, 1e-300))
-    frac = d[idx] / (d[idx] - d[idx + 1])
-    return np.exp(lf[idx] + frac * (lf[idx + 1] - lf[idx]))
+class BandLimitedError(DataError):
+    """The loop's grid starts where its low-frequency asymptote is not established and no extension was given."""
 
 
-def _interp_complex_at(freq_hz: np.ndarray, h: np.ndarray, f0: np.ndarray) -> np.ndarray:
-    lf = np.log(freq_hz)
-    mag = np.interp(np.log(f0), lf, np.log(np.abs(h)))
-    ph = np.interp(np.log(f0), lf, np.unwrap(np.angle(h)))
-    return np.exp(mag + 1j * ph)
-
-
+# --------------------------------------------------------------------------------------------- result
 @dataclass(frozen=True)
 class LoopMetrics:
-    """Frequency-domain figures of one loop.
+    """Frequency-domain figures of one loop, exact for the loop it was given (module docstring).
 
     Attributes
     ----------
     crossovers_hz : list of float
-        Every frequency [Hz] where ``|L| = 1``.
+        Every frequency [Hz] where ``|L| = 1`` over the whole contour (below the grid too, from the extension).
     phase_margins_deg : list of float
         Phase margin [deg] at each crossover (``180 + angle L`` wrapped to (-180, 180]).
     phase_margin_deg : float or None
-        The one closest to 0 (the crossing nearest to -1 in angle; a crossing with ``L`` near +1 has a
-        margin near +-180 deg and is harmless).
+        The worst: the one closest to 0 (a crossing with ``L`` near +1 has a margin near +-180 deg and is harmless).
     gain_margin_db : float or None
-        ``-20 log10 |L|`` [dB] at the phase crossover (``angle L = -180 deg``) closest to 0 dB; negative
-        when the gain may only be reduced (conditionally stable loops).
+        The worst gain margin: ``-20 log10 |L|`` [dB] at the phase crossover closest to 0 dB; negative when the gain
+        may only be reduced (conditionally stable loops).
     gain_margins_db, phase_crossovers_hz : list of float
-        All gain margins [dB] and the phase-crossover frequencies [Hz].
+        All gain margins [dB] and the phase-crossover frequencies [Hz] (``angle L = -180 deg``).
     ms, ms_freq_hz : float
-        Peak sensitivity ``max |S|`` [-] and its frequency [Hz].
-    rejection_band_hz : [float, float] or None
-        ``[f_low, f_high]`` [Hz]: the band from the grid's first frequency where ``|S| < 1``.
+        Peak sensitivity ``max |S|`` [-] over the whole contour and its frequency [Hz].
+    rejection_bands_hz : list of [float, float]
+        Every band [Hz] where ``|S| < 1``; a band reaching the contour's low end of a loop with integrators starts at
+        0 Hz.
     stable : bool
         Closed-loop stability by the Nyquist criterion.
     nyquist_encirclements : int
@@ -98,10 +98,21 @@ class LoopMetrics:
         Open-loop poles at the origin found from the low-frequency slope.
     warnings : list of str
     contour_low_hz : float or None
-        Lowest frequency of the Nyquist contour [Hz] (the indentation radius): the grid's first frequency, or
-        the extension's (``EXTENSION_LOW_HZ``) when a model extension was used.
+        Lowest frequency of the Nyquist contour [Hz]: the grid's first, or the extension's (``EXTENSION_LOW_HZ``).
     model_extension : dict or None
-        :meth:`LoopExtension.to_dict` of the extension used for the Nyquist count, None without one.
+        :meth:`LoopExtension.to_dict` of the extension used, None without one.
+    below_band_crossovers_hz : list of float
+        The crossovers [Hz] that lie on the model extension, below the grid.
+    disk_margin : float
+        Balanced disk margin ``alpha = 1 / max |S - 1/2|`` [-] (:mod:`feedtune.analysis.margins`).
+    disk_margin_freq_hz : float or None
+        Where ``|S - 1/2|`` peaks [Hz].
+    merged_crossovers : list of dict
+        Crossover clusters merged as measurement chatter (:func:`~feedtune.analysis.margins.merge_chatter`).
+    points : int
+        Frequencies the figures were taken from (grid after refinement, extension included) [-].
+    interpolation : str or None
+        How measured parts were evaluated between their lines; None when the loop is known exactly or as samples.
     """
 
     crossovers_hz: list
@@ -112,7 +123,7 @@ class LoopMetrics:
     phase_crossovers_hz: list
     ms: float
     ms_freq_hz: float
-    rejection_band_hz: list | None
+    rejection_bands_hz: list
     stable: bool
     nyquist_encirclements: int
     open_loop_rhp_poles: int
@@ -120,18 +131,59 @@ class LoopMetrics:
     warnings: list = field(default_factory=list)
     contour_low_hz: float | None = None
     model_extension: dict | None = None
+    below_band_crossovers_hz: list = field(default_factory=list)
+    disk_margin: float = float("inf")
+    disk_margin_freq_hz: float | None = None
+    merged_crossovers: list = field(default_factory=list)
+    points: int = 0
+    interpolation: str | None = None
+
+    @property
+    def rejection_band_hz(self) -> list | None:
+        """The first ``|S| < 1`` band [Hz] (kept for scripts written before :attr:`rejection_bands_hz`)."""
+        return self.rejection_bands_hz[0] if self.rejection_bands_hz else None
+
+    @property
+    def phase_margins(self) -> list[dict]:
+        """``[{"freq_hz", "pm_deg"}]`` at every crossover."""
+        return [{"freq_hz": float(f), "pm_deg": float(p)}
+                for f, p in zip(self.crossovers_hz, self.phase_margins_deg, strict=True)]
+
+    @property
+    def gain_margins(self) -> list[dict]:
+        """``[{"freq_hz", "gm_db"}]`` at every phase crossover."""
+        return [{"freq_hz": float(f), "gm_db": float(g)}
+                for f, g in zip(self.phase_crossovers_hz, self.gain_margins_db, strict=True)]
+
+    @property
+    def disk_gain_margin_db(self) -> float:
+        """Disk-based gain margin [dB]."""
+        return disk_margins(self.disk_margin)[0]
+
+    @property
+    def disk_phase_margin_deg(self) -> float:
+        """Disk-based phase margin [deg]."""
+        return disk_margins(self.disk_margin)[1]
 
     def to_dict(self) -> dict:
         """JSON-ready dict (keys carry units)."""
         return {
             "crossovers_hz": [float(x) for x in self.crossovers_hz],
+            "below_band_crossovers_hz": [float(x) for x in self.below_band_crossovers_hz],
+            "phase_margins": self.phase_margins,
             "phase_margins_deg": [float(x) for x in self.phase_margins_deg],
             "phase_margin_deg": _f(self.phase_margin_deg),
+            "gain_margins": self.gain_margins,
             "gain_margin_db": _f(self.gain_margin_db),
             "gain_margins_db": [float(x) for x in self.gain_margins_db],
             "phase_crossovers_hz": [float(x) for x in self.phase_crossovers_hz],
             "ms": float(self.ms),
             "ms_freq_hz": float(self.ms_freq_hz),
+            "disk_margin": _f(self.disk_margin),
+            "disk_gain_margin_db": _f(self.disk_gain_margin_db),
+            "disk_phase_margin_deg": _f(self.disk_phase_margin_deg),
+            "disk_margin_freq_hz": _f(self.disk_margin_freq_hz),
+            "rejection_bands_hz": [[float(a), float(b)] for a, b in self.rejection_bands_hz],
             "rejection_band_hz": None if self.rejection_band_hz is None else [float(x) for x in self.rejection_band_hz],
             "stable": bool(self.stable),
             "nyquist_encirclements": int(self.nyquist_encirclements),
@@ -139,6 +191,9 @@ class LoopMetrics:
             "integrators": int(self.integrators),
             "nyquist_low_frequency_hz": _f(self.contour_low_hz),
             "model_extension": self.model_extension,
+            "merged_crossovers": list(self.merged_crossovers),
+            "points": int(self.points),
+            "interpolation": self.interpolation,
             "warnings": list(self.warnings),
         }
 
@@ -147,28 +202,13 @@ def _f(x):
     return None if x is None or not np.isfinite(x) else float(x)
 
 
-def margins(freq_hz: np.ndarray, L: np.ndarray) -> tuple[list, list, list, list]:
-    """Crossovers [Hz], phase margins [deg], phase crossovers [Hz] and gain margins [dB] of ``L``."""
-    f = np.asarray(freq_hz, float)
-    mag_db = 20 * np.log10(np.abs(L))
-    wc = merge_noisy_crossings(crossings(f, mag_db, 0.0))
-    pm = []
-    if wc.size:
-        Lc = _interp_complex_at(f, L, wc)
-        pm = list(np.rad2deg(np.angle(-Lc)))  # 180 + angle(L) wrapped to (-180, 180]
-    # phase crossovers: Im(L) changes sign while Re(L) < 0
-    im = L.imag
-    idx = np.flatnonzero((np.signbit(im[:-1]) != np.signbit(im[1:])) & (L.real[:-1] + L.real[1:] < 0))
-    w180, gm = [], []
-    for i in idx:  # loop over sign changes (a handful), not over frequencies
-        frac = im[i] / (im[i] - im[i + 1])
-        fi = np.exp(np.log(f[i]) + frac * (np.log(f[i + 1]) - np.log(f[i])))
-        mag = np.exp(np.log(abs(L[i])) + frac * (np.log(abs(L[i + 1])) - np.log(abs(L[i]))))
-        w180.append(float(fi))
-        gm.append(float(-20 * np.log10(mag)))
-    return list(map(float, wc)), [float(x) for x in pm], w180, gm
+def worst(values) -> float | None:
+    """The margin closest to 0 (signed), or None for no margins."""
+    values = list(values)
+    return min(values, key=abs) if values else None
 
 
+# --------------------------------------------------------------------------------------------- Nyquist
 def low_frequency_slope(freq_hz: np.ndarray, y: np.ndarray, octaves: float = 1.0) -> float:
     """``-d log|y| / d log f`` fitted over the first ``octaves`` of the grid (at least 3 points) [-]."""
     f = np.asarray(freq_hz, float)
@@ -187,27 +227,6 @@ def count_integrators(freq_hz: np.ndarray, L: np.ndarray, octaves: float = 1.0) 
     single points does not change the count.
     """
     return max(0, int(np.round(low_frequency_slope(freq_hz, L, octaves))))
-
-
-def merge_noisy_crossings(freqs: np.ndarray, rel: float = 0.03) -> np.ndarray:
-    """Merge crossings closer than ``rel`` (relative frequency): noise makes one crossing look like several.
-
-    A cluster with an odd number of crossings is one crossing (its first member); an even cluster is a
-    touch of the level without a net crossing and is dropped.
-    """
-    if freqs.size < 2:
-        return freqs
-    out, cluster = [], [freqs[0]]
-    for f in freqs[1:]:  # a handful of crossings
-        if f <= cluster[-1] * (1 + rel):
-            cluster.append(f)
-        else:
-            if len(cluster) % 2:
-                out.append(cluster[0])
-            cluster = [f]
-    if len(cluster) % 2:
-        out.append(cluster[0])
-    return np.array(out)
 
 
 def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: float) -> float:
@@ -234,67 +253,6 @@ def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: float) -> f
     return total / (2 * np.pi)
 
 
-def analyze_loop(freq_hz, L, *, open_loop_rhp_poles: int = 0, integrators: int | None = None,
-                 extension: LoopExtension | None = None) -> LoopMetrics:
-    """All loop figures of :class:`LoopMetrics` from ``L(j w)`` on a grid [Hz].
-
-    Parameters
-    ----------
-    freq_hz : array_like, shape (n,)
-        Strictly increasing grid [Hz].
-    L : array_like, shape (n,)
-        Loop transfer [-].
-    open_loop_rhp_poles : int
-        Open-loop right-half-plane poles [-].
-    integrators : int, optional
-        Open-loop poles at the origin; default: the rounded low-frequency slope of the contour.
-    extension : LoopExtension, optional
-        The loop below ``freq_hz[0]`` from a model (:func:`model_extension`); used for the Nyquist count only.
-    """
-    f = np.asarray(freq_hz, float)
-    L = np.asarray(L, complex)
-    wc, pm, w180, gm = margins(f, L)
-    S = 1.0 / (1.0 + L)
-    aS = np.abs(S)
-    i_ms = int(np.argmax(aS))
-    fc, Lc = (f, L) if extension is None else extension.prepend(f, L)
-    n_int = count_integrators(fc, Lc) if integrators is None else int(integrators)
-    warnings = contour_warnings(fc, low_frequency_slope(fc, Lc), abs(Lc[0]), n_int, extension is not None)
-    if abs(L[-1]) >= 1:
-        warnings.append(
-            f"|L| = {abs(L[-1]):.3g} >= 1 at the highest frequency {f[-1]:g} Hz; "
-            "extend the frequency grid for a valid Nyquist count"
-        )
-    if extension is not None:
-        ms_below = float(np.max(np.abs(1.0 / (1.0 + extension.L))))
-        warnings += extension.warnings(float(aS[i_ms]), ms_below)
-    winding = nyquist_winding(fc, Lc, n_int)
-    n_ccw = int(np.round(winding))
-    if abs(winding - n_ccw) > 0.2:
-        warnings.append(f"Nyquist winding number {winding:.2f} is not close to an integer; grid too coarse")
-    n_cw = -n_ccw
-    z = n_cw + int(open_loop_rhp_poles)
-    stable = z == 0
-    return LoopMetrics(
-        wc,
-        pm,
-        min(pm, key=abs) if pm else None,
-        min(gm, key=abs) if gm else None,
-        gm,
-        w180,
-        float(aS[i_ms]),
-        float(f[i_ms]),
-        rejection_band(f, aS),
-        bool(stable),
-        n_cw,
-        int(open_loop_rhp_poles),
-        n_int,
-        warnings,
-        float(fc[0]),
-        None if extension is None else extension.to_dict(),
-    )
-
-
 def contour_warnings(freq_hz: np.ndarray, slope: float, magnitude_low: float, integrators: int | None,
                      extended: bool) -> list[str]:
     """Warnings on the indentation at the contour's lowest frequency ``freq_hz[0]`` [Hz] (SISO and MIMO).
@@ -311,16 +269,36 @@ def contour_warnings(freq_hz: np.ndarray, slope: float, magnitude_low: float, in
     elif extended and integrators is not None and round(slope) != integrators:
         out.append(f"the loop falls as 1/s^{round(slope)} at {f0:.3g} Hz although it has {integrators} open-loop "
                    f"poles at the origin: closed-loop poles slower than about {f0:.3g} Hz are not counted")
-    if magnitude_low < 10 and (integrators or 0) > 0:
+    if magnitude_low < ASYMPTOTE_MIN_GAIN and (integrators or 0) > 0:
         out.append(f"|L| is only {magnitude_low:.3g} at the lowest frequency {f0:g} Hz; "
                    "the Nyquist count near 0 Hz is less reliable")
     return out
 
 
-# ------------------------------------------------------------------------------------- model extension
+def check_low_end(freq_hz: np.ndarray, slope: float, magnitude_low: float, integrators: int) -> None:
+    """Refuse a contour without extension that starts where a loop with integrators has ``|L| < 10`` (module docstring).
+
+    The indentation arc's turn is the one closing the curve nearest to ``slope`` half turns, right whenever the loop
+    below the grid turns between its integer asymptotes; what the arc cannot know is a loop below the grid that
+    still comes near -1.
+
+    Raises
+    ------
+    BandLimitedError
+    """
+    f0 = float(freq_hz[0])
+    if max(integrators, round(slope)) > 0 and magnitude_low < ASYMPTOTE_MIN_GAIN:
+        raise BandLimitedError(
+            f"the loop's grid starts at {f0:.4g} Hz where |L| = {magnitude_low:.3g} (slope {slope:.2f}): the loop "
+            "below the grid may still come near -1, so the Nyquist count depends on what the grid does not show; "
+            "give a model extension (extension=), a grid reaching lower frequencies, or below_grid='assume' to count "
+            "it as c/s^n")
+
+
+# --------------------------------------------------------------------------------------------- extension
 @dataclass(frozen=True)
 class LoopExtension:
-    """The loop below an FRF's band, from the model, for the Nyquist count (module docstring).
+    """The loop below an FRF's band, from the model (module docstring).
 
     Attributes
     ----------
@@ -332,12 +310,15 @@ class LoopExtension:
         Factor applied to the model's plant so that it meets the grid's plant at the junction [-].
     junction_hz : (float, float)
         Band of the grid over which ``scale`` was fitted [Hz].
+    evaluate : callable, optional
+        ``evaluate(f)`` -> the extension's loop at any ``f`` [Hz] below the grid (for refined figures).
     """
 
     freq_hz: np.ndarray
     L: np.ndarray
     scale: complex
     junction_hz: tuple
+    evaluate: Callable[[np.ndarray], np.ndarray] | None = None
 
     def prepend(self, freq_hz: np.ndarray, L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(freq_hz, L)`` of the whole contour: this extension followed by the grid."""
@@ -350,7 +331,7 @@ class LoopExtension:
         lo, hi = self.junction_hz
         if not (1 / JUNCTION_WARN_GAIN <= gain <= JUNCTION_WARN_GAIN) or abs(phase) > JUNCTION_WARN_DEG:
             out.append(f"the model differs from the FRF at its lowest lines ({lo:.4g}-{hi:.4g} Hz) by a gain of "
-                       f"{gain:.3g} and {phase:+.0f} deg; the Nyquist count below {lo:.4g} Hz uses the model scaled "
+                       f"{gain:.3g} and {phase:+.0f} deg; the loop below {lo:.4g} Hz uses the model scaled "
                        "by that factor: check the FRF's low end or the model")
         if ms_below > ms_grid:
             out.append(f"the model puts a peak sensitivity of {ms_below:.3g} below the lowest line {lo:.4g} Hz "
@@ -391,6 +372,15 @@ def junction_scale(freq_hz: np.ndarray, plant: np.ndarray, model_plant: np.ndarr
     return c, (float(f[sel][0]), float(f[sel][-1]))
 
 
+def scalar_loops(R: np.ndarray) -> list[np.ndarray]:
+    """The scalar loops that must stay resolved in a response block: ``L`` itself, or for a 2x2 loop its diagonal
+    and ``det(I + L) - 1``."""
+    if R.ndim == 1:
+        return [R]
+    det = (1.0 + R[0, 0]) * (1.0 + R[1, 1]) - R[0, 1] * R[1, 0]
+    return [R[0, 0], R[1, 1], det - 1.0]
+
+
 def model_extension(freq_hz, plant: np.ndarray, model_plant: Callable[[np.ndarray], np.ndarray],
                     loop: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None, *,
                     low_hz: float = EXTENSION_LOW_HZ) -> LoopExtension | None:
@@ -406,7 +396,8 @@ def model_extension(freq_hz, plant: np.ndarray, model_plant: Callable[[np.ndarra
         ``model_plant(f)`` -> the model's plant on ``f`` [Hz], shape ``(..., len(f))``.
     loop : callable, optional
         ``loop(f, G)`` -> the loop on ``f`` for the plant ``G`` (controller, hold and delay applied); default:
-        the scaled plant itself (to form many loops from one extension).
+        the scaled plant itself (to form many loops from one extension). With a loop, the extension's grid is
+        refined until the loop is resolved (:func:`~feedtune.analysis.resolution.resolve`).
     low_hz : float
         Lowest frequency of the extension [Hz].
 
@@ -421,13 +412,207 @@ def model_extension(freq_hz, plant: np.ndarray, model_plant: Callable[[np.ndarra
         return None
     sel = f <= f[0] * 2.0
     scale, band = junction_scale(f[sel], np.asarray(plant)[..., sel], model_plant(f[sel]))
-    G_ext = scale * model_plant(f_ext)
-    return LoopExtension(f_ext, G_ext if loop is None else loop(f_ext, G_ext), scale, band)
+    if loop is None:
+        def evaluate(fe):
+            return scale * model_plant(fe)
+
+        return LoopExtension(f_ext, evaluate(f_ext), scale, band, evaluate)
+
+    def evaluate(fe):
+        return loop(fe, scale * model_plant(fe))
+
+    fr, L = resolve(f_ext, evaluate, scalar_loops)
+    return LoopExtension(fr, L, scale, band, evaluate)
 
 
-def rejection_band(freq_hz: np.ndarray, abs_s: np.ndarray) -> list | None:
-    """``[f_low, f_high]`` [Hz] where ``|S| < 1`` starting at the first grid frequency, or None."""
-    if abs_s[0] >= 1:
-        return None
-    up = crossings(freq_hz, 20 * np.log10(abs_s), 0.0)
-    return [float(freq_hz[0]), float(up[0]) if up.size else float(freq_hz[-1])]
+# --------------------------------------------------------------------------------------------- analysis
+@dataclass(frozen=True)
+class Margins:
+    """Crossovers [Hz] with their phase margins [deg], phase crossovers [Hz] with their gain margins [dB], and the
+    crossover clusters merged as chatter (:func:`loop_margins`)."""
+
+    crossovers_hz: list
+    phase_margins_deg: list
+    phase_crossovers_hz: list
+    gain_margins_db: list
+    merged: list
+
+
+def loop_margins(freq_hz: np.ndarray, L: np.ndarray, fn: Callable[[np.ndarray], np.ndarray] | None = None,
+                 noise: np.ndarray | None = None) -> Margins:
+    """Every crossover and phase crossover of a scalar loop ``L`` on ``freq_hz`` [Hz], refined with ``fn`` (``L``
+    at any frequency) when given; ``noise`` [dB] per frequency merges chatter
+    (:func:`~feedtune.analysis.margins.merge_chatter`)."""
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(np.abs(L))
+    wc = crossings(freq_hz, db, 0.0, None if fn is None else (lambda fq: 20 * np.log10(np.abs(fn(fq)))))
+    merged: list[dict] = []
+    if noise is not None:
+        wc, merged = merge_chatter(wc, freq_hz, db, noise)
+    Lx = fn(wc) if fn is not None and wc.size else interp_complex(freq_hz, L, wc)
+    pm = [float(x) for x in np.rad2deg(np.angle(-Lx))] if wc.size else []
+    w180 = phase_crossovers(freq_hz, L, fn)
+    L180 = fn(w180) if fn is not None and w180.size else interp_complex(freq_hz, L, w180)
+    gm = [float(-20 * np.log10(abs(x))) for x in L180]
+    return Margins([float(x) for x in wc], pm, [float(x) for x in w180], gm, merged)
+
+
+def piecewise(first_hz: float, below: Callable | None, above: Callable | None) -> Callable | None:
+    """One function over the whole contour from the extension's (below ``first_hz`` [Hz]) and the grid's; None when
+    the grid has none, the grid's alone when there is no extension. Frequency is the last axis of the result."""
+    if above is None or below is None:
+        return above if below is None else None
+
+    def fn(fq):
+        fq = np.asarray(fq, float)
+        lo = fq < first_hz
+        a = below(fq[lo]) if lo.any() else None
+        b = above(fq[~lo]) if (~lo).any() else None
+        ref = a if a is not None else b
+        out = np.empty(ref.shape[:-1] + fq.shape, complex)
+        if a is not None:
+            out[..., lo] = a
+        if b is not None:
+            out[..., ~lo] = b
+        return out
+
+    return fn
+
+
+def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray] | None = None, features=None,
+                 open_loop_rhp_poles: int = 0, integrators: int | None = None,
+                 extension: LoopExtension | None = None, noise_db: np.ndarray | None = None, measured: bool = False,
+                 below_grid: str = "refuse") -> LoopMetrics:
+    """All loop figures of :class:`LoopMetrics` (module docstring).
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (n,)
+        Strictly increasing grid [Hz]: the samples of ``L``, or the base grid (and band) of ``evaluate``.
+    L : array_like, shape (n,), optional
+        Loop transfer [-] on ``freq_hz`` (when no ``evaluate`` is given).
+    evaluate : callable, optional
+        ``evaluate(f)`` -> ``L`` at any ``f`` [Hz] in ``[freq_hz[0], freq_hz[-1]]``; the grid is refined with it.
+    features : array_like, shape (k, 2), optional
+        Lightly damped poles and zeros (Hz, damping) of the exactly known parts
+        (:func:`~feedtune.analysis.resolution.lightly_damped`): points are added around them.
+    open_loop_rhp_poles : int
+        Open-loop right-half-plane poles [-].
+    integrators : int, optional
+        Open-loop poles at the origin; default: the rounded low-frequency slope of the contour.
+    extension : LoopExtension, optional
+        The loop below ``freq_hz[0]`` from a model (:func:`model_extension`).
+    noise_db : ndarray, shape (n,), optional
+        Measurement scatter of a measured loop on ``freq_hz`` [dB]
+        (:func:`~feedtune.analysis.resolution.noise_db`): crossover chatter within it is merged and listed.
+    measured : bool
+        ``freq_hz`` are an FRF's lines and ``evaluate`` interpolates between them: a warning names where the lines
+        do not resolve the loop.
+    below_grid : {"refuse", "assume"}
+        Without an extension, refuse (default) or accept a grid that starts off the loop's asymptote.
+
+    Raises
+    ------
+    ResolutionError
+        Samples that do not resolve the loop, or a function that cannot be resolved.
+    BandLimitedError
+        See ``below_grid``.
+    """
+    if below_grid not in ("refuse", "assume"):
+        raise ValueError(f"below_grid must be 'refuse' or 'assume', got {below_grid!r}")
+    f0 = np.asarray(freq_hz, float)
+    warnings: list[str] = []
+    if evaluate is not None:
+        f, Lg = resolve(f0, evaluate, lambda R: [R], features)
+        if measured:
+            warnings += line_resolution_warnings(f0, evaluate(f0))
+    else:
+        f, Lg = f0, np.asarray(L, complex)
+        check_samples(f, [Lg])
+    if extension is not None:
+        fc, Lc = extension.prepend(f, Lg)
+        fn = piecewise(float(f[0]), extension.evaluate, evaluate)
+    else:
+        fc, Lc, fn = f, Lg, evaluate
+
+    def abs_1pl(fq):
+        return np.abs(1.0 + fn(fq))
+
+    def abs_s(fq):
+        return 1.0 / np.abs(1.0 + fn(fq))
+
+    def abs_s_half(fq):
+        v = fn(fq)
+        return np.abs(1.0 - v) / np.abs(2.0 * (1.0 + v))
+
+    noise = None
+    if noise_db is not None:
+        lines = np.interp(np.log(f), np.log(f0), np.asarray(noise_db, float))
+        noise = np.r_[np.zeros(fc.size - f.size), lines]
+    mg = loop_margins(fc, Lc, fn, noise)
+    if mg.merged:
+        warnings.append(f"{len(mg.merged)} cluster(s) of crossovers within the FRF's scatter were merged "
+                        "(merged_crossovers)")
+    wc, pm, w180, gm = mg.crossovers_hz, mg.phase_margins_deg, mg.phase_crossovers_hz, mg.gain_margins_db
+    aS = 1.0 / np.abs(1.0 + Lc)
+    ms_f, ms = peak(fc, aS, None if fn is None else abs_s)
+    dm_f, dm_peak = peak(fc, np.abs(1.0 - Lc) * aS / 2, None if fn is None else abs_s_half)
+    slope = low_frequency_slope(fc, Lc)
+    n_int = count_integrators(fc, Lc) if integrators is None else int(integrators)
+    bands = level_bands(fc, np.abs(1.0 + Lc), 1.0, None if fn is None else abs_1pl)
+    if bands and bands[0][0] == fc[0] and n_int > 0:
+        bands[0][0] = 0.0
+    if extension is None and below_grid == "refuse":
+        check_low_end(fc, slope, float(abs(Lc[0])), n_int)
+    warnings += contour_warnings(fc, slope, abs(Lc[0]), n_int, extension is not None)
+    if abs(Lg[-1]) >= 1:
+        warnings.append(f"|L| = {abs(Lg[-1]):.3g} >= 1 at the highest frequency {f[-1]:g} Hz; "
+                        "extend the frequency grid for a valid Nyquist count")
+    if extension is not None:
+        ms_grid = float(np.max(1.0 / np.abs(1.0 + Lg)))
+        ms_below = float(np.max(1.0 / np.abs(1.0 + extension.L)))
+        warnings += extension.warnings(ms_grid, ms_below)
+    winding = nyquist_winding(fc, Lc, n_int)
+    n_ccw = int(np.round(winding))
+    if abs(winding - n_ccw) > 0.2:
+        warnings.append(f"Nyquist winding number {winding:.2f} is not close to an integer; grid too coarse")
+    n_cw = -n_ccw
+    stable = n_cw + int(open_loop_rhp_poles) == 0
+    below = [float(x) for x in wc if x < f[0]]
+    return LoopMetrics(
+        wc,
+        pm,
+        worst(pm),
+        worst(gm),
+        gm,
+        w180,
+        float(ms),
+        float(ms_f),
+        bands,
+        bool(stable),
+        n_cw,
+        int(open_loop_rhp_poles),
+        n_int,
+        warnings,
+        float(fc[0]),
+        None if extension is None else extension.to_dict(),
+        below,
+        float(1.0 / dm_peak) if dm_peak > 0 else float("inf"),
+        float(dm_f),
+        mg.merged,
+        int(fc.size),
+        INTERPOLATION if measured else None,
+    )
+
+
+def line_resolution_warnings(lines_hz: np.ndarray, L_lines: np.ndarray) -> list[str]:
+    """A warning naming where an FRF's lines are too far apart for the loop (the verdict then rests on the
+    interpolation between them)."""
+    bad = unresolved([L_lines], SAMPLE_SLACK)
+    if not bad.any():
+        return []
+    idx = np.flatnonzero(bad)
+    i = int(idx[0])
+    return [f"the FRF's lines do not resolve the loop at {lines_hz[i]:.5g}-{lines_hz[i + 1]:.5g} Hz"
+            f"{f' and {idx.size - 1} more interval(s)' if idx.size > 1 else ''}: the figures there rest on the "
+            f"interpolation ({INTERPOLATION}); measure with a finer resolution to confirm them"]

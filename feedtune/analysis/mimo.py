@@ -30,7 +30,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .loop import LoopExtension, contour_warnings, crossings, low_frequency_slope, margins, nyquist_winding
+from .loop import (
+    LoopExtension,
+    check_low_end,
+    contour_warnings,
+    line_resolution_warnings,
+    loop_margins,
+    low_frequency_slope,
+    nyquist_winding,
+    piecewise,
+    scalar_loops,
+    worst,
+)
+from .margins import crossings, disk_margins, level_bands, peak
+from .resolution import INTERPOLATION, check_samples, resolve
 
 
 # ---------------------------------------------------------------------------------------- 2x2 algebra
@@ -150,7 +163,7 @@ def det_winding(freq_hz, D: np.ndarray, slope: float) -> float:
 
 
 def mimo_nyquist(freq_hz, L: np.ndarray, *, integrators: int | None = None, open_loop_rhp_poles: int = 0,
-                 extension: LoopExtension | None = None) -> MimoNyquist:
+                 extension: LoopExtension | None = None, below_grid: str = "refuse") -> MimoNyquist:
     """Closed-loop stability from the encirclements of the origin by ``det(I + L)``.
 
     Parameters
@@ -169,11 +182,18 @@ def mimo_nyquist(freq_hz, L: np.ndarray, *, integrators: int | None = None, open
     extension : LoopExtension, optional
         The loop ``(2, 2, m)`` below ``freq_hz[0]`` from the model
         (:func:`~feedtune.analysis.loop.model_extension`): the contour starts at its first frequency.
+    below_grid : {"refuse", "assume"}
+        Without an extension, refuse (default) or accept a grid that starts off the asymptote of
+        ``det(I + L) - 1`` (:func:`~feedtune.analysis.loop.check_low_end`).
     """
+    if below_grid not in ("refuse", "assume"):
+        raise ValueError(f"below_grid must be 'refuse' or 'assume', got {below_grid!r}")
     f = np.asarray(freq_hz, float)
     fc, Lc = (f, L) if extension is None else extension.prepend(f, L)
     D = return_difference_det(Lc)
     slope = low_frequency_slope(fc, D - 1.0)
+    if extension is None and below_grid == "refuse":
+        check_low_end(fc, slope, float(abs(D[0] - 1.0)), integrators or 0)
     warnings = contour_warnings(fc, slope, float(abs(D[0] - 1.0)), integrators, extension is not None)
     winding = det_winding(fc, D, slope)
     n_ccw = int(np.round(winding))
@@ -191,47 +211,23 @@ def mimo_nyquist(freq_hz, L: np.ndarray, *, integrators: int | None = None, open
                        warnings, float(fc[0]), None if extension is None else extension.to_dict())
 
 
-# ---------------------------------------------------------------------------------------- bands
-def level_bands(freq_hz, y, level: float = 1.0) -> list[list[float]]:
-    """Intervals [Hz] where ``y > level``, with the edges interpolated in log frequency and log ``y``."""
-    f = np.asarray(freq_hz, float)
-    d = np.log(np.maximum(np.asarray(y, float), 1e-300)) - np.log(level)
-    m = d > 0
-    if not m.any():
-        return []
-    lf = np.log(f)
-
-    def edge(i: int) -> float:  # crossing between grid points i and i + 1
-        frac = d[i] / (d[i] - d[i + 1])
-        return float(np.exp(lf[i] + frac * (lf[i + 1] - lf[i])))
-
-    edges = np.diff(m.astype(np.int8))
-    starts = [edge(int(i)) for i in np.flatnonzero(edges == 1)]
-    ends = [edge(int(i)) for i in np.flatnonzero(edges == -1)]
-    if m[0]:
-        starts.insert(0, float(f[0]))
-    if m[-1]:
-        ends.append(float(f[-1]))
-    return [[a, b] for a, b in zip(starts, ends, strict=True)]
-
-
 # ---------------------------------------------------------------------------------------- metrics
 @dataclass(frozen=True)
 class MimoMetrics:
-    """Frequency-domain figures of a 2x2 loop (thesis §4.4.2).
+    """Frequency-domain figures of a 2x2 loop (thesis section 4.4.2), exact for the loop it was given.
 
     The SISO-style keys (``crossovers_hz``, phase and gain margins) are those of the centre-of-mass loop
     ``l_com = w^T L 1`` (common error in, mass-weighted output; ``h (D + ki/s) / (m s^2)`` for the MIMO
-    law); ``ms`` is the MIMO ``max sigma_max(S)``; stability is the MIMO Nyquist criterion.
+    law), over the whole contour; ``ms`` is the MIMO ``max sigma_max(S)``; stability is the MIMO Nyquist criterion.
 
     Attributes
     ----------
     crossovers_hz, phase_margins_deg, phase_margin_deg, gain_margin_db, gain_margins_db, phase_crossovers_hz
-        Of the CoM loop [Hz, deg, dB].
+        Of the CoM loop [Hz, deg, dB]; the worst margins are those closest to 0.
     ms, ms_freq_hz : float
         ``max sigma_max(S)`` [-] and its frequency [Hz].
-    rejection_band_hz : [float, float] or None
-        From the first grid frequency to where ``sigma_max(S)`` first reaches 1 [Hz].
+    rejection_bands_hz : list of [float, float]
+        Every band [Hz] where ``sigma_max(S) < 1`` (a band from the contour's low end starts at 0 Hz).
     sigma_max_l_crossovers_hz : list of float
         Where ``sigma_max(L)`` crosses 1 [Hz].
     active_bands_hz : list of [float, float]
@@ -239,6 +235,15 @@ class MimoMetrics:
     damping_band_hz : [float, float] or None
         The first active band above the CoM crossover: the band of active damping [Hz].
     nyquist : MimoNyquist
+    below_band_crossovers_hz : list of float
+        CoM crossovers [Hz] on the model extension, below the grid.
+    disk_margin : float
+        ``1 / max sigma_max(S - I/2)`` [-]: the balanced disk margin for a full-block (unstructured) perturbation,
+        a lower bound of the loop-at-a-time one (:mod:`feedtune.analysis.margins`).
+    disk_margin_freq_hz : float or None
+    merged_crossovers : list of dict
+    points : int
+    interpolation : str or None
     """
 
     crossovers_hz: list
@@ -249,30 +254,67 @@ class MimoMetrics:
     phase_crossovers_hz: list
     ms: float
     ms_freq_hz: float
-    rejection_band_hz: list | None
+    rejection_bands_hz: list
     sigma_max_l_crossovers_hz: list
     active_bands_hz: list
     damping_band_hz: list | None
     nyquist: MimoNyquist
+    below_band_crossovers_hz: list = field(default_factory=list)
+    disk_margin: float = float("inf")
+    disk_margin_freq_hz: float | None = None
+    merged_crossovers: list = field(default_factory=list)
+    points: int = 0
+    interpolation: str | None = None
 
     @property
     def stable(self) -> bool:
         """MIMO Nyquist stability."""
         return self.nyquist.stable
 
+    @property
+    def warnings(self) -> list:
+        """The analysis' warnings."""
+        return self.nyquist.warnings
+
+    @property
+    def rejection_band_hz(self) -> list | None:
+        """The first ``sigma_max(S) < 1`` band [Hz] (kept for scripts written before :attr:`rejection_bands_hz`)."""
+        return self.rejection_bands_hz[0] if self.rejection_bands_hz else None
+
+    @property
+    def phase_margins(self) -> list[dict]:
+        """``[{"freq_hz", "pm_deg"}]`` of the CoM loop."""
+        return [{"freq_hz": float(f), "pm_deg": float(p)}
+                for f, p in zip(self.crossovers_hz, self.phase_margins_deg, strict=True)]
+
+    @property
+    def gain_margins(self) -> list[dict]:
+        """``[{"freq_hz", "gm_db"}]`` of the CoM loop."""
+        return [{"freq_hz": float(f), "gm_db": float(g)}
+                for f, g in zip(self.phase_crossovers_hz, self.gain_margins_db, strict=True)]
+
     def to_dict(self) -> dict:
         """JSON-ready figures (keys carry units; ``ms`` and ``sigma_max_s`` are the same number)."""
         ny = self.nyquist
+        dgm, dpm = disk_margins(self.disk_margin)
         return {
             "crossovers_hz": [float(x) for x in self.crossovers_hz],
+            "below_band_crossovers_hz": [float(x) for x in self.below_band_crossovers_hz],
+            "phase_margins": self.phase_margins,
             "phase_margins_deg": [float(x) for x in self.phase_margins_deg],
             "phase_margin_deg": _f(self.phase_margin_deg),
+            "gain_margins": self.gain_margins,
             "gain_margin_db": _f(self.gain_margin_db),
             "gain_margins_db": [float(x) for x in self.gain_margins_db],
             "phase_crossovers_hz": [float(x) for x in self.phase_crossovers_hz],
             "ms": float(self.ms),
             "ms_freq_hz": float(self.ms_freq_hz),
             "sigma_max_s": float(self.ms),
+            "disk_margin": _f(self.disk_margin),
+            "disk_gain_margin_db": _f(dgm),
+            "disk_phase_margin_deg": _f(dpm),
+            "disk_margin_freq_hz": _f(self.disk_margin_freq_hz),
+            "rejection_bands_hz": [[float(a), float(b)] for a, b in self.rejection_bands_hz],
             "rejection_band_hz": self.rejection_band_hz,
             "sigma_max_l_crossovers_hz": [float(x) for x in self.sigma_max_l_crossovers_hz],
             "active_bands_hz": self.active_bands_hz,
@@ -285,6 +327,9 @@ class MimoMetrics:
             "nyquist_low_frequency_slope": float(ny.low_frequency_slope),
             "nyquist_low_frequency_hz": _f(ny.contour_low_hz),
             "model_extension": ny.model_extension,
+            "merged_crossovers": list(self.merged_crossovers),
+            "points": int(self.points),
+            "interpolation": self.interpolation,
             "warnings": list(ny.warnings),
         }
 
@@ -299,45 +344,102 @@ def com_loop(L: np.ndarray, weights) -> np.ndarray:
     return w1 * (L[0, 0] + L[0, 1]) + w2 * (L[1, 0] + L[1, 1])
 
 
-def analyze_mimo(freq_hz, L: np.ndarray, *, weights=(0.5, 0.5), integrators: int | None = None,
-                 open_loop_rhp_poles: int = 0, S: np.ndarray | None = None,
-                 extension: LoopExtension | None = None) -> MimoMetrics:
-    """All figures of :class:`MimoMetrics` for a 2x2 loop on a grid [Hz].
+def _sigma_max(A: np.ndarray) -> np.ndarray:
+    return singular_values(A)[0]
+
+
+def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, features=None, weights=(0.5, 0.5),
+                 integrators: int | None = None, open_loop_rhp_poles: int = 0, S: np.ndarray | None = None,
+                 extension: LoopExtension | None = None, noise_db: np.ndarray | None = None, measured: bool = False,
+                 below_grid: str = "refuse") -> MimoMetrics:
+    """All figures of :class:`MimoMetrics` for a 2x2 loop.
 
     Parameters
     ----------
     freq_hz : array_like, shape (n,)
-    L : ndarray, shape (2, 2, n)
-        Loop ``G K``.
+        Samples' grid, or the base grid and band of ``evaluate`` [Hz].
+    L : ndarray, shape (2, 2, n), optional
+        Loop ``G K`` on ``freq_hz`` (when no ``evaluate`` is given).
+    evaluate : callable, optional
+        ``evaluate(f)`` -> ``L`` at any ``f`` [Hz] of the band, shape ``(2, 2, len(f))``; the grid is refined with it
+        (:func:`~feedtune.analysis.resolution.resolve` on the CoM loop, the diagonal and ``det(I + L) - 1``).
+    features : array_like, shape (k, 2), optional
+        Lightly damped poles and zeros (Hz, damping) of the exactly known parts.
     weights : (float, float)
         Mass distribution ``(alpha1, alpha2)`` of the CoM output.
     integrators, open_loop_rhp_poles : int
         See :func:`mimo_nyquist`.
     S : ndarray, shape (2, 2, n), optional
-        ``(I + L)^-1`` when already computed.
+        ``(I + L)^-1`` on ``freq_hz`` when already computed (samples only).
     extension : LoopExtension, optional
-        The loop below the grid from the model, for the Nyquist count (see :func:`mimo_nyquist`); the other
-        figures are the grid's.
+        The loop below the grid from the model (see :func:`mimo_nyquist`); part of the contour.
+    noise_db : ndarray, shape (n,), optional
+        Measurement scatter [dB] on ``freq_hz`` of a measured loop (CoM crossover chatter within it is merged).
+    measured : bool
+        ``freq_hz`` are an FRF's lines interpolated by ``evaluate`` (a warning names unresolved intervals).
+    below_grid : {"refuse", "assume"}
+        See :func:`mimo_nyquist`.
     """
-    f = np.asarray(freq_hz, float)
-    S = sensitivity(L) if S is None else S
-    smax_s, _ = singular_values(S)
-    smax_l, _ = singular_values(L)
-    i_ms = int(np.argmax(smax_s))
-    lc = com_loop(L, weights)
-    wc, pm, w180, gm = margins(f, lc)
-    sl_x = list(map(float, crossings(f, np.log(smax_l), 0.0)))
-    active = level_bands(f, smax_l, 1.0)
+    f0 = np.asarray(freq_hz, float)
+    extra_warnings: list[str] = []
+
+    def probe(R):
+        return [com_loop(R, weights), *scalar_loops(R)]
+
+    if evaluate is not None:
+        f, Lg = resolve(f0, evaluate, probe, features)
+        S = None
+        if measured:
+            extra_warnings += line_resolution_warnings(f0, com_loop(evaluate(f0), weights))
+    else:
+        f, Lg = f0, np.asarray(L, complex)
+        check_samples(f, probe(Lg))
+    if extension is not None:
+        fc, Lc = extension.prepend(f, Lg)
+        fn = piecewise(float(f[0]), extension.evaluate, evaluate)
+        Sc = sensitivity(Lc)
+    else:
+        fc, Lc, fn = f, Lg, evaluate
+        Sc = sensitivity(Lc) if S is None else S
+    smax_s = _sigma_max(Sc)
+    smax_l = _sigma_max(Lc)
+    eye_half = 0.5 * identity2(fc.size)
+    lc = com_loop(Lc, weights)
+    if fn is None:
+        fns = {"com": None, "s": None, "half": None, "l": None}
+    else:
+        fns = {"com": lambda fq: com_loop(fn(fq), weights),
+               "s": lambda fq: _sigma_max(sensitivity(fn(fq))),
+               "inv_s": lambda fq: 1.0 / _sigma_max(sensitivity(fn(fq))),
+               "half": lambda fq: _sigma_max(sensitivity(fn(fq)) - 0.5 * identity2(np.size(fq))),
+               "l": lambda fq: _sigma_max(fn(fq))}
+    noise = None
+    if noise_db is not None:
+        lines = np.interp(np.log(f), np.log(f0), np.asarray(noise_db, float))
+        noise = np.r_[np.zeros(fc.size - f.size), lines]
+    mg = loop_margins(fc, lc, fns["com"], noise)
+    ms_f, ms = peak(fc, smax_s, fns["s"])
+    dm_f, dm_peak = peak(fc, _sigma_max(Sc - eye_half), fns["half"])
+    sl_x = [float(x) for x in crossings(fc, np.log(smax_l), 0.0,
+                                        None if fns["l"] is None else (lambda fq: np.log(fns["l"](fq))))]
+    active = level_bands(fc, smax_l, 1.0, fns["l"])
+    bands = level_bands(fc, 1.0 / smax_s, 1.0, fns.get("inv_s"))
+    ny = mimo_nyquist(f, Lg, integrators=integrators, open_loop_rhp_poles=open_loop_rhp_poles, extension=extension,
+                      below_grid=below_grid)
+    if bands and bands[0][0] == fc[0] and ny.integrators > 0:
+        bands[0][0] = 0.0
+    wc = mg.crossovers_hz
     first = wc[0] if wc else (sl_x[0] if sl_x else None)
     damping = next((b for b in active if first is not None and b[0] > first * 1.02), None)
-    if smax_s[0] < 1:
-        up = crossings(f, np.log(smax_s), 0.0)
-        rej = [float(f[0]), float(up[0]) if up.size else float(f[-1])]
-    else:
-        rej = None
-    ny = mimo_nyquist(f, L, integrators=integrators, open_loop_rhp_poles=open_loop_rhp_poles, extension=extension)
+    ny.warnings.extend(extra_warnings)
+    if mg.merged:
+        ny.warnings.append(f"{len(mg.merged)} cluster(s) of CoM crossovers within the FRF's scatter were merged "
+                           "(merged_crossovers)")
     if extension is not None:
-        ms_below = float(np.max(singular_values(sensitivity(extension.L))[0]))
-        ny.warnings.extend(extension.warnings(float(smax_s[i_ms]), ms_below))
-    return MimoMetrics(wc, pm, min(pm, key=abs) if pm else None, min(gm, key=abs) if gm else None, gm, w180,
-                       float(smax_s[i_ms]), float(f[i_ms]), rej, sl_x, active, damping, ny)
+        ms_grid = float(np.max(_sigma_max(sensitivity(Lg))))
+        ms_below = float(np.max(_sigma_max(sensitivity(extension.L))))
+        ny.warnings.extend(extension.warnings(ms_grid, ms_below))
+    return MimoMetrics(wc, mg.phase_margins_deg, worst(mg.phase_margins_deg), worst(mg.gain_margins_db),
+                       mg.gain_margins_db, mg.phase_crossovers_hz, float(ms), float(ms_f), bands, sl_x, active,
+                       damping, ny, [x for x in wc if x < f[0]], float(1.0 / dm_peak) if dm_peak > 0 else float("inf"),
+                       float(dm_f), mg.merged, int(fc.size), INTERPOLATION if measured else None)

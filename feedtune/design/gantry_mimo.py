@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -121,20 +122,27 @@ class MimoLaw:
 
     controller = "mimo"
 
-    def lead(self) -> Zpk:
-        """Continuous ``D(s)`` [V/m]."""
+    @cached_property
+    def _zpk(self) -> dict[str, Zpk]:
+        """The law's transfer functions, computed once (the analysis evaluates them many times)."""
         d = Zpk.constant(self.lead_gain)
         for s in self.lead_stages:
             d = d * s.zpk()
-        return d
+        h = self.filters.zpk()
+        return {"lead": d, "lead_discrete": matched(d, self.fs).tf, "h": h, "h_discrete": matched(h, self.fs).tf,
+                "diff": backward_difference(self.fs), "integ": backward_euler_integrator(self.fs)}
+
+    def lead(self) -> Zpk:
+        """Continuous ``D(s)`` [V/m]."""
+        return self._zpk["lead"]
 
     def lead_discrete(self) -> Zpk:
         """Matched ``D(z)``."""
-        return matched(self.lead(), self.fs).tf
+        return self._zpk["lead_discrete"]
 
     def filter_pack_discrete(self) -> Zpk:
         """Matched ``h(z)``."""
-        return matched(self.filters.zpk(), self.fs).tf
+        return self._zpk["h_discrete"]
 
     @property
     def integrators(self) -> int:
@@ -158,19 +166,18 @@ class MimoLaw:
         f = np.asarray(freq_hz, float)
         s = _s_values(f)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self._assemble(self.filters.zpk().freqresp(f), self.lead().freqresp(f), s, 1.0 / s)
+            return self._assemble(self._zpk["h"].freqresp(f), self.lead().freqresp(f), s, 1.0 / s)
 
     def response_discrete(self, freq_hz) -> np.ndarray:
         """Discrete ``K(e^{j w T})`` [V/m] (backward difference and backward-Euler integral)."""
         f = np.asarray(freq_hz, float)
         with np.errstate(divide="ignore", invalid="ignore"):
             return self._assemble(self.filter_pack_discrete().freqresp(f), self.lead_discrete().freqresp(f),
-                                  backward_difference(self.fs).freqresp(f),
-                                  backward_euler_integrator(self.fs).freqresp(f))
+                                  self._zpk["diff"].freqresp(f), self._zpk["integ"].freqresp(f))
 
     def rhp_poles(self, discrete: bool) -> int:
         """Controller poles in the right half plane (outside the unit circle)."""
-        zs = (self.filter_pack_discrete(), self.lead_discrete()) if discrete else (self.filters.zpk(), self.lead())
+        zs = (self.filter_pack_discrete(), self.lead_discrete()) if discrete else (self._zpk["h"], self.lead())
         if discrete:
             return int(sum(np.sum(np.abs(z.poles) > 1 + 1e-9) for z in zs))
         return int(sum(np.sum(z.poles.real > 1e-9) for z in zs))

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -75,9 +76,16 @@ class PidLaw:
 
     controller = "pid"
 
+    @cached_property
+    def _zpk(self) -> dict:
+        """The law's transfer functions, computed once (the analysis evaluates them many times)."""
+        h = self.filters.zpk()
+        return {"h": h, "h_discrete": matched(h, self.fs).tf, "diff": backward_difference(self.fs),
+                "integ": backward_euler_integrator(self.fs)}
+
     def filter_pack_discrete(self):
         """Matched ``h(z)``."""
-        return matched(self.filters.zpk(), self.fs).tf
+        return self._zpk["h_discrete"]
 
     @property
     def integrators(self) -> int:
@@ -95,20 +103,20 @@ class PidLaw:
         f = np.asarray(freq_hz, float)
         s = TWO_PI * 1j * f
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self._assemble(self.filters.zpk().freqresp(f), s, 1.0 / s)
+            return self._assemble(self._zpk["h"].freqresp(f), s, 1.0 / s)
 
     def response_discrete(self, freq_hz) -> np.ndarray:
         """Discrete ``K(e^{j w T})`` [V/m] (backward difference, backward-Euler integral)."""
         f = np.asarray(freq_hz, float)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self._assemble(self.filter_pack_discrete().freqresp(f), backward_difference(self.fs).freqresp(f),
-                                  backward_euler_integrator(self.fs).freqresp(f))
+            return self._assemble(self.filter_pack_discrete().freqresp(f), self._zpk["diff"].freqresp(f),
+                                  self._zpk["integ"].freqresp(f))
 
     def rhp_poles(self, discrete: bool) -> int:
         """Controller poles in the right half plane (outside the unit circle)."""
         if discrete:
             return int(np.sum(np.abs(self.filter_pack_discrete().poles) > 1 + 1e-9))
-        return int(np.sum(self.filters.zpk().poles.real > 1e-9))
+        return int(np.sum(self._zpk["h"].poles.real > 1e-9))
 
     def to_dict(self) -> dict:
         """Gains with units."""
@@ -208,37 +216,6 @@ def design_gantry_pid(
                            float(prefilter_hz), dict(tuning or {"method": "user gains"}))
 
 
-def _check_case(model, x, fs, delay, frf, n):
-    """Frequencies [Hz] of the checking contour, the plant with hold and delay on it [m/V], and the case.
-
-    The contour is the grid (the FRF's lines up to ``fs/2``, or the model's grid closing at ``fs/2``) with
-    the model below it from 1e-5 Hz, scaled to meet the FRF at its first octave
-    (:func:`~feedtune.analysis.gantry.gantry_extension`), so the Nyquist count does not depend on the lowest
-    line and ``Ms`` covers the whole band.
-    """
-    from ..analysis.gantry import default_grid, gantry_extension, gantry_frf_matrix, zoh_gantry
-    from ..analysis.mimo import identity2
-    from ..lti import delay_response, zoh_response
-
-    if frf is not None:
-        f, G = gantry_frf_matrix(frf)
-        keep = f <= min(fs / 2, f[-1])
-        f, G = f[keep], G[:, :, keep]
-        Ge = G * (zoh_response(f, fs) * delay_response(f, delay, fs))
-        ext = gantry_extension(f, G, model, x, lambda fr: identity2(fr.size), fs, delay)
-        case = "discrete"
-    else:
-        f = default_grid(fs) if n is None else default_grid(fs, n)
-        f = np.r_[f[f < fs / 2], fs / 2]
-        G = zoh_gantry(model, x, fs, f)
-        Ge = G * delay_response(f, delay, fs)
-        ext = gantry_extension(f, G, model, x, lambda fr: identity2(fr.size), fs, delay, zoh_in_plant=True)
-        case = "ideal_discrete"
-    if ext is None:
-        return f, Ge, case
-    return np.r_[ext.freq_hz, f], np.concatenate([ext.L, Ge], axis=-1), case
-
-
 def _best_shape(candidates: list[dict]) -> dict:
     """The candidate with the highest CoM crossover; within ``SHAPE_TIE`` of it, the largest phase margin."""
     top = max(c["com_crossover_hz"] for c in candidates)
@@ -295,56 +272,63 @@ def tune_gantry_pid(
     DesignError
         No candidate meets the limit.
     """
-    from ..analysis.mimo import analyze_mimo, mimo_nyquist, sensitivity, singular_values
+    from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+    from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_cases
+    from ..analysis.mimo import sensitivity, singular_values
 
     check_sampling(fs, delay_samples)
     if not (math.isfinite(ms_max) and ms_max > 1):
         raise UsageError(f"--ms-max must be > 1, got {ms_max}")
     pack = filters or LoopFilters()
     pack.check_nyquist(fs)
-    f, Ge, case = _check_case(model, x, fs, delay_samples, frf, grid_points)
+    grid = default_grid(fs) if grid_points is None else default_grid(fs, grid_points)
+    case = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
+    pc = gantry_plant_cases(model, x, fs, delay_samples, frf, grid)[case]
+    weights = model.alpha(x)
+    f = pc.freq_hz
+    Ge = pc.plant(f) * pc.hold(f)
     h = matched(pack.zpk(), fs).tf.freqresp(f)
     D = backward_difference(fs).freqresp(f)
     with np.errstate(divide="ignore", invalid="ignore"):
         Iz = backward_euler_integrator(fs).freqresp(f)
     masses = np.array(model.side_masses(x))
-    weights = model.alpha(x)
-    n_int = 2 + 2
 
-    def loop(bw_hz, zeta, rho):
+    def grid_ms(bw_hz, zeta, rho):
+        """``Ms`` on the case's base grid: a lower bound of the checked (refined) one, to skip hopeless candidates."""
         w = TWO_PI * bw_hz
         c = h * (w * w * (1 + 2 * zeta / rho) + w * (2 * zeta + 1 / rho) * D + w**3 / rho * Iz)
-        return Ge * (masses * c[:, None]).T[None, :, :]  # column j scaled by m_j c
+        L = Ge * (masses * c[:, None]).T[None, :, :]  # column j scaled by m_j c
+        return float(np.max(singular_values(sensitivity(L))[0]))
 
-    def feasible(bw_hz, zeta, rho):
-        L = loop(bw_hz, zeta, rho)
-        ms = float(np.max(singular_values(sensitivity(L))[0]))
-        if ms > ms_max:
-            return False, ms
-        return mimo_nyquist(f, L, integrators=n_int).stable, ms
+    def check(bw_hz, zeta, rho):
+        """The analysis' own check of the candidate in the checked case (None when it fails)."""
+        if grid_ms(bw_hz, zeta, rho) > ms_max:
+            return None
+        g = pid_gains(model, x, bw_hz, zeta, rho)
+        law = PidLaw(g["kp"], g["kd"], g["ki"], pack, float(fs), int(delay_samples))
+        m = analyze_gantry_case(law, pc, weights).metrics
+        return m if m.stable and m.ms <= ms_max else None
 
     coarse = np.logspace(np.log10(0.5), np.log10(fs / 40), 48)
     candidates = []
     for zeta, rho in SHAPES:
-        ok = [feasible(b, zeta, rho)[0] for b in coarse]
-        idx = [i for i, v in enumerate(ok) if v]
-        if not idx:
+        passing = [i for i, b in enumerate(coarse) if grid_ms(b, zeta, rho) <= ms_max]
+        i = next((i for i in reversed(passing) if check(coarse[i], zeta, rho) is not None), None)
+        if i is None:
             continue
-        i = idx[-1]
         lo, hi = coarse[i], (coarse[i + 1] if i + 1 < coarse.size else coarse[i])
-        for _ in range(30):  # bisection in log frequency to the edge of the feasible range
-            if hi / lo < 1 + 1e-4:
-                break
+        best = check(lo, zeta, rho)
+        while hi / lo > 1 + 2e-3:  # bisection in log frequency to the edge of the feasible range
             mid = math.sqrt(lo * hi)
-            if feasible(mid, zeta, rho)[0]:
-                lo = mid
+            m = check(mid, zeta, rho)
+            if m is not None:
+                lo, best = mid, m
             else:
                 hi = mid
-        res = analyze_mimo(f, loop(lo, zeta, rho), weights=weights, integrators=n_int)
-        xo = res.crossovers_hz[0] if res.crossovers_hz else 0.0
-        pm = abs(res.phase_margins_deg[0]) if res.phase_margins_deg else 0.0
+        xo = best.crossovers_hz[0] if best.crossovers_hz else 0.0
+        pm = abs(best.phase_margins_deg[0]) if best.phase_margins_deg else 0.0
         candidates.append({"com_crossover_hz": xo, "com_phase_margin_deg": pm, "bandwidth_hz": lo, "zeta": zeta,
-                           "rho": rho, "ms": res.ms})
+                           "rho": rho, "ms": best.ms})
     if not candidates:
         raise DesignError(f"no PID pair reaches Ms <= {ms_max:g} with a stable loop; relax --ms-max or change "
                           "the filter pack")

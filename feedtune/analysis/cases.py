@@ -1,0 +1,146 @@
+"""The plant side of an analysis case, shared by every machine: what the controller acts on, at any frequency.
+
+Every machine is analysed in four cases (thesis section 3.3): ``ideal`` (model, continuous controller),
+``ideal_discrete`` (the model discretized exactly with a zero-order hold, discrete controller and computational
+delay; its contour ends at ``fs / 2``), ``measured`` (FRF, continuous controller) and ``discrete`` (FRF, discrete
+controller, hold and delay). A :class:`PlantCase` holds one case's plant as a function of frequency (models exactly,
+FRFs by :func:`~feedtune.analysis.resolution.interpolate_frf`), what multiplies the controller besides the plant
+(``hold``), the model that continues the loop below the FRF's band, and what the resolution needs (lightly damped
+roots, measurement scatter). A machine's analysis combines it with its control law; the tuners evaluate candidates
+on the same objects, so that they search with exactly the check they are judged by.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..lti import delay_response, zoh_response
+from .resolution import interpolate_frf, noise_db
+
+CASES = ("ideal", "ideal_discrete", "measured", "discrete")
+CHECKED_WITH_FRF = "discrete"
+"""The case whose figures are held to the limits when an FRF is given: the measured plant with the controller as
+the target runs it."""
+CHECKED_WITHOUT_FRF = "ideal_discrete"
+
+
+@dataclass(frozen=True)
+class PlantCase:
+    """The plant side of one analysis case.
+
+    Attributes
+    ----------
+    name : str
+        One of :data:`CASES`.
+    freq_hz : ndarray
+        Base grid [Hz]: the FRF's lines in the measured cases; the model grid, ending at ``fs / 2`` in
+        ``ideal_discrete``.
+    plant : callable
+        ``plant(f)`` -> the plant on ``f`` [Hz], frequency on the last axis (machine-specific channels).
+    model_plant : callable
+        ``model_plant(f)`` -> the model's plant in the same layout (the loop below the grid, scaled to meet
+        ``plant`` at the junction).
+    discrete : bool
+        The discrete controller acts (else the continuous one).
+    hold : callable
+        ``hold(f)`` -> what multiplies the controller besides the plant [-]: 1, the delay, or ZOH times delay.
+    features : ndarray, shape (k, 2)
+        Lightly damped roots (Hz, damping) of the plant's exact part.
+    measured : bool
+        ``plant`` interpolates an FRF between the lines ``freq_hz``.
+    noise_db : ndarray or None
+        Scatter [dB] of the measured plant on ``freq_hz``.
+    disturbance : callable or None
+        ``disturbance(f)`` -> the model's disturbance-input responses (machine-specific), model cases only.
+    """
+
+    name: str
+    freq_hz: np.ndarray
+    plant: Callable[[np.ndarray], np.ndarray]
+    model_plant: Callable[[np.ndarray], np.ndarray]
+    discrete: bool
+    hold: Callable[[np.ndarray], np.ndarray]
+    features: np.ndarray
+    measured: bool = False
+    noise_db: np.ndarray | None = None
+    disturbance: Callable[[np.ndarray], np.ndarray] | None = None
+
+
+def _one(f):
+    return np.ones(np.shape(f))
+
+
+def discrete_grid(freq_hz: np.ndarray, fs: float) -> np.ndarray:
+    """The grid below ``fs / 2`` closed at ``fs / 2`` [Hz] (a z-domain contour)."""
+    f = np.asarray(freq_hz, float)
+    return np.r_[f[f < fs / 2], fs / 2]
+
+
+def model_cases(freq_hz: np.ndarray, fs: float, delay_samples: float, *, model_plant, zoh_plant, features,
+                disturbance=None, zoh_disturbance=None) -> dict[str, PlantCase]:
+    """``ideal`` and ``ideal_discrete`` of a model.
+
+    Parameters
+    ----------
+    freq_hz : ndarray
+        Base grid of the model cases [Hz].
+    fs : float
+        Controller sample rate [Hz].
+    delay_samples : float
+        Computational delay [samples].
+    model_plant, zoh_plant : callable
+        The continuous model and its exact ZOH discretization (at ``z = exp(j w / fs)``) as functions of frequency.
+    features : ndarray, shape (k, 2)
+        Lightly damped roots of the model (Hz, damping).
+    disturbance, zoh_disturbance : callable, optional
+        The disturbance-input responses, continuous and ZOH-discretized.
+    """
+
+    def delay(fr):
+        return delay_response(fr, delay_samples, fs)
+
+    def model_zoh(fr):
+        return model_plant(fr) * zoh_response(fr, fs)
+
+    return {
+        "ideal": PlantCase("ideal", np.asarray(freq_hz, float), model_plant, model_plant, False, _one, features,
+                           disturbance=disturbance),
+        "ideal_discrete": PlantCase("ideal_discrete", discrete_grid(freq_hz, fs), zoh_plant, model_zoh, True, delay,
+                                    features, disturbance=zoh_disturbance),
+    }
+
+
+def measured_cases(lines_hz: np.ndarray, response: np.ndarray, fs: float, delay_samples: float, *, model_plant,
+                   coherence: np.ndarray | None = None) -> dict[str, PlantCase]:
+    """``measured`` and ``discrete`` of an FRF.
+
+    Parameters
+    ----------
+    lines_hz : ndarray
+        The FRF's lines [Hz] (> 0).
+    response : ndarray
+        The measured plant on the lines, in the machine's layout (frequency last).
+    fs : float
+        Controller sample rate [Hz].
+    delay_samples : float
+        Computational delay [samples].
+    model_plant : callable
+        The model in the same layout, for the loop below the FRF's band.
+    coherence : ndarray, optional
+        Coherence of the measured channels (same shape as ``response``), for the scatter estimate.
+    """
+    f = np.asarray(lines_hz, float)
+    plant = interpolate_frf(f, response)
+    noise = noise_db(f, response, coherence)
+    none = np.empty((0, 2))
+
+    def zoh_delay(fr):
+        return zoh_response(fr, fs) * delay_response(fr, delay_samples, fs)
+
+    return {
+        "measured": PlantCase("measured", f, plant, model_plant, False, _one, none, True, noise),
+        "discrete": PlantCase("discrete", f, plant, model_plant, True, zoh_delay, none, True, noise),
+    }

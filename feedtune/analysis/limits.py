@@ -1,0 +1,248 @@
+"""One limits policy for every verdict: peak sensitivity, phase margin, gain margin, disk margin, stability.
+
+The same :class:`Limits` value is used by ``design``, ``analyze``, ``report``, the demos and the tuners, so a design
+that one of them accepts is accepted by all. Profiles:
+
+* ``textbook`` (the default): ``Ms <= 2.5``, every phase margin ``>= 30 deg``, every gain margin ``>= 6 dB``.
+  Skogestad and Postlethwaite (*Multivariable Feedback Control*, 2nd ed., 2005, section 2.4.3) give ``GM > 2``
+  (6 dB) and ``PM > 30 deg`` as typical requirements; the thesis (section 4.4.2, citing its reference [32]) says
+  ``Ms`` "in practice should not be much larger than 1.5-2.5".
+* ``thesis``: the thesis' own acceptance for its ball-screw comparison (section 3.3): "both controllers have phase
+  margins of PM = 30 deg and maximum sensitivity values ``S_max <= 3.25``"; no gain-margin limit.
+
+Every limit is checked on every crossover or phase crossover (the worst one decides) of every case a design is
+checked on, and a design must be stable (Nyquist) in each of them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from ..errors import UsageError
+
+
+@dataclass(frozen=True)
+class LimitItem:
+    """One limit compared with its value in one case.
+
+    Attributes
+    ----------
+    name : str
+        ``ms``, ``pm_deg``, ``gm_db``, ``disk_margin`` or ``stable``.
+    value : float or None
+        The design's value (the worst over crossovers) [-, deg, dB]; None when the loop has none (no crossover).
+    limit : float or None
+        The limit [-, deg, dB].
+    ok : bool
+    case : str
+        Analysis case it was read from.
+    freq_hz : float or None
+        Where the value occurs [Hz].
+    """
+
+    name: str
+    value: float | None
+    limit: float | None
+    ok: bool
+    case: str
+    freq_hz: float | None = None
+
+    @property
+    def slack(self) -> float | None:
+        """How far the value is inside the limit, relative to the limit [-] (negative: violated)."""
+        if self.value is None or self.limit is None or self.limit == 0:
+            return None
+        if self.name == "ms":
+            return (self.limit - self.value) / self.limit
+        return (abs(self.value) - self.limit) / self.limit
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict."""
+        return {"name": self.name, "value": self.value, "limit": self.limit, "ok": self.ok, "case": self.case,
+                "freq_hz": self.freq_hz, "slack": self.slack}
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Stability and robustness limits (module docstring).
+
+    Attributes
+    ----------
+    ms_max : float or None
+        Largest peak sensitivity ``max |S|`` (``max sigma_max(S)`` for a 2x2 loop) [-].
+    pm_min_deg : float or None
+        Smallest ``|phase margin|`` at any crossover [deg].
+    gm_min_db : float or None
+        Smallest ``|gain margin|`` at any phase crossover [dB].
+    disk_margin_min : float or None
+        Smallest balanced disk margin ``alpha`` [-] (:mod:`feedtune.analysis.margins`).
+    name : str
+        Profile name, with ``+`` and the overridden keys when overridden.
+    """
+
+    ms_max: float | None = 2.5
+    pm_min_deg: float | None = 30.0
+    gm_min_db: float | None = 6.0
+    disk_margin_min: float | None = None
+    name: str = "textbook"
+
+    def __post_init__(self) -> None:
+        for key, low in (("ms_max", 1.0), ("pm_min_deg", 0.0), ("gm_min_db", 0.0), ("disk_margin_min", 0.0)):
+            v = getattr(self, key)
+            if v is None:
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise UsageError(f"limit {key} must be a finite number, got {v!r}")
+            if key == "ms_max" and not v > low:
+                raise UsageError(f"limit ms_max must be > 1, got {v:g}")
+            if key == "pm_min_deg" and not 0 <= v < 180:
+                raise UsageError(f"limit pm_min_deg must be in [0, 180) deg, got {v:g}")
+            if key in ("gm_min_db", "disk_margin_min") and not v >= low:
+                raise UsageError(f"limit {key} must be >= 0, got {v:g}")
+            if key == "disk_margin_min" and not v < 2:
+                raise UsageError(f"limit disk_margin_min must be < 2, got {v:g}")
+            object.__setattr__(self, key, float(v))
+
+    def override(self, **values: float | None) -> Limits:
+        """A copy with the given limits replaced (keys of the dataclass; ``None`` values are ignored)."""
+        given = {k: v for k, v in values.items() if v is not None}
+        if not given:
+            return self
+        unknown = set(given) - {"ms_max", "pm_min_deg", "gm_min_db", "disk_margin_min"}
+        if unknown:
+            raise UsageError(f"unknown limit(s) {', '.join(sorted(unknown))}")
+        name = self.name.split(" + ")[0] + " + " + ", ".join(sorted(given))
+        return replace(self, name=name, **given)
+
+    def check(self, metrics, case: str) -> list[LimitItem]:
+        """Compare the figures of one case with the limits.
+
+        Parameters
+        ----------
+        metrics : LoopMetrics or MimoMetrics
+            Figures of the case (``stable``, ``ms``, ``phase_margin_deg``, ``gain_margin_db``, ``disk_margin``).
+        case : str
+            Name of the case (reported).
+        """
+        items = [LimitItem("stable", None, None, bool(metrics.stable), case)]
+        if self.ms_max is not None:
+            items.append(LimitItem("ms", float(metrics.ms), self.ms_max, metrics.ms <= self.ms_max, case,
+                                   float(metrics.ms_freq_hz)))
+        if self.pm_min_deg is not None:
+            pm = metrics.phase_margin_deg
+            f = _freq_of(metrics.phase_margins, "pm_deg", pm)
+            items.append(LimitItem("pm_deg", pm, self.pm_min_deg, pm is None or abs(pm) >= self.pm_min_deg, case, f))
+        if self.gm_min_db is not None:
+            gm = metrics.gain_margin_db
+            f = _freq_of(metrics.gain_margins, "gm_db", gm)
+            items.append(LimitItem("gm_db", gm, self.gm_min_db, gm is None or abs(gm) >= self.gm_min_db, case, f))
+        if self.disk_margin_min is not None:
+            dm = metrics.disk_margin
+            items.append(LimitItem("disk_margin", dm, self.disk_margin_min, dm >= self.disk_margin_min, case,
+                                   metrics.disk_margin_freq_hz))
+        return items
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (units in the keys)."""
+        return {"profile": self.name, "ms_max": self.ms_max, "pm_min_deg": self.pm_min_deg,
+                "gm_min_db": self.gm_min_db, "disk_margin_min": self.disk_margin_min}
+
+    def describe(self) -> str:
+        """One line: ``textbook: Ms <= 2.5, PM >= 30 deg, GM >= 6 dB``."""
+        parts = []
+        if self.ms_max is not None:
+            parts.append(f"Ms <= {self.ms_max:g}")
+        if self.pm_min_deg is not None:
+            parts.append(f"PM >= {self.pm_min_deg:g} deg")
+        if self.gm_min_db is not None:
+            parts.append(f"GM >= {self.gm_min_db:g} dB")
+        if self.disk_margin_min is not None:
+            parts.append(f"disk margin >= {self.disk_margin_min:g}")
+        return f"{self.name}: " + (", ".join(parts) if parts else "stability only")
+
+
+def _freq_of(entries, key: str, value) -> float | None:
+    for e in entries or []:
+        if value is not None and e[key] == value:
+            return float(e["freq_hz"])
+    return None
+
+
+PROFILES = {
+    "textbook": Limits(2.5, 30.0, 6.0, None, "textbook"),
+    "thesis": Limits(3.25, 30.0, None, None, "thesis"),
+}
+"""Named limit profiles (module docstring)."""
+
+DEFAULT_LIMITS = PROFILES["textbook"]
+
+
+def limits_profile(name: str) -> Limits:
+    """The named profile (``textbook`` or ``thesis``)."""
+    try:
+        return PROFILES[str(name).strip().lower()]
+    except KeyError:
+        raise UsageError(f"unknown limits profile {name!r}; expected {' or '.join(PROFILES)}") from None
+
+
+@dataclass(frozen=True)
+class LimitCheck:
+    """Every limit in every checked case, and the verdict.
+
+    Attributes
+    ----------
+    limits : Limits
+    items : list of LimitItem
+    """
+
+    limits: Limits
+    items: list
+
+    @property
+    def ok(self) -> bool:
+        """Every item within its limit."""
+        return all(i.ok for i in self.items)
+
+    @property
+    def violations(self) -> list[str]:
+        """One line per violated item."""
+        return [_violation(i) for i in self.items if not i.ok]
+
+    def active(self) -> LimitItem | None:
+        """The limit closest to binding (smallest slack) over the checked cases, or None."""
+        scored = [i for i in self.items if i.slack is not None]
+        return min(scored, key=lambda i: i.slack) if scored else None
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict."""
+        act = self.active()
+        return {"ok": self.ok, "limits": self.limits.to_dict(), "violations": self.violations,
+                "items": [i.to_dict() for i in self.items], "active": None if act is None else act.name}
+
+
+def _violation(i: LimitItem) -> str:
+    where = f" at {i.freq_hz:.4g} Hz" if i.freq_hz is not None else ""
+    if i.name == "stable":
+        return f"closed loop is unstable in the {i.case} case"
+    if i.name == "ms":
+        return f"peak sensitivity Ms = {i.value:.3g}{where} exceeds the limit {i.limit:g} ({i.case} case)"
+    if i.name == "pm_deg":
+        return f"phase margin {i.value:.3g} deg{where} is below the limit {i.limit:g} deg ({i.case} case)"
+    if i.name == "gm_db":
+        return f"gain margin {i.value:.3g} dB{where} is below the limit {i.limit:g} dB ({i.case} case)"
+    return f"disk margin {i.value:.3g}{where} is below the limit {i.limit:g} ({i.case} case)"
+
+
+def check_cases(limits: Limits, cases: dict, checked: list[str] | tuple[str, ...]) -> LimitCheck:
+    """Check ``limits`` in the named cases of ``{name: metrics or None}`` (cases that are None are skipped) and
+    stability in every case that exists."""
+    items = []
+    for name, m in cases.items():
+        if m is None:
+            continue
+        if name in checked:
+            items += limits.check(m, name)
+        else:
+            items.append(LimitItem("stable", None, None, bool(m.stable), name))
+    return LimitCheck(limits, items)

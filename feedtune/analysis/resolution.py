@@ -1,0 +1,312 @@
+"""Where to evaluate a loop so that its figures do not depend on the frequency grid.
+
+A loop is known either as samples on a grid (arrays) or as a function that can be evaluated at any frequency of
+its band: the parts known exactly (models, controllers, hold, delay) anywhere, a measured FRF between its lines by
+the interpolation of :func:`interpolate_frf` (log magnitude and unwrapped phase, linear in log frequency). Figures
+taken from a function are exact for that function; figures taken from samples are refused when the samples do not
+resolve the loop.
+
+Resolution rules, checked on every scalar loop ``l`` the analysis reads (``L`` for a SISO loop; the centre-of-mass
+loop and ``det(I + L) - 1`` for a 2x2 loop), between every two neighbouring frequencies:
+
+* winding: the angle of ``1 + l`` changes by at most :data:`WINDING_STEP_DEG` (the Nyquist count unwraps it);
+* near ``|l| = 1`` (``NEAR_LOW <= |l| <= NEAR_HIGH`` at either end): the angle of ``l`` changes by at most
+  :data:`PHASE_STEP_DEG` and ``|l|`` by at most :data:`MAGNITUDE_STEP_DB` (crossovers, margins and ``|S|`` peaks);
+* around every lightly damped pole or zero (damping below :data:`FEATURE_ZETA`) of the exactly known parts,
+  :data:`FEATURE_POINTS` points over ``f_n exp(+-FEATURE_SPAN zeta)``: a pole-zero pair between two grid lines has
+  no net phase change across the interval and is otherwise invisible.
+
+With a function (:func:`resolve`), every interval that breaks a rule is split (:data:`SPLIT` log-spaced points)
+until none does, at most :data:`MAX_ROUNDS` times; a loop still unresolved then (it passes through ``-1``) is
+refused with :class:`ResolutionError`. Crossings of a level are then bracketed to a relative width of about 1e-9
+(:func:`refine_roots`) and peaks zoomed to about 1e-6 (:func:`refine_peaks`). With samples only
+(:func:`check_samples`), a grid that breaks a rule by more than :data:`SAMPLE_SLACK` times is refused.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..errors import DataError
+
+WINDING_STEP_DEG = 20.0
+"""Largest change of the angle of ``1 + l`` between neighbouring frequencies [deg]."""
+PHASE_STEP_DEG = 10.0
+"""Largest change of the angle of ``l`` between neighbouring frequencies where ``|l|`` is near 1 [deg]."""
+MAGNITUDE_STEP_DB = 1.0
+"""Largest change of ``|l|`` between neighbouring frequencies where ``|l|`` is near 1 [dB]."""
+NEAR_LOW, NEAR_HIGH = 0.25, 4.0
+"""``|l|`` range [-] counted as near 1 (within 12 dB)."""
+FEATURE_ZETA = 0.2
+"""Poles and zeros with less damping [-] get extra points around them."""
+FEATURE_SPAN = 10.0
+"""Half width of the extra points around a lightly damped root, in units of its damping (log frequency) [-]."""
+FEATURE_POINTS = 40
+"""Extra points per lightly damped root (an even number: the undamped frequency itself is not evaluated)."""
+SPLIT = 4
+"""Points inserted into an unresolved interval per round."""
+MAX_ROUNDS = 14
+"""Subdivision rounds before an unresolved loop is refused."""
+SAMPLE_SLACK = 3.0
+"""Samples breaking a rule by more than this factor are refused (samples cannot be refined)."""
+
+
+class ResolutionError(DataError):
+    """The frequency grid does not resolve the loop (the message names the interval)."""
+
+
+# ------------------------------------------------------------------------------------------ features
+def lightly_damped(roots, dt: float | None = None, zeta_max: float = FEATURE_ZETA) -> np.ndarray:
+    """Natural frequency [Hz] and damping [-] of the lightly damped roots, shape ``(k, 2)``.
+
+    Parameters
+    ----------
+    roots : array_like of complex
+        Poles or zeros: in ``s`` [rad/s] (``dt`` None) or in ``z`` (discrete, sample time ``dt`` [s]).
+    dt : float, optional
+        Sample time [s] of discrete roots (mapped to ``s = ln(z) / dt``; roots at ``z = 0`` are skipped).
+    zeta_max : float
+        Roots with damping below this [-] are returned (roots at the origin are not).
+    """
+    r = np.atleast_1d(np.asarray(roots, complex))
+    if dt is not None:
+        r = r[np.abs(r) > 1e-12]
+        r = np.log(r) / dt
+    wn = np.abs(r)
+    keep = wn > 0
+    r, wn = r[keep], wn[keep]
+    zeta = -r.real / wn
+    sel = (np.abs(zeta) < zeta_max) & (r.imag >= 0)
+    return np.column_stack([wn[sel] / (2 * np.pi), zeta[sel]]) if sel.any() else np.empty((0, 2))
+
+
+def feature_points(features, lo_hz: float, hi_hz: float) -> np.ndarray:
+    """Extra frequencies [Hz] around lightly damped roots ``features`` (``(k, 2)``: Hz, damping) in ``[lo, hi]``."""
+    feats = np.asarray(features, float).reshape(-1, 2)
+    if feats.size == 0:
+        return np.empty(0)
+    span = np.clip(FEATURE_SPAN * np.maximum(np.abs(feats[:, 1]), 1e-5), 1e-4, 1.0)
+    k = (np.arange(FEATURE_POINTS) + 0.5) / FEATURE_POINTS * 2 - 1  # symmetric, 0 excluded
+    pts = (feats[:, :1] * np.exp(span[:, None] * k[None, :])).ravel()
+    return pts[(pts > lo_hz) & (pts < hi_hz)]
+
+
+# ------------------------------------------------------------------------------------------ rules
+def _steps(l: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per interval: winding step [deg], phase step [deg], magnitude step [dB], near-|l|=1 flag."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.abs(l)
+        wind = np.abs(np.angle((1.0 + l[1:]) / (1.0 + l[:-1]), deg=True))
+        phase = np.abs(np.angle(l[1:] / l[:-1], deg=True))
+        mag = np.abs(20 * np.log10(a[1:] / a[:-1]))
+    lo, hi = np.minimum(a[:-1], a[1:]), np.maximum(a[:-1], a[1:])
+    near = (lo <= NEAR_HIGH) & (hi >= NEAR_LOW)
+    return np.nan_to_num(wind, nan=360.0), np.nan_to_num(phase, nan=360.0), np.nan_to_num(mag, nan=1e3), near
+
+
+def unresolved(loops: Sequence[np.ndarray], slack: float = 1.0) -> np.ndarray:
+    """Boolean per interval: some loop breaks a resolution rule (by more than ``slack`` times)."""
+    bad = None
+    for l in loops:
+        wind, phase, mag, near = _steps(np.asarray(l, complex))
+        b = (wind > slack * WINDING_STEP_DEG) | (near & ((phase > slack * PHASE_STEP_DEG)
+                                                          | (mag > slack * MAGNITUDE_STEP_DB)))
+        bad = b if bad is None else bad | b
+    return bad
+
+
+def _describe(f: np.ndarray, loops: Sequence[np.ndarray], i: int) -> str:
+    l = np.asarray(loops[0], complex)
+    for cand in loops:
+        wind, *_ = _steps(np.asarray(cand, complex)[i:i + 2])
+        if wind[0] > WINDING_STEP_DEG:
+            l = np.asarray(cand, complex)
+    wind, phase, mag, _ = _steps(l[i:i + 2])
+    return (f"between {f[i]:.6g} and {f[i + 1]:.6g} Hz the loop's phase changes by {phase[0]:.0f} deg, its magnitude "
+            f"by {mag[0]:.1f} dB and the angle of 1 + L by {wind[0]:.0f} deg")
+
+
+def check_samples(freq_hz: np.ndarray, loops: Sequence[np.ndarray]) -> None:
+    """Refuse samples that do not resolve the loops (module docstring; rules relaxed by :data:`SAMPLE_SLACK`).
+
+    Raises
+    ------
+    ResolutionError
+        Naming the first unresolved interval.
+    """
+    f = np.asarray(freq_hz, float)
+    bad = unresolved(loops, SAMPLE_SLACK)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ResolutionError(
+            f"the frequency grid does not resolve the loop: {_describe(f, loops, i)}; evaluate the loop on a finer "
+            "grid or pass a function that evaluates it anywhere (evaluate=)")
+
+
+# ------------------------------------------------------------------------------------------ refinement
+def _merge(f: np.ndarray, R: np.ndarray, fn: np.ndarray, Rn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    fa = np.r_[f, fn]
+    order = np.argsort(fa, kind="stable")
+    fa = fa[order]
+    Ra = np.concatenate([R, Rn], axis=-1)[..., order]
+    keep = np.r_[True, np.diff(fa) > 0]
+    return fa[keep], Ra[..., keep]
+
+
+def _split(f: np.ndarray, intervals: np.ndarray, n: int) -> np.ndarray:
+    lo, hi = np.log(f[intervals]), np.log(f[intervals + 1])
+    t = np.arange(1, n + 1) / (n + 1)
+    return np.exp(lo[:, None] + (hi - lo)[:, None] * t[None, :]).ravel()
+
+
+def resolve(freq_hz, evaluate: Callable[[np.ndarray], np.ndarray],
+            loops: Callable[[np.ndarray], Sequence[np.ndarray]], features=None) -> tuple[np.ndarray, np.ndarray]:
+    """Grid and response on which the loops are resolved (module docstring).
+
+    Parameters
+    ----------
+    freq_hz : array_like
+        Base grid [Hz] (strictly increasing); its ends are the ends of the result.
+    evaluate : callable
+        ``evaluate(f)`` -> the response on ``f`` [Hz], frequency on the last axis.
+    loops : callable
+        ``loops(R)`` -> the scalar loops (complex arrays over frequency) to keep resolved, from a response block.
+    features : array_like, shape (k, 2), optional
+        Lightly damped roots of the exact parts (:func:`lightly_damped`).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        The grid [Hz] and the response on it.
+
+    Raises
+    ------
+    ResolutionError
+        When the loop stays unresolved after :data:`MAX_ROUNDS` rounds.
+    """
+    f = np.asarray(freq_hz, float)
+    extra = feature_points(features if features is not None else np.empty((0, 2)), f[0], f[-1])
+    R = evaluate(f)
+    if extra.size:
+        f, R = _merge(f, R, extra, evaluate(extra))
+    for _ in range(MAX_ROUNDS + 1):
+        bad = unresolved(loops(R))
+        if not bad.any():
+            return f, R
+        split = bad & (f[1:] > f[:-1] * (1 + 1e-12))
+        if not split.any() or _ == MAX_ROUNDS:
+            break
+        fn = _split(f, np.flatnonzero(split), SPLIT)
+        f, R = _merge(f, R, fn, evaluate(fn))
+    i = int(np.flatnonzero(bad)[0])
+    raise ResolutionError(f"the loop cannot be resolved: {_describe(f, loops(R), i)} (it passes through or next to "
+                          "-1 there)")
+
+
+def refine_roots(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi: np.ndarray,
+                 rounds: int = 3, m: int = 16) -> np.ndarray:
+    """Frequencies [Hz] where the real function ``fn`` changes sign, one per bracket ``[f_lo, f_hi]``.
+
+    Every round evaluates ``m`` log-spaced interior points of all brackets in one call and keeps the first sub-bracket
+    with a sign change; the root is finally interpolated linearly in log frequency.
+    """
+    lo = np.log(np.asarray(f_lo, float))
+    hi = np.log(np.asarray(f_hi, float))
+    if lo.size == 0:
+        return np.empty(0)
+    t = np.linspace(0.0, 1.0, m + 2)
+    for _ in range(rounds):
+        x = lo[:, None] + (hi - lo)[:, None] * t[None, :]
+        y = fn(np.exp(x.ravel())).reshape(x.shape)
+        s = np.signbit(y)
+        change = s[:, :-1] != s[:, 1:]
+        j = np.where(change.any(axis=1), np.argmax(change, axis=1), 0)
+        rows = np.arange(lo.size)
+        lo, hi = x[rows, j], x[rows, j + 1]
+    ylo, yhi = fn(np.exp(lo)), fn(np.exp(hi))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.where(ylo != yhi, ylo / (ylo - yhi), 0.5)
+    return np.exp(lo + np.clip(frac, 0.0, 1.0) * (hi - lo))
+
+
+def refine_peaks(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi: np.ndarray,
+                 rounds: int = 4, m: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Local maxima of the real function ``fn`` inside the brackets ``[f_lo, f_hi]``: frequencies [Hz] and values."""
+    lo = np.log(np.asarray(f_lo, float))
+    hi = np.log(np.asarray(f_hi, float))
+    if lo.size == 0:
+        return np.empty(0), np.empty(0)
+    t = np.linspace(0.0, 1.0, m + 2)
+    rows = np.arange(lo.size)
+    for _ in range(rounds):
+        x = lo[:, None] + (hi - lo)[:, None] * t[None, :]
+        y = fn(np.exp(x.ravel())).reshape(x.shape)
+        j = np.argmax(y, axis=1)
+        lo, hi = x[rows, np.maximum(j - 1, 0)], x[rows, np.minimum(j + 1, m + 1)]
+    x = lo[:, None] + (hi - lo)[:, None] * t[None, :]
+    y = fn(np.exp(x.ravel())).reshape(x.shape)
+    j = np.argmax(y, axis=1)
+    return np.exp(x[rows, j]), y[rows, j]
+
+
+# ------------------------------------------------------------------------------------------ measured parts
+INTERPOLATION = "log magnitude and unwrapped phase, linear in log frequency, between the FRF's lines"
+"""How a measured response is evaluated between its lines (stated in the analysis output)."""
+
+
+def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """A function evaluating the measured ``response`` (last axis over ``freq_hz`` [Hz] > 0) between its lines.
+
+    :data:`INTERPOLATION`; exact on the lines. Frequencies outside the lines are clamped to the end values.
+    """
+    f = np.asarray(freq_hz, float)
+    h = np.asarray(response, complex)
+    lf = np.log(f)
+    with np.errstate(divide="ignore"):
+        lm = np.log(np.maximum(np.abs(h), 1e-300))
+    ph = np.unwrap(np.angle(h), axis=-1)
+    shape = h.shape[:-1]
+    lm2, ph2 = lm.reshape(-1, f.size), ph.reshape(-1, f.size)
+
+    def evaluate(fq: np.ndarray) -> np.ndarray:
+        fq = np.asarray(fq, float)
+        x = np.log(np.clip(fq, f[0], f[-1]))
+        i = np.clip(np.searchsorted(lf, x) - 1, 0, f.size - 2)
+        t = (x - lf[i]) / (lf[i + 1] - lf[i])
+        m = lm2[:, i] + t * (lm2[:, i + 1] - lm2[:, i])
+        p = ph2[:, i] + t * (ph2[:, i + 1] - ph2[:, i])
+        return np.exp(m + 1j * p).reshape(*shape, fq.size)
+
+    return evaluate
+
+
+def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | None = None,
+             half_window: int = 10) -> np.ndarray:
+    """Measurement scatter of a measured response [dB, 1 sigma] per line (largest over leading axes).
+
+    From the line-to-line roughness: the running median of ``|d2|``, the second difference of ``20 log10 |H|`` over
+    ``2 half_window + 1`` lines, divided by ``0.6745 sqrt(6)`` (white scatter of ``sigma`` gives ``var d2 = 6
+    sigma^2``; the median ignores the few lines of a resonance). With a coherence ``gamma^2``, at least
+    ``20 log10(1 + sqrt((1 - gamma^2) / (2 gamma^2)))`` (one-average H1 error, Bendat and Piersol).
+    """
+    h = np.asarray(response, complex).reshape(-1, np.asarray(freq_hz).size)
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(np.maximum(np.abs(h), 1e-300))
+    n = db.shape[-1]
+    out = np.zeros(n)
+    if n >= 3:
+        d2 = np.abs(db[:, :-2] - 2 * db[:, 1:-1] + db[:, 2:])
+        d2 = np.pad(d2, ((0, 0), (1, 1)), mode="edge")
+        from scipy.ndimage import median_filter
+
+        med = median_filter(d2, size=(1, 2 * half_window + 1), mode="nearest")
+        out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
+    if coherence is not None:
+        g = np.asarray(coherence, float).reshape(-1, n)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * np.clip(g, 1e-6, 1))))
+        c = np.where(np.isfinite(c), c, 0.0)
+        out = np.maximum(out, np.max(c, axis=0))
+    return out
