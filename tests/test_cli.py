@@ -86,7 +86,8 @@ def test_ppi_user_gains_and_tuning(frf_files, tmp_path, capsys, monkeypatch):
     model = tmp_path / "m.toml"
     run(["identify", "ballscrew", frf_files["csv"], "--out", model], capsys, monkeypatch)
     code, out, err = run(
-        ["design", "ppi", model, "--kpx", "60", "--kpv", "0.8", "--kiv", "100", "--json"], capsys, monkeypatch
+        ["design", "ppi", model, "--kpx", "60", "--kpv", "0.8", "--kiv", "100", "--limits", "thesis", "--json"], capsys,
+        monkeypatch
     )
     assert code == 0, err
     res = json.loads(out)

@@ -105,7 +105,8 @@ class Limits:
             object.__setattr__(self, key, float(v))
 
     def override(self, **values: float | None) -> Limits:
-        """A copy with the given limits replaced (keys of the dataclass; ``None`` values are ignored)."""
+        """A copy with the given limits replaced (keys of the dataclass). ``None`` keeps the profile's value; ``0``
+        for ``pm_min_deg``, ``gm_min_db`` or ``disk_margin_min`` removes that limit."""
         given = {k: v for k, v in values.items() if v is not None}
         if not given:
             return self
@@ -113,6 +114,7 @@ class Limits:
         if unknown:
             raise UsageError(f"unknown limit(s) {', '.join(sorted(unknown))}")
         name = self.name.split(" + ")[0] + " + " + ", ".join(sorted(given))
+        given = {k: (None if k != "ms_max" and v == 0 else v) for k, v in given.items()}
         return replace(self, name=name, **given)
 
     def check(self, metrics, case: str) -> list[LimitItem]:

@@ -7,6 +7,15 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_MIN_OPTION,
+    LIMITS_OPTION,
+    MS_MAX_OPTION,
+    PM_MIN_OPTION,
+    limits_from_options,
+    print_check,
+)
 
 app = typer.Typer(
     rich_markup_mode=None,
@@ -52,7 +61,7 @@ def _load_friction(path: Path | None):
     return model
 
 
-def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_unstable, as_json, friction=None,
+def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, as_json, friction=None,
             friction_band=None):
     """Analyse, check the limits, write the gains file, print the result."""
     from ..design.check import check_design
@@ -63,7 +72,7 @@ def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_uns
 
     friction_model = _load_friction(friction)
     frf = read_optional_frf(frf_path, quantity)
-    check = check_design(design, frf=frf, ms_max=ms_max, pm_min_deg=pm_min)
+    check = check_design(design, frf=frf, limits=limits)
     analysis = check.analysis.to_dict()
     result = {
         "kind": design.kind,
@@ -89,6 +98,7 @@ def _finish(design, *, frf_path, quantity, ms_max, pm_min, out, force, allow_uns
         print_json(result)
     else:
         _summary(result)
+        print_check(result["check"])
         if "friction_feedforward" in result:
             _friction_summary(result["friction_feedforward"])
         if written:
@@ -156,8 +166,11 @@ def ppc(
     delay_samples: int = DELAY_OPTION,
     frf: Path = typer.Option(None, "--frf", help="Measured FRF for the measured and discrete analysis cases."),
     quantity: str = QUANTITY_OPTION,
-    ms_max: float = typer.Option(3.5, "--ms-max", help="Largest acceptable peak sensitivity [-]."),
-    pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable phase margin [deg]."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     out: Path = OUT_OPTION,
     friction: Path = FRICTION_OPTION,
     friction_band: float = FRICTION_BAND_OPTION,
@@ -167,6 +180,8 @@ def ppc(
 ) -> None:
     """Mode-compensating pole-placement control (MC-PPC, eq. 3.5-3.13)."""
     from ..design.mcppc import design_mcppc
+
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
 
     design = design_mcppc(
         _load_model(model_file),
@@ -181,8 +196,7 @@ def ppc(
         design,
         frf_path=frf,
         quantity=quantity,
-        ms_max=ms_max,
-        pm_min=pm_min,
+        limits=policy,
         out=out,
         force=force,
         allow_unstable=allow_unstable,
@@ -195,8 +209,11 @@ def ppc(
 @app.command("ppi")
 def ppi(
     model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
-    ms_max: float = typer.Option(3.25, "--ms-max", help="Peak sensitivity limit [-] for tuning and checking."),
-    pm_min: float = typer.Option(30.0, "--pm-min", help="Phase-margin limit [deg] for tuning and checking."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     kpx: float = typer.Option(None, "--kpx", help="Position-loop gain [1/s] (give all three to skip tuning)."),
     kpv: float = typer.Option(None, "--kpv", help="Velocity-loop proportional gain [V/(rad/s)]."),
     kiv: float = typer.Option(None, "--kiv", help="Velocity-loop integral gain [V/rad]."),
@@ -218,18 +235,18 @@ def ppi(
     from ..errors import UsageError
     from .frf_options import read_optional_frf
 
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
     given = [g is not None for g in (kpx, kpv, kiv)]
     if any(given) and not all(given):
-        raise UsageError("give all of --kpx, --kpv and --kiv, or none of them to tune for --ms-max")
+        raise UsageError("give all of --kpx, --kpv and --kiv, or none of them to tune them under the limits")
     if all(given):
         design = design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kiv, filters=filters, fs=fs, delay_samples=delay_samples)
     else:
         design = tune_ppi(
             model,
-            ms_max=ms_max,
-            pm_min_deg=pm_min,
+            limits=policy,
             filters=filters,
             fs=fs,
             delay_samples=delay_samples,
@@ -239,8 +256,7 @@ def ppi(
         design,
         frf_path=frf,
         quantity=quantity,
-        ms_max=ms_max,
-        pm_min=pm_min,
+        limits=policy,
         out=out,
         force=force,
         allow_unstable=allow_unstable,

@@ -1,12 +1,19 @@
-"""Checking a ball-screw design against stability and margin limits before it is exported."""
+"""Checking a ball-screw design against the limits policy before it is exported.
+
+A design passes when it is stable (Nyquist) in every analysis case and meets every limit of the
+:class:`~feedtune.analysis.limits.Limits` in the checked case: ``discrete`` (the measured FRF with the controller as
+the target runs it) when an FRF is given, else ``ideal_discrete``.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..analysis.ballscrew import BallScrewAnalysis, analyze_ballscrew, closed_loop_poles
+from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+from ..analysis.limits import DEFAULT_LIMITS, LimitCheck, Limits, check_cases
 from ..frf import Frf
 
 
@@ -19,57 +26,55 @@ class DesignCheck:
     analysis : BallScrewAnalysis
     closed_loop_poles : ndarray
         Roots of ``1 + L`` of the continuous loop with the filter pack [rad/s].
-    ok : bool
-        Stable in every analysed case and within the limits in the worst case.
+    limit_check : LimitCheck
+        Every limit in the checked case and stability in every case.
     worst_case : str
         The case the limits were checked in (``discrete`` with an FRF, else ``ideal_discrete``).
-    violations : list of str
     """
 
     analysis: BallScrewAnalysis
     closed_loop_poles: np.ndarray
-    ok: bool
+    limit_check: LimitCheck
     worst_case: str
-    violations: list = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """Stable in every case and within every limit in the checked case."""
+        return self.limit_check.ok
+
+    @property
+    def violations(self) -> list[str]:
+        """One line per violated limit."""
+        return self.limit_check.violations
 
     def to_dict(self) -> dict:
-        """``{"ok", "checked_case", "violations"}``."""
-        return {"ok": self.ok, "checked_case": self.worst_case, "violations": list(self.violations)}
+        """``{"ok", "checked_case", "violations", "limits", "items", "active"}``."""
+        return {"checked_case": self.worst_case, **self.limit_check.to_dict()}
 
 
-def check_design(
-    design, *, frf: Frf | None = None, ms_max: float | None = None, pm_min_deg: float | None = None
-) -> DesignCheck:
-    """Analyse ``design`` (MC-PPC or P-PI) and compare with the limits.
+def resolve_limits(limits: Limits | None = None, *, ms_max: float | None = None,
+                   pm_min_deg: float | None = None) -> Limits:
+    """``limits`` (default :data:`~feedtune.analysis.limits.DEFAULT_LIMITS`) with the given values overriding it."""
+    return (limits or DEFAULT_LIMITS).override(ms_max=ms_max, pm_min_deg=pm_min_deg)
+
+
+def check_design(design, *, frf: Frf | None = None, limits: Limits | None = None, ms_max: float | None = None,
+                 pm_min_deg: float | None = None) -> DesignCheck:
+    """Analyse ``design`` (MC-PPC or P-PI) in every case and compare it with the limits.
 
     Parameters
     ----------
     design : McppcDesign or PpiDesign
     frf : Frf, optional
         Measured FRF for the measured and discrete cases.
-    ms_max : float, optional
-        Largest acceptable peak sensitivity [-].
-    pm_min_deg : float, optional
-        Smallest acceptable |phase margin| at any crossover [deg].
+    limits : Limits, optional
+        The limits policy (default: the ``textbook`` profile).
+    ms_max, pm_min_deg : float, optional
+        Overrides of the policy's peak sensitivity [-] and phase margin [deg].
     """
+    pol = resolve_limits(limits, ms_max=ms_max, pm_min_deg=pm_min_deg)
     law = design.law()
     analysis = analyze_ballscrew(law, design.model, frf)
-    violations = []
-    for name, case in analysis.cases.items():
-        if case is not None and not case.metrics.stable:
-            violations.append(
-                f"closed loop is unstable in the {name} case "
-                f"({case.metrics.nyquist_encirclements} clockwise encirclements of -1)"
-            )
-    worst = "discrete" if frf is not None else "ideal_discrete"
-    m = analysis.cases[worst].metrics
-    if ms_max is not None and m.ms > ms_max:
-        violations.append(
-            f"peak sensitivity Ms = {m.ms:.3g} at {m.ms_freq_hz:.4g} Hz exceeds --ms-max {ms_max:g} ({worst} case)"
-        )
-    if pm_min_deg is not None and m.phase_margin_deg is not None and abs(m.phase_margin_deg) < pm_min_deg:
-        violations.append(
-            f"phase margin {m.phase_margin_deg:.3g} deg is below --pm-min {pm_min_deg:g} deg ({worst} case)"
-        )
-    poles = closed_loop_poles(law, design.model)
-    return DesignCheck(analysis, poles, not violations, worst, violations)
+    worst = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
+    metrics = {name: None if c is None else c.metrics for name, c in analysis.cases.items()}
+    return DesignCheck(analysis, closed_loop_poles(law, design.model), check_cases(pol, metrics, [worst]), worst)

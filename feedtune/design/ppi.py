@@ -176,8 +176,9 @@ REFINE_POINTS = 12
 def tune_ppi(
     model: BallScrewModel,
     *,
-    ms_max: float = 3.25,
-    pm_min_deg: float = 30.0,
+    limits=None,
+    ms_max: float | None = None,
+    pm_min_deg: float | None = None,
     filters: FilterPack | None = None,
     fs: float = 20000.0,
     delay_samples: int = 1,
@@ -194,10 +195,12 @@ def tune_ppi(
     so that a binding ``ms_max`` is met closely rather than to the coarse grid's step (9 %).
     """
     from ..analysis.loop import LoopExtension, analyze_loop
+    from .check import resolve_limits
 
+    policy = resolve_limits(limits, ms_max=ms_max, pm_min_deg=pm_min_deg)
+    ms_max = policy.ms_max if policy.ms_max is not None else np.inf
+    pm_min_deg = policy.pm_min_deg or 0.0
     check_sampling(fs, delay_samples)
-    if not (np.isfinite(ms_max) and ms_max > 1):
-        raise UsageError(f"--ms-max must be > 1, got {ms_max}")
     filters = filters or FilterPack()
     filters.check_nyquist(fs)
     f_hi = fs / 2 * 0.999 if frf is None else min(fs / 2 * 0.999, float(frf.freq_hz[-1]))

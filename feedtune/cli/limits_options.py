@@ -1,0 +1,54 @@
+"""The limits-policy options shared by ``design``, ``tune``, ``analyze``, ``report`` and the demos.
+
+``--limits PROFILE`` picks a named profile of :mod:`feedtune.analysis.limits`; ``--ms-max``, ``--pm-min``,
+``--gm-min`` and ``--dm-min`` override single limits of it (``--gm-min 0`` switches the gain-margin limit off).
+"""
+
+from __future__ import annotations
+
+import math
+
+import typer
+
+LIMITS_OPTION = typer.Option(
+    "textbook", "--limits", metavar="PROFILE",
+    help="Limits profile: textbook (Ms <= 2.5, PM >= 30 deg, GM >= 6 dB) or thesis (Ms <= 3.25, PM >= 30 deg, "
+         "the thesis' own acceptance); single limits are overridden by --ms-max, --pm-min, --gm-min, --dm-min.")
+MS_MAX_OPTION = typer.Option(None, "--ms-max", metavar="MS", help="Largest peak sensitivity max|S| [-] "
+                                                                  "(overrides the profile's).")
+PM_MIN_OPTION = typer.Option(None, "--pm-min", metavar="DEG", help="Smallest |phase margin| at any crossover [deg] "
+                                                                   "(overrides the profile's; 0: none).")
+GM_MIN_OPTION = typer.Option(None, "--gm-min", metavar="DB", help="Smallest |gain margin| at any phase crossover "
+                                                                  "[dB] (overrides the profile's; 0: none).")
+DM_MIN_OPTION = typer.Option(None, "--dm-min", metavar="ALPHA", help="Smallest balanced disk margin alpha [-] "
+                                                                     "(0: none).")
+
+
+def limits_from_options(profile: str = "textbook", ms_max: float | None = None, pm_min: float | None = None,
+                        gm_min: float | None = None, dm_min: float | None = None):
+    """The :class:`~feedtune.analysis.limits.Limits` of the options; bad values are usage errors naming the option."""
+    from ..analysis.limits import limits_profile
+    from ..errors import UsageError
+
+    base = limits_profile(profile)
+    checks = (("--ms-max", ms_max, lambda v: v > 1, "a number > 1"),
+              ("--pm-min", pm_min, lambda v: 0 <= v < 180, "an angle in [0, 180) deg"),
+              ("--gm-min", gm_min, lambda v: v >= 0, "a number >= 0 dB"),
+              ("--dm-min", dm_min, lambda v: 0 <= v < 2, "a number in [0, 2)"))
+    for name, value, ok, expected in checks:
+        if value is not None and not (math.isfinite(value) and ok(value)):
+            raise UsageError(f"{name} must be {expected}, got {value:g}")
+    return base.override(ms_max=ms_max, pm_min_deg=pm_min, gm_min_db=gm_min, disk_margin_min=dm_min)
+
+
+def print_check(check: dict) -> None:
+    """One line with the verdict of a limit check (``LimitCheck.to_dict()``, optionally with ``checked_case``)."""
+    from ..analysis.limits import Limits
+
+    lim = check["limits"]
+    text = Limits(lim["ms_max"], lim["pm_min_deg"], lim["gm_min_db"], lim["disk_margin_min"], lim["profile"]).describe()
+    where = f" in the {check['checked_case']} case" if check.get("checked_case") else ""
+    if check["ok"]:
+        typer.echo(f"check passed ({text}){where}; stable in every case")
+    else:
+        typer.echo(f"check FAILED ({text}){where}: {len(check['violations'])} violation(s)")
