@@ -227,7 +227,7 @@ def tune_ppi(
                     ext = LoopExtension(e.freq_hz, (g["Kx1"] + g["Kv1"] * d) * a11 + (g["Kx2"] + g["Ki2"] * i) * a21,
                                         e.scale, e.junction_hz)
                 res = analyze_loop(f, L, extension=ext)
-                if not res.stable or res.phase_margin_deg is None or abs(res.phase_margin_deg) < pm_min_deg:
+                if res.phase_margin_deg is None or not all(i.ok for i in policy.check(res, "discrete")):
                     continue
                 bw = float(res.crossovers_hz[0])
                 if found is None or bw > found[0]:
