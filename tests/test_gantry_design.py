@@ -220,7 +220,7 @@ def test_cli_bad_input(model_file, tmp_path, capsys, monkeypatch):
     assert code == 2 and "gantry model" in err
     code, _, err = run(["design", "gantry", model_file, "--lead", "154"], capsys, monkeypatch)
     assert code == 2 and "--lead" in err
-    code, _, err = run(["design", "pid", model_file], capsys, monkeypatch)
+    code, _, err = run(["design", "pid", model_file, "--ms-max", "0.5"], capsys, monkeypatch)
     assert code == 2 and "--ms-max" in err
     code, _, err = run(["design", "pid", model_file, "--kp", "1000"], capsys, monkeypatch)
     assert code == 2 and "--kd" in err

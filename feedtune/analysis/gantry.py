@@ -495,38 +495,6 @@ def analyze_axis(design, frf: Frf | None = None, *, channel: str | None = None, 
 
 
 # ------------------------------------------------------------------------------------------- checks
-def limit_violations(cases: dict, checked_case: str, *, ms_max: float | None = None,
-                     pm_min_deg: float | None = None) -> list[str]:
-    """Stability in every analysed case and the Ms / phase-margin limits in ``checked_case``.
-
-    Parameters
-    ----------
-    cases : dict
-        ``GantryAnalysis.to_dict()`` or ``AxisAnalysis.to_dict()``.
-    checked_case : str
-        The case the limits apply to (``discrete`` with an FRF, else ``ideal_discrete``).
-    ms_max : float, optional
-        Largest acceptable peak sensitivity [-] (``max sigma_max(S)`` for a gantry).
-    pm_min_deg : float, optional
-        Smallest acceptable |phase margin| [deg].
-    """
-    out = []
-    for name, c in cases.items():
-        if c is not None and not c["stable"]:
-            out.append(f"closed loop is unstable in the {name} case ({c['nyquist_encirclements']} clockwise "
-                       "encirclements)")
-    c = cases.get(checked_case)
-    if c is None:
-        return out
-    if ms_max is not None and c["ms"] > ms_max:
-        out.append(f"peak sensitivity Ms = {c['ms']:.3g} at {c['ms_freq_hz']:.4g} Hz exceeds --ms-max {ms_max:g} "
-                   f"({checked_case} case)")
-    pm = c.get("phase_margin_deg")
-    if pm_min_deg is not None and pm is not None and abs(pm) < pm_min_deg:
-        out.append(f"phase margin {pm:.3g} deg is below --pm-min {pm_min_deg:g} deg ({checked_case} case)")
-    return out
-
-
 def target_violations(case: dict | None, crossover_hz: float, pm_deg: float, *, tol_hz: float = 1.0,
                       tol_deg: float = 1.0, name: str = "checked") -> list[str]:
     """The first crossover [Hz] and its phase margin [deg] must match the design targets within tolerance."""

@@ -209,7 +209,12 @@ class LimitCheck:
     @property
     def violations(self) -> list[str]:
         """One line per violated item."""
-        return [_violation(i) for i in self.items if not i.ok]
+        return self.violations_named()
+
+    def violations_named(self, names: dict | None = None) -> list[str]:
+        """One line per violated item, each limit called by ``names[item.name]`` (e.g. a command-line option)
+        instead of "the limit"."""
+        return [_violation(i, (names or {}).get(i.name, "the limit")) for i in self.items if not i.ok]
 
     def active(self) -> LimitItem | None:
         """The limit closest to binding (smallest slack) over the checked cases, or None."""
@@ -223,17 +228,17 @@ class LimitCheck:
                 "items": [i.to_dict() for i in self.items], "active": None if act is None else act.name}
 
 
-def _violation(i: LimitItem) -> str:
+def _violation(i: LimitItem, limit: str = "the limit") -> str:
     where = f" at {i.freq_hz:.4g} Hz" if i.freq_hz is not None else ""
     if i.name == "stable":
         return f"closed loop is unstable in the {i.case} case"
     if i.name == "ms":
-        return f"peak sensitivity Ms = {i.value:.3g}{where} exceeds the limit {i.limit:g} ({i.case} case)"
+        return f"peak sensitivity Ms = {i.value:.3g}{where} exceeds {limit} {i.limit:g} ({i.case} case)"
     if i.name == "pm_deg":
-        return f"phase margin {i.value:.3g} deg{where} is below the limit {i.limit:g} deg ({i.case} case)"
+        return f"phase margin {i.value:.3g} deg{where} is below {limit} {i.limit:g} deg ({i.case} case)"
     if i.name == "gm_db":
-        return f"gain margin {i.value:.3g} dB{where} is below the limit {i.limit:g} dB ({i.case} case)"
-    return f"disk margin {i.value:.3g}{where} is below the limit {i.limit:g} ({i.case} case)"
+        return f"gain margin {i.value:.3g} dB{where} is below {limit} {i.limit:g} dB ({i.case} case)"
+    return f"disk margin {i.value:.3g}{where} is below {limit} {i.limit:g} ({i.case} case)"
 
 
 def check_cases(limits: Limits, cases: dict, checked: list[str] | tuple[str, ...]) -> LimitCheck:

@@ -12,6 +12,7 @@ from .limits_options import (
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
+    OPTION_NAMES,
     PM_MIN_OPTION,
     limits_from_options,
     print_check,
@@ -104,7 +105,7 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
         if written:
             typer.echo(f"wrote {out}")
     if not check.ok:
-        msg = "; ".join(check.violations)
+        msg = "; ".join(check.limit_check.violations_named(OPTION_NAMES))
         if allow_unstable:
             typer.echo(f"feedtune: warning: {msg} (written because of --allow-unstable)", err=True)
         else:

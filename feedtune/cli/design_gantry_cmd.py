@@ -18,6 +18,16 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, print_json
 from .design_cmd import ALLOW_OPTION, DELAY_OPTION, NOTCH_OPTION, OUT_OPTION, QUANTITY_OPTION
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_MIN_OPTION,
+    LIMITS_OPTION,
+    MS_MAX_OPTION,
+    OPTION_NAMES,
+    PM_MIN_OPTION,
+    limits_from_options,
+    print_check,
+)
 
 FS_OPTION = typer.Option(15000.0, "--fs", help="Sample rate of the target [Hz].")
 LPF_OPTION = typer.Option(None, "--lpf", help="Low-pass frequency [Hz] of the filter pack.")
@@ -61,14 +71,19 @@ def _x_grid(model, x_min: float, x_max: float, x_points: int):
     return default_x_grid(model, x_min, x_max, x_points)
 
 
-def _write_and_report(result: dict, doc: dict, violations: list[str], *, out, force, allow_unstable,
+def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, force, allow_unstable,
                       as_json) -> None:
-    """Write the gains file unless a limit is violated, print the result, raise DesignError on violations."""
+    """Write the gains file unless a limit is violated, print the result, raise DesignError on violations.
+
+    ``check`` is the :class:`~feedtune.analysis.limits.LimitCheck` of the design; ``extra`` further violations
+    (design targets missed).
+    """
     from ..errors import DesignError
     from ..io import write_document
     from .analyze_gantry_cmd import print_summary
 
-    result["check"] = {"ok": not violations, "violations": list(violations)}
+    violations = check.violations_named(OPTION_NAMES) + list(extra)
+    result["check"] = {**check.to_dict(), "ok": not violations, "violations": violations}
     written = False
     if out is not None and (not violations or allow_unstable):
         write_document(out, doc, force=force)
@@ -78,6 +93,7 @@ def _write_and_report(result: dict, doc: dict, violations: list[str], *, out, fo
         print_json(result)
     else:
         print_summary(result)
+        print_check(result["check"])
         if written:
             typer.echo(f"wrote {out}")
     if violations:
@@ -88,16 +104,27 @@ def _write_and_report(result: dict, doc: dict, violations: list[str], *, out, fo
             raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
 
 
-def _gantry_finish(design, frf, *, ms_max, pm_min, targets, out, force, allow_unstable, as_json) -> None:
-    from ..analysis.gantry import analyze_gantry, limit_violations, reference_from_schedule, target_violations
+def check_analysis(analysis, limits):
+    """The :class:`~feedtune.analysis.limits.LimitCheck` of a gantry or axis analysis: the limits in the checked
+    case (``discrete`` with an FRF, else ``ideal_discrete``), stability in every case."""
+    from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+    from ..analysis.limits import check_cases
+
+    metrics = {name: None if c is None else c.metrics for name, c in analysis.cases.items()}
+    checked = CHECKED_WITH_FRF if metrics.get(CHECKED_WITH_FRF) is not None else CHECKED_WITHOUT_FRF
+    out = check_cases(limits, metrics, [checked])
+    return out, checked
+
+
+def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, as_json) -> None:
+    from ..analysis.gantry import analyze_gantry, reference_from_schedule, target_violations
     from ..design.gantry_gains import gantry_gains_document, mimo_gain_units, pid_gain_units
 
     ref = reference_from_schedule(design.schedule, design.x, design.prefilter_hz)
-    analysis = analyze_gantry(design.law, design.model, x=design.x, frf=frf, reference=ref).to_dict()
-    checked = "discrete" if frf is not None else "ideal_discrete"
-    violations = limit_violations(analysis, checked, ms_max=ms_max, pm_min_deg=pm_min)
-    if targets is not None:
-        violations += target_violations(analysis["ideal_discrete"], *targets, name="ideal_discrete")
+    full = analyze_gantry(design.law, design.model, x=design.x, frf=frf, reference=ref)
+    analysis = full.to_dict()
+    check, checked = check_analysis(full, limits)
+    extra = [] if targets is None else target_violations(analysis["ideal_discrete"], *targets, name="ideal_discrete")
     doc = gantry_gains_document(design, analysis)
     unit = design.model.input_unit
     units = mimo_gain_units(unit) if design.controller == "mimo" else pid_gain_units(unit)
@@ -107,7 +134,9 @@ def _gantry_finish(design, frf, *, ms_max, pm_min, targets, out, force, allow_un
     if design.controller == "mimo":
         result["gains"]["lead_gain"] = design.law.lead_gain
         result["gain_units"]["lead_gain"] = f"{unit}/m"
-    _write_and_report(result, doc, violations, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
+    result_check = {"checked_case": checked}
+    _write_and_report(result | {"check": result_check}, doc, check, extra, out=out, force=force,
+                      allow_unstable=allow_unstable, as_json=as_json)
 
 
 # ------------------------------------------------------------------------------------------ loopshape
@@ -134,15 +163,18 @@ def loopshape(
     delay_samples: int = DELAY_OPTION,
     frf: Path = typer.Option(None, "--frf", help="Measured SISO FRF for the measured and discrete cases."),
     quantity: str = QUANTITY_OPTION,
-    ms_max: float = typer.Option(None, "--ms-max", help="Largest acceptable peak sensitivity [-]."),
-    pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable phase margin [deg]."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20)."""
-    from ..analysis.gantry import analyze_axis, limit_violations, target_violations
+    from ..analysis.gantry import analyze_axis, target_violations
     from ..design.gantry_gains import axis_gains_document
     from ..design.loopshape import PrefilterGains, design_loopshape
     from .frf_options import read_optional_frf
@@ -158,19 +190,21 @@ def loopshape(
         filters=_loop_filters(notch, lpf, lpf_order, lpf_zeta, lead), fs=fs, delay_samples=delay_samples,
         max_stage_deg=max_stage_deg, prefilter=PrefilterGains.parse(prefilter), prefilter_hz=prefilter_hz,
         mass=mass, channel=channel)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     measured = read_optional_frf(frf, quantity)
-    analysis = analyze_axis(design, measured, channel=channel if measured is not None else None).to_dict()
-    checked = "discrete" if analysis["discrete"] is not None else "ideal_discrete"
-    violations = limit_violations(analysis, checked, ms_max=ms_max, pm_min_deg=pm_min)
+    full = analyze_axis(design, measured, channel=channel if measured is not None else None)
+    analysis = full.to_dict()
+    check, checked = check_analysis(full, policy)
     own = design.design_dict()["checked_case"]
-    violations += target_violations(analysis[own], crossover_hz, pm_deg, name=own)
+    extra = target_violations(analysis[own], crossover_hz, pm_deg, name=own)
     doc = axis_gains_document(design, analysis)
     gains = {k: v["value"] for k, v in doc["gains"].items()}
     result = {"kind": "axis", "controller": "loopshape", "gains": gains,
               "gain_units": {k: v["unit"] for k, v in doc["gains"].items()},
               "lead_stages": [s.to_dict() for s in design.lead_stages], "design": doc["design"],
-              "analysis": analysis}
-    _write_and_report(result, doc, violations, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
+              "analysis": analysis, "check": {"checked_case": checked}}
+    _write_and_report(result, doc, check, extra, out=out, force=force, allow_unstable=allow_unstable,
+                      as_json=as_json)
 
 
 # ------------------------------------------------------------------------------------------ gantry
@@ -199,8 +233,11 @@ def gantry(
     delay_samples: int = DELAY_OPTION,
     frf: Path = GANTRY_FRF_OPTION,
     quantity: str = QUANTITY_OPTION,
-    ms_max: float = typer.Option(3.0, "--ms-max", help="Largest acceptable max sigma_max(S) [-]."),
-    pm_min: float = typer.Option(None, "--pm-min", help="Smallest acceptable CoM phase margin [deg]."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
@@ -211,6 +248,7 @@ def gantry(
     from ..design.loopshape import PrefilterGains
     from .frf_options import read_optional_frf
 
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     model = _gantry_model(model_file)
     design = design_gantry_mimo(
         model, crossover_hz=crossover_hz, pm_deg=pm_deg, damping_increase=damping_increase, ki=ki,
@@ -218,9 +256,8 @@ def gantry(
         delay_samples=delay_samples, x=x, x_grid=_x_grid(model, x_min, x_max, x_points),
         prefilter1=PrefilterGains.parse(prefilter1, "--prefilter1"),
         prefilter2=PrefilterGains.parse(prefilter2, "--prefilter2"), prefilter_hz=prefilter_hz)
-    _gantry_finish(design, read_optional_frf(frf, quantity), ms_max=ms_max, pm_min=pm_min,
-                   targets=(crossover_hz, pm_deg), out=out, force=force, allow_unstable=allow_unstable,
-                   as_json=as_json)
+    _gantry_finish(design, read_optional_frf(frf, quantity), limits=policy, targets=(crossover_hz, pm_deg), out=out,
+                   force=force, allow_unstable=allow_unstable, as_json=as_json)
 
 
 # ------------------------------------------------------------------------------------------ pid
@@ -254,7 +291,11 @@ def _matched(match: Path, frf):
 
 def pid(
     model_file: Path = typer.Argument(..., help="Gantry model file from 'feedtune identify gantry'."),
-    ms_max: float = typer.Option(None, "--ms-max", help="Peak sensitivity max sigma_max(S) to tune for [-]."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     match: Path = typer.Option(None, "--match", help="Gantry gains file (e.g. the MIMO design) whose Ms the "
                                                      "PIDs are tuned to; without filter options its notches "
                                                      "and low-pass are used (not its leads)."),
@@ -289,12 +330,13 @@ def pid(
     from ..errors import UsageError
     from .frf_options import read_optional_frf
 
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     model = _gantry_model(model_file)
     measured = read_optional_frf(frf, quantity)
     filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
     given = [g is not None for g in (kp, kd, ki)]
     if any(given) and not all(given):
-        raise UsageError("give all of --kp, --kd and --ki, or none of them to tune for --ms-max/--match")
+        raise UsageError("give all of --kp, --kd and --ki, or none of them to tune them under the limits")
     if match is not None and ms_max is not None:
         raise UsageError("give either --ms-max or --match, not both")
     if match is not None:
@@ -307,10 +349,7 @@ def pid(
                   prefilter2=PrefilterGains.parse(prefilter2, "--prefilter2"), prefilter_hz=prefilter_hz)
     if all(given):
         design = design_gantry_pid(model, kp=_pair(kp, "--kp"), kd=_pair(kd, "--kd"), ki=_pair(ki, "--ki"), **common)
-    elif ms_max is None:
-        raise UsageError("give --ms-max, --match GAINS or all of --kp, --kd, --ki")
     else:
-        design = tune_gantry_pid(model, ms_max=ms_max, frf=measured, **common)
-    limit = None if ms_max is None else ms_max * (1 + 1e-6)
-    _gantry_finish(design, measured, ms_max=limit, pm_min=None, targets=None, out=out, force=force,
-                   allow_unstable=allow_unstable, as_json=as_json)
+        design = tune_gantry_pid(model, limits=policy.override(ms_max=ms_max), frf=measured, **common)
+    _gantry_finish(design, measured, limits=policy.override(ms_max=ms_max), targets=None, out=out, force=force,
+                   allow_unstable=allow_unstable, as_json=as_json)  # --match: the MIMO design's Ms

@@ -24,6 +24,10 @@ DM_MIN_OPTION = typer.Option(None, "--dm-min", metavar="ALPHA", help="Smallest b
                                                                      "(0: none).")
 
 
+OPTION_NAMES = {"ms": "--ms-max", "pm_deg": "--pm-min", "gm_db": "--gm-min", "disk_margin": "--dm-min"}
+"""The option that sets each limit, for messages."""
+
+
 def limits_from_options(profile: str = "textbook", ms_max: float | None = None, pm_min: float | None = None,
                         gm_min: float | None = None, dm_min: float | None = None):
     """The :class:`~feedtune.analysis.limits.Limits` of the options; bad values are usage errors naming the option."""

@@ -226,7 +226,8 @@ def _best_shape(candidates: list[dict]) -> dict:
 def tune_gantry_pid(
     model: GantryModel,
     *,
-    ms_max: float,
+    limits=None,
+    ms_max: float | None = None,
     filters: LoopFilters | None = None,
     fs: float = 15000.0,
     delay_samples: int = 1,
@@ -274,11 +275,12 @@ def tune_gantry_pid(
     """
     from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
     from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_cases
+    from ..analysis.limits import DEFAULT_LIMITS
     from ..analysis.mimo import sensitivity, singular_values
 
+    policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
+    ms_max = policy.ms_max if policy.ms_max is not None else math.inf
     check_sampling(fs, delay_samples)
-    if not (math.isfinite(ms_max) and ms_max > 1):
-        raise UsageError(f"--ms-max must be > 1, got {ms_max}")
     pack = filters or LoopFilters()
     pack.check_nyquist(fs)
     grid = default_grid(fs) if grid_points is None else default_grid(fs, grid_points)
@@ -307,7 +309,7 @@ def tune_gantry_pid(
         g = pid_gains(model, x, bw_hz, zeta, rho)
         law = PidLaw(g["kp"], g["kd"], g["ki"], pack, float(fs), int(delay_samples))
         m = analyze_gantry_case(law, pc, weights).metrics
-        return m if m.stable and m.ms <= ms_max else None
+        return m if all(i.ok for i in policy.check(m, case)) else None
 
     coarse = np.logspace(np.log10(0.5), np.log10(fs / 40), 48)
     candidates = []

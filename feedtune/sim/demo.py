@@ -221,8 +221,8 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     mc_metrics = mc_check.analysis.cases["discrete"].metrics
     # P-PI for the same peak sensitivity, with a phase-margin floor no tighter than MC-PPC's own
     pm_floor = min(30.0, abs(mc_metrics.phase_margin_deg or 30.0))
-    pp = tune_ppi(fit.model, ms_max=mc_metrics.ms, pm_min_deg=pm_floor, filters=THESIS_FILTER_PACK, frf=frf,
-                  fs=p.fs, delay_samples=p.delay_samples)
+    pp = tune_ppi(fit.model, limits=STABILITY_ONLY, ms_max=mc_metrics.ms, pm_min_deg=pm_floor,
+                  filters=THESIS_FILTER_PACK, frf=frf, fs=p.fs, delay_samples=p.delay_samples)
     designs, runtimes = {}, {}
     for name, design, check in (("mcppc", mc, mc_check), ("ppi", pp, _checked(pp, frf))):
         doc = gains_document(design, check.analysis.to_dict())

@@ -174,7 +174,8 @@ def _design(twin, fit, m_x, frf0, texts):
     that is unstable in any analysed case raises DesignError (the measured-FRF Nyquist count continues the
     loop below the FRF's band with the model, so it does not depend on the lowest measured line).
     """
-    from ..analysis.gantry import analyze_gantry, limit_violations
+    from ..analysis.gantry import analyze_gantry
+    from ..analysis.limits import Limits, check_cases
     from ..design.gantry_gains import axis_gains_document, gantry_gains_document
     from ..design.gantry_mimo import design_gantry_mimo
     from ..design.gantry_pid import tune_gantry_pid
@@ -193,12 +194,15 @@ def _design(twin, fit, m_x, frf0, texts):
                               delay_samples=p.delay_samples)
     an_mimo = analyze_gantry(mimo.law, model, frf=frf0).to_dict()
     pid_filters = type(h)(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta, ())  # the same notches and low-pass
-    pid = tune_gantry_pid(model, ms_max=an_mimo["discrete"]["ms"], filters=pid_filters, fs=p.fs,
-                          delay_samples=p.delay_samples, frf=frf0)
+    stability_only = Limits(None, None, None, None, "stability only")
+    pid = tune_gantry_pid(model, limits=stability_only, ms_max=an_mimo["discrete"]["ms"], filters=pid_filters,
+                          fs=p.fs, delay_samples=p.delay_samples, frf=frf0)
     an_pid = analyze_gantry(pid.law, model, frf=frf0).to_dict()
     designs, runtimes = {}, {}
     for name, design, an in (("mimo", mimo, an_mimo), ("pid", pid, an_pid)):
-        violations = limit_violations(an, "discrete")
+        full = analyze_gantry(design.law, model, frf=frf0)
+        violations = check_cases(stability_only, {k: None if c is None else c.metrics for k, c in full.cases.items()},
+                                 ["discrete"]).violations
         if violations:
             raise DesignError(f"the {LABELS[name]} design on the identified model: {'; '.join(violations)}")
         doc = gantry_gains_document(design, an)
