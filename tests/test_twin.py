@@ -218,6 +218,35 @@ def test_overrides_reach_the_model_and_friction():
     assert [m.freq_hz for m in p.torsional] == [500.0] and p.noise_m == 0.0
 
 
+def test_torsional_damping_overrides_apply_after_the_frequencies():
+    # given before torsional_hz on purpose: the modes are set first, then their damping
+    p = TwinParams().with_overrides({"torsional_zeta_p": "0.05, 0.01", "torsional_hz": "400,1000",
+                                     "torsional_zeta_z": 0.2, "torsional_zero_ratio": "1.1"})
+    assert [(m.freq_hz, m.zeta_p, m.zeta_z, m.zero_ratio) for m in p.torsional] == [
+        (400.0, 0.05, 0.2, 1.1), (1000.0, 0.01, 0.2, 1.1)]
+    # the response follows: pole pair at 400 Hz damped 0.05, zero pair at 440 Hz damped 0.2 (closed form)
+    f = np.array([50.0, 300.0, 420.0])
+    s = 2j * np.pi * f
+    wp, wz, wp2, wz2 = 2 * np.pi * 400, 2 * np.pi * 440, 2 * np.pi * 1000, 2 * np.pi * 1100
+    extra = (2 * np.pi * 450 / (s + 2 * np.pi * 450)
+             * (s**2 + 0.4 * wz * s + wz**2) / (s**2 + 0.1 * wp * s + wp**2) * (wp / wz) ** 2
+             * (s**2 + 0.4 * wz2 * s + wz2**2) / (s**2 + 0.02 * wp2 * s + wp2**2) * (wp2 / wz2) ** 2)
+    got = BallScrewTwin(p).frequency_response(f, sampled=False)
+    assert np.allclose(got["x2"], MODEL.frequency_response(f)["G21"] * extra, rtol=1e-9)
+
+
+@pytest.mark.parametrize(("overrides", "needle"), [
+    ({"torsional_zeta_p": "0.1,0.2,0.3"}, "one number or 2 comma-separated"),
+    ({"torsional_zeta_z": "abc"}, "torsional_zeta_z: expected one number"),
+    ({"torsional_zeta_p": "-0.1"}, "torsional_zeta_p must be a finite number >= 0"),
+    ({"torsional_zero_ratio": "0"}, "torsional_zero_ratio must be a finite number > 0"),
+    ({"torsional_hz": "none", "torsional_zeta_p": "0.1"}, "no torsional modes"),
+])
+def test_bad_torsional_overrides_name_the_parameter(overrides, needle):
+    with pytest.raises(UsageError, match=needle):
+        TwinParams().with_overrides(overrides)
+
+
 # ------------------------------------------------------------------------------------ safety envelope
 def test_wrong_sign_controller_trips_the_following_error_envelope():
     doc = gains_document(design_mcppc(MODEL, filters=THESIS_FILTER_PACK))
