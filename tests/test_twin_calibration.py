@@ -27,10 +27,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from feedtune.analysis.ballscrew import analyze_ballscrew
 from feedtune.cli.main import app
 from feedtune.design.filters import THESIS_FILTER_PACK
 from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
+from feedtune.identify.ballscrew import fit_ballscrew
 from feedtune.identify.frf_estimate import estimate_frf
 from feedtune.models import THESIS_TABLE_3_1
 from feedtune.sim.experiments import measure_frf
@@ -131,3 +133,15 @@ def test_the_exact_design_model_already_has_sensitivity_above_one_near_the_first
     assert s[near].max() > 1.01
     assert band_around(f, s, f[0])[1] < 90.0
     assert band_around(f, s, AXIAL_MODE_HZ)[1] == pytest.approx(143.0, abs=4.0)
+
+
+@pytest.mark.parametrize(("current_loop_hz", "ms_range"), [(None, (1.3, 2.0)), (300.0, (4.0, 8.0))])
+def test_the_ms_target_tells_apart_a_twin_with_another_current_loop(current_loop_hz, ms_range):
+    """Adversarial: the same pipeline (library calls) on twins whose current loop is wrong misses 3.04 +- 10 %."""
+    twin = BallScrewTwin(TwinParams(current_loop_hz=current_loop_hz))
+    frf = measure_frf(twin, seed=0).frf
+    model = fit_ballscrew(frf).model
+    law = design_mcppc(model, beta=4.0, pole_hz=50.0, zeta=0.7, filters=THESIS_FILTER_PACK).law()
+    ms = analyze_ballscrew(law, model, frf).cases["discrete"].metrics.ms
+    assert ms_range[0] < ms < ms_range[1]
+    assert ms != pytest.approx(THESIS_MS_DISCRETE, rel=TOL)
