@@ -64,7 +64,7 @@ def pipeline(tmp_path_factory):
     feedtune("identify", "ballscrew", d / "frf.csv", "-o", d / "model.toml")
     feedtune("design", "ppc", d / "model.toml", "--beta", 4, "--pole-hz", 50, "--zeta", 0.7,
              "--notch", "420,0.55,0.7", "--notch", "1080,0.05,0.7", "--lpf", 2000, "--frf", d / "frf.csv",
-             "-o", d / "mcppc.toml")
+             "--limits", "thesis", "--ms-max", 3.5, "--pm-min", 0, "-o", d / "mcppc.toml")  # the thesis design itself
     analysis = json.loads(feedtune("analyze", d / "mcppc.toml", "--frf", d / "frf.csv", "--json"))["analysis"]
     return {"dir": d, "analysis": analysis}
 

@@ -44,7 +44,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import DataError
-from .margins import crossings, disk_margins, interp_complex, level_bands, merge_chatter, peak, phase_crossovers
+from .margins import (
+    crossings,
+    disk_margins,
+    interp_complex,
+    level_bands,
+    merge_chatter,
+    peak,
+    phase_crossovers,
+    prune_bands,
+)
 from .resolution import INTERPOLATION, SAMPLE_SLACK, check_samples, resolve, unresolved
 
 EXTENSION_LOW_HZ = 1e-5
@@ -441,20 +450,31 @@ class Margins:
 def loop_margins(freq_hz: np.ndarray, L: np.ndarray, fn: Callable[[np.ndarray], np.ndarray] | None = None,
                  noise: np.ndarray | None = None) -> Margins:
     """Every crossover and phase crossover of a scalar loop ``L`` on ``freq_hz`` [Hz], refined with ``fn`` (``L``
-    at any frequency) when given; ``noise`` [dB] per frequency merges chatter
+    at any frequency) when given; ``noise`` [dB] per frequency (a measured loop's scatter) merges chatter of both
     (:func:`~feedtune.analysis.margins.merge_chatter`)."""
     with np.errstate(divide="ignore"):
         db = 20 * np.log10(np.abs(L))
     wc = crossings(freq_hz, db, 0.0, None if fn is None else (lambda fq: 20 * np.log10(np.abs(fn(fq)))))
+    w180 = phase_crossovers(freq_hz, L, fn)
     merged: list[dict] = []
     if noise is not None:
         wc, merged = merge_chatter(wc, freq_hz, db, noise)
+        noise_deg = np.degrees(np.asarray(noise) * np.log(10) / 20)  # circular scatter: phase [rad] = log-magnitude
+        w180, merged_180 = merge_chatter(w180, freq_hz, np.degrees(np.angle(-L)), noise_deg, "phase crossovers",
+                                         "deg")
+        merged += merged_180
     Lx = fn(wc) if fn is not None and wc.size else interp_complex(freq_hz, L, wc)
     pm = [float(x) for x in np.rad2deg(np.angle(-Lx))] if wc.size else []
-    w180 = phase_crossovers(freq_hz, L, fn)
     L180 = fn(w180) if fn is not None and w180.size else interp_complex(freq_hz, L, w180)
     gm = [float(-20 * np.log10(abs(x))) for x in L180]
     return Margins([float(x) for x in wc], pm, [float(x) for x in w180], gm, merged)
+
+
+def scatter_of(L: np.ndarray, noise: np.ndarray | None) -> np.ndarray | None:
+    """1-sigma scatter of ``|1 + L|`` [-] from the loop's measured scatter ``noise`` [dB] (None: not measured)."""
+    if noise is None:
+        return None
+    return np.abs(L) * (np.asarray(noise) * np.log(10) / 20)
 
 
 def piecewise(first_hz: float, below: Callable | None, above: Callable | None) -> Callable | None:
@@ -551,7 +571,7 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
         noise = np.r_[np.zeros(fc.size - f.size), lines]
     mg = loop_margins(fc, Lc, fn, noise)
     if mg.merged:
-        warnings.append(f"{len(mg.merged)} cluster(s) of crossovers within the FRF's scatter were merged "
+        warnings.append(f"{len(mg.merged)} cluster(s) of crossings within the FRF's scatter were merged "
                         "(merged_crossovers)")
     wc, pm, w180, gm = mg.crossovers_hz, mg.phase_margins_deg, mg.phase_crossovers_hz, mg.gain_margins_db
     aS = 1.0 / np.abs(1.0 + Lc)
@@ -560,6 +580,7 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
     slope = low_frequency_slope(fc, Lc)
     n_int = count_integrators(fc, Lc) if integrators is None else int(integrators)
     bands = level_bands(fc, np.abs(1.0 + Lc), 1.0, None if fn is None else abs_1pl)
+    bands = prune_bands(bands, fc, np.abs(1.0 + Lc) - 1.0, scatter_of(Lc, noise))
     if bands and bands[0][0] == fc[0] and n_int > 0:
         bands[0][0] = 0.0
     if extension is None and below_grid == "refuse":

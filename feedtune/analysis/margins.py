@@ -92,16 +92,17 @@ def disk_margins(alpha: float) -> tuple[float, float]:
     return float(20 * np.log10((2 + alpha) / (2 - alpha))), float(np.degrees(2 * np.arctan(alpha / 2)))
 
 
-def merge_chatter(crossovers_hz: np.ndarray, freq_hz: np.ndarray, mag_db: np.ndarray,
-                  noise: np.ndarray | None) -> tuple[np.ndarray, list[dict]]:
-    """Merge crossover clusters that measurement scatter explains (kept crossings [Hz], merged records).
+def merge_chatter(crossings_hz: np.ndarray, freq_hz: np.ndarray, deviation: np.ndarray, noise: np.ndarray | None,
+                  what: str = "crossovers", unit: str = "dB") -> tuple[np.ndarray, list[dict]]:
+    """Merge crossing clusters that measurement scatter explains (kept crossings [Hz], merged records).
 
-    Crossings closer than :data:`CHATTER_REL` to their neighbour form a cluster. A cluster is chatter when ``|L|``
-    between its first and last crossing stays within :data:`CHATTER_SIGMAS` times the measured scatter ``noise`` [dB]
-    (:func:`~feedtune.analysis.resolution.noise_db`) of 0 dB: an odd cluster is then one crossing (its first), an even
-    one a touch of 0 dB without a net crossing. Without ``noise`` (a loop that is not measured) nothing is merged.
+    Crossings closer than :data:`CHATTER_REL` to their neighbour form a cluster. A cluster is chatter when the crossing
+    quantity ``deviation`` (``20 log10 |L|`` [dB] for crossovers, the angle of ``-L`` [deg] for phase crossovers)
+    stays between its first and last crossing within :data:`CHATTER_SIGMAS` times the measured scatter ``noise`` (same
+    unit; :func:`~feedtune.analysis.resolution.noise_db`) of 0: an odd cluster is then one crossing (its first), an
+    even one a touch without a net crossing. Without ``noise`` (a loop that is not measured) nothing is merged.
     """
-    wc = np.asarray(crossovers_hz, float)
+    wc = np.asarray(crossings_hz, float)
     if noise is None or wc.size < 2:
         return wc, []
     f = np.asarray(freq_hz, float)
@@ -119,26 +120,62 @@ def merge_chatter(crossovers_hz: np.ndarray, freq_hz: np.ndarray, mag_db: np.nda
             kept.append(c[0])
             continue
         sel = (f >= c[0]) & (f <= c[-1])
-        excursion = float(np.max(np.abs(mag_db[sel]))) if sel.any() else 0.0
+        excursion = float(np.max(np.abs(deviation[sel]))) if sel.any() else 0.0
         sigma = float(np.max(noise[sel])) if sel.any() else float(np.interp(c[0], f, noise))
         if excursion <= CHATTER_SIGMAS * sigma:
             keep = c[0] if len(c) % 2 else None
             if keep is not None:
                 kept.append(keep)
-            merged.append({"freq_hz": [float(x) for x in c], "kept_hz": keep, "excursion_db": excursion,
-                           "noise_db": sigma})
+            merged.append({"of": what, "freq_hz": [float(x) for x in c], "kept_hz": keep, "excursion": excursion,
+                           "scatter": sigma, "unit": unit})
         else:
             kept.extend(c)
     return np.array(kept, float), merged
 
 
+def prune_bands(bands: list[list[float]], freq_hz: np.ndarray, excess: np.ndarray, sigma: np.ndarray | None
+                ) -> list[list[float]]:
+    """Drop the bands, and then the gaps between bands, that measurement scatter explains.
+
+    ``excess`` is ``1/|S| - 1`` on ``freq_hz`` (positive inside a ``|S| < 1`` band) and ``sigma`` its scatter (1 sigma,
+    same grid): a band whose largest ``excess / sigma`` stays below :data:`CHATTER_SIGMAS` is dropped, and a gap whose
+    largest ``-excess / sigma`` does joins its neighbours. Without ``sigma`` (not measured) the bands are returned.
+    """
+    if sigma is None or not bands:
+        return bands
+    f = np.asarray(freq_hz, float)
+    with np.errstate(over="ignore", divide="ignore"):
+        z = np.asarray(excess, float) / np.maximum(np.asarray(sigma, float), 1e-300)
+
+    def strongest(lo, hi, sign):
+        sel = (f >= lo) & (f <= hi)
+        return float(np.max(sign * z[sel])) if sel.any() else 0.0
+
+    kept = [b for b in bands if strongest(b[0], b[1], 1.0) >= CHATTER_SIGMAS]
+    out: list[list[float]] = []
+    for b in kept:
+        if out and strongest(out[-1][1], b[0], -1.0) < CHATTER_SIGMAS:
+            out[-1] = [out[-1][0], b[1]]
+        else:
+            out.append(list(b))
+    return out
+
+
+NEGLIGIBLE_LOOP = 1e-6
+"""Phase crossovers where ``|L|`` is below this [-] (gain margins above 120 dB, e.g. a discrete loop's at ``fs/2``
+where it is rounding noise) are not listed."""
+
+
 def phase_crossovers(freq_hz: np.ndarray, L: np.ndarray, fn: Callable[[np.ndarray], np.ndarray] | None = None
                      ) -> np.ndarray:
-    """Frequencies [Hz] where the angle of ``L`` is 180 deg (``Im L`` changes sign with ``Re L < 0``)."""
+    """Frequencies [Hz] where the angle of ``L`` is 180 deg (``Im L`` changes sign with ``Re L < 0``), where
+    ``|L| >= NEGLIGIBLE_LOOP``."""
     f = np.asarray(freq_hz, float)
     L = np.asarray(L, complex)
     im = L.imag / np.maximum(np.abs(L), 1e-300)
-    idx = np.flatnonzero((np.signbit(im[:-1]) != np.signbit(im[1:])) & (L.real[:-1] + L.real[1:] < 0))
+    big = np.abs(L) >= NEGLIGIBLE_LOOP
+    idx = np.flatnonzero((np.signbit(im[:-1]) != np.signbit(im[1:])) & (L.real[:-1] + L.real[1:] < 0)
+                         & (big[:-1] | big[1:]))
     if idx.size == 0:
         return np.empty(0)
     if fn is not None:

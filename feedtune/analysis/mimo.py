@@ -40,9 +40,10 @@ from .loop import (
     nyquist_winding,
     piecewise,
     scalar_loops,
+    scatter_of,
     worst,
 )
-from .margins import crossings, disk_margins, level_bands, peak
+from .margins import crossings, disk_margins, level_bands, peak, prune_bands
 from .resolution import INTERPOLATION, check_samples, resolve
 
 
@@ -424,6 +425,7 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
                                         None if fns["l"] is None else (lambda fq: np.log(fns["l"](fq))))]
     active = level_bands(fc, smax_l, 1.0, fns["l"])
     bands = level_bands(fc, 1.0 / smax_s, 1.0, fns.get("inv_s"))
+    bands = prune_bands(bands, fc, 1.0 / smax_s - 1.0, scatter_of(smax_l, noise))
     ny = mimo_nyquist(f, Lg, integrators=integrators, open_loop_rhp_poles=open_loop_rhp_poles, extension=extension,
                       below_grid=below_grid)
     if bands and bands[0][0] == fc[0] and ny.integrators > 0:
@@ -433,7 +435,7 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     damping = next((b for b in active if first is not None and b[0] > first * 1.02), None)
     ny.warnings.extend(extra_warnings)
     if mg.merged:
-        ny.warnings.append(f"{len(mg.merged)} cluster(s) of CoM crossovers within the FRF's scatter were merged "
+        ny.warnings.append(f"{len(mg.merged)} cluster(s) of CoM crossings within the FRF's scatter were merged "
                            "(merged_crossovers)")
     if extension is not None:
         ms_grid = float(np.max(_sigma_max(sensitivity(Lg))))
