@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from feedtune.analysis.limits import DEFAULT_LIMITS
 from feedtune.cli.main import app
 from feedtune.errors import DataError, UsageError
 from feedtune.io import dumps_toml, model_document, write_log_csv
@@ -198,9 +199,11 @@ def test_comparison_is_table_3_2_with_reductions_from_the_logs(report, demo_resu
 def test_summary_flags_ms_above_the_limit(demo_dir):
     ms = cli_json("analyze", demo_dir / "ppi_gains.toml")["analysis"]["ideal_discrete"]["ms"]
     assert ms > 1.5
-    low = build_report([demo_dir / "ppi_gains.toml"], limits=ReportLimits(ms_max=1.5), render=False)
-    assert any(f"Ms = {ms:.3g} above the limit 1.5" in w for w in low.warnings)
-    high = build_report([demo_dir / "ppi_gains.toml"], limits=ReportLimits(ms_max=10.0), render=False)
+    low = build_report([demo_dir / "ppi_gains.toml"], limits=ReportLimits(DEFAULT_LIMITS.override(ms_max=1.5)),
+                       render=False)
+    assert any(f"Ms = {ms:.3g}" in w and "exceeds the limit 1.5" in w for w in low.warnings)
+    high = build_report([demo_dir / "ppi_gains.toml"], limits=ReportLimits(DEFAULT_LIMITS.override(ms_max=10.0)),
+                        render=False)
     assert not any("Ms =" in w for w in high.warnings)
 
 

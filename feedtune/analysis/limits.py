@@ -253,3 +253,12 @@ def check_cases(limits: Limits, cases: dict, checked: list[str] | tuple[str, ...
         else:
             items.append(LimitItem("stable", None, None, bool(m.stable), name))
     return LimitCheck(limits, items)
+
+
+def check_analysis(analysis, limits: Limits) -> tuple[LimitCheck, str]:
+    """Check an analysis of any machine (an object whose ``cases`` maps case names to results with ``metrics``, or
+    None): the limits in ``discrete`` when it was analysed on an FRF, else in ``ideal_discrete``; stability in every
+    case. Returns the check and the name of the checked case."""
+    metrics = {name: None if c is None else c.metrics for name, c in analysis.cases.items()}
+    checked = "discrete" if metrics.get("discrete") is not None else "ideal_discrete"
+    return check_cases(limits, metrics, [checked]), checked

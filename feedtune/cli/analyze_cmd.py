@@ -20,6 +20,14 @@ import typer
 from typer.core import TyperGroup
 
 from .common import JSON_OPTION, fmt, print_json
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_MIN_OPTION,
+    LIMITS_OPTION,
+    MS_MAX_OPTION,
+    PM_MIN_OPTION,
+    limits_from_options,
+)
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
 
 GAINS_COMMAND = "gains"
@@ -58,49 +66,52 @@ def analyze(
     gains_file: Path = typer.Argument(..., help="Gains file (.toml or .json) from 'feedtune design'."),
     frf: Path = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u) for the measured and discrete cases."),
     quantity: str = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
+    strict: bool = typer.Option(False, "--check", help="Exit 1 when the design does not meet the limits."),
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Loop, margins, Ms, rejection band, Nyquist stability, disturbance and tracking of a design."""
+    """Loop, every crossover and margin, Ms, disk margin, |S|<1 bands, Nyquist stability, disturbance and tracking
+    of a design, and its verdict under the limits."""
     from ..io import read_document
-
-    doc = read_document(gains_file)
-    if doc.get("kind") != "ballscrew":
-        _analyze_other_machine(doc, gains_file, frf, quantity, as_json)
-        return
-    _analyze_ballscrew(doc, gains_file, frf, quantity, as_json)
-
-
-def _analyze_other_machine(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None,
-                           as_json: bool) -> None:
-    """Hand a non-ball-screw gains document to the gantry/x-axis analysis (it refuses unknown kinds)."""
     from .analyze_gantry_cmd import analyze_gantry_document
 
-    analyze_gantry_document(doc, gains_file, frf, quantity, as_json)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    doc = read_document(gains_file)
+    if doc.get("kind") != "ballscrew":  # the gantry/x-axis analysis refuses unknown kinds
+        analyze_gantry_document(doc, gains_file, frf, quantity, as_json, policy, strict)
+        return
+    _analyze_ballscrew(doc, gains_file, frf, quantity, as_json, policy, strict)
 
 
-def _analyze_ballscrew(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None, as_json: bool) -> None:
+def _analyze_ballscrew(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None, as_json: bool,
+                       policy, strict: bool) -> None:
     from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
+    from ..design.ballscrew_law import GAIN_UNITS
     from ..design.gains import law_from_document
-    from .design_cmd import _summary
+    from ..design.ppi import PPI_UNITS
     from .frf_options import read_optional_frf
+    from .limits_options import finish_analysis
 
     law, model, kind = law_from_document(doc, str(gains_file))
     measured = read_optional_frf(frf, quantity)
-    analysis = analyze_ballscrew(law, model, measured).to_dict()
+    full = analyze_ballscrew(law, model, measured)
     gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in doc["gains"].items()}
     if "ppi_gains" in doc:
         gains.update({k: (v["value"] if isinstance(v, dict) else v) for k, v in doc["ppi_gains"].items()})
     poles = closed_loop_poles(law, model)
     result = {
         "kind": kind,
+        "controller": kind,
         "gains": gains,
+        "gain_units": {**GAIN_UNITS, **PPI_UNITS},
         "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles],
-        "analysis": analysis,
+        "analysis": full.to_dict(),
     }
-    if as_json:
-        print_json(result)
-    else:
-        _summary(result)
+    finish_analysis(result, full, policy, as_json, strict)
 
 
 # ------------------------------------------------------------------------------------------ logs

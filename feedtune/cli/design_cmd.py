@@ -17,6 +17,7 @@ from .limits_options import (
     limits_from_options,
     print_check,
 )
+from .summary import print_design_summary
 
 app = typer.Typer(
     rich_markup_mode=None,
@@ -75,9 +76,14 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
     frf = read_optional_frf(frf_path, quantity)
     check = check_design(design, frf=frf, limits=limits)
     analysis = check.analysis.to_dict()
+    from ..design.ballscrew_law import GAIN_UNITS
+    from ..design.ppi import PPI_UNITS
+
     result = {
         "kind": design.kind,
+        "controller": design.kind,
         "gains": dict(design.gains),
+        "gain_units": {**GAIN_UNITS, **PPI_UNITS},
         "closed_loop_poles": [[float(p.real), float(p.imag)] for p in check.closed_loop_poles],
         "analysis": analysis,
         "check": check.to_dict(),
@@ -98,7 +104,7 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
     if as_json:
         print_json(result)
     else:
-        _summary(result)
+        print_design_summary(result)
         print_check(result["check"])
         if "friction_feedforward" in result:
             _friction_summary(result["friction_feedforward"])
@@ -116,37 +122,6 @@ def _friction_summary(ff: dict) -> None:
     levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg"))
     typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], 'rad/s')} / "
                f"{fmt(ff['omega_neg']['value'], 'rad/s')}, linear band +-{fmt(ff['v_band']['value'], 'rad/s')}")
-
-
-def _summary(result: dict) -> None:
-    typer.echo(f"{result['kind'].upper()} gains:")
-    from ..design.ballscrew_law import GAIN_UNITS
-    from ..design.ppi import PPI_UNITS
-
-    units = {**GAIN_UNITS, **PPI_UNITS}
-    for k, v in result["gains"].items():
-        typer.echo(f"  {k:4s} = {fmt(v, units.get(k, ''), 6)}")
-    typer.echo(
-        f"{'case':15s} {'crossovers [Hz]':28s} {'PM [deg]':>9s} {'GM [dB]':>8s} {'Ms':>6s} {'Ms at [Hz]':>10s} "
-        f"{'|S|<1 [Hz]':>14s} stable"
-    )
-    for name, a in result["analysis"].items():
-        if a is None:
-            typer.echo(f"{name:15s} (needs --frf)")
-            continue
-        xo = ", ".join(f"{x:.1f}" for x in a["crossovers_hz"]) or "-"
-        rb = a["rejection_band_hz"]
-        rbs = f"{rb[0]:.3g}-{rb[1]:.4g}" if rb else "-"
-        typer.echo(
-            f"{name:15s} {xo:28s} {fmt(a['phase_margin_deg'], '', 3):>9s} {fmt(a['gain_margin_db'], '', 3):>8s} "
-            f"{a['ms']:6.3f} {a['ms_freq_hz']:10.1f} {rbs:>14s} {'yes' if a['stable'] else 'NO'}"
-        )
-    ideal = result["analysis"]["ideal"]
-    if ideal.get("disturbance_min_real_rad_per_V") is not None:
-        typer.echo(
-            f"d2->x2 most negative real part: {ideal['disturbance_min_real_rad_per_V']:.4g} rad/V at "
-            f"{ideal['disturbance_min_real_freq_hz']:.1f} Hz (ideal)"
-        )
 
 
 def _load_model(path: Path):

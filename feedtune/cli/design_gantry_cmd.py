@@ -80,7 +80,7 @@ def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, 
     """
     from ..errors import DesignError
     from ..io import write_document
-    from .analyze_gantry_cmd import print_summary
+    from .summary import print_design_summary
 
     violations = check.violations_named(OPTION_NAMES) + list(extra)
     result["check"] = {**check.to_dict(), "ok": not violations, "violations": violations}
@@ -92,7 +92,7 @@ def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, 
     if as_json:
         print_json(result)
     else:
-        print_summary(result)
+        print_design_summary(result)
         print_check(result["check"])
         if written:
             typer.echo(f"wrote {out}")
@@ -104,20 +104,9 @@ def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, 
             raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
 
 
-def check_analysis(analysis, limits):
-    """The :class:`~feedtune.analysis.limits.LimitCheck` of a gantry or axis analysis: the limits in the checked
-    case (``discrete`` with an FRF, else ``ideal_discrete``), stability in every case."""
-    from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
-    from ..analysis.limits import check_cases
-
-    metrics = {name: None if c is None else c.metrics for name, c in analysis.cases.items()}
-    checked = CHECKED_WITH_FRF if metrics.get(CHECKED_WITH_FRF) is not None else CHECKED_WITHOUT_FRF
-    out = check_cases(limits, metrics, [checked])
-    return out, checked
-
-
 def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, as_json) -> None:
     from ..analysis.gantry import analyze_gantry, reference_from_schedule, target_violations
+    from ..analysis.limits import check_analysis
     from ..design.gantry_gains import gantry_gains_document, mimo_gain_units, pid_gain_units
 
     ref = reference_from_schedule(design.schedule, design.x, design.prefilter_hz)
@@ -175,6 +164,7 @@ def loopshape(
 ) -> None:
     """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20)."""
     from ..analysis.gantry import analyze_axis, target_violations
+    from ..analysis.limits import check_analysis
     from ..design.gantry_gains import axis_gains_document
     from ..design.loopshape import PrefilterGains, design_loopshape
     from .frf_options import read_optional_frf

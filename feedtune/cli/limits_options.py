@@ -55,4 +55,26 @@ def print_check(check: dict) -> None:
     if check["ok"]:
         typer.echo(f"check passed ({text}){where}; stable in every case")
     else:
-        typer.echo(f"check FAILED ({text}){where}: {len(check['violations'])} violation(s)")
+        typer.echo(f"check FAILED ({text}){where}:")
+        for v in check["violations"]:
+            typer.echo(f"  {v}")
+
+
+def finish_analysis(result: dict, analysis, limits, as_json: bool, strict: bool) -> None:
+    """Check an analysis against the policy, add ``result["check"]``, print the summary (or the JSON) and, with
+    ``strict``, raise DesignError when the check fails."""
+    from ..analysis.limits import DEFAULT_LIMITS, check_analysis
+    from ..errors import DesignError
+    from .common import print_json
+    from .summary import print_design_summary
+
+    check, checked = check_analysis(analysis, limits or DEFAULT_LIMITS)
+    result["check"] = {"checked_case": checked, **check.to_dict(),
+                       "violations": check.violations_named(OPTION_NAMES)}
+    if as_json:
+        print_json(result)
+    else:
+        print_design_summary(result)
+        print_check(result["check"])
+    if strict and not check.ok:
+        raise DesignError("; ".join(result["check"]["violations"]))

@@ -7,6 +7,14 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_MIN_OPTION,
+    LIMITS_OPTION,
+    MS_MAX_OPTION,
+    PM_MIN_OPTION,
+    limits_from_options,
+)
 
 HTML_SUFFIXES = (".html", ".htm")
 
@@ -37,24 +45,23 @@ def report(
     strict: bool = typer.Option(
         False, "--strict", help="Files in a folder that cannot be read or classified are errors, not warnings."
     ),
-    ms_max: float = typer.Option(2.5, "--ms-max", help="Flag designs with a peak sensitivity above this [-]."),
-    pm_min: float = typer.Option(30.0, "--pm-min", help="Flag phase margins below this [deg]."),
-    gm_min: float = typer.Option(3.0, "--gm-min", help="Flag |gain margins| below this [dB]."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Build a report: summary, identification, design and time-domain sections for the files given."""
-    from ..errors import UsageError
     from ..report.build import build_report, write_report
     from ..report.collect import parse_log_kinds
     from ..report.sections import ReportLimits
 
-    for name, value in (("--ms-max", ms_max), ("--pm-min", pm_min), ("--gm-min", gm_min)):
-        if not value > 0:
-            raise UsageError(f"{name} must be > 0, got {value:g}")
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_report_paths(out, pdf, force)
-    limits = ReportLimits(ms_max=ms_max, pm_min_deg=pm_min, gm_min_db=gm_min)
-    built = build_report(inputs, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict, limits=limits)
+    built = build_report(inputs, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict,
+                         limits=ReportLimits(policy))
     written = write_report(built, out, pdf=pdf, force=force)
     result = report_summary(built, written)
     if as_json:

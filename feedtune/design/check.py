@@ -12,8 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis.ballscrew import BallScrewAnalysis, analyze_ballscrew, closed_loop_poles
-from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
-from ..analysis.limits import DEFAULT_LIMITS, LimitCheck, Limits, check_cases
+from ..analysis.limits import DEFAULT_LIMITS, LimitCheck, Limits, check_analysis
 from ..frf import Frf
 
 
@@ -75,6 +74,5 @@ def check_design(design, *, frf: Frf | None = None, limits: Limits | None = None
     pol = resolve_limits(limits, ms_max=ms_max, pm_min_deg=pm_min_deg)
     law = design.law()
     analysis = analyze_ballscrew(law, design.model, frf)
-    worst = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
-    metrics = {name: None if c is None else c.metrics for name, c in analysis.cases.items()}
-    return DesignCheck(analysis, closed_loop_poles(law, design.model), check_cases(pol, metrics, [worst]), worst)
+    check, worst = check_analysis(analysis, pol)
+    return DesignCheck(analysis, closed_loop_poles(law, design.model), check, worst)

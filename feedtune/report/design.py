@@ -64,7 +64,7 @@ def analysis_frf(inputs: Inputs) -> FrfInput | None:
     return None
 
 
-def analyze_gains(gi: GainsInput, frf) -> tuple[object, object, object, dict]:
+def analyze_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, object, object, dict]:
     """``(law, model, analysis, result)`` exactly as ``feedtune analyze`` computes them (result = its JSON)."""
     from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
     from ..design.gains import law_from_document
@@ -75,8 +75,12 @@ def analyze_gains(gi: GainsInput, frf) -> tuple[object, object, object, dict]:
     if "ppi_gains" in gi.doc:
         gains.update({k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc["ppi_gains"].items()})
     poles = closed_loop_poles(law, model)
-    result = {"kind": kind, "gains": gains, "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles],
-              "analysis": analysis.to_dict()}
+    from ..design.ballscrew_law import GAIN_UNITS
+    from ..design.ppi import PPI_UNITS
+
+    result = {"kind": kind, "controller": kind, "gains": gains, "gain_units": {**GAIN_UNITS, **PPI_UNITS},
+              "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles], "analysis": analysis.to_dict(),
+              "check": check_result(analysis, limits)}
     return law, model, analysis, result
 
 
@@ -269,23 +273,18 @@ def _tracking(designs) -> FigureBlock:
 
 
 # ------------------------------------------------------------------------------------------ warnings
-def design_warnings(d: BallScrewDesign, limits: ReportLimits) -> list[str]:
-    """Instability in any case; margins and Ms of the main case outside the limits."""
-    out = []
-    for case, figures in d.result["analysis"].items():
-        if figures is not None and not figures["stable"]:
-            out.append(f"{d.label} ({d.name}) is UNSTABLE in the {CASE_TITLES.get(case, case)} case")
-    m = d.result["analysis"][d.main_case]
-    if m["ms"] > limits.ms_max:
-        out.append(f"{d.label} ({d.name}): Ms = {m['ms']:.3g} above the limit {limits.ms_max:g} "
-                   f"({CASE_TITLES[d.main_case]})")
-    pm = m["phase_margin_deg"]
-    if pm is not None and pm < limits.pm_min_deg:
-        out.append(f"{d.label} ({d.name}): phase margin {pm:.3g} deg below {limits.pm_min_deg:g} deg")
-    gm = m["gain_margin_db"]
-    if gm is not None and abs(gm) < limits.gm_min_db:
-        out.append(f"{d.label} ({d.name}): gain margin {gm:.3g} dB within ±{limits.gm_min_db:g} dB")
-    return out
+def design_warnings(d, limits: ReportLimits) -> list[str]:
+    """The design's check under the policy (stability in every case, the limits in its main case), one line per
+    violation, as ``feedtune analyze --check`` reports them."""
+    return [f"{d.label} ({d.name}): {v}" for v in d.result["check"]["violations"]]
+
+
+def check_result(analysis, limits: ReportLimits) -> dict:
+    """The ``check`` entry of ``feedtune analyze --json`` for an analysis under the report's policy."""
+    from ..analysis.limits import check_analysis
+
+    check, checked = check_analysis(analysis, limits.policy)
+    return {"checked_case": checked, **check.to_dict()}
 
 
 # ------------------------------------------------------------------------------------------ section
@@ -300,7 +299,8 @@ def _unanalysed_section(gains: list[GainsInput], names: Mapping) -> Section | No
                               "machine kinds are listed only.")])
 
 
-def build_designs(inputs: Inputs, names: Mapping, colors: Colors) -> tuple[list[BallScrewDesign], str | None]:
+def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
+                  limits: ReportLimits) -> tuple[list[BallScrewDesign], str | None]:
     """Analyse every ball-screw gains file; also return the name of the FRF used (or None)."""
     fi = analysis_frf(inputs)
     frf = fi.frf if fi is not None else None
@@ -311,7 +311,7 @@ def build_designs(inputs: Inputs, names: Mapping, colors: Colors) -> tuple[list[
     for g, pre, label in zip(ballscrew, prefilters, labels, strict=True):
         if labels.count(label) > 1:
             label = f"{label} ({g.path.stem})"
-        law, model, analysis, result = analyze_gains(g, frf)
+        law, model, analysis, result = analyze_gains(g, frf, limits)
         designs.append(BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre))
     return designs, (names[fi.path] if fi is not None else None)
 
@@ -325,7 +325,7 @@ def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: d
     """
     from .gantry_design import machine_subsections
 
-    designs, frf_name = build_designs(inputs, names, colors)
+    designs, frf_name = build_designs(inputs, names, colors, limits)
     machines, machine_designs = machine_subsections(inputs, names, limits, data, warnings, colors)
     other = _unanalysed_section([g for g in inputs.gains if g.kind not in ("ballscrew", "gantry", "axis")], names)
     if not designs and not machines and other is None:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from .collect import FrfInput, GainsInput, Inputs
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
-from .design import CASE_TITLES, design_warnings
+from .design import CASE_TITLES, check_result, design_warnings
 from .figures import (
     Curve,
     det_nyquist_figure,
@@ -82,7 +82,7 @@ def _units(doc: Mapping) -> dict:
     return {k: v["unit"] for k, v in doc.get("gains", {}).items() if isinstance(v, dict) and "unit" in v}
 
 
-def analyze_machine_gains(gi: GainsInput, frf) -> tuple[object, dict]:
+def analyze_machine_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, dict]:
     """``(analysis, result)`` of a gantry or axis gains file, ``result`` as ``feedtune analyze --json``."""
     from ..design.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
 
@@ -97,17 +97,18 @@ def analyze_machine_gains(gi: GainsInput, frf) -> tuple[object, dict]:
         analysis = analyze_axis(design, frf)
         return analysis, {"kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _units(gi.doc),
                           "lead_stages": [s.to_dict() for s in design.lead_stages],
-                          "analysis": analysis.to_dict()}
+                          "analysis": analysis.to_dict(), "check": check_result(analysis, limits)}
     from ..analysis.gantry import analyze_gantry
     from ..design.gantry_gains import gantry_law_from_document
 
     law, model, x, reference = gantry_law_from_document(gi.doc, where)
     analysis = analyze_gantry(law, model, x=x, frf=frf, reference=reference)
     return analysis, {"kind": kind, "controller": law.controller, "x_m": x, "gains": gains,
-                      "gain_units": _units(gi.doc), "analysis": analysis.to_dict()}
+                      "gain_units": _units(gi.doc), "analysis": analysis.to_dict(),
+                      "check": check_result(analysis, limits)}
 
 
-def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors) -> list[MachineDesign]:
+def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits: ReportLimits) -> list[MachineDesign]:
     """Analyse every gantry and axis gains file."""
     a_frf = axis_frf(inputs)
     out = []
@@ -115,7 +116,7 @@ def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors) -> lis
         if gi.kind not in ("gantry", "axis"):
             continue
         fi = gantry_frf(inputs, design_position(gi)) if gi.kind == "gantry" else a_frf
-        analysis, result = analyze_machine_gains(gi, fi.frf if fi is not None else None)
+        analysis, result = analyze_machine_gains(gi, fi.frf if fi is not None else None, limits)
         label = MACHINE_LABELS.get(result["controller"], result["controller"])
         out.append(MachineDesign(names[gi.path], label, "", gi.kind, analysis, result,
                                  names[fi.path] if fi is not None else None))
@@ -246,7 +247,7 @@ def _subsection(kind: str, designs: list[MachineDesign], store: dict, limits: Re
 def machine_subsections(inputs: Inputs, names: Mapping, limits: ReportLimits, data: dict, warnings: list[str],
                         colors: Colors) -> tuple[list[Section], list[MachineDesign]]:
     """Gantry and axis design subsections (empty list without such gains files) and the analysed designs."""
-    designs = build_machine_designs(inputs, names, colors)
+    designs = build_machine_designs(inputs, names, colors, limits)
     store = data.setdefault("design", {}) if designs else {}
     subs = []
     for kind in ("gantry", "axis"):

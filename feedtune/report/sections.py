@@ -7,6 +7,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..analysis.limits import DEFAULT_LIMITS, Limits
 from .content import Cell, Table, text_cell
 from .figures import PALETTE
 
@@ -18,16 +19,13 @@ BASELINE_CONTROLLERS = ("P-PI", "PID")
 
 @dataclass(frozen=True)
 class ReportLimits:
-    """Thresholds of the summary's warnings.
+    """What the report holds designs and data to.
 
     Attributes
     ----------
-    ms_max : float
-        Peak sensitivity above which a design is flagged [-] (thesis §3.3: keep Ms below 1.5-2.5).
-    pm_min_deg : float
-        Smallest acceptable phase margin [deg] (the thesis tunes both controllers to about 30 deg).
-    gm_min_db : float
-        Smallest acceptable |gain margin| [dB].
+    policy : Limits
+        The stability and robustness limits (:mod:`feedtune.analysis.limits`), the same as ``design`` and
+        ``analyze`` use; default: the ``textbook`` profile.
     coherence_min : float
         Coherence [-] below which FRF points inside the fit band are flagged.
     nrmse_max : float
@@ -36,17 +34,19 @@ class ReportLimits:
         Consecutive samples at the command's largest magnitude that count as saturation.
     """
 
-    ms_max: float = 2.5
-    pm_min_deg: float = 30.0
-    gm_min_db: float = 3.0
+    policy: Limits = DEFAULT_LIMITS
     coherence_min: float = 0.8
     nrmse_max: float = 0.2
     saturation_samples: int = 10
 
+    @property
+    def ms_max(self) -> float | None:
+        """The policy's peak-sensitivity limit [-] (drawn in the sensitivity figures)."""
+        return self.policy.ms_max
+
     def to_dict(self) -> dict:
         """JSON-ready thresholds with units in the keys."""
-        return {"ms_max": self.ms_max, "pm_min_deg": self.pm_min_deg, "gm_min_db": self.gm_min_db,
-                "coherence_min": self.coherence_min, "nrmse_max": self.nrmse_max,
+        return {**self.policy.to_dict(), "coherence_min": self.coherence_min, "nrmse_max": self.nrmse_max,
                 "saturation_samples": self.saturation_samples}
 
 

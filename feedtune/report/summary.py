@@ -152,9 +152,10 @@ def summary_section(designs: list, data: dict, warnings: list[str],
         blocks.append(Paragraph(f"Warnings ({len(warnings)}):"))
         blocks.extend(Alert(w) for w in warnings)
     else:
-        blocks.append(Paragraph(f"No warnings: every design is stable with Ms <= {limits.ms_max:g}, phase margin >= "
-                                f"{limits.pm_min_deg:g} deg and |gain margin| >= {limits.gm_min_db:g} dB; no poor "
-                                "fit, low coherence, saturation or tripped run was found in the inputs."))
+        what = (f"every design is stable in every case and meets the limits ({limits.policy.describe()})"
+                if designs else "no design was given")
+        blocks.append(Paragraph(f"No warnings: {what}; no poor fit, low coherence, saturation or tripped run was "
+                                "found in the inputs."))
     return Section("summary", "Summary", blocks)
 
 
