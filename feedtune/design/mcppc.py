@@ -10,7 +10,7 @@ functions and discretized by pole-zero matching with reference preview.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,9 @@ class McppcDesign:
         Sample rate [Hz].
     delay_samples : int
         Computational delay [samples].
+    tuning : dict
+        How the parameters were chosen (empty: given by the user; :func:`feedtune.tune.mcppc.tune_mcppc` records
+        its rule).
     """
 
     model: BallScrewModel
@@ -50,6 +53,7 @@ class McppcDesign:
     filters: FilterPack
     fs: float
     delay_samples: int
+    tuning: dict = field(default_factory=dict)
 
     kind = "mcppc"
 
@@ -72,7 +76,8 @@ class McppcDesign:
 
     def design_dict(self) -> dict:
         """Design parameters with units."""
-        return {"beta": self.beta, "pole_hz": self.pole_hz, "zeta": self.zeta}
+        out = {"beta": self.beta, "pole_hz": self.pole_hz, "zeta": self.zeta}
+        return {**out, "tuning": dict(self.tuning)} if self.tuning else out
 
 
 def desired_poles(model: BallScrewModel, beta: float, pole_hz: float, zeta: float) -> np.ndarray:

@@ -1,0 +1,100 @@
+"""MC-PPC at its best under the limits: the rigid-body pole frequency, its damping and the mode's decay multiplier
+``beta`` that give the highest first crossover meeting the limits policy (issue 10: the proposal is tuned by the same
+search and under the same limits as the baseline).
+
+Shapes: ``beta`` in :data:`BETAS` (the thesis's drive allowed up to 4, section 3.2.3) and ``zeta`` in :data:`ZETAS`;
+bandwidth parameter: the pole frequency ``pole_hz`` (eq. 3.8), searched by :func:`feedtune.tune.search.
+highest_feasible` on the checked case (``discrete`` with an FRF, else ``ideal_discrete``), with the filter pack given
+(default none). The winner is re-checked in every case (:func:`feedtune.design.check.check_design`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from ..analysis.ballscrew import analyze_case, plant_cases
+from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+from ..design.check import check_design, resolve_limits
+from ..design.filters import FilterPack
+from ..design.mcppc import McppcDesign, design_mcppc
+from ..errors import DesignError, FeedtuneError
+from ..frf import Frf
+from ..models.ballscrew import BallScrewModel
+from .search import Candidate, SearchRecord, highest_feasible
+
+BETAS = (1.0, 2.0, 3.0, 4.0)
+"""Multipliers of the axial mode's decay rate searched [-] (thesis: up to 4)."""
+ZETAS = (0.5, 0.7, 0.9)
+"""Damping of the rigid-body pole pair searched [-] (thesis: 0.7)."""
+POLE_RANGE_HZ = (5.0, 500.0)
+"""Search bounds of the rigid-body pole frequency [Hz]."""
+
+
+def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None = None, fs: float = 20000.0,
+               delay_samples: int = 1, frf: Frf | None = None, betas=BETAS, zetas=ZETAS,
+               pole_range_hz: tuple[float, float] = POLE_RANGE_HZ) -> McppcDesign:
+    """The MC-PPC with the highest first crossover that meets ``limits`` (module docstring).
+
+    Parameters
+    ----------
+    model : BallScrewModel
+    limits : Limits, optional
+        The policy (default: ``textbook``).
+    filters : FilterPack, optional
+        Filter pack (kept fixed).
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    frf : Frf, optional
+        Measured FRF: the ``discrete`` case on it is the checked case.
+    betas, zetas : sequence of float
+        Shapes searched.
+    pole_range_hz : (float, float)
+        Bounds of the pole frequency [Hz].
+
+    Raises
+    ------
+    DesignError
+        No candidate meets the limits.
+    """
+    policy = resolve_limits(limits)
+    filters = filters or FilterPack()
+    case = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
+    pc = plant_cases(model, fs, delay_samples, frf)[case]
+
+    def check(shape: dict, pole_hz: float) -> Candidate | None:
+        try:
+            design = design_mcppc(model, beta=shape["beta"], pole_hz=pole_hz, zeta=shape["zeta"], filters=filters,
+                                  fs=fs, delay_samples=delay_samples)
+        except FeedtuneError:
+            return None
+        m = analyze_case(design.law(), pc, responses=False).metrics
+        if not all(i.ok for i in policy.check(m, case)) or not m.crossovers_hz:
+            return None
+        return Candidate(shape, pole_hz, design, m, m.crossovers_hz[0])
+
+    record = SearchRecord()
+    shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
+    best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz")
+    if best is None:
+        raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
+                          f"{', '.join(f'{z:g}' for z in zetas)}; pole {pole_range_hz[0]:g}-{pole_range_hz[1]:g} Hz) "
+                          f"meets the limits ({policy.describe()}) in the {case} case")
+    final = check_design(best.design, frf=frf, limits=policy)
+    if not final.ok:
+        raise DesignError(f"the best MC-PPC in the {case} case fails the full check: {'; '.join(final.violations)}")
+    active = final.limit_check.active()
+    tuning = {
+        "method": "highest first crossover over beta, zeta and the pole frequency (bisected to the edge) with the "
+                  "limits in the checked case and stability in every case",
+        "rule": f"MC-PPC tuned by feedtune.tune.mcppc under {policy.describe()}",
+        "limits": policy.to_dict(),
+        "checked_case": case,
+        "first_crossover_hz": best.objective,
+        "active_limit": None if active is None else active.name,
+        "evaluations": record.evaluations,
+        "per_shape": record.per_shape,
+        "warnings": record.warnings,
+    }
+    return replace(best.design, tuning=tuning)

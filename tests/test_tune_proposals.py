@@ -1,0 +1,66 @@
+"""The proposals' tuners (MC-PPC, gantry MIMO) against independent dense brute-force searches under the same limits.
+
+The brute force evaluates every design of a dense grid with the full check (``check_design`` / ``check_analysis``:
+stability in every case, the limits in the checked case) and keeps the highest first crossover; the tuner must reach
+it within the resolution of the grid (and never stay below a feasible grid point by more than 2 %).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from feedtune.analysis.limits import PROFILES
+from feedtune.design.check import check_design
+from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.design.mcppc import design_mcppc
+from feedtune.errors import FeedtuneError
+from feedtune.io import read_frf
+from feedtune.models import THESIS_TABLE_3_1
+from feedtune.tune.mcppc import tune_mcppc
+
+LIMITS = PROFILES["textbook"]
+
+
+@pytest.fixture(scope="module")
+def example_frf(examples_dir):
+    return read_frf(examples_dir / "ballscrew_frf.csv")
+
+
+def _brute_mcppc(model, frf, betas, zetas, poles):
+    best = 0.0
+    for b in betas:
+        for z in zetas:
+            for p in poles:
+                try:
+                    d = design_mcppc(model, beta=b, pole_hz=p, zeta=z, filters=THESIS_FILTER_PACK)
+                except FeedtuneError:
+                    continue
+                c = check_design(d, frf=frf, limits=LIMITS)
+                m = c.analysis.cases[c.worst_case].metrics
+                if c.ok and m.crossovers_hz:
+                    best = max(best, m.crossovers_hz[0])
+    return best
+
+
+def test_tuned_mcppc_reaches_the_best_of_a_dense_brute_force_search(example_frf):
+    tuned = tune_mcppc(THESIS_TABLE_3_1, limits=LIMITS, filters=THESIS_FILTER_PACK, frf=example_frf,
+                       betas=(1.0, 4.0), zetas=(0.7,))
+    check = check_design(tuned, frf=example_frf, limits=LIMITS)
+    assert check.ok
+    got = check.analysis.cases["discrete"].metrics.crossovers_hz[0]
+    assert got == pytest.approx(tuned.tuning["first_crossover_hz"], rel=1e-9)
+    brute = _brute_mcppc(THESIS_TABLE_3_1, example_frf, (1.0, 4.0), (0.7,), np.geomspace(20.0, 200.0, 40))
+    assert brute > 0
+    assert got >= brute * (1 - 0.02)
+    assert tuned.tuning["rule"].startswith("MC-PPC tuned by feedtune.tune.mcppc")
+    assert tuned.tuning["active_limit"] in ("ms", "pm_deg", "gm_db")
+
+
+def test_thesis_mcppc_does_not_beat_the_tuned_one_under_the_same_limits(example_frf):
+    thesis = design_mcppc(THESIS_TABLE_3_1, beta=4, pole_hz=50, zeta=0.7, filters=THESIS_FILTER_PACK)
+    tuned = tune_mcppc(THESIS_TABLE_3_1, limits=PROFILES["thesis"], filters=THESIS_FILTER_PACK, frf=example_frf)
+    c = check_design(thesis, frf=example_frf, limits=PROFILES["thesis"])
+    if c.ok:  # a hand-set design that meets the limits never beats the tuned one
+        first = c.analysis.cases["discrete"].metrics.crossovers_hz[0]
+        assert tuned.tuning["first_crossover_hz"] >= first * (1 - 1e-3)
