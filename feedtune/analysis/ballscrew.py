@@ -203,15 +203,19 @@ def plant_cases(model: BallScrewModel, fs: float, delay_samples: float, frf: Frf
 
 
 # ------------------------------------------------------------------------------------------- law side
-def controller_features(law: BallScrewLaw, discrete: bool) -> np.ndarray:
-    """Lightly damped poles and zeros (Hz, damping) of the law's feedback paths."""
-    ks = (law.K1d(), law.K2d()) if discrete else (law.K1(), law.K2())
-    return np.vstack([lightly_damped(r, k.dt) for k in ks for r in (k.poles, k.zeros)])
+def feedback_paths(law: BallScrewLaw, discrete: bool) -> tuple[Zpk, Zpk]:
+    """``(K1, K2)`` of the law, discrete (``K1d, K2d``) or continuous."""
+    return (law.K1d(), law.K2d()) if discrete else (law.K1(), law.K2())
 
 
-def loop_function(law: BallScrewLaw, pc: PlantCase) -> Callable[[np.ndarray], np.ndarray]:
-    """``L(f) = hold (K1 G11 + K2 G21)`` of the law on a plant case, at any frequency [Hz]."""
-    K1, K2 = (law.K1d(), law.K2d()) if pc.discrete else (law.K1(), law.K2())
+def controller_features(paths: tuple[Zpk, Zpk]) -> np.ndarray:
+    """Lightly damped poles and zeros (Hz, damping) of the feedback paths ``(K1, K2)``."""
+    return np.vstack([lightly_damped(r, k.dt) for k in paths for r in (k.poles, k.zeros)])
+
+
+def loop_function(paths: tuple[Zpk, Zpk], pc: PlantCase) -> Callable[[np.ndarray], np.ndarray]:
+    """``L(f) = hold (K1 G11 + K2 G21)`` of the feedback paths on a plant case, at any frequency [Hz]."""
+    K1, K2 = paths
 
     def evaluate(fr):
         g = pc.plant(fr)
@@ -224,34 +228,27 @@ def analyze_case(law: BallScrewLaw, pc: PlantCase, *, responses: bool = True) ->
     """One analysis case of a law on a plant case: the figures (refined) and, with ``responses``, the curves on the
     case's base grid (without: ``L`` only, for searches)."""
     f = pc.freq_hz
-    if pc.discrete:
-        K1z, K2z = law.K1d(), law.K2d()
-        K = (K1z.freqresp(f), K2z.freqresp(f))
-        rhp = _rhp(K1z) + _rhp(K2z)
-    else:
-        K1s, K2s = law.K1(), law.K2()
-        K = (K1s.freqresp(f), K2s.freqresp(f))
-        rhp = _rhp(K1s) + _rhp(K2s)
+    paths = feedback_paths(law, pc.discrete)
+    K = tuple(k.freqresp(f) for k in paths)
+    rhp = _rhp(paths[0]) + _rhp(paths[1])
     g = pc.plant(f)
     H = pc.hold(f)
     L = H * (K[0] * g[0] + K[1] * g[1])
-    evaluate = loop_function(law, pc)
 
     def ext_loop(fe, ge):
-        K1, K2 = (law.K1d(), law.K2d()) if pc.discrete else (law.K1(), law.K2())
-        return pc.hold(fe) * (K1.freqresp(fe) * ge[0] + K2.freqresp(fe) * ge[1])
+        return pc.hold(fe) * (paths[0].freqresp(fe) * ge[0] + paths[1].freqresp(fe) * ge[1])
 
     extension = model_extension(f, g, pc.model_plant, ext_loop)
-    feats = np.vstack([pc.features, controller_features(law, pc.discrete)])
-    metrics = analyze_loop(f, evaluate=evaluate, features=feats, open_loop_rhp_poles=rhp, extension=extension,
-                           noise_db=pc.noise_db, measured=pc.measured)
+    feats = np.vstack([pc.features, controller_features(paths)])
+    metrics = analyze_loop(f, evaluate=loop_function(paths, pc), features=feats, open_loop_rhp_poles=rhp,
+                           extension=extension, noise_db=pc.noise_db, measured=pc.measured)
     S = 1.0 / (1.0 + L)
     if not responses:
         return CaseResponse(pc.name, f, L, S, None, None, None, metrics)
-    paths = law.reference_paths()
+    ref = law.reference_paths()
     if pc.discrete:
-        zP = np.exp(2j * np.pi * f / law.fs) ** paths["feedforward"].preview_samples
-        ff, R1 = paths["feedforward"].discrete.freqresp(f) * zP, paths["rotary"].discrete.freqresp(f) * zP
+        zP = np.exp(2j * np.pi * f / law.fs) ** ref["feedforward"].preview_samples
+        ff, R1 = ref["feedforward"].discrete.freqresp(f) * zP, ref["rotary"].discrete.freqresp(f) * zP
     else:
         ff, R1 = law.feedforward.freqresp(f), law.rotary_reference.freqresp(f)
     tracking = g[1] * H * (ff + K[0] * R1 + K[1]) * S
