@@ -7,8 +7,8 @@ out="${1:-feedtune_quickstart}"
 mkdir -p "$out"
 filters=(--notch 420,0.55,0.7 --notch 1080,0.05,0.7 --lpf 2000)
 feedtune identify ballscrew "$frf" --out "$out/model.toml" --force
-feedtune design ppc "$out/model.toml" --beta 4 --pole-hz 50 --zeta 0.7 "${filters[@]}" --frf "$frf" \
-    --out "$out/mcppc.toml" --force
-feedtune design ppi "$out/model.toml" --ms-max 3.25 "${filters[@]}" --frf "$frf" --out "$out/ppi.toml" --force
+# both tuned for the highest first crossover under the same limits (default: textbook)
+feedtune design ppc "$out/model.toml" "${filters[@]}" --frf "$frf" --out "$out/mcppc.toml" --force
+feedtune design ppi "$out/model.toml" "${filters[@]}" --frf "$frf" --out "$out/ppi.toml" --force
 feedtune export c "$out/mcppc.toml" --out "$out/mcppc.h" --force
 echo "files in $out: model.toml, mcppc.toml, ppi.toml (with .json twins), mcppc.h"

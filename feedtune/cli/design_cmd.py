@@ -133,9 +133,12 @@ def _load_model(path: Path):
 @app.command("ppc")
 def ppc(
     model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
-    beta: float = typer.Option(4.0, "--beta", help="Multiplier of the axial mode's decay rate (eq. 3.7), >= 1."),
-    pole_hz: float = typer.Option(50.0, "--pole-hz", help="Rigid-body closed-loop pole frequency [Hz] (eq. 3.8)."),
-    zeta: float = typer.Option(0.7, "--zeta", help="Damping of the rigid-body pole pair [-]."),
+    beta: float = typer.Option(None, "--beta", help="Multiplier of the axial mode's decay rate (eq. 3.7), >= 1 "
+                                                    "(thesis: 4). Without --beta, --pole-hz and --zeta the three are "
+                                                    "tuned under the limits."),
+    pole_hz: float = typer.Option(None, "--pole-hz", help="Rigid-body closed-loop pole frequency [Hz] (eq. 3.8; "
+                                                          "thesis: 50)."),
+    zeta: float = typer.Option(None, "--zeta", help="Damping of the rigid-body pole pair [-] (thesis: 0.7)."),
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
     fs: float = FS_OPTION,
@@ -154,20 +157,22 @@ def ppc(
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Mode-compensating pole-placement control (MC-PPC, eq. 3.5-3.13)."""
+    """Mode-compensating pole-placement control (MC-PPC, eq. 3.5-3.13): given, or tuned for the highest first
+    crossover under the limits."""
     from ..design.mcppc import design_mcppc
+    from ..tune.mcppc import tune_mcppc
+    from .frf_options import read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
-
-    design = design_mcppc(
-        _load_model(model_file),
-        beta=beta,
-        pole_hz=pole_hz,
-        zeta=zeta,
-        filters=_filters(notch, lpf),
-        fs=fs,
-        delay_samples=delay_samples,
-    )
+    model = _load_model(model_file)
+    filters = _filters(notch, lpf)
+    if beta is None and pole_hz is None and zeta is None:
+        design = tune_mcppc(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
+                            frf=read_optional_frf(frf, quantity, warn=False))  # warned once, when _finish reads it
+    else:
+        design = design_mcppc(model, beta=4.0 if beta is None else beta, pole_hz=50.0 if pole_hz is None else pole_hz,
+                              zeta=0.7 if zeta is None else zeta, filters=filters, fs=fs,
+                              delay_samples=delay_samples)
     _finish(
         design,
         frf_path=frf,

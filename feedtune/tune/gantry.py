@@ -14,7 +14,7 @@ from dataclasses import replace
 from ..analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, check_analysis
 from ..design.gantry_mimo import GantryMimoDesign, design_gantry_mimo
-from ..design.loopshape import LoopFilters
+from ..design.loopshape import LoopFilters, check_sampling
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.gantry import GantryModel
@@ -62,6 +62,8 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: LoopFilters | 
         No candidate meets the limits.
     """
     policy = limits or DEFAULT_LIMITS
+    check_sampling(fs, delay_samples)
+    (filters or LoopFilters()).check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
     case = "discrete" if frf is not None else "ideal_discrete"
     pc = gantry_plant_cases(model, x, fs, delay_samples, frf)[case]
     weights = model.alpha(x)

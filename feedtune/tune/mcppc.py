@@ -16,7 +16,7 @@ from ..analysis.ballscrew import analyze_case, plant_cases
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..design.check import check_design, resolve_limits
 from ..design.filters import FilterPack
-from ..design.mcppc import McppcDesign, design_mcppc
+from ..design.mcppc import McppcDesign, check_sampling, design_mcppc
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
@@ -60,6 +60,8 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     """
     policy = resolve_limits(limits)
     filters = filters or FilterPack()
+    check_sampling(fs, delay_samples)
+    filters.check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
     case = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
     pc = plant_cases(model, fs, delay_samples, frf)[case]
 
