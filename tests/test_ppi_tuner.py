@@ -15,6 +15,7 @@ import io
 import json
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -32,6 +33,7 @@ from feedtune.identify.ballscrew import fit_ballscrew
 from feedtune.io import load_model, read_frf
 from feedtune.lti import Zpk
 from feedtune.models import THESIS_TABLE_3_1
+from feedtune.models.gantry import THESIS_GANTRY
 from feedtune.tune import ppi as tuner
 from feedtune.tune.ppi import CROSSOVER_TIE, SHAPE_HIGH_FRACTION, SHAPE_LOW_HZ, tune_ppi
 
@@ -44,6 +46,8 @@ SEARCH_TOL = 0.005
 BENCH_HAND = {"Kpx": 60.0, "Kpv": 3.0, "Kiv": 180.0}  # [1/s], [A/(rad/s)], [A/rad]
 # the previous tuner's answer on the example FRF with --ms-max 3.25 (first crossover 98 Hz), as a hand-set design
 EXAMPLE_HAND = {"Kpx": 94.8589, "Kpv": 1.75527, "Kiv": 133.202}
+# ... and on the Table 3.1 model with the thesis filter pack (first crossover 97 Hz, below the mode)
+TABLE_HAND = {"Kpx": 96.1785, "Kpv": 1.72121, "Kiv": 132.435}
 
 
 # ------------------------------------------------------------------------------------------ brute force
@@ -228,6 +232,7 @@ def test_table_3_1_model_against_a_dense_brute_force():
     bf = brute_force(THESIS_TABLE_3_1, None, 20000.0, lim, THESIS_FILTER_PACK, n_shape=8)
     assert d.tuning["best_first_crossover_hz"] >= (1 - SEARCH_TOL) * bf["fc1_hz"], bf
     assert got >= (1 - BRUTE_TOL) * bf["fc1_hz"], bf
+    assert got >= first_crossover(design_ppi(THESIS_TABLE_3_1, filters=THESIS_FILTER_PACK, **TABLE_HAND), None, lim)
 
 
 @pytest.mark.slow
@@ -333,6 +338,8 @@ def test_disconnected_feasible_set_on_the_table_3_1_model():
     d = tune_ppi(THESIS_TABLE_3_1, ms_max=3.25, filters=THESIS_FILTER_PACK)
     got = first_crossover(d, None, lim)
     assert got > 400.0
+    hand = first_crossover(design_ppi(THESIS_TABLE_3_1, filters=THESIS_FILTER_PACK, **TABLE_HAND), None, lim)
+    assert hand == pytest.approx(96.8, abs=0.5)
     g = d.ppi_gains
     # the same shape with less gain: first crossover below the mode, then a gap of gains that break a limit
     low = design_ppi(THESIS_TABLE_3_1, Kpx=g["Kpx"], Kpv=0.5 * g["Kpv"], Kiv=0.5 * g["Kiv"], filters=THESIS_FILTER_PACK)
@@ -366,3 +373,8 @@ def test_bad_input(example):
         tune_ppi(model, frf=frf, crossover_tie=1.5)
     with pytest.raises(DesignError, match="no P-PI gains"):
         tune_ppi(model, frf=frf, ms_max=1.001)
+    # an FRF of the opposite sign (a reversed encoder): every P-PI is positive feedback there
+    with pytest.raises(DesignError, match="no P-PI gains"):
+        tune_ppi(model, frf=replace(frf, response=-frf.response), ms_max=3.25)
+    with pytest.raises(UsageError, match="BallScrewModel"):
+        tune_ppi(THESIS_GANTRY)

@@ -302,7 +302,7 @@ class _ShapeSearch:
         return ax, [self.shape((a, b)) for a in ax for b in ax]
 
     def starts(self, cells: list[_Shape], key, step: float) -> list[_Shape]:
-        """The best cells by ``key`` (descending), at least two grid steps apart from each other."""
+        """Up to :data:`STARTS` best cells by ``key`` (descending), more than 1.5 grid steps apart from each other."""
         picked: list[_Shape] = []
         for c in sorted(cells, key=key, reverse=True):
             if all(max(abs(c.x[0] - p.x[0]), abs(c.x[1] - p.x[1])) > 1.5 * step for p in picked):
@@ -403,6 +403,8 @@ def tune_ppi(
     DesignError
         No P-PI in the box meets the limits and is stable in every case.
     """
+    if not isinstance(model, BallScrewModel):
+        raise UsageError(f"tune_ppi needs a ball-screw model (BallScrewModel), got {type(model).__name__}")
     policy = resolve_limits(limits, ms_max=ms_max, pm_min_deg=pm_min_deg)
     check_sampling(fs, delay_samples)
     if not (np.isfinite(crossover_tie) and 0 <= crossover_tie < 1):
@@ -492,37 +494,35 @@ def tune_ppi(
 def _edge(judge, k0: float, box: tuple[float, float]):
     """The analysis' feasibility edge in ``Kpv`` near the surrogate's ``k0``: ``(kpv, metrics)`` or None.
 
-    From ``k0`` steps of :data:`EDGE_STEP` (doubling) up while ``judge`` passes or down until it passes, then
-    bisection in log ``Kpv`` to :data:`EDGE_TOL`.
+    From ``k0``, steps of :data:`EDGE_STEP` (doubling) up while ``judge`` passes, or down until it passes; then
+    bisection in log ``Kpv`` between the highest passing and the lowest failing gain above it to :data:`EDGE_TOL`.
     """
     m0 = judge(k0)
-    lo, hi, m_lo = (k0, None, m0) if m0 is not None else (None, k0, None)
-    step = EDGE_STEP
-    for _ in range(8 if m0 is None else 4):
-        k = k0 * (1 + step) if m0 is not None else k0 * (1 - step)
-        k = float(np.clip(k, *box))
+    up = m0 is not None
+    ok, bad = ((k0, m0), None) if up else (None, k0)
+    step, k_prev = EDGE_STEP, k0
+    for _ in range(4 if up else 8):
+        k = float(np.clip(k0 * (1 + step) if up else k0 * (1 - step), *box))
+        if k == k_prev:  # on a bound of the box
+            break
         m = judge(k)
-        if m0 is not None and m is None:
-            hi = k
-            break
-        if m0 is None and m is not None:
-            lo, m_lo = k, m
-            break
         if m is not None:
-            lo, m_lo = k, m
+            ok = (k, m)
         else:
-            hi = k
-        step *= 2
-    if lo is None:
+            bad = k
+        if (m is None) == up:  # crossed the edge
+            break
+        step, k_prev = 2 * step, k
+    if ok is None:
         return None
-    while hi is not None and hi / lo - 1 > EDGE_TOL:
-        k = float(np.sqrt(lo * hi))
+    while bad is not None and bad / ok[0] - 1 > EDGE_TOL:
+        k = float(np.sqrt(ok[0] * bad))
         m = judge(k)
         if m is not None:
-            lo, m_lo = k, m
+            ok = (k, m)
         else:
-            hi = k
-    return lo, m_lo
+            bad = k
+    return ok
 
 
 def _record(c: _Checked, verdict, policy: Limits, case: str, tie: float, best_fc1: float, z_box, kpv_box, M: float,
