@@ -28,13 +28,13 @@ def _refuse(*args, **kwargs):
 
 def _forbid_recomputation() -> None:
     import feedtune.design.mcppc
-    import feedtune.design.ppi
     import feedtune.design.prefilter
     import feedtune.identify.ballscrew
+    import feedtune.tune.ppi
 
     feedtune.identify.ballscrew.fit_ballscrew = _refuse
     feedtune.design.mcppc.design_mcppc = _refuse
-    feedtune.design.ppi.tune_ppi = _refuse
+    feedtune.tune.ppi.tune_ppi = _refuse
     feedtune.design.prefilter.fit_prefilter = _refuse
 
 

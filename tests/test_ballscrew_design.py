@@ -7,9 +7,10 @@ from feedtune.analysis.ballscrew import analyze_ballscrew, closed_loop_poles
 from feedtune.analysis.loop import analyze_loop
 from feedtune.design.filters import THESIS_FILTER_PACK, FilterPack
 from feedtune.design.mcppc import design_mcppc, desired_poles
-from feedtune.design.ppi import design_ppi, tune_ppi
+from feedtune.design.ppi import design_ppi
 from feedtune.errors import UsageError
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
+from feedtune.tune.ppi import tune_ppi
 
 
 def test_table_3_1_mode_and_real_pole():

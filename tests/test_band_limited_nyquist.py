@@ -23,10 +23,11 @@ from feedtune.design.filters import THESIS_FILTER_PACK
 from feedtune.design.gantry_pid import PidLaw, pid_gains, tune_gantry_pid
 from feedtune.design.loopshape import LoopFilters
 from feedtune.design.mcppc import design_mcppc
-from feedtune.design.ppi import design_ppi, tune_ppi
+from feedtune.design.ppi import design_ppi
 from feedtune.frf import Frf
 from feedtune.models import THESIS_TABLE_3_1 as BALLSCREW
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
+from feedtune.tune.ppi import tune_ppi
 
 LOWEST_LINES_HZ = (0.5, 2.0, 5.0, 10.0)
 NOTCH_LPF = LoopFilters(THESIS_H.notches, 450.0, 2, 0.7)  # the PIDs' filters (no lead)

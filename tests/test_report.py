@@ -301,16 +301,16 @@ def test_a_log_without_metadata_needs_its_kind(tmp_path):
 # ------------------------------------------------------------------------------------------ no recomputation
 def test_report_does_not_identify_or_design_again(demo_dir, monkeypatch):
     import feedtune.design.mcppc
-    import feedtune.design.ppi
     import feedtune.design.prefilter
     import feedtune.identify.ballscrew
+    import feedtune.tune.ppi
 
     def refuse(*args, **kwargs):
         raise AssertionError("the report recomputed a result stored in its input files")
 
     monkeypatch.setattr(feedtune.identify.ballscrew, "fit_ballscrew", refuse)
     monkeypatch.setattr(feedtune.design.mcppc, "design_mcppc", refuse)
-    monkeypatch.setattr(feedtune.design.ppi, "tune_ppi", refuse)
+    monkeypatch.setattr(feedtune.tune.ppi, "tune_ppi", refuse)
     monkeypatch.setattr(feedtune.design.prefilter, "fit_prefilter", refuse)
     rep = build_report([demo_dir], render=False)
     fit = rep.data["identification"]["model.toml"]["fit"]

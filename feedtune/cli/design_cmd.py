@@ -212,8 +212,9 @@ def ppi(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """P-PI position-velocity cascade with velocity and acceleration feedforward (Figure 3.9)."""
-    from ..design.ppi import design_ppi, tune_ppi
+    from ..design.ppi import design_ppi
     from ..errors import UsageError
+    from ..tune.ppi import tune_ppi
     from .frf_options import read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)

@@ -200,9 +200,9 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     """
     from ..design.filters import THESIS_FILTER_PACK
     from ..design.gains import gains_document
-    from ..design.ppi import tune_ppi
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document
+    from ..tune.ppi import tune_ppi
     from .experiments import measure_frf
     from .twin import BallScrewTwin, TwinParams
 
