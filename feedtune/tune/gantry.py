@@ -18,7 +18,7 @@ from ..design.loopshape import LoopFilters, check_sampling
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.gantry import GantryModel
-from .search import Candidate, SearchRecord, highest_feasible
+from .search import CROSSOVER_TIE, Candidate, SearchRecord, highest_feasible
 
 PM_TARGETS_DEG = (30.0, 40.0, 50.0)
 """CoM phase-margin targets searched [deg] (thesis: 40)."""
@@ -82,7 +82,8 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: LoopFilters | 
 
     record = SearchRecord()
     shapes = [{"pm_deg": float(p), "damping_increase": float(d)} for p in pm_targets for d in damping_increases]
-    best = highest_feasible(check, shapes, *crossover_range_hz, record, bound_name="crossover_hz")
+    best = highest_feasible(check, shapes, *crossover_range_hz, record, bound_name="crossover_hz",
+                            secondary=lambda c: c.design.law.ki)
     if best is None:
         raise DesignError(f"no gantry MIMO design meets the limits ({policy.describe()}) in the {case} case")
     final, _ = check_analysis(analyze_gantry(best.design.law, model, x=x, frf=frf), policy)
@@ -92,7 +93,9 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: LoopFilters | 
     active = final.active()
     tuning = {
         "method": "highest first CoM crossover over the PM target, the damping increase and the crossover target "
-                  "(bisected to the edge) with the limits in the checked case and stability in every case",
+                  "(bisected to the edge) with the limits in the checked case and stability in every case; shapes "
+                  f"within {100 * CROSSOVER_TIE:g} % of the highest first crossover count as equal and the highest "
+                  "actuator-level integral gain ki wins",
         "rule": f"gantry MIMO tuned by feedtune.tune.gantry under {policy.describe()}",
         "limits": policy.to_dict(),
         "checked_case": case,

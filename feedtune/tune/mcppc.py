@@ -20,7 +20,7 @@ from ..design.mcppc import McppcDesign, check_sampling, design_mcppc
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .search import Candidate, SearchRecord, highest_feasible
+from .search import CROSSOVER_TIE, Candidate, SearchRecord, highest_feasible
 
 BETAS = (1.0, 2.0, 3.0, 4.0)
 """Multipliers of the axial mode's decay rate searched [-] (thesis: up to 4)."""
@@ -78,7 +78,8 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
 
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
-    best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz")
+    best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz",
+                            secondary=lambda c: c.design.gains["Ki2"])
     if best is None:
         raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
                           f"{', '.join(f'{z:g}' for z in zetas)}; pole {pole_range_hz[0]:g}-{pole_range_hz[1]:g} Hz) "
@@ -89,7 +90,9 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     active = final.limit_check.active()
     tuning = {
         "method": "highest first crossover over beta, zeta and the pole frequency (bisected to the edge) with the "
-                  "limits in the checked case and stability in every case",
+                  "limits in the checked case and stability in every case; shapes within "
+                  f"{100 * CROSSOVER_TIE:g} % of the highest first crossover count as equal and the highest integral "
+                  "gain Ki2 wins (the P-PI tuner's rule)",
         "rule": f"MC-PPC tuned by feedtune.tune.mcppc under {policy.describe()}",
         "limits": policy.to_dict(),
         "checked_case": case,

@@ -55,9 +55,15 @@ class SearchRecord:
     warnings: list = field(default_factory=list)
 
 
+CROSSOVER_TIE = 0.02
+"""Shapes whose best first crossover is within this fraction of the highest count as equal [-] (the P-PI tuner's
+rule, :data:`feedtune.tune.ppi.CROSSOVER_TIE`): the first crossover is nearly flat over the shapes."""
+
+
 def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes: Iterable[dict], lo: float, hi: float,
-                     record: SearchRecord | None = None, *, bound_name: str = "bandwidth",
-                     unit: str = "Hz") -> Candidate | None:
+                     record: SearchRecord | None = None, *, bound_name: str = "bandwidth", unit: str = "Hz",
+                     secondary: Callable[[Candidate], float] | None = None,
+                     tie: float = CROSSOVER_TIE) -> Candidate | None:
     """The feasible candidate with the highest objective over the shapes (module docstring).
 
     Parameters
@@ -72,6 +78,12 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes: I
         Filled with the evaluations, the best of every shape and warnings (winner at a search bound).
     bound_name, unit : str
         Name and unit of the bandwidth parameter in the warnings.
+    secondary : callable, optional
+        ``secondary(candidate)`` -> the tie-breaker: among the shapes whose best objective is within ``tie`` of the
+        highest, the one with the highest ``secondary`` wins (e.g. the integral gain: stiffness against slow
+        disturbances). Without it the highest objective wins.
+    tie : float
+        Relative tie of the objective [-].
     """
     rec = record if record is not None else SearchRecord()
     grid = np.geomspace(lo, hi, COARSE_POINTS)
@@ -83,7 +95,7 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes: I
         except ArithmeticError:
             return None
 
-    best = None
+    bests: list[Candidate] = []
     for shape in shapes:
         found, i_found = None, None
         for i in range(grid.size - 1, -1, -1):  # top down: the highest feasible point first
@@ -103,8 +115,13 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes: I
                 else:
                     b = mid
         rec.per_shape.append({"shape": dict(shape), bound_name: found.bandwidth, "objective": found.objective})
-        if best is None or found.objective > best.objective:
-            best = found
+        bests.append(found)
+    best = None
+    if bests:
+        top = max(c.objective for c in bests)
+        best = max(bests, key=lambda c: c.objective)
+        if secondary is not None:
+            best = max((c for c in bests if c.objective >= (1 - tie) * top), key=secondary)
     if best is not None and best.bandwidth >= hi * (1 - EDGE_REL_TOL):
         rec.warnings.append(f"the best design sits on the upper search bound {bound_name} = {hi:.4g} {unit}; the "
                             "limits may allow more")
