@@ -7,9 +7,12 @@ control-signal equivalents) plus
 * the **x-axis table** (mass ``m_x``, its own linear motor, position ``x`` along the beam): ``x`` sets
   ``alpha(x)`` and ``J(x)`` of the gantry; the reaction of the x motor force ``f_x`` turns the gantry by the
   torque ``-x_reaction_arm_m * f_x`` [V m] (its line of action is offset from the gantry's guideway);
-* two lightly damped **structural modes** in the motor-to-encoder paths (320 Hz, unattributed in the thesis,
-  and the 382 Hz bending of the beam about z, both ends in phase): modal coordinates ``eta`` driven by the
-  generalised forces, read by the encoders with their mode shapes;
+* lightly damped **structural modes** in the motor-to-encoder paths (320 Hz, unattributed in the thesis,
+  the 382 Hz bending of the beam about z, both ends in phase, and a mode at 940 Hz that the thesis' filter
+  pack notches): modal coordinates ``eta`` driven by the generalised forces, read by the encoders with their
+  mode shapes; the **x axis** has its own modes (186, 332, 404 Hz, where the thesis' x notches are);
+* **amplifiers**: a 2nd-order low-pass from command to force per motor (``amp_hz`` for the y motors, off by
+  default; ``x_amp_hz`` for the x motor, calibrated to the lead the thesis needed at 130 Hz, eq. 4.17);
 * the **216 Hz pitching mode** of the gantry, excited only by forces on the table (rope, cutting force), not
   by the motors (they act at the CoM height, §4.3.3): it deflects the table relative to the beam (static
   compliance 1/32.5 N/um, §4.5) and the encoders see a fraction of it;
@@ -25,22 +28,25 @@ table force, the generalised forces on ``(y1, y2)`` are ``g = f + tau/L [-1, 1] 
 lever weights ``w(x) = [1 - p/L, p/L]`` of the table at ``p = table_offset + x`` from the left actuator, and
 (eq. 4.3)::
 
+    f_i'' + 2 zeta_a w_a f_i' + w_a^2 f_i = w_a^2 c_i          (amplifiers; f_i = c_i without them)
     M(x) (y'' + [1, 1] yb'') + C y' + K y = g
     m_b yb'' + c_b yb' + k_b yb = -(f1 + f2) + F_floor
     eta_r'' + 2 zeta_r w_r eta_r' + w_r^2 eta_r = (gain_r / m) phi_r . g
     q'' + 2 zeta_p w_p q' + w_p^2 q = w_p^2 C_t F_t
-    m_x x'' = f_x
+    m_x x'' = fx,   xi_j'' + 2 zeta_j w_j xi_j' + w_j^2 xi_j = (gain_j / m_x) phi_motor,j fx
 
-Encoders read ``y_i + sum_r phi_ri eta_r + frac w_i(x) q`` (plus noise, quantized); the interferometer on the
-table reads ``w(x) . y + q``.
+with ``c_i`` the commands (after the computational delay, plus PWM noise) and ``tau = -x_reaction_arm_m fx``.
+Encoders read ``y_i + sum_r phi_ri eta_r + frac w_i(x) q`` and ``x + sum_j phi_encoder,j xi_j`` (plus noise,
+quantized); the interferometer on the table reads ``w(x) . y + q``.
 
-Integration: the 12 linear states are discretized exactly for inputs held over a sample (``expm`` of the
-augmented matrix) at every point of a grid in ``x`` (``x_min_m .. x_max_m`` in steps of ``x_grid_m``, 5 mm by
-default: 201 points over +-0.5 m), and the step uses the matrices linearly interpolated at the table's
-current position (``x`` changes slowly against the sample rate; the terms proportional to ``x'`` that a
-moving mass adds are neglected). The x axis is integrated exactly. One compiled function (numba when
-installed, the same code in plain Python otherwise) advances the plant by one sample, so the closed loop
-costs one Python call of each controller's ``step`` plus about a microsecond per sample.
+Integration: the 28 linear states (:data:`STATE_NAMES`, the x axis included) are discretized exactly for inputs
+held over a sample (``expm`` of the augmented matrix) at every point of a grid in ``x`` (``x_min_m .. x_max_m``
+in steps of ``x_grid_m``, 5 mm by default: 201 points over +-0.5 m), and the step uses the matrices linearly
+interpolated at the table's current position (``x`` changes slowly against the sample rate; the terms
+proportional to ``x'`` that a moving mass adds are neglected; the x-axis rows do not depend on ``x``). One
+compiled function (numba when installed, the same code in plain Python otherwise) advances the plant by one
+sample, so the closed loop costs one Python call of each controller's ``step`` plus a few microseconds per
+sample.
 
 Every value is a field of :class:`GantryTwinParams` (``with_overrides`` takes ``name=value`` strings); the
 seed makes noise repeatable; a following-error envelope, an I2t overload limit and the table's travel stop
