@@ -267,6 +267,33 @@ def test_measured_frf_agrees_with_the_analytic_response_near_the_yaw_mode(frf_ru
         assert np.max(err) < 0.05  # measured: 2.0 % max (PWM, floor and encoder noise)
 
 
+def test_measured_axis_frf_agrees_with_the_analytic_response():
+    from feedtune.sim.gantry_experiments import measure_axis_frf
+
+    twin = GantryTwin()
+    res = measure_axis_frf(twin, 0.1, seed=1)
+    frf = res.frf
+    assert list(frf.channels) == ["x/ux"] and frf.output_unit == "m" and frf.input_unit == "V"
+    assert set(res.log.signals) >= {"rx", "ux", "x", "u1", "u2"} and res.summary["delay_removed"]
+    f = frf.freq_hz
+    err = np.abs(frf.response[0, 0] / twin.axis_frequency_response(f, sampled=False) - 1)
+    band = (f >= 50.0) & (f <= 500.0)  # the loop-shaping band; measured 0.8 % to 200 Hz, 2.6 % to 500 Hz
+    assert np.max(err[band]) < 0.05
+
+
+def test_new_parameters_override_and_validate():
+    p = GantryTwinParams().with_overrides({"x_mode186.gain": "0.02", "mode940": "none", "x_amp_hz": "none",
+                                           "amp_hz": "1500", "x_mode404.shape": "1,-1"})
+    assert p.x_mode186.gain == 0.02 and p.mode940 is None and p.x_amp_hz is None and p.amp_hz == 1500.0
+    assert p.x_mode404.shape == (1.0, -1.0)
+    A, B = continuous_system(p, 0.0)
+    assert not A[12:14].any() and B[15, 0] > 0 and not B[27].any()  # 940 Hz mode off, y amplifier on, x off
+    with pytest.raises(UsageError, match="amp_hz = 8000 Hz is above the Nyquist"):
+        GantryTwinParams().with_overrides({"amp_hz": 8000})
+    with pytest.raises(UsageError, match=r"x_mode332\.freq_hz"):
+        GantryTwinParams().with_overrides({"x_mode332.freq_hz": 9000})
+
+
 def test_frf_estimate_is_exact_without_noise():
     twin = GantryTwin(GantryTwinParams().with_overrides(QUIET))
     res = measure_gantry_frf(twin, 0.1, seed=0, f_hi=400.0, remove_delay=False)

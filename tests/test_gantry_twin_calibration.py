@@ -91,6 +91,8 @@ def _sections(zeros, poles, gain):
 
     zs, ps = groups(zeros), groups(poles)
     n = max(len(zs), len(ps))
+    if n == 0:  # a constant
+        return [(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[float(gain)]]))]
     zs, ps = zs + [[]] * (n - len(zs)), ps + [[]] * (n - len(ps))
     return [tuple(np.atleast_2d(np.real(m)) for m in zpk2ss(np.real_if_close(z), np.real_if_close(p),
                                                              gain if i == 0 else 1.0))
@@ -223,7 +225,7 @@ def test_no_x_design_of_clearly_higher_crossover_at_the_same_margins(measured):
 MS_PID = 2.6  # "tuned to give a similar sensitivity peak" as the MIMO design's 2.6
 
 
-def _pid_search(twin, frf, weights, ms_max, ratios=(1.0,)):
+def _pid_search(twin, frf, weights, ms_max, ratios=(1.0,), filters=H_PID):
     """Brute force over (kp, kd, ki) on both sides (side 2 = ratio x side 1): the highest first CoM-loop
     crossover [Hz] with max sigma_max(S) <= ms_max and a stable closed loop.
 
@@ -240,7 +242,7 @@ def _pid_search(twin, frf, weights, ms_max, ratios=(1.0,)):
     f_up = np.geomspace(f[-1] * 1.01, 0.499 * fs, 120)
     f = np.r_[f, f_up]
     G = np.concatenate([G, np.moveaxis(twin.frequency_response(f_up, 0.0), -1, 0)])
-    hz = matched(H_PID.zpk(), fs).tf
+    hz = matched(filters.zpk(), fs).tf
     z = np.exp(2j * np.pi * f / fs)
     h, D, Iz = hz.freqresp(f), fs * (1 - 1 / z), (1 / fs) / (1 - 1 / z)
     KP, KD, KI = np.meshgrid(np.geomspace(1e2, 3e7, 32), np.geomspace(3.0, 3e4, 121), np.geomspace(1e3, 1e9, 7),
@@ -318,13 +320,16 @@ def test_unequal_pid_gains_on_the_two_sides_do_not_raise_the_ceiling(measured):
     assert uneven is None or uneven[0] <= even[0] * 1.05, (even, uneven)
 
 
-def test_without_the_filters_the_readme_pid_is_fast_only_because_nothing_was_filtered(measured):
-    # the README path: `design gantry` without the filter pack, `design pid --match` takes its (absent) filters
+def test_without_the_filters_the_same_search_finds_pids_far_above_16_hz(measured):
+    # the README path: `design gantry` without the filter pack, then `design pid --match`, which copies the
+    # (absent) filters: nothing in the twin's y axis stops a high-gain PID then (the thesis does not quantify the
+    # y dynamics that made its filters necessary; see docs/gantry_twin.md). This also shows the search reaches
+    # high crossovers where they exist.
     twin, frfs, model, _ = measured
+    best = _pid_search(twin, frfs[1], model.alpha(0.0), MS_PID, filters=LoopFilters())
+    assert best is not None and best[0] > 100.0, best  # measured 312 Hz
     plain = tune_gantry_pid(model, ms_max=2.0, fs=twin.fs, frf=frfs[1])
-    with_h = tune_gantry_pid(model, ms_max=2.0, filters=H_PID, fs=twin.fs, frf=frfs[1])
-    assert plain.tuning["com_crossover_hz"] > 100.0  # measured about 180-280 Hz
-    assert with_h.tuning["com_crossover_hz"] < 16.0
+    assert plain.tuning["com_crossover_hz"] > 100.0  # the README's 182-300 Hz
 
 
 # ------------------------------------------------------------------------------------ MIMO (§4.4.2)
