@@ -94,18 +94,46 @@ def test_continuous_response_is_eq_4_4_plus_base_and_structural_modes():
     x = 0.2
     ideal = GantryTwin(GantryTwinParams.ideal()).frequency_response(f, x, sampled=False)
     assert np.allclose(ideal, MODEL.frequency_response(f, x), rtol=1e-9)  # eq. 4.4
-    p = GantryTwinParams()
+    p = GantryTwinParams().with_overrides({"amp_hz": 2000.0, "amp_zeta": 0.5})  # y amplifiers (off by default)
     m = MODEL.m
     expected = MODEL.frequency_response(f, x).copy()
     wb = 2 * np.pi * p.base_hz
     # relative coordinates: y = G f + [1, 1] (f1 + f2) / (m_b (s^2 + 2 zeta wb s + wb^2))
     expected += 1.0 / (p.base_mass_ratio * m * (s**2 + 2 * p.base_zeta * wb * s + wb**2))
-    for mode in (p.mode320, p.bending):
+    for mode in (p.mode320, p.bending, p.mode940):
         w = 2 * np.pi * mode.freq_hz
         phi = np.asarray(mode.shape)
         expected += np.outer(phi, phi)[:, :, None] * mode.gain / m / (s**2 + 2 * mode.zeta * w * s + w**2)
+    wa = 2 * np.pi * p.amp_hz  # the forces are the commands through the amplifiers' 2nd-order low-pass
+    expected *= wa**2 / (s**2 + 2 * p.amp_zeta * wa * s + wa**2)
     got = GantryTwin(p).frequency_response(f, x, sampled=False)
     assert np.allclose(got, expected, rtol=1e-8, atol=0)
+
+
+def test_axis_response_is_the_table_mass_plus_its_modes_behind_the_amplifier():
+    f = np.geomspace(2, 2000, 200)
+    s = 2j * np.pi * f
+    ideal = GantryTwin(GantryTwinParams.ideal()).axis_frequency_response(f, sampled=False)
+    assert np.allclose(ideal, 1.0 / (MODEL.m_x * s**2), rtol=1e-9)  # eq. 4.17's double integrator
+    p = GantryTwinParams()
+    expected = 1.0 / (MODEL.m_x * s**2)
+    for mode in (p.x_mode186, p.x_mode332, p.x_mode404):
+        w = 2 * np.pi * mode.freq_hz  # shape = (at the motor, at the encoder)
+        expected += mode.shape[0] * mode.shape[1] * mode.gain / MODEL.m_x / (s**2 + 2 * mode.zeta * w * s + w**2)
+    wa = 2 * np.pi * p.x_amp_hz
+    expected *= wa**2 / (s**2 + 2 * p.x_amp_zeta * wa * s + wa**2)
+    twin = GantryTwin(p)
+    assert np.allclose(twin.axis_frequency_response(f, sampled=False), expected, rtol=1e-8, atol=0)
+    # the sampled response: exact ZOH discretization and one sample of delay (python-control as the reference)
+    control = pytest.importorskip("control")
+    from feedtune.sim.gantry_twin import axis_encoder_row
+
+    A, B = continuous_system(p, 0.0)
+    sysd = control.c2d(control.ss(A, B[:, 2:3], axis_encoder_row(p)[None], np.zeros((1, 1))), 1 / FS, "zoh")
+    fk = np.array([1.0, 130.0, 186.0, 404.0, 3000.0])
+    z = np.exp(2j * np.pi * fk / FS)
+    ref = np.array([complex(np.squeeze(sysd(zk))) / zk for zk in z])
+    assert np.allclose(twin.axis_frequency_response(fk), ref, rtol=1e-7)
 
 
 def test_sampled_response_is_the_zoh_discretization_with_one_sample_delay():
@@ -237,6 +265,33 @@ def test_measured_frf_agrees_with_the_analytic_response_near_the_yaw_mode(frf_ru
         G = twin.frequency_response(f[good], x, sampled=False)  # delay and ZOH phase removed by default
         err = np.abs(frf.response[..., good] - G) / np.abs(G)
         assert np.max(err) < 0.05  # measured: 2.0 % max (PWM, floor and encoder noise)
+
+
+def test_measured_axis_frf_agrees_with_the_analytic_response():
+    from feedtune.sim.gantry_experiments import measure_axis_frf
+
+    twin = GantryTwin()
+    res = measure_axis_frf(twin, 0.1, seed=1)
+    frf = res.frf
+    assert list(frf.channels) == ["x/ux"] and frf.output_unit == "m" and frf.input_unit == "V"
+    assert set(res.log.signals) >= {"rx", "ux", "x", "u1", "u2"} and res.summary["delay_removed"]
+    f = frf.freq_hz
+    err = np.abs(frf.response[0, 0] / twin.axis_frequency_response(f, sampled=False) - 1)
+    band = (f >= 50.0) & (f <= 500.0)  # the loop-shaping band; measured 0.8 % to 200 Hz, 2.6 % to 500 Hz
+    assert np.max(err[band]) < 0.05
+
+
+def test_new_parameters_override_and_validate():
+    p = GantryTwinParams().with_overrides({"x_mode186.gain": "0.02", "mode940": "none", "x_amp_hz": "none",
+                                           "amp_hz": "1500", "x_mode404.shape": "1,-1"})
+    assert p.x_mode186.gain == 0.02 and p.mode940 is None and p.x_amp_hz is None and p.amp_hz == 1500.0
+    assert p.x_mode404.shape == (1.0, -1.0)
+    A, B = continuous_system(p, 0.0)
+    assert not A[12:14].any() and B[15, 0] > 0 and not B[27].any()  # 940 Hz mode off, y amplifier on, x off
+    with pytest.raises(UsageError, match="amp_hz = 8000 Hz is above the Nyquist"):
+        GantryTwinParams().with_overrides({"amp_hz": 8000})
+    with pytest.raises(UsageError, match=r"x_mode332\.freq_hz"):
+        GantryTwinParams().with_overrides({"x_mode332.freq_hz": 9000})
 
 
 def test_frf_estimate_is_exact_without_noise():

@@ -1,4 +1,4 @@
-"""``feedtune simulate gantry frf|mass|ropesnap|track|contour``: experiments on the gantry digital twin.
+"""``feedtune simulate gantry frf|axis-frf|mass|ropesnap|track|contour``: experiments on the gantry digital twin.
 
 Registered in :mod:`feedtune.cli.main` as the ``gantry`` group of ``feedtune simulate``. Every command
 writes CSV logs (and FRFs) all-or-nothing, never replaces a file without ``--force``, and exits with status
@@ -165,6 +165,48 @@ def frf(
         lines.append(f"FRF at x = {xi:g} m ({fmt(s['rms_V'], 'V')} RMS per input, {s['band_hz'][0]:g}-"
                      f"{s['band_hz'][1]:g} Hz): {s['n_lines']} lines, lowest coherence {fmt(s['coherence_min'])}")
     _finish(results, texts, force, as_json, lines)
+
+
+@app.command("axis-frf")
+def axis_frf(
+    out: Path = OUT_OPTION,
+    x: float = X_OPTION,
+    frf_out: Path = typer.Option(None, "--frf-out", help="FRF file (.csv; default: the log name + _frf.csv)."),
+    rms: float = typer.Option(0.5, "--rms", help="RMS of the multisine added to ux [V]."),
+    f_lo: float = typer.Option(2.0, "--f-lo", help="Lowest excited frequency [Hz]."),
+    f_hi: float = typer.Option(1000.0, "--f-hi", help="Highest excited frequency [Hz]."),
+    period: float = typer.Option(0.5, "--period", help="Multisine period [s] (line spacing 1/period)."),
+    periods: int = typer.Option(4, "--periods", help="Periods; the first is dropped."),
+    keep_delay: bool = typer.Option(False, "--keep-delay", help="Keep the computational delay and the ZOH half "
+                                                                "sample in the FRF (default: removed)."),
+    gains: Path = OPT_GAINS_OPTION,
+    axis_gains: Path = AXIS_GAINS_OPTION,
+    param: list[str] = PARAM_OPTION,
+    ideal: bool = IDEAL_OPTION,
+    seed: int = SEED_OPTION,
+    engine: str = ENGINE_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Measure the x-axis FRF ux -> x [m/V] (for feedtune design loopshape FRF)."""
+    from ..io.frf_csv import frf_to_csv_text
+    from ..sim.gantry_experiments import measure_axis_frf
+
+    _check_csv(out)
+    if frf_out is not None:
+        _check_csv(frf_out, "--frf-out")
+    twin = _twin(param, ideal)
+    g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    res = measure_axis_frf(twin, x, rms=rms, f_lo=f_lo, f_hi=f_hi, period_s=period, periods=periods, controller=g,
+                           axis=a, remove_delay=not keep_delay, seed=seed, engine=engine)
+    texts = {str(out): _log_text(res)}
+    lines = []
+    if not res.tripped:
+        texts[str(frf_out or out.with_name(out.stem + "_frf.csv"))] = frf_to_csv_text(res.frf)
+        s = res.summary
+        lines.append(f"x-axis FRF at x = {x:g} m ({fmt(s['rms_V'], 'V')} RMS, {s['band_hz'][0]:g}-{s['band_hz'][1]:g} "
+                     f"Hz): {s['n_lines']} lines, lowest coherence {fmt(s['coherence_min'])}")
+    _finish([res], texts, force, as_json, lines)
 
 
 @app.command("mass")

@@ -3,6 +3,7 @@
 * :func:`measure_gantry_frf` -- the 2x2 FRF at one table position: a random-phase multisine on ``u1`` for
   some periods, then the same on ``u2``, under a weak stabilising controller; the FRF ``y_i / u_j`` [m/V]
   is the indirect closed-loop estimate ``G = T_yr T_ur^-1`` per excited line, with coherence.
+* :func:`measure_axis_frf` -- the x-axis FRF ``x / ux`` [m/V] the same way (multisine on ``ux``).
 * :func:`run_mass` / :func:`run_axis_mass` -- slow back-and-forth moves of the gantry at a table position
   (or of the table) logging the commands and the commanded acceleration, for
   :func:`~feedtune.identify.mass.fit_mass_distribution` and :func:`~feedtune.identify.mass.fit_axis_mass`.
@@ -237,7 +238,7 @@ class GantryExperimentResult:
     Attributes
     ----------
     kind : str
-        ``"frf"``, ``"mass"``, ``"axis_mass"``, ``"ropesnap"``, ``"track"`` or ``"contour"``.
+        ``"frf"``, ``"axis_frf"``, ``"mass"``, ``"axis_mass"``, ``"ropesnap"``, ``"track"`` or ``"contour"``.
     log : Log
         The recorded signals (``meta["trip"]`` says why a run stopped early).
     run : GantryRun
@@ -418,6 +419,65 @@ def measure_gantry_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_
     summary["n_lines"] = int(frf.freq_hz.size)
     summary["coherence_min"] = float(np.min(frf.coherence))
     return GantryExperimentResult("frf", log, run, summary, frf=frf)
+
+
+def measure_axis_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_lo: float = 2.0, f_hi: float = 1000.0,
+                     period_s: float = 0.5, periods: int = 4, controller=None, axis=None, remove_delay: bool = True,
+                     seed: int | None = 0, engine: str = "auto") -> GantryExperimentResult:
+    """Measure the x-axis FRF ``ux -> x`` [m/V] with the table held at ``x`` [m] (thesis Fig. 4.3).
+
+    A random-phase multisine of ``rms`` [V] on the lines ``f_lo .. f_hi`` (spacing ``1/period_s``) is added to
+    the x command ``ux`` for ``periods`` periods while ``axis`` (default :class:`AxisHoldingController`) holds
+    the table and ``controller`` (default :class:`HoldingController`) the gantry at ``y = 0``. The plant is the
+    indirect closed-loop estimate ``(r -> x) / (r -> ux)`` of the periodic averages (first period dropped). With
+    ``remove_delay`` (default) the known computational delay and the ZOH are removed, as in
+    :func:`measure_gantry_frf`; the amplifier and the table's modes stay in (they are the plant).
+
+    Returns
+    -------
+    GantryExperimentResult
+        ``kind = "axis_frf"``; ``log``: ``rx, u1, u2, ux`` [V], ``y1, y2, x`` [m]; ``frf``: channel ``x/ux``
+        [m/V] with coherence.
+    """
+    from ..frf_sampling import mark_sampling_kept, remove_sampling
+    from ..identify.frf_estimate import estimate_frf
+    from .experiments import multisine
+
+    x = _position(twin, x)
+    rms = _positive(rms, "excitation rms", "V")
+    f_lo, f_hi, period_s = (_positive(f_lo, "f_lo", "Hz"), _positive(f_hi, "f_hi", "Hz"),
+                            _positive(period_s, "period", "s"))
+    if not f_lo < f_hi < twin.fs / 2:
+        raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
+    if isinstance(periods, bool) or int(periods) != periods or periods < 2:
+        raise UsageError(f"periods must be an integer >= 2 (the first is dropped), got {periods!r}")
+    periods = int(periods)
+    gantry, axis = _controllers(twin, controller, axis)
+    one = multisine(twin.fs, period_s, f_lo, f_hi, rms, np.random.default_rng(seed))
+    rx = np.tile(one, periods)
+    n = rx.size
+    exc = np.column_stack([np.zeros(n), np.zeros(n), rx])
+    run = twin.simulate(gantry, axis, np.zeros(n), x_ref=x, excitation=exc, seed=seed, engine=engine).from_zero()
+    m = run.t.size
+    sig, units = _machine_signals(run)
+    log = Log(run.t, {"rx": rx[:m], **sig}, {"rx": "V", **units}, _meta(run, "axis_frf", gantry, axis, x_m=x))
+    summary = {"x_m": x, "rms_V": rms, "band_hz": [f_lo, f_hi], "period_s": one.size / twin.fs, "periods": periods,
+               "ux_peak_V": float(np.max(np.abs(run.ux)))}
+    if run.tripped:
+        return GantryExperimentResult("axis_frf", log, run, summary)
+    half_line = 0.5 / period_s  # the band edges are lines: keep them despite rounding
+    kw = {"input": "rx", "method": "periodic", "period_samples": int(one.size), "transient_periods": 1,
+          "freq_range": (max(0.0, f_lo - half_line), f_hi + half_line)}
+    tx = estimate_frf(log, outputs=["x"], **kw)
+    tu = estimate_frf(log, outputs=["ux"], **kw)
+    frf = replace(tx, response=tx.response / tu.response, inputs=("ux",), input_unit="V",
+                  meta={**tx.meta, "source": f"gantry twin x-axis FRF at x = {x:g} m", "x_m": f"{x:g}",
+                        "estimator": "indirect closed-loop (r -> x) / (r -> ux) (periodic)"})
+    frf = remove_sampling(frf, twin.fs, twin.params.delay_samples) if remove_delay else mark_sampling_kept(frf, twin.fs)
+    summary["delay_removed"] = bool(remove_delay)
+    summary["n_lines"] = int(frf.freq_hz.size)
+    summary["coherence_min"] = float(np.min(frf.coherence))
+    return GantryExperimentResult("axis_frf", log, run, summary, frf=frf)
 
 
 # ------------------------------------------------------------------------------------------ mass runs

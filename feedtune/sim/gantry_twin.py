@@ -7,9 +7,12 @@ control-signal equivalents) plus
 * the **x-axis table** (mass ``m_x``, its own linear motor, position ``x`` along the beam): ``x`` sets
   ``alpha(x)`` and ``J(x)`` of the gantry; the reaction of the x motor force ``f_x`` turns the gantry by the
   torque ``-x_reaction_arm_m * f_x`` [V m] (its line of action is offset from the gantry's guideway);
-* two lightly damped **structural modes** in the motor-to-encoder paths (320 Hz, unattributed in the thesis,
-  and the 382 Hz bending of the beam about z, both ends in phase): modal coordinates ``eta`` driven by the
-  generalised forces, read by the encoders with their mode shapes;
+* lightly damped **structural modes** in the motor-to-encoder paths (320 Hz, unattributed in the thesis,
+  the 382 Hz bending of the beam about z, both ends in phase, and a mode at 940 Hz that the thesis' filter
+  pack notches): modal coordinates ``eta`` driven by the generalised forces, read by the encoders with their
+  mode shapes; the **x axis** has its own modes (186, 332, 404 Hz, where the thesis' x notches are);
+* **amplifiers**: a 2nd-order low-pass from command to force per motor (``amp_hz`` for the y motors, off by
+  default; ``x_amp_hz`` for the x motor, calibrated to the lead the thesis needed at 130 Hz, eq. 4.17);
 * the **216 Hz pitching mode** of the gantry, excited only by forces on the table (rope, cutting force), not
   by the motors (they act at the CoM height, §4.3.3): it deflects the table relative to the beam (static
   compliance 1/32.5 N/um, §4.5) and the encoders see a fraction of it;
@@ -25,22 +28,25 @@ table force, the generalised forces on ``(y1, y2)`` are ``g = f + tau/L [-1, 1] 
 lever weights ``w(x) = [1 - p/L, p/L]`` of the table at ``p = table_offset + x`` from the left actuator, and
 (eq. 4.3)::
 
+    f_i'' + 2 zeta_a w_a f_i' + w_a^2 f_i = w_a^2 c_i          (amplifiers; f_i = c_i without them)
     M(x) (y'' + [1, 1] yb'') + C y' + K y = g
     m_b yb'' + c_b yb' + k_b yb = -(f1 + f2) + F_floor
     eta_r'' + 2 zeta_r w_r eta_r' + w_r^2 eta_r = (gain_r / m) phi_r . g
     q'' + 2 zeta_p w_p q' + w_p^2 q = w_p^2 C_t F_t
-    m_x x'' = f_x
+    m_x x'' = fx,   xi_j'' + 2 zeta_j w_j xi_j' + w_j^2 xi_j = (gain_j / m_x) phi_motor,j fx
 
-Encoders read ``y_i + sum_r phi_ri eta_r + frac w_i(x) q`` (plus noise, quantized); the interferometer on the
-table reads ``w(x) . y + q``.
+with ``c_i`` the commands (after the computational delay, plus PWM noise) and ``tau = -x_reaction_arm_m fx``.
+Encoders read ``y_i + sum_r phi_ri eta_r + frac w_i(x) q`` and ``x + sum_j phi_encoder,j xi_j`` (plus noise,
+quantized); the interferometer on the table reads ``w(x) . y + q``.
 
-Integration: the 12 linear states are discretized exactly for inputs held over a sample (``expm`` of the
-augmented matrix) at every point of a grid in ``x`` (``x_min_m .. x_max_m`` in steps of ``x_grid_m``, 5 mm by
-default: 201 points over +-0.5 m), and the step uses the matrices linearly interpolated at the table's
-current position (``x`` changes slowly against the sample rate; the terms proportional to ``x'`` that a
-moving mass adds are neglected). The x axis is integrated exactly. One compiled function (numba when
-installed, the same code in plain Python otherwise) advances the plant by one sample, so the closed loop
-costs one Python call of each controller's ``step`` plus about a microsecond per sample.
+Integration: the 28 linear states (:data:`STATE_NAMES`, the x axis included) are discretized exactly for inputs
+held over a sample (``expm`` of the augmented matrix) at every point of a grid in ``x`` (``x_min_m .. x_max_m``
+in steps of ``x_grid_m``, 5 mm by default: 201 points over +-0.5 m), and the step uses the matrices linearly
+interpolated at the table's current position (``x`` changes slowly against the sample rate; the terms
+proportional to ``x'`` that a moving mass adds are neglected; the x-axis rows do not depend on ``x``). One
+compiled function (numba when installed, the same code in plain Python otherwise) advances the plant by one
+sample, so the closed loop costs one Python call of each controller's ``step`` plus a few microseconds per
+sample.
 
 Every value is a field of :class:`GantryTwinParams` (``with_overrides`` takes ``name=value`` strings); the
 seed makes noise repeatable; a following-error envelope, an I2t overload limit and the table's travel stop
@@ -60,14 +66,24 @@ from ..models.gantry import THESIS_GANTRY, GantryModel
 from .twin import numba_available, parse_override_value, zoh
 
 ENGINES = ("auto", "numba", "python")
-N_STATES = 12
-N_INPUTS = 5
-STATE_NAMES = ("y1", "y2", "v1", "v2", "yb", "vb", "eta320", "eta320_dot", "eta382", "eta382_dot", "q", "q_dot")
-INPUT_NAMES = ("f1", "f2", "tau_x", "F_table", "F_floor")
+STATE_NAMES = ("y1", "y2", "v1", "v2", "yb", "vb", "eta320", "eta320_dot", "eta382", "eta382_dot", "q", "q_dot",
+               "eta940", "eta940_dot", "f1", "f1_dot", "f2", "f2_dot",
+               "x", "vx", "xi186", "xi186_dot", "xi332", "xi332_dot", "xi404", "xi404_dot", "fx", "fx_dot")
+INPUT_NAMES = ("u1", "u2", "ux", "F_table", "F_floor")
+N_STATES = len(STATE_NAMES)
+N_INPUTS = len(INPUT_NAMES)
+# first state of each block (see STATE_NAMES)
+I_MODE = {"mode320": 6, "bending": 8, "mode940": 12}
+I_AMP = (14, 16, 26)  # amplifier of u1, u2, ux: force and its rate
+I_X = 18
+I_XMODE = {"x_mode186": 20, "x_mode332": 22, "x_mode404": 24}
+Y_MODES = tuple(I_MODE)
+X_MODES = tuple(I_XMODE)
+MODE_FIELDS = Y_MODES + X_MODES
 # record columns of the kernel
 REC = ("y1", "y2", "x", "u1", "u2", "ux", "y1_true", "y2_true", "x_true", "y_table", "y_base")
 N_REC = len(REC)
-N_NOISE = 6  # encoder y1, y2, x; force noise f1, f2, fx
+N_NOISE = 6  # encoder y1, y2, x; command (PWM) noise u1, u2, ux
 N_EXT = 5  # table force, floor force, excitation on u1, u2, ux
 TRAVEL_TOL_M = 1e-3
 
@@ -147,8 +163,19 @@ class GantryTwinParams:
         Travel of the table [m]; also the range of the discretization grid. Leaving it stops the run.
     x_grid_m : float
         Spacing of the grid in ``x`` on which the discrete matrices are precomputed [m].
-    mode320, bending : StructuralMode or None
-        The 320 Hz mode (shape assumed ``(1, -0.6)``) and the 382 Hz beam bending (ends in phase, ``(1, 1)``).
+    mode320, bending, mode940 : StructuralMode or None
+        y modes in the motor-to-encoder paths: the 320 Hz mode (shape assumed ``(1, -0.6)``), the 382 Hz beam
+        bending (ends in phase, ``(1, 1)``) and the mode near 940 Hz that the thesis' filter pack notches
+        (shape assumed). ``shape`` is (left, right).
+    x_mode186, x_mode332, x_mode404 : StructuralMode or None
+        x-axis modes at the frequencies the thesis' x notches address (§4.4.1); ``gain`` is ``m_x`` over the
+        modal mass and ``shape`` is (at the x motor, at the x encoder): a negative product is a mode the
+        encoder sees in antiphase to the motor (non-collocated).
+    amp_hz, amp_zeta : float or None, float
+        Current loops of the two y amplifiers: a 2nd-order low-pass from command to force, natural frequency
+        [Hz] and damping ratio [-]; None: ideal amplifiers.
+    x_amp_hz, x_amp_zeta : float or None, float
+        The same for the x motor's amplifier [Hz, -].
     pitch_hz : float or None
         Pitching mode [Hz], excited only by table forces; None: none.
     pitch_zeta : float
@@ -195,6 +222,14 @@ class GantryTwinParams:
     x_grid_m: float = 0.005
     mode320: StructuralMode | None = StructuralMode(320.0, 0.02, 0.05, (1.0, -0.6))
     bending: StructuralMode | None = StructuralMode(382.0, 0.015, 0.05, (1.0, 1.0))
+    mode940: StructuralMode | None = StructuralMode(940.0, 0.02, 0.05, (1.0, 1.0))
+    x_mode186: StructuralMode | None = StructuralMode(186.0, 0.1, 0.04, (1.0, 1.0))
+    x_mode332: StructuralMode | None = StructuralMode(332.0, 0.03, 0.2, (1.0, 1.0))
+    x_mode404: StructuralMode | None = StructuralMode(404.0, 0.03, 0.2, (1.0, 1.0))
+    amp_hz: float | None = None
+    amp_zeta: float = 0.7
+    x_amp_hz: float | None = 360.0
+    x_amp_zeta: float = 0.7
     pitch_hz: float | None = 216.0
     pitch_zeta: float = 0.03
     table_compliance_m_per_n: float = 1.0 / 32.5e6
@@ -220,11 +255,12 @@ class GantryTwinParams:
         for name in ("force_constant_n_per_v", "x_grid_m", "fs", "envelope_m", "overload_tau_s",
                      "base_mass_ratio"):
             _positive(getattr(self, name), name, "")
-        for name in ("pitch_hz", "base_hz", "u_max", "overload_rms", "table_offset_m"):
+        for name in ("pitch_hz", "base_hz", "u_max", "overload_rms", "table_offset_m", "amp_hz",
+                     "x_amp_hz"):
             if getattr(self, name) is not None:
                 _positive(getattr(self, name), name, "")
         for name in ("pitch_zeta", "table_compliance_m_per_n", "pitch_encoder_fraction", "base_zeta", "floor_m",
-                     "pwm_noise_v", "quantization_m", "noise_m"):
+                     "pwm_noise_v", "quantization_m", "noise_m", "amp_zeta", "x_amp_zeta"):
             _non_negative(getattr(self, name), name)
         for name in ("x_min_m", "x_max_m", "x_reaction_arm_m"):
             _finite(getattr(self, name), name)
@@ -237,19 +273,27 @@ class GantryTwinParams:
         if isinstance(d, bool) or int(d) != d or d < 0:
             raise UsageError(f"twin parameter delay_samples must be an integer >= 0, got {d!r}")
         object.__setattr__(self, "delay_samples", int(d))
-        for name in ("mode320", "bending"):
+        for name in MODE_FIELDS:
             mode = getattr(self, name)
+            if mode is not None and not isinstance(mode, StructuralMode):
+                raise UsageError(f"twin parameter {name} must be a StructuralMode or None")
             if mode is not None and mode.freq_hz >= self.fs / 2:
                 raise UsageError(f"twin parameter {name}.freq_hz = {mode.freq_hz:g} Hz is above the Nyquist "
                                  f"frequency {self.fs / 2:g} Hz")
+        for name in ("amp_hz", "x_amp_hz"):
+            v = getattr(self, name)
+            if v is not None and v >= self.fs / 2:
+                raise UsageError(f"twin parameter {name} = {v:g} Hz is above the Nyquist frequency {self.fs / 2:g} Hz")
         for x in (self.x_min_m, self.x_max_m):
             self.model.alpha(x)  # UsageError when the travel puts the CoM outside the span
 
     @classmethod
     def ideal(cls, model: GantryModel = THESIS_GANTRY, fs: float = 15000.0, delay_samples: int = 1
               ) -> GantryTwinParams:
-        """Eq. 4.16 alone: no structural, pitching or base modes, no noise, quantization or saturation."""
-        return cls(model=model, mode320=None, bending=None, pitch_hz=None, base_hz=None, floor_m=0.0,
+        """Eq. 4.16 alone: no structural, pitching or base modes, ideal amplifiers, no noise, quantization or
+        saturation; the x axis a pure mass."""
+        return cls(model=model, mode320=None, bending=None, mode940=None, x_mode186=None, x_mode332=None,
+                   x_mode404=None, amp_hz=None, x_amp_hz=None, pitch_hz=None, base_hz=None, floor_m=0.0,
                    x_reaction_arm_m=0.0, pwm_noise_v=0.0, quantization_m=0.0, noise_m=0.0, u_max=None, fs=fs,
                    delay_samples=delay_samples, overload_rms=None)
 
@@ -272,8 +316,9 @@ class GantryTwinParams:
         """A copy with parameters replaced from ``{"name": value}`` (values may be strings).
 
         Names: the fields of this class; the model parameters ``m L J0 d m_x c k alpha1_0 dalpha1_dx``;
-        ``mode320`` / ``bending`` = ``none``, or ``mode320.freq_hz``, ``.zeta``, ``.gain``, ``.shape``
-        (``shape=1,-0.6``); ``pitch_hz``, ``base_hz``, ``u_max``, ``overload_rms`` = ``none`` switch those off.
+        a mode (``mode320``, ``bending``, ``mode940``, ``x_mode186``, ``x_mode332``, ``x_mode404``) = ``none``,
+        or ``mode320.freq_hz``, ``.zeta``, ``.gain``, ``.shape`` (``shape=1,-0.6``); ``pitch_hz``, ``base_hz``,
+        ``amp_hz``, ``x_amp_hz``, ``u_max``, ``overload_rms`` = ``none`` switch those off.
         """
         p = self
         for key, raw in overrides.items():
@@ -291,7 +336,8 @@ class GantryTwinParams:
         out["table_offset_m"] = self.table_offset
         out["units"] = {
             "model": "V, m, s (eq. 4.16 units)", "force_constant_n_per_v": "N/V", "table_offset_m": "m",
-            "x_min_m": "m", "x_max_m": "m", "x_grid_m": "m", "mode320": "Hz, -, -, -", "bending": "Hz, -, -, -",
+            "x_min_m": "m", "x_max_m": "m", "x_grid_m": "m", **dict.fromkeys(MODE_FIELDS, "Hz, -, -, -"),
+            "amp_hz": "Hz", "amp_zeta": "-", "x_amp_hz": "Hz", "x_amp_zeta": "-",
             "pitch_hz": "Hz", "pitch_zeta": "-", "table_compliance_m_per_n": "m/N", "pitch_encoder_fraction": "-",
             "base_hz": "Hz", "base_zeta": "-", "base_mass_ratio": "-", "floor_m": "m (RMS)",
             "x_reaction_arm_m": "m", "pwm_noise_v": "V (RMS)", "quantization_m": "m", "noise_m": "m (RMS)",
@@ -333,7 +379,7 @@ def _override(p: GantryTwinParams, key: str, raw) -> GantryTwinParams:
             return replace(p, model=replace(p.model, **{key: float(value)}))
         except DataError as exc:
             raise UsageError(f"twin parameter {key}: {exc}") from None
-    if key.split(".")[0] in ("mode320", "bending"):
+    if key.split(".")[0] in MODE_FIELDS:
         return _override_mode(p, key, raw)
     if key not in names:
         known = sorted(names | set(MODEL_PARAMS) | {"mode320.{freq_hz,zeta,gain,shape}", "bending.{...}"})
@@ -352,61 +398,115 @@ def table_weights(p: GantryTwinParams, x):
 
 
 def continuous_system(p: GantryTwinParams, x: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(A, B)`` of the 12 linear states (:data:`STATE_NAMES`) at table position ``x`` [m].
+    """``(A, B)`` of the linear states (:data:`STATE_NAMES`) at table position ``x`` [m].
 
-    Inputs (:data:`INPUT_NAMES`): motor forces ``f1, f2`` [V], x-reaction torque ``tau_x`` [V m], table
-    force ``F_table`` [V] (positive +y), floor force on the base ``F_floor`` [V].
+    Inputs (:data:`INPUT_NAMES`): the commands ``u1, u2, ux`` [V] as they reach the amplifiers (PWM noise
+    included), the table force ``F_table`` [V] (positive +y) and the floor force on the base ``F_floor`` [V].
+    With ``amp_hz`` (``x_amp_hz``) the motor forces are the states ``f1, f2`` (``fx``), a 2nd-order low-pass of
+    the commands, otherwise the commands themselves. The x motor's reaction turns the gantry by
+    ``-x_reaction_arm_m fx``.
     """
     model = p.model
     at = model.at(x)
     L = model.L
     w1, w2 = table_weights(p, x)
-    Bg = np.array([[1.0, 0.0, -1.0 / L, w1, 0.0], [0.0, 1.0, 1.0 / L, w2, 0.0]])
     A = np.zeros((N_STATES, N_STATES))
     B = np.zeros((N_STATES, N_INPUTS))
+    # motor forces f1, f2, fx as rows on the states (amplifier outputs) or on the inputs (ideal amplifiers)
+    force_s = np.zeros((3, N_STATES))
+    force_i = np.zeros((3, N_INPUTS))
+    for j, i in enumerate(I_AMP):
+        hz, zeta = (p.amp_hz, p.amp_zeta) if j < 2 else (p.x_amp_hz, p.x_amp_zeta)
+        if hz is None:
+            force_i[j, j] = 1.0
+            continue
+        wa = 2 * np.pi * hz
+        force_s[j, i] = 1.0
+        A[i, i + 1] = 1.0
+        A[i + 1, i] = -(wa**2)
+        A[i + 1, i + 1] = -2 * zeta * wa
+        B[i + 1, j] = wa**2
+    # generalised forces on (y1, y2): g = Gs z + Gi u = f + tau/L [-1, 1] + F_t w(x), tau = -arm fx
+    tau_dir = -p.x_reaction_arm_m / L * np.array([-1.0, 1.0])
+    Gs = force_s[:2] + np.outer(tau_dir, force_s[2])
+    Gi = force_i[:2] + np.outer(tau_dir, force_i[2])
+    Gi[:, 3] = (w1, w2)
     if p.base_hz is not None:
         mb = p.base_mass_ratio * model.m
         wb = 2 * np.pi * p.base_hz
         A[4, 5] = 1.0
         A[5, 4] = -(wb**2)
         A[5, 5] = -2 * p.base_zeta * wb
-        B[5, [0, 1]] = -1.0 / mb
-        B[5, 4] = 1.0 / mb
+        A[5] -= (force_s[0] + force_s[1]) / mb  # reaction of the y motors
+        B[5] -= (force_i[0] + force_i[1]) / mb
+        B[5, 4] += 1.0 / mb
     Minv = np.linalg.inv(at.M)
     A[0, 2] = A[1, 3] = 1.0
     A[2:4, 0:2] = -Minv @ at.K
     A[2:4, 2:4] = -Minv @ at.C
-    B[2:4] = Minv @ Bg
+    A[2:4] += Minv @ Gs
+    B[2:4] += Minv @ Gi
     A[2:4] -= A[5]  # relative coordinates: minus the base acceleration
     B[2:4] -= B[5]
-    for j, mode in ((6, p.mode320), (8, p.bending)):
+    for name, j in I_MODE.items():
+        mode = getattr(p, name)
         if mode is None:
             continue
-        w = 2 * np.pi * mode.freq_hz
-        A[j, j + 1] = 1.0
-        A[j + 1, j] = -(w**2)
-        A[j + 1, j + 1] = -2 * mode.zeta * w
-        B[j + 1] = mode.gain / model.m * (np.asarray(mode.shape) @ Bg)
+        _modal_rows(A, j, mode)
+        phi = np.asarray(mode.shape)
+        A[j + 1] += mode.gain / model.m * (phi @ Gs)
+        B[j + 1] += mode.gain / model.m * (phi @ Gi)
     if p.pitch_hz is not None:
         wp = 2 * np.pi * p.pitch_hz
         A[10, 11] = 1.0
         A[11, 10] = -(wp**2)
         A[11, 11] = -2 * p.pitch_zeta * wp
         B[11, 3] = wp**2 * p.table_compliance_m_per_n * p.force_constant_n_per_v
+    # x axis: the table m_x x'' = fx and its modes, driven by the x motor
+    A[I_X, I_X + 1] = 1.0
+    A[I_X + 1] += force_s[2] / model.m_x
+    B[I_X + 1] += force_i[2] / model.m_x
+    for name, j in I_XMODE.items():
+        mode = getattr(p, name)
+        if mode is None:
+            continue
+        _modal_rows(A, j, mode)
+        A[j + 1] += mode.gain / model.m_x * mode.shape[0] * force_s[2]
+        B[j + 1] += mode.gain / model.m_x * mode.shape[0] * force_i[2]
     return A, B
 
 
+def _modal_rows(A: np.ndarray, j: int, mode: StructuralMode) -> None:
+    """``eta'' + 2 zeta w eta' + w^2 eta`` in rows ``j, j + 1``."""
+    w = 2 * np.pi * mode.freq_hz
+    A[j, j + 1] = 1.0
+    A[j + 1, j] = -(w**2)
+    A[j + 1, j + 1] = -2 * mode.zeta * w
+
+
 def encoder_matrix(p: GantryTwinParams, x: float) -> np.ndarray:
-    """Rows ``y1``, ``y2`` of the encoder readings (without noise and quantization) on the 12 states."""
+    """Rows ``y1``, ``y2`` of the encoder readings (without noise and quantization) on the states."""
     C = np.zeros((2, N_STATES))
     C[0, 0] = C[1, 1] = 1.0
     w = table_weights(p, x)
     for i in range(2):
-        for j, mode in ((6, p.mode320), (8, p.bending)):
+        for name, j in I_MODE.items():
+            mode = getattr(p, name)
             if mode is not None:
                 C[i, j] = mode.shape[i]
         C[i, 10] = p.pitch_encoder_fraction * w[i]
     return C
+
+
+def axis_encoder_row(p: GantryTwinParams) -> np.ndarray:
+    """The x encoder reading (without noise and quantization) on the states: table plus its modes."""
+    c = np.zeros(N_STATES)
+    c[I_X] = 1.0
+    for name, j in I_XMODE.items():
+        mode = getattr(p, name)
+        if mode is not None:
+            c[j] = mode.shape[1]
+    return c
 
 
 def floor_force_rms(p: GantryTwinParams) -> float:
@@ -425,24 +525,30 @@ def floor_force_rms(p: GantryTwinParams) -> float:
 
 # ------------------------------------------------------------------------------------------ the kernel
 # indices into the parameter vector of the kernel
-(P_XMIN, P_DX, P_NGRID, P_L, P_OFFSET, P_FRAC, P_PA1, P_PA2, P_PB1, P_PB2, P_Q, P_UMAX, P_ENV, P_I2T_A,
- P_I2T_LIM, P_DELAY, P_MX, P_H, P_ARM, P_ORIGIN, P_XLO, P_XHI) = range(22)
-N_PAR = 22
+(P_XMIN, P_DX, P_NGRID, P_L, P_OFFSET, P_FRAC, P_PA1, P_PA2, P_PB1, P_PB2, P_PC1, P_PC2, P_XE1, P_XE2, P_XE3, P_Q,
+ P_UMAX, P_ENV, P_I2T_A, P_I2T_LIM, P_DELAY, P_ORIGIN, P_XLO, P_XHI) = range(24)
+N_PAR = 24
+_IX = I_X
+_IM1, _IM2, _IM3 = I_MODE["mode320"], I_MODE["bending"], I_MODE["mode940"]
+_IX1, _IX2, _IX3 = I_XMODE["x_mode186"], I_XMODE["x_mode332"], I_XMODE["x_mode404"]
+_NS = N_STATES
+_NI = N_INPUTS
 
 
-def _measure(k, z, zx, par, noise, rec):
+def _measure(k, z, par, noise, rec):
     """Encoder readings at sample ``k`` from the state (noise added, quantized); recorded in ``rec``."""
-    x = zx[0]
+    x = z[_IX]
     s = (par[P_OFFSET] + x) / par[P_L]
     w1 = 1.0 - s
     q = z[10]
     frac = par[P_FRAC]
-    y1t = z[0] + par[P_PA1] * z[6] + par[P_PB1] * z[8] + frac * w1 * q
-    y2t = z[1] + par[P_PA2] * z[6] + par[P_PB2] * z[8] + frac * s * q
+    y1t = z[0] + par[P_PA1] * z[_IM1] + par[P_PB1] * z[_IM2] + par[P_PC1] * z[_IM3] + frac * w1 * q
+    y2t = z[1] + par[P_PA2] * z[_IM1] + par[P_PB2] * z[_IM2] + par[P_PC2] * z[_IM3] + frac * s * q
+    xt = x + par[P_XE1] * z[_IX1] + par[P_XE2] * z[_IX2] + par[P_XE3] * z[_IX3]
     origin = par[P_ORIGIN]
     y1 = origin + y1t + noise[k * 6]
     y2 = origin + y2t + noise[k * 6 + 1]
-    xm = x + noise[k * 6 + 2]
+    xm = xt + noise[k * 6 + 2]
     res = par[P_Q]
     if res > 0.0:
         y1 = math.floor(y1 / res + 0.5) * res
@@ -460,7 +566,7 @@ def _measure(k, z, zx, par, noise, rec):
     return y1, y2, xm
 
 
-def _step(k, u1, u2, ux, z, zx, znew, buf, work, tabA, tabB, par, noise, ext, ref, rec):
+def _step(k, u1, u2, ux, z, znew, buf, work, tabA, tabB, par, noise, ext, ref, rec):
     """Apply the commands computed at sample ``k`` and advance the plant to sample ``k + 1``.
 
     Returns a status: 0 running, 1 following-error envelope, 2 I2t overload, 3 non-finite command, 4 the
@@ -501,7 +607,7 @@ def _step(k, u1, u2, ux, z, zx, znew, buf, work, tabA, tabB, par, noise, ext, re
     lim = par[P_I2T_LIM]
     if work[0] > lim or work[1] > lim or work[2] > lim:
         return 2
-    x = zx[0]
+    x = z[_IX]
     if x < par[P_XLO] or x > par[P_XHI]:
         return 4
     f1 = 0.0
@@ -512,12 +618,9 @@ def _step(k, u1, u2, ux, z, zx, znew, buf, work, tabA, tabB, par, noise, ext, re
         f1 = buf[j]
         f2 = buf[j + 1]
         fx = buf[j + 2]
-    f1 += noise[k * 6 + 3]
-    f2 += noise[k * 6 + 4]
-    fx += noise[k * 6 + 5]
-    work[3] = f1
-    work[4] = f2
-    work[5] = -par[P_ARM] * fx
+    work[3] = f1 + noise[k * 6 + 3]
+    work[4] = f2 + noise[k * 6 + 4]
+    work[5] = fx + noise[k * 6 + 5]
     work[6] = ext[o]
     work[7] = ext[o + 1]
     # linear interpolation of the discrete matrices at the table position
@@ -527,8 +630,8 @@ def _step(k, u1, u2, ux, z, zx, znew, buf, work, tabA, tabB, par, noise, ext, re
     if i > ng - 2:
         i = ng - 2
     w = min(max(sx - i, 0.0), 1.0)
-    n = 12
-    ni = 5
+    n = _NS
+    ni = _NI
     oa0 = i * n * n
     oa1 = oa0 + n * n
     ob0 = i * n * ni
@@ -549,10 +652,6 @@ def _step(k, u1, u2, ux, z, zx, znew, buf, work, tabA, tabB, par, noise, ext, re
         znew[row] = s0 + w * (s1 - s0)
     for row in range(n):
         z[row] = znew[row]
-    h = par[P_H]
-    acc = fx / par[P_MX]
-    zx[0] += h * zx[1] + 0.5 * h * h * acc
-    zx[1] += h * acc
     return 0
 
 
@@ -750,6 +849,45 @@ class GantryTwin:
                    meta={"source": f"gantry twin analytic FRF at x = {x:g} m" + (" (sampled)" if sampled else ""),
                          "x_m": f"{x:g}"})
 
+    def axis_frequency_response(self, freq_hz, *, sampled: bool = True) -> np.ndarray:
+        """The twin's own x-axis response ``ux -> x`` (encoder) [m/V]; the table position does not matter.
+
+        Parameters
+        ----------
+        freq_hz : array_like
+            Grid [Hz].
+        sampled : bool
+            True: exact ZOH discretization times ``z^-delay`` (what a measurement from the logged command sees);
+            False: the continuous plant.
+
+        Returns
+        -------
+        ndarray of complex, shape (n_freq,)
+        """
+        f = np.asarray(freq_hz, float).reshape(-1)
+        c = axis_encoder_row(self.params)
+        if sampled:
+            Ad, Bd = self.discrete_system(0.0)
+            zz = np.exp(2j * np.pi * f / self.fs)
+            X = np.linalg.solve(zz[:, None, None] * np.eye(N_STATES) - Ad[None],
+                                np.broadcast_to(Bd[:, 2:3], (f.size, N_STATES, 1)))[..., 0]
+            X = X * zz[:, None] ** (-self.params.delay_samples)
+        else:
+            A, B = continuous_system(self.params, 0.0)
+            s = 2j * np.pi * f
+            X = np.linalg.solve(s[:, None, None] * np.eye(N_STATES) - A[None],
+                                np.broadcast_to(B[:, 2:3], (f.size, N_STATES, 1)))[..., 0]
+        return X @ c
+
+    def axis_frf(self, freq_hz, *, sampled: bool = True):
+        """:meth:`axis_frequency_response` as an :class:`~feedtune.frf.Frf` (``x`` [m] over ``ux`` [V])."""
+        from ..frf import Frf
+
+        f = np.asarray(freq_hz, float)
+        h = self.axis_frequency_response(f, sampled=sampled)
+        return Frf(f, h.reshape(1, 1, -1), ("x",), ("ux",), "position", input_unit="V", output_unit="m",
+                   meta={"source": "gantry twin analytic x-axis FRF" + (" (sampled)" if sampled else "")})
+
     # ------------------------------------------------------------------ simulation
     def simulate(self, gantry, axis, y_ref, *, x_ref=0.0, table_force=None, excitation=None, seed: int | None = 0,
                  engine: str = "auto", n_samples: int | None = None) -> GantryRun:
@@ -852,18 +990,18 @@ class GantryTwin:
         par[P_L] = p.model.L
         par[P_OFFSET] = p.table_offset
         par[P_FRAC] = p.pitch_encoder_fraction if p.pitch_hz is not None else 0.0
-        for idx, mode in (((P_PA1, P_PA2), p.mode320), ((P_PB1, P_PB2), p.bending)):
+        for idx, mode in (((P_PA1, P_PA2), p.mode320), ((P_PB1, P_PB2), p.bending), ((P_PC1, P_PC2), p.mode940)):
             if mode is not None:
                 par[idx[0]], par[idx[1]] = mode.shape
+        for idx, mode in ((P_XE1, p.x_mode186), (P_XE2, p.x_mode332), (P_XE3, p.x_mode404)):
+            if mode is not None:
+                par[idx] = mode.shape[1]
         par[P_Q] = p.quantization_m
         par[P_UMAX] = np.inf if p.u_max is None else p.u_max
         par[P_ENV] = p.envelope_m
         par[P_I2T_A] = 1.0 - math.exp(-1.0 / (p.fs * p.overload_tau_s))
         par[P_I2T_LIM] = np.inf if p.overload_rms is None else p.overload_rms**2
         par[P_DELAY] = p.delay_samples
-        par[P_MX] = p.model.m_x
-        par[P_H] = 1.0 / p.fs
-        par[P_ARM] = p.x_reaction_arm_m
         par[P_ORIGIN] = y_origin
         par[P_XLO] = p.x_min_m - TRAVEL_TOL_M
         par[P_XHI] = p.x_max_m + TRAVEL_TOL_M
@@ -873,13 +1011,15 @@ class GantryTwin:
         """The per-sample loop: controllers in Python, plant in the kernel. Returns (k_done, status, rec)."""
         measure, step = _kernels(engine)
         tb = self.tables()
-        arrays = [np.zeros(N_STATES), np.array([x0, 0.0]), np.zeros(N_STATES),
-                  np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(8), tb.Ad.ravel(), tb.Bd.ravel(),
-                  self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(), np.zeros(total * N_REC)]
+        z0 = np.zeros(N_STATES)
+        z0[I_X] = x0  # at rest, the table at x0
+        arrays = [z0, np.zeros(N_STATES), np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(8), tb.Ad.ravel(),
+                  tb.Bd.ravel(), self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(),
+                  np.zeros(total * N_REC)]
         if _choose_engine(engine) == "python":
             arrays = [a.tolist() for a in arrays]
-        z, zx, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec = arrays
-        y1, y2, x = measure(0, z, zx, par, nz, rec)
+        z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec = arrays
+        y1, y2, x = measure(0, z, par, nz, rec)
         g_step, a_step = gantry.step, axis.step
         yr = (y_full - y0).tolist()  # the controllers' filters start at zero: positions relative to the start
         xr = (x_full - x0).tolist()
@@ -889,12 +1029,11 @@ class GantryTwin:
         for k in range(total):
             u1, u2 = g_step(yr[k + pg], y1 - y0, y2 - y0, x)
             ux = a_step(xr[k + pa], x - x0)
-            status = step(k, float(u1), float(u2), float(ux), z, zx, znew, buf, work, tabA, tabB, par, nz, ex, rf,
-                          rec)
+            status = step(k, float(u1), float(u2), float(ux), z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec)
             if status:
                 break
             if k < last:
-                y1, y2, x = measure(k + 1, z, zx, par, nz, rec)
+                y1, y2, x = measure(k + 1, z, par, nz, rec)
         return k, int(status), np.asarray(rec, float).reshape(total, N_REC)
 
     def _trip_message(self, status: int, t: float, ref_row: np.ndarray, rec_row: np.ndarray) -> str:
@@ -935,5 +1074,5 @@ def _vector(x, name: str, n: int | None = None) -> np.ndarray:
     return a
 
 
-__all__ = ["GantryRun", "GantryTwin", "GantryTwinParams", "StructuralMode", "continuous_system",
+__all__ = ["GantryRun", "GantryTwin", "GantryTwinParams", "StructuralMode", "axis_encoder_row", "continuous_system",
            "encoder_matrix", "floor_force_rms", "table_weights"]
