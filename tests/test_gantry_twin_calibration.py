@@ -351,7 +351,8 @@ def test_mimo_thesis_design_on_the_measured_frf(measured):
                               fs=twin.fs)
     xo, ms, ms_hz, s_below_1 = _mimo_figures(twin, frfs[1], mimo.law, model.alpha(0.0))
     a = analyze_gantry(mimo.law, model, frf=frfs[1]).cases["discrete"].to_dict()
-    assert a["stable"] and a["ms"] == pytest.approx(ms, rel=1e-6)
+    # the analysis also evaluates the FRF between its lines (interpolated): its Ms is at least the lines' maximum
+    assert a["stable"] and ms * (1 - 1e-9) <= a["ms"] <= ms * 1.03
     assert a["crossovers_hz"][0] == pytest.approx(xo, rel=0.01)
     # what the twin gives: the design places the CoM crossover at 60 Hz on the identified model, and the
     # measured plant agrees with it there (measured 60.4 Hz; Ms 1.86 at 88 Hz, near the actively damped yaw mode)

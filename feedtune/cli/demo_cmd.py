@@ -7,6 +7,14 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_MIN_OPTION,
+    LIMITS_OPTION,
+    MS_MAX_OPTION,
+    PM_MIN_OPTION,
+    limits_from_options,
+)
 
 MACHINES = ("ballscrew", "gantry")
 
@@ -17,21 +25,28 @@ def demo(
     seed: int = typer.Option(0, "--seed", help="Seed of the excitation phases and the measurement noise."),
     engine: str = typer.Option("auto", "--engine", help="Simulation engine: auto, numba or python."),
     keep_raw: bool = typer.Option(False, "--keep-raw", help="gantry: also write the FRF and mass runs' raw logs."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
     """The main job on a digital twin, no input files: measure, identify, design, test and compare; end with
     report.html built from the files written.
 
-    ballscrew: FRF, 2-mass model, MC-PPC against P-PI at the same Ms, rope snap, tracking at 200/500/1000 mm/s,
-    slotting, pre-filter (Table 3.2). gantry: 2x2 FRFs and mass runs at three table positions, eq. 4.16 model,
-    x-axis loop shaping, MIMO against independent PIDs, rope snap, tracking at 1 and 200 mm/s, contours.
+    ballscrew: FRF, 2-mass model, MC-PPC against P-PI, both tuned by the same rule under the same limits, rope
+    snap, tracking at 200/500/1000 mm/s, slotting, pre-filter (Table 3.2). gantry: 2x2 FRFs and mass runs at three
+    table positions, eq. 4.16 model, x-axis loop shaping, MIMO against independent PIDs tuned under the same limits,
+    rope snap, tracking at 1 and 200 mm/s, contours.
     """
     from ..errors import UsageError
     from ..sim.demo import check_out_dir, write_texts
 
     if machine not in MACHINES:
         raise UsageError(f"unknown machine {machine!r}: expected one of {', '.join(MACHINES)}")
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_out_dir(out, force)
     if machine == "gantry":
         from ..sim.gantry_demo import run_gantry_demo
@@ -40,9 +55,9 @@ def demo(
     else:
         from ..sim.demo import run_demo
 
-        result = run_demo(seed=seed, engine=engine)
+        result = run_demo(seed=seed, engine=engine, limits=policy)
     written = write_texts(result.texts, force=force, out_dir=out)
-    report_path = write_demo_report(out, force, machine)
+    report_path = write_demo_report(out, force, machine, policy)
     if as_json:
         d = result.to_dict()
         d["machine"] = machine
@@ -60,31 +75,44 @@ def demo(
 
 
 def _print_ballscrew_designs(result) -> None:
+    from ..analysis.limits import Limits
+
     ident = result.identified
     typer.echo(
         "Identified from the measured FRF: "
         + ", ".join(f"{k} = {v:.4g} {ident['units'].get(k, '')}" for k, v in ident["params"].items())
     )
+    lim = result.limits
+    typer.echo("Both controllers tuned under the same limits ("
+               + Limits(lim["ms_max"], lim["pm_min_deg"], lim["gm_min_db"], lim["disk_margin_min"],
+                        lim["profile"]).describe()
+               + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same rule: the highest "
+                 "first crossover; within 2 % of it the highest integral gain Ki2")
     labels = {"mcppc": "MC-PPC", "ppi": "P-PI"}
     for name, d in result.designs.items():
         if name not in labels:
             continue
-        beta = d.get("design", {}).get("beta")
-        prefix = f"beta = {beta:g}, " if beta else ""
+        params = d.get("design") or d.get("ppi_gains") or {}
+        chosen = ", ".join(f"{k} = {v:.4g}" for k, v in params.items())
         crossovers = ", ".join(f"{x:.1f}" for x in d["crossovers_hz"])
-        typer.echo(f"{labels[name]}: {prefix}Ms = {d['ms']:.3g} (discrete case, measured FRF), "
-                   f"crossovers {crossovers} Hz")
+        pm = "-" if d["phase_margin_deg"] is None else f"{d['phase_margin_deg']:.3g} deg"
+        gm = "-" if d["gain_margin_db"] is None else f"{d['gain_margin_db']:.3g} dB"
+        typer.echo(f"{labels[name]} ({chosen}): crossovers {crossovers} Hz, Ms {d['ms']:.3g}, PM {pm}, GM {gm}, "
+                   f"Ki2 {d['gains']['Ki2']:.4g} V/(rad s); limit reached: {d['active_limit']}")
     typer.echo("")
 
 
 REPORT_NAME = "report.html"
 
 
-def write_demo_report(out: Path, force: bool, machine: str = "ballscrew") -> Path:
-    """Build the report from every file in the demo folder and write it there as report.html."""
+def write_demo_report(out: Path, force: bool, machine: str = "ballscrew", limits=None) -> Path:
+    """Build the report from every file in the demo folder (under the demo's limits) and write it there as
+    report.html."""
     from ..report.build import build_report, write_report
+    from ..report.sections import ReportLimits
 
     path = out / REPORT_NAME
-    built = build_report([out], title=f"feedtune demo on the digital twin ({machine})")
+    built = build_report([out], title=f"feedtune demo on the digital twin ({machine})",
+                         limits=ReportLimits() if limits is None else ReportLimits(limits))
     write_report(built, path, force=force)
     return path

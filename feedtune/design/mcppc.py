@@ -40,8 +40,8 @@ class McppcDesign:
     delay_samples : int
         Computational delay [samples].
     tuning : dict
-        How the parameters were chosen (empty: given by the user; :func:`feedtune.tune.mcppc.tune_mcppc` records
-        its rule).
+        How the parameters were chosen (``{"method": "user design"}`` when given; :func:`feedtune.tune.mcppc.
+        tune_mcppc` records its rule); part of :meth:`design_dict`.
     """
 
     model: BallScrewModel
@@ -53,7 +53,7 @@ class McppcDesign:
     filters: FilterPack
     fs: float
     delay_samples: int
-    tuning: dict = field(default_factory=dict)
+    tuning: dict = field(default_factory=lambda: {"method": "user design"})
 
     kind = "mcppc"
 
@@ -76,8 +76,7 @@ class McppcDesign:
 
     def design_dict(self) -> dict:
         """Design parameters with units."""
-        out = {"beta": self.beta, "pole_hz": self.pole_hz, "zeta": self.zeta}
-        return {**out, "tuning": dict(self.tuning)} if self.tuning else out
+        return {"beta": self.beta, "pole_hz": self.pole_hz, "zeta": self.zeta, **self.tuning}
 
 
 def desired_poles(model: BallScrewModel, beta: float, pole_hz: float, zeta: float) -> np.ndarray:

@@ -25,7 +25,7 @@ from .figures import (
     pole_map_figure,
     sensitivity_figure,
 )
-from .sections import Colors, ReportLimits, controller_label, parameter_table, quantity_value
+from .sections import Colors, ReportLimits, controller_label, parameter_table, quantity_value, tuning_table
 
 PREFILTER_SUFFIX = " + pre-filter"
 CASE_TITLES = {
@@ -355,6 +355,8 @@ def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: d
             found = design_warnings(d, limits)
             warnings.extend(found)
             blocks.extend(Alert(w) for w in found)
+        blocks.append(tuning_table([(d.label, next(g.doc for g in inputs.gains if names[g.path] == d.name)
+                                      .get("design")) for d in designs]))
         blocks.append(_margins_table(designs))
         blocks.extend(_poles_table(d) for d in designs)
         leaders = feedback_groups(designs)

@@ -27,7 +27,7 @@ from .figures import (
     sensitivity_figure,
     singular_value_figure,
 )
-from .sections import Colors, ReportLimits, parameter_table, quantity_value
+from .sections import Colors, ReportLimits, parameter_table, quantity_value, tuning_table
 
 GANTRY_CHANNELS = ("y1/u1", "y1/u2", "y2/u1", "y2/u2")
 MACHINE_LABELS = {"mimo": "MIMO", "pid": "PID", "loopshape": "x-axis loop shaping"}
@@ -44,6 +44,7 @@ class MachineDesign:
     analysis: object
     result: dict
     frf: str | None
+    tuning: dict | None = None
 
     @property
     def main_case(self) -> str:
@@ -119,7 +120,7 @@ def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits
         analysis, result = analyze_machine_gains(gi, fi.frf if fi is not None else None, limits)
         label = MACHINE_LABELS.get(result["controller"], result["controller"])
         out.append(MachineDesign(names[gi.path], label, "", gi.kind, analysis, result,
-                                 names[fi.path] if fi is not None else None))
+                                 names[fi.path] if fi is not None else None, gi.doc.get("design")))
     labels = [d.label for d in out]
     from dataclasses import replace
 
@@ -238,6 +239,7 @@ def _subsection(kind: str, designs: list[MachineDesign], store: dict, limits: Re
         found = design_warnings(d, limits)
         warnings.extend(found)
         blocks.extend(Alert(w) for w in found)
+    blocks.append(tuning_table([(d.label, d.tuning) for d in designs]))
     blocks.append(_margins_table(designs, gantry))
     blocks += _gantry_figures(designs, limits) if gantry else _axis_figures(designs, limits)
     title = "Gantry controllers (y axis, two drives)" if gantry else "x-axis controller"

@@ -134,3 +134,23 @@ def parameter_table(title: str, params: Mapping, key: list, *, std: Mapping | No
         rows.append(row)
     columns = ["parameter", "value", "standard deviation", "relative std"] if std else ["parameter", "value"]
     return Table(title, columns, rows, note)
+
+
+def tuning_table(entries: list[tuple[str, Mapping | None]]) -> Table:
+    """How each design was chosen: ``[(label, the gains file's [design] table)]`` -> rule, limits, checked case,
+    the limit that stopped the search and the first crossover it reached (the rule every comparison states)."""
+    rows = []
+    for label, design in entries:
+        design = design if isinstance(design, Mapping) else {}
+        rule = design.get("rule") or design.get("method") or "given in the gains file"
+        limits = design.get("limits") if isinstance(design.get("limits"), Mapping) else {}
+        active = design.get("active_limit")
+        active = active.get("name") if isinstance(active, Mapping) else active
+        first, _ = quantity_value(design.get("first_crossover_hz"))
+        rows.append([text_cell(label), text_cell(str(rule)), text_cell(limits.get("profile", "-")),
+                     text_cell(str(design.get("checked_case", "-"))), text_cell(str(active or "-")),
+                     Cell(first, "Hz")])
+    return Table("How each design was chosen (the tuning rule in the gains file)",
+                 ["controller", "rule", "limits", "checked case", "limit reached", "first crossover"], rows,
+                 "A comparison is fair when every structure was tuned by the same rule under the same limits "
+                 "(docs/verdicts.md).")

@@ -129,6 +129,25 @@ def _reduction_sentence(red: dict) -> str | None:
     return " ".join(parts) or None
 
 
+def _baseline_wins(red: dict) -> str | None:
+    """A sentence naming every figure in which the baseline is better (a negative reduction), or None."""
+    parts = []
+    for label, r in red.items():
+        items = []
+        for key, what in (("tracking_max_pct", "maximum tracking error"), ("tracking_rms_pct", "RMS tracking error"),
+                          ("contour_max_pct", "maximum contour error")):
+            span = r.get(key)
+            if span is not None and span[0] < 0:
+                items.append(what + (" (in some runs)" if span[1] >= 0 else ""))
+        for test, snap in (r.get("ropesnap") or {}).items():
+            for key, what in (("peak_pct", "rope-snap peak"), ("settling_time_pct", "rope-snap settling time")):
+                if snap.get(key) is not None and snap[key] < 0:
+                    items.append(f"{what} ({test})")
+        if items:
+            parts.append(f"{r['baseline']} is better than {label} in: " + ", ".join(items) + ".")
+    return " ".join(parts) or None
+
+
 def summary_section(designs: list, data: dict, warnings: list[str],
                     limits: ReportLimits) -> Section:
     """The summary shown first: the verdict in words and numbers, error reductions, model fit, warnings."""
@@ -139,6 +158,10 @@ def summary_section(designs: list, data: dict, warnings: list[str],
     sentence = _reduction_sentence(red)
     if sentence:
         blocks.append(Paragraph(sentence + " Negative values are increases."))
+    wins = _baseline_wins(red)
+    if wins:
+        blocks.append(Alert("The baseline wins here: " + wins))
+    data.setdefault("verdict", {})["baseline_wins"] = wins
     if designs:
         blocks.append(_verdict_table(designs))
     data["summary"] = {"reductions": red, "warnings": list(warnings), "limits": limits.to_dict()}

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.limits import Limits
+from ..analysis.limits import DEFAULT_LIMITS, Limits
 from ..errors import DesignError, UsageError
 
 SPEEDS_M_PER_S = (0.2, 0.5, 1.0)
@@ -28,11 +28,6 @@ SPEEDS_M_PER_S = (0.2, 0.5, 1.0)
 DEMO_MOVE = {"distance": 0.25, "a_max": 9.81, "j_max": 1000.0, "dwell_before": 0.05, "dwell_after": 0.2}
 """The demo's point-to-point move: 250 mm at 1 g (the thesis ran 200, 500 and 1000 mm/s at 1 g) with 1000 m/s^3
 jerk, and dwells [m, m/s^2, m/s^3, s, s]; long enough to cruise at 1000 mm/s."""
-MS_MAX = 3.5
-"""Peak-sensitivity limit of the demo's MC-PPC design, the default of ``feedtune design ppc --ms-max`` [-]."""
-STABILITY_ONLY = Limits(None, None, None, None, "stability only")
-BETAS = (4.0, 3.5, 3.0, 2.5, 2.0, 1.5, 1.0)
-"""MC-PPC ``beta`` values tried, largest first (the thesis's drive allowed up to 4) [-]."""
 CONTROLLERS = ("mcppc", "ppi")
 LABELS = {"mcppc": "MC-PPC", "ppi": "P-PI", "mcppc_prefilter": "MC-PPC+PF"}
 PREFILTER_SPEED = 0.5
@@ -67,20 +62,24 @@ class DemoResult:
     texts: dict = field(repr=False)
     twin: dict = field(repr=False, default_factory=dict)
     prefilter: dict = field(default_factory=dict)
+    limits: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-ready: comparison rows, identified model, designs, pre-filter, twin parameters, file names."""
-        return {"comparison": self.rows, "identified": self.identified, "designs": self.designs,
-                "prefilter": self.prefilter, "twin": self.twin, "files": sorted(self.texts),
+        """JSON-ready: limits, comparison rows (with the better controller per figure), identified model, designs
+        with their tuning rules, pre-filter, twin parameters, file names."""
+        return {"limits": self.limits, "comparison": self.rows, "identified": self.identified,
+                "designs": self.designs, "prefilter": self.prefilter, "twin": self.twin, "files": sorted(self.texts),
                 "units": {"max_um": "um", "rms_um": "um", "peak_um": "um", "settling_time_s": "s",
                           "speed": "mm/s"}}
 
     def table(self) -> str:
-        """The comparison as text, laid out like Table 3.2 (plus MC-PPC with the pre-filter when run)."""
+        """The comparison as text, laid out like Table 3.2 (plus MC-PPC with the pre-filter when run), with the
+        limits and the rule both controllers were tuned by, and which one is better in each figure."""
         pf = any("mcppc_prefilter" in row for row in self.rows)
         head = (f"{'test':22s} {'MC-PPC max':>10s} {'RMS':>7s} {'P-PI max':>10s} {'RMS':>7s} "
                 f"{'max -%':>7s} {'RMS -%':>7s}" + (f" {'MC-PPC+PF max':>13s} {'RMS':>7s}" if pf else ""))
-        lines = ["Tracking error of the table [um] (Table 3.2)", head]
+        lines = ["Tracking error of the table [um] (Table 3.2; -%: MC-PPC's reduction against P-PI, negative: "
+                 "P-PI better)", head]
         for row in self.rows:
             if "max_um" not in row["mcppc"]:
                 continue
@@ -101,11 +100,45 @@ class DemoResult:
                 lines += ["", f"Rope snap ({row['test']}): peak [um], 5 % settling time [s]",
                           f"  MC-PPC {a['peak_um']:8.3f} um  {_fmt_s(a['settling_time_s'])}",
                           f"  P-PI   {b['peak_um']:8.3f} um  {_fmt_s(b['settling_time_s'])}"]
+        lines += ["", verdict_line(self.rows)]
         return "\n".join(lines)
 
 
 def _drop(a: float, b: float) -> float:
     return 100.0 * (1.0 - a / b) if b else float("nan")
+
+
+FIGURE_LABELS = {"max_um": "max", "rms_um": "RMS", "peak_um": "peak", "settling_time_s": "settling time"}
+
+
+def better_per_figure(rows: list, a: str = "mcppc", b: str = "ppi") -> list[tuple[str, str, str | None]]:
+    """``(test, figure, better)`` for every figure of every row: the label of the controller with the smaller
+    value (``None`` for a tie within 0.5 % or a missing value)."""
+    out = []
+    for row in rows:
+        for key in ("max_um", "rms_um", "peak_um", "settling_time_s"):
+            if key not in row[a]:
+                continue
+            x, y = row[a][key], row[b][key]
+            if x is None or y is None:
+                better = a if y is None and x is not None else b if x is None and y is not None else None
+            elif abs(x - y) <= 0.005 * max(abs(x), abs(y)):
+                better = None
+            else:
+                better = a if x < y else b
+            out.append((row["test"], FIGURE_LABELS[key], better))
+    return out
+
+
+def verdict_line(rows: list) -> str:
+    """One sentence: how many figures each controller wins, and which ones the baseline wins."""
+    per = better_per_figure(rows)
+    mc = [f"{t} {k}" for t, k, w in per if w == "mcppc"]
+    pp = [f"{t} {k}" for t, k, w in per if w == "ppi"]
+    ties = len(per) - len(mc) - len(pp)
+    text = f"MC-PPC is better in {len(mc)} of {len(per)} figures, P-PI in {len(pp)}"
+    text += f", {ties} tie(s) within 0.5 %" if ties else ""
+    return text + (f"; P-PI is better in: {', '.join(pp)}." if pp else ".")
 
 
 def _fmt_s(x) -> str:
@@ -171,7 +204,7 @@ def experiment_texts(result, log_name: str, frf_name: str | None = None) -> dict
 
 # ------------------------------------------------------------------------------------------ demo
 def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str = "auto",
-             rope_force: float = 0.5, include_cut: bool = True) -> DemoResult:
+             rope_force: float = 0.5, include_cut: bool = True, limits: Limits | None = None) -> DemoResult:
     """Run the whole job on the twin (see the module docstring); nothing is written.
 
     Parameters
@@ -188,6 +221,8 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
         Rope force [V].
     include_cut : bool
         Also run the slotting cut at the first speed.
+    limits : Limits, optional
+        The limits both controllers are tuned under (default: textbook).
 
     Returns
     -------
@@ -196,12 +231,14 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     Raises
     ------
     DesignError
-        A design is unstable on the measured FRF (with the default twin this does not happen).
+        No design meets the limits on the measured FRF (with the default twin and limits this does not happen).
     """
+    from ..design.check import check_design
     from ..design.filters import THESIS_FILTER_PACK
     from ..design.gains import gains_document
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document
+    from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
     from .experiments import measure_frf
     from .twin import BallScrewTwin, TwinParams
@@ -217,53 +254,41 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     model_doc = model_document(fit.model, fit=fit.to_dict())
     texts["model.toml"], texts["model.json"] = dumps_toml(model_doc), dumps_json(model_doc)
 
-    mc, mc_check = _mcppc_within_limits(fit.model, frf, p)
-    mc_metrics = mc_check.analysis.cases["discrete"].metrics
-    # P-PI for the same peak sensitivity, with a phase-margin floor no tighter than MC-PPC's own
-    pm_floor = min(30.0, abs(mc_metrics.phase_margin_deg or 30.0))
-    pp = tune_ppi(fit.model, limits=STABILITY_ONLY, ms_max=mc_metrics.ms, pm_min_deg=pm_floor,
-                  filters=THESIS_FILTER_PACK, frf=frf, fs=p.fs, delay_samples=p.delay_samples)
+    policy = limits or DEFAULT_LIMITS
+    common = {"limits": policy, "filters": THESIS_FILTER_PACK, "frf": frf, "fs": p.fs,
+              "delay_samples": p.delay_samples}
     designs, runtimes = {}, {}
-    for name, design, check in (("mcppc", mc, mc_check), ("ppi", pp, _checked(pp, frf))):
+    for name, design in (("mcppc", tune_mcppc(fit.model, **common)), ("ppi", tune_ppi(fit.model, **common))):
+        check = check_design(design, frf=frf, limits=policy)
+        if not check.ok:  # the tuners return only designs that pass; this is the exported file's own check
+            raise DesignError(f"{LABELS[name]} design on the identified model: {'; '.join(check.violations)}")
         doc = gains_document(design, check.analysis.to_dict())
         texts[f"{name}_gains.toml"], texts[f"{name}_gains.json"] = dumps_toml(doc), dumps_json(doc)
         runtimes[name] = _runtime_from_text(texts[f"{name}_gains.toml"], f"{name}_gains.toml")
-        designs[name] = {"gains": dict(design.gains), "ms": check.analysis.cases["discrete"].metrics.ms,
-                         "crossovers_hz": list(check.analysis.cases["discrete"].metrics.crossovers_hz)}
-        if name == "ppi":
-            designs[name]["ppi_gains"] = dict(design.ppi_gains)
-        else:
-            designs[name]["design"] = {"beta": design.beta, "pole_hz": design.pole_hz, "zeta": design.zeta}
-    rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
+        designs[name] = _design_figures(design, check)
+        rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
     prefilter = _prefilter_tests(twin, texts, speeds, seed, engine, rows)
-    result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict(), prefilter)
+    for row in rows:
+        row["better"] = {k: w for t, k, w in better_per_figure([row])}
+    result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict(), prefilter, policy.to_dict())
     texts["summary.json"] = dumps_json(_plain({k: v for k, v in result.to_dict().items() if k != "files"}))
     return result
 
 
-def _mcppc_within_limits(model, frf, p):
-    """MC-PPC with the largest ``beta`` of :data:`BETAS` meeting Ms <= :data:`MS_MAX` on the measured FRF."""
-    from ..design.check import check_design
-    from ..design.filters import THESIS_FILTER_PACK
-    from ..design.mcppc import design_mcppc
-
-    found = []
-    for beta in BETAS:
-        design = design_mcppc(model, beta=beta, filters=THESIS_FILTER_PACK, fs=p.fs, delay_samples=p.delay_samples)
-        check = check_design(design, frf=frf, limits=STABILITY_ONLY, ms_max=MS_MAX)
-        if check.ok:
-            return design, check
-        found.append(f"beta {beta:g}: {'; '.join(check.violations)}")
-    raise DesignError("no MC-PPC design on the identified model meets the demo's limits: " + " | ".join(found))
-
-
-def _checked(design, frf):
-    from ..design.check import check_design
-
-    check = check_design(design, frf=frf, limits=STABILITY_ONLY)
-    if not check.ok:
-        raise DesignError(f"{design.kind} design on the identified model: {'; '.join(check.violations)}")
-    return check
+def _design_figures(design, check) -> dict:
+    """What the demo prints and stores of a design: gains, tuning rule and the checked case's figures."""
+    m = check.analysis.cases[check.worst_case].metrics
+    active = check.limit_check.active()
+    out = {"gains": dict(design.gains), "tuning": design.tuning, "checked_case": check.worst_case,
+           "ms": m.ms, "crossovers_hz": list(m.crossovers_hz), "phase_margin_deg": m.phase_margin_deg,
+           "gain_margin_db": m.gain_margin_db, "disk_margin": m.disk_margin,
+           "rejection_bands_hz": m.rejection_bands_hz, "active_limit": None if active is None else active.name,
+           "rule": design.tuning.get("rule", design.tuning.get("method"))}
+    if design.kind == "ppi":
+        out["ppi_gains"] = dict(design.ppi_gains)
+    else:
+        out["design"] = {"beta": design.beta, "pole_hz": design.pole_hz, "zeta": design.zeta}
+    return out
 
 
 def _runtime_from_text(text: str, name: str):

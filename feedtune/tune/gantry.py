@@ -100,7 +100,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: LoopFilters | 
         "limits": policy.to_dict(),
         "checked_case": case,
         "first_crossover_hz": best.objective,
-        "active_limit": None if active is None else active.name,
+        "active_limit": None if active is None else active.to_dict(),
         "evaluations": record.evaluations,
         "per_shape": record.per_shape,
         "warnings": record.warnings,

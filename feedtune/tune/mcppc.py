@@ -97,7 +97,7 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         "limits": policy.to_dict(),
         "checked_case": case,
         "first_crossover_hz": best.objective,
-        "active_limit": None if active is None else active.name,
+        "active_limit": None if active is None else active.to_dict(),
         "evaluations": record.evaluations,
         "per_shape": record.per_shape,
         "warnings": record.warnings,

@@ -547,6 +547,7 @@ def _record(c: _Checked, verdict, policy: Limits, case: str, tie: float, best_fc
                   f"included) meeting the limits, stable in every case; crossovers within {100 * tie:g} % of the "
                   "highest count as equal and the highest low-frequency gain Kiv*Kpx wins; shapes (Kiv/Kpv, Kpx) by "
                   "grid and Nelder-Mead on the loop's gain-feasibility edge, Kpv bisected to the analysis' edge",
+        "rule": f"P-PI tuned by feedtune.tune.ppi under {policy.describe()}",
         "objective": "first_crossover_hz",
         "limits": policy.to_dict(),
         "ms_max": policy.ms_max,
