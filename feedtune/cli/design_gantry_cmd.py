@@ -325,9 +325,10 @@ def pid(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Independent PID per side behind notches and low-pass, tuned to a peak sensitivity (thesis baseline)."""
-    from ..design.gantry_pid import design_gantry_pid, tune_gantry_pid
+    from ..design.gantry_pid import design_gantry_pid
     from ..design.loopshape import PrefilterGains
     from ..errors import UsageError
+    from ..tune.pid import tune_gantry_pid
     from .frf_options import read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
