@@ -8,7 +8,8 @@ is one such triple, so the search covers the mass-scaled PIDs; it is continuous 
 * for a shape, the largest ``w`` that passes the check (:func:`feedtune.tune.search.feasibility_edge`; bracket
   ``RTOL`` = 0.2 %), from a scan of ``w`` over ``SCAN_HZ`` (log-spaced) or from a neighbouring shape's edge;
 * over the shapes, the highest first CoM crossover at the edge (:func:`feedtune.tune.search.pattern_search`,
-  log coordinates, a 3 x 3 lattice of starts, steps down to 1/16 of the box).
+  log coordinates, a 3 x 3 lattice of starts, local searches from the best two with diagonal moves, steps down
+  to ``SHAPE_STEP`` = 1/32 of the box).
 
 **The check** is the analysis the design is judged by: the plant case of the checked case
 (:func:`feedtune.analysis.gantry.gantry_plant_cases`: the measured FRF interpolated between its lines and the model
@@ -43,14 +44,15 @@ import numpy as np
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
-from ..analysis.mimo import matmul, sensitivity, singular_values
+from ..analysis.margins import crossings
+from ..analysis.mimo import com_loop, matmul, sensitivity, singular_values
 from ..design.discretize import backward_difference, backward_euler_integrator, matched
 from ..design.gantry_pid import GantryPidDesign, PidLaw, design_gantry_pid, pid_gains
 from ..design.loopshape import TWO_PI, LoopFilters, PrefilterGains, check_sampling
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
-from .search import EdgeResult, Probe, SearchResult, feasibility_edge, pattern_search
+from .search import EdgeResult, Probe, SearchResult, band_top_doubt, feasibility_edge, pattern_search, unreliable
 
 ZETA_BOUNDS = (0.3, 1.0)
 """Damping of the rigid-body closed-loop pair searched [-]."""
@@ -61,6 +63,8 @@ SCAN_HZ = (0.2, None)
 SCAN_POINTS = 24
 RTOL = 2e-3
 """Relative width of the final bracket on ``w`` [-]."""
+SHAPE_STEP = 1 / 32
+"""Smallest step of the shape search, a fraction of each parameter's log range [-]."""
 FILTER_CHOICES = ("own", "identical")
 
 
@@ -106,16 +110,26 @@ class _Search:
         self.bounds = (tuple(zeta_bounds), tuple(rho_bounds))
         self.scan = scan
 
-    def grid_ms(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
-        """``max sigma_max(S)`` on the case's base grid for each bandwidth [Hz] of ``bw_hz``."""
+    def grid_loops(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
+        """``L`` on the case's base grid for each bandwidth [Hz] of ``bw_hz``, shape ``(2, 2, n_bw, n_f)``."""
         c = self.case
         w = TWO_PI * np.asarray(bw_hz, float)[:, None]
         pid = w * w * (1 + 2 * zeta / rho) + w * (2 * zeta + 1 / rho) * c.D + w**3 / rho * c.Iz  # per unit mass
         k = self.h * pid  # (n_bw, n_f)
-        n_bw, n_f = k.shape
-        L = c.Ge[:, :, None, :] * (c.masses[None, :, None, None] * k[None, None, :, :])  # column j: m_j k
+        return c.Ge[:, :, None, :] * (c.masses[None, :, None, None] * k[None, None, :, :])  # column j: m_j k
+
+    def grid_ms(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
+        """``max sigma_max(S)`` on the case's base grid for each bandwidth [Hz] of ``bw_hz``."""
+        L = self.grid_loops(bw_hz, zeta, rho)
+        n_bw, n_f = L.shape[2:]
         smax = singular_values(sensitivity(L.reshape(2, 2, n_bw * n_f)))[0]
         return np.max(smax.reshape(n_bw, n_f), axis=1)
+
+    def grid_crossover(self, bw_hz: float, zeta: float, rho: float) -> float:
+        """First crossover [Hz] of the CoM loop on the base grid (nan when the loop starts below 1 on the grid)."""
+        lc = com_loop(self.grid_loops([bw_hz], zeta, rho)[:, :, 0, :], self.case.weights)
+        x = crossings(self.case.pc.freq_hz, np.log(np.abs(lc)), 0.0)
+        return float(x[0]) if x.size and abs(lc[0]) > 1 else math.nan
 
     def admissible(self, zeta: float, rho: float):
         ms_max = self.case.policy.ms_max
@@ -144,41 +158,56 @@ class _Search:
         xo = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
         return Probe(float(bw_hz), ok, xo, slack, (law, m, items))
 
-    def edge(self, shape: tuple, start: float | None, rtol: float = RTOL) -> EdgeResult:
-        """The largest bandwidth of one shape passing the check (:func:`feasibility_edge`)."""
+    def edge(self, shape: tuple, ref: tuple | None = None, beat: float | None = None, rtol: float = RTOL) -> EdgeResult:
+        """The largest bandwidth of one shape passing the check (:func:`feasibility_edge`).
+
+        ``ref`` is ``(shape, Probe)`` of a neighbouring edge; with ``beat`` [Hz] the first check is at the bandwidth
+        expected to give that crossover: the reference's crossover per bandwidth, scaled by the ratio of the
+        rigid-body crossovers of the two shapes (:func:`rigid_crossover`).
+        """
         zeta, rho = shape
+        start = None
+        if ref is not None:
+            (z0, r0), p0 = ref
+            start = p0.scale
+            if beat is not None and math.isfinite(p0.crossover_hz) and p0.crossover_hz > 0:
+                start = beat * p0.scale / p0.crossover_hz * rigid_crossover(z0, r0) / rigid_crossover(zeta, rho)
         return feasibility_edge(lambda bw: self.check(bw, zeta, rho), self.scan,
-                                admissible=self.admissible(zeta, rho), rtol=rtol, start=start)
+                                admissible=self.admissible(zeta, rho), rtol=rtol, start=start,
+                                beat=beat if start is not None else None,
+                                cheap_crossover=lambda bw: self.grid_crossover(bw, zeta, rho))
 
     def run(self) -> SearchResult | None:
         """The shape search over the whole box."""
-        return pattern_search(self.edge, ("zeta", "rho"), self.bounds)
+        return pattern_search(self.edge, ("zeta", "rho"), self.bounds, min_step=SHAPE_STEP)
 
-    def run_from(self, shape: tuple, bw_hz: float) -> SearchResult | None:
-        """A local shape search from ``shape`` whose edge is expected near ``bw_hz`` [Hz]."""
-        return pattern_search(self.edge, ("zeta", "rho"), self.bounds, initial=shape, initial_scale=bw_hz)
+    def run_from(self, shape: tuple, probe: Probe) -> SearchResult | None:
+        """A local shape search from ``shape``, whose edge is expected near that of ``probe``."""
+        return pattern_search(self.edge, ("zeta", "rho"), self.bounds, min_step=SHAPE_STEP, initial=shape,
+                              ref=(tuple(shape), probe))
+
+
+def rigid_crossover(zeta: float, rho: float) -> float:
+    """Crossover [rad/s] of the PID loop on the rigid body at unit bandwidth ``w = 1 rad/s`` (scales with ``w``).
+
+    ``|kp + j (w kd - ki / w)| = w^2`` with the gains per unit mass of :func:`~feedtune.design.gantry_pid.pid_gains`;
+    in ``u = w^2``: ``u^3 - kd^2 u^2 - (kp^2 - 2 kd ki) u - ki^2 = 0``, whose largest real root is taken.
+    """
+    kp, kd, ki = 1 + 2 * zeta / rho, 2 * zeta + 1 / rho, 1 / rho
+    roots = np.roots([1.0, -kd * kd, -(kp * kp - 2 * kd * ki), -ki * ki])
+    return float(math.sqrt(max(r.real for r in roots if abs(r.imag) < 1e-9 * max(1.0, abs(r)))))
 
 
 def untrusted(metrics, freq_hz: np.ndarray, fs: float, sigma_l_top: float, ms_max: float | None) -> str | None:
     """Why the analysis' verdict on a candidate cannot be relied on, or None.
 
-    The tuner accepts no candidate whose MIMO Nyquist winding is not within 0.2 of an integer (the analysis then
-    warns that its count is unreliable). On a band-limited FRF (last line below ``fs / 2``) the loop above the band
-    is unknown: assuming only that it rolls off there (``sigma_max(L)`` no larger than at the last line), the
-    sensitivity above the band stays within the limit when ``sigma_max(L) <= 1 - 1/ms_max`` at the last line
-    (``sigma_max(S) <= 1 / (1 - sigma_max(L))``); without an ``Ms`` limit, ``sigma_max(L) < 1``. (On the gantry twin
-    an unfiltered PID tuned without this rule to Ms 2.5 on the 2-1000 Hz FRF had Ms 3.0 at 1.28 kHz.)
+    The tuner accepts no candidate whose Nyquist count the analysis calls unreliable
+    (:func:`~feedtune.tune.search.unreliable`), nor on a band-limited FRF one whose loop is still large at the last
+    line (:func:`~feedtune.tune.search.band_top_doubt`). On the gantry twin's 2-1000 Hz FRF an unfiltered PID tuned
+    to Ms 2.5 without these rules crossed over at 336 Hz with a winding of -0.49 and ``sigma_max(S)`` still rising at
+    1000 Hz; on the twin's analytic FRF to 7.5 kHz its Ms is 3.0 (at 1.28 kHz).
     """
-    ny = metrics.nyquist
-    if abs(ny.winding - round(ny.winding)) > 0.2:
-        return f"MIMO Nyquist winding {ny.winding:.2f} is not close to an integer"
-    top = float(freq_hz[-1])
-    if top < 0.999 * fs / 2:
-        allowed = 1.0 if ms_max is None else 1.0 - 1.0 / ms_max
-        if sigma_l_top > allowed:
-            return (f"sigma_max(L) = {sigma_l_top:.3g} at the last line of the band ({top:g} Hz) exceeds "
-                    f"{allowed:.3g}: the loop above the band could break the limits")
-    return None
+    return unreliable(metrics.warnings) or band_top_doubt(sigma_l_top, float(freq_hz[-1]), fs, ms_max)
 
 
 def _bounds(value, default, name: str) -> tuple[float, float]:
@@ -437,22 +466,18 @@ def choose_filters(case: _Case, given: LoopFilters, zeta_bounds, rho_bounds, sca
     chosen = []
     for _ in range(MAX_OWN_FILTERS):
         law = result.edge.best.result[0]
-        x0, w0 = result.edge.best.crossover_hz, result.edge.best.scale
+        x0 = result.edge.best.crossover_hz
         zeta, rho = result.point
         tried = []
-        w1 = w0 * (1 + KEEP_GAIN)
+        ref = ((zeta, rho), result.edge.best)
         for item, why in _candidates(case, pack, given, law, x0, resonances):
             search = _Search(case, _with(pack, item), zeta_bounds, rho_bounds, scan)
-            t = {"filter": _describe(item), "why": why, "item": item, "crossover_hz": None, "bandwidth_hz": None}
+            e = search.edge((zeta, rho), ref, x0 * (1 + KEEP_GAIN), SCREEN_RTOL)
+            t = {"filter": _describe(item), "why": why, "item": item, "probe": e.best,
+                 "crossover_hz": None if e.best is None else e.best.crossover_hz}
+            if e.pruned:
+                t["screen"] = f"fails at {e.fail_scale:.4g} Hz, below a {100 * KEEP_GAIN:g} % higher crossover"
             tried.append(t)
-            adm = search.admissible(zeta, rho)
-            p = search.check(w1, zeta, rho) if adm is None or adm(np.array([w1]))[0] else None
-            if p is None or not p.ok:  # its bandwidth edge is below w1: it cannot raise the crossover by KEEP_GAIN
-                t["screen"] = f"fails at {w1:.4g} Hz"
-                continue
-            e = search.edge((zeta, rho), w1, SCREEN_RTOL)
-            if e.best is not None:
-                t["crossover_hz"], t["bandwidth_hz"] = e.best.crossover_hz, e.best.scale
         rec = {"crossover_before_hz": x0, "shape": [zeta, rho],
                "candidates": [{k: v for k, v in t.items() if k in ("filter", "why", "crossover_hz", "screen")}
                               for t in tried]}
@@ -463,7 +488,7 @@ def choose_filters(case: _Case, given: LoopFilters, zeta_bounds, rho_bounds, sca
             break
         top = max(good, key=lambda t: t["crossover_hz"])
         trial = _with(pack, top["item"])
-        local = _Search(case, trial, zeta_bounds, rho_bounds, scan).run_from((zeta, rho), top["bandwidth_hz"])
+        local = _Search(case, trial, zeta_bounds, rho_bounds, scan).run_from((zeta, rho), top["probe"])
         if local is None or local.edge.best.crossover_hz <= x0 * (1 + KEEP_GAIN):
             rec["kept"] = None
             break

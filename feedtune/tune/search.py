@@ -1,14 +1,25 @@
 """Search machinery shared by the tuners: the feasibility edge of a scale and a bounded pattern search over shapes.
 
-A tuner parametrises its controller by a *scale* (a bandwidth or crossover [Hz]: the loop gets faster as it grows)
-and a few *shape* parameters. For one shape, :func:`feasibility_edge` finds the largest scale that passes the real
-check (:class:`Probe`, from the analysis and the limits policy): a log-spaced scan from the top down to the first
-passing point, then a bisection (a secant step on the smallest limit slack when both ends have one) until the
-bracket is narrower than ``rtol``. A cheap necessary condition (``admissible``; e.g. the peak sensitivity on the
-analysis' base grid, a lower bound of the refined one) skips candidates without a real check; it never accepts
-one. :func:`pattern_search` maximises the first crossover at the edge over the shape box: a lattice of start points
-(the feasible set may be disconnected) and compass steps halved down to ``min_step`` of the box (log coordinates).
-Points are rounded to the lattice of the smallest step, so that equal problems give equal shapes.
+A tuner parametrises its controller by a *scale* (a bandwidth or crossover [Hz]: the loop gets faster as it grows,
+and its first crossover with it) and a few *shape* parameters.
+
+:func:`feasibility_edge` finds, for one shape, the largest scale that passes the real check (:class:`Probe`: the
+analysis and the limits policy). Without a start it scans log-spaced scales from the top down to the first pass
+(a feasible range above a failing one is found); from a start (a neighbouring shape's edge) it steps up or down
+to a bracket, assuming the passing scales of a shape form one range from below. The bracket is then narrowed to
+``rtol`` by bisection, or by a secant step on the smallest limit slack when both ends have one. A cheap necessary
+condition (``admissible``: e.g. the peak sensitivity on the analysis' base grid, a lower bound of the refined one)
+rejects scales without a real check; it never accepts one. With ``beat`` (a crossover the shape must exceed to
+matter) the first check is at the start, chosen by the tuner to give about that crossover: if it fails with a
+crossover at or below ``beat``, the shape's edge lies below the start and its crossover cannot exceed ``beat``, so
+the shape is pruned after one check (after none when the start fails the cheap condition and the crossover
+estimated on the base grid is clearly below ``beat``).
+
+:func:`pattern_search` maximises the first crossover at the edge over the box of shapes, in log coordinates: a
+lattice of starts (3 per parameter, the corners included), then a local search from the best lattice points
+(``restarts``) moving to the best improving neighbour, diagonals included (ridges where two limits meet run
+diagonally), with steps halved down to ``min_step`` of the box. Shapes are points of the lattice of the smallest
+step, so that equal problems give equal shapes.
 """
 
 from __future__ import annotations
@@ -18,6 +29,31 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+
+CHEAP_MARGIN = 5e-3
+"""Relative margin [-] by which a crossover estimated on the base grid must lie below ``beat`` to prune."""
+
+
+def unreliable(warnings) -> str | None:
+    """The analysis' warning that its Nyquist count is unreliable (winding not close to an integer), or None."""
+    return next((w for w in warnings or [] if "not close to an integer" in w), None)
+
+
+def band_top_doubt(sigma_l_top: float, top_hz: float, fs: float, ms_max: float | None) -> str | None:
+    """Why a loop on a band-limited FRF cannot be accepted, or None.
+
+    Above the FRF's last line (``top_hz`` below ``fs / 2``) the loop is unknown. Assuming only that it rolls off
+    there (``sigma_max(L)`` no larger than at the last line), the sensitivity above the band stays within
+    ``ms_max`` when ``sigma_max(L) <= 1 - 1/ms_max`` at the last line (``sigma_max(S) <= 1 / (1 - sigma_max(L))``);
+    without an ``Ms`` limit, ``sigma_max(L) < 1``.
+    """
+    if top_hz >= 0.999 * fs / 2:
+        return None
+    allowed = 1.0 if ms_max is None else 1.0 - 1.0 / ms_max
+    if sigma_l_top > allowed:
+        return (f"sigma_max(L) = {sigma_l_top:.3g} at the last line of the band ({top_hz:g} Hz) exceeds {allowed:.3g}: "
+                "the loop above the band could break the limits")
+    return None
 
 
 @dataclass(frozen=True)
@@ -57,11 +93,14 @@ class EdgeResult:
         The smallest failing scale above it [Hz] (None: the scan's top passed).
     checks : int
         Real checks made.
+    pruned : bool
+        Given up after the first check: the shape cannot beat the crossover it was asked to beat.
     """
 
     best: Probe | None
     fail_scale: float | None
     checks: int
+    pruned: bool = False
 
     @property
     def at_top(self) -> bool:
@@ -75,7 +114,8 @@ def _slack(p: Probe | None) -> float | None:
 
 def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
                      admissible: Callable[[np.ndarray], np.ndarray] | None = None, rtol: float = 2e-3,
-                     start: float | None = None) -> EdgeResult:
+                     start: float | None = None, beat: float | None = None,
+                     cheap_crossover: Callable[[float], float] | None = None) -> EdgeResult:
     """Largest scale passing ``check`` (module docstring); ``best`` is None when no point passes.
 
     Parameters
@@ -84,13 +124,19 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
         ``check(scale) -> Probe``, the real check.
     scan : ndarray
         Increasing log-spaced scales [Hz]: the range, and the points of the top-down scan when there is no
-        ``start`` (or no bracket is found near it).
+        ``start``.
     admissible : callable, optional
         ``admissible(scales) -> bool array``: a necessary condition (False: certainly failing, no real check).
     rtol : float
         Relative width of the final bracket [-].
     start : float, optional
-        A scale expected near the edge (a neighbouring shape's): the bracket is sought around it first.
+        A scale expected near the edge (a neighbouring shape's): the bracket is sought around it.
+    beat : float, optional
+        With ``start``: prune the shape when ``start`` fails with a first crossover at or below ``beat`` [Hz].
+    cheap_crossover : callable, optional
+        ``cheap_crossover(scale)`` -> an estimate of the first crossover [Hz] on the analysis' base grid: when
+        ``start`` fails the cheap condition and the estimate is ``CHEAP_MARGIN`` below ``beat``, the shape is
+        pruned without a real check.
     """
     scan = np.asarray(scan, float)
     bottom, top = float(scan[0]), float(scan[-1])
@@ -148,51 +194,66 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
             s, p = t, q
         return None, s, p
 
+    def climb(p: Probe) -> tuple[Probe, float | None, Probe | None]:
+        """Real steps up from a passing ``p`` (15 %, the step squared after each pass up to a factor 2) to the first
+        failure: ``(last pass, first failing scale or None at the top, its probe)``."""
+        step = 1.15
+        while True:
+            if p.scale >= top:
+                return p, None, None
+            u = min(p.scale * step, top)
+            q = real(u) if cheap(u) else None
+            if q is None or not q.ok:
+                return p, u, q
+            p, step = q, min(step * step, 2.0)
+
     lo_p: Probe | None = None
     hi: float | None = None
     hi_p: Probe | None = None
     if start is not None and bottom <= start <= top:
-        s, b = float(start), None
-        if cheap(s):  # the cheap edge, when it is near above the start, is the first guess
-            t = s
-            for _ in range(3):
-                u = min(t * 1.15, top)
-                if u <= t:
-                    break
-                if not cheap(u):
-                    a, b = cheap_edge(t, u)
-                    s = below(a, b)
-                    break
-                t = u
-        else:  # down to the cheap edge below the start
-            u, t = s, s / 1.15
-            while t >= bottom and not cheap(t):
-                u, t = t, t / 1.15
-            if t >= bottom:
+        s = float(start)
+        if beat is not None and cheap_crossover is not None and not cheap(s):
+            xc = cheap_crossover(s)
+            if math.isfinite(xc) and xc <= beat * (1 - CHEAP_MARGIN):
+                return EdgeResult(None, s, n, pruned=True)
+        p = real(s) if beat is not None else None
+        if p is not None and not p.ok:
+            if math.isfinite(p.crossover_hz) and p.crossover_hz <= beat:
+                return EdgeResult(None, s, n, pruned=True)
+            lo_p, hi, hi_p = descend(s, p)
+        else:
+            target, b = s, None
+            if cheap(s):  # the cheap edge, when it is near above the start, is the first guess
+                t = s
+                for _ in range(3):
+                    u = min(t * 1.15, top)
+                    if u <= t:
+                        break
+                    if not cheap(u):
+                        a, b = cheap_edge(t, u)
+                        target = below(a, b)
+                        break
+                    t = u
+            else:  # down to the cheap edge below the start
+                u, t = s, s / 1.15
+                while t >= bottom and not cheap(t):
+                    u, t = t, t / 1.15
+                if t < bottom:
+                    return EdgeResult(None, None, n)
                 a, b = cheap_edge(t, u)
-                s = below(a, b)
+                target = below(a, b)
+            q = p if p is not None and target == s else real(target)
+            if q.ok:
+                lo_p, hi, hi_p = (q, b, None) if b is not None else climb(q)
+                if hi is None:
+                    return EdgeResult(lo_p, None, n)
+            elif p is not None and p.ok:
+                lo_p, hi, hi_p = p, target, q
             else:
-                s = None
-        if s is not None:
-            p = real(s)
-            if p.ok:
-                lo_p, hi = p, b
-                step = 1.15
-                while hi is None:  # climb to the first failure, the step growing
-                    if lo_p.scale >= top:
-                        return EdgeResult(lo_p, None, n)
-                    u = min(lo_p.scale * step, top)
-                    q = real(u) if cheap(u) else None
-                    if q is not None and q.ok:
-                        lo_p, step = q, min(step * step, 2.0)
-                    else:
-                        hi, hi_p = u, q
-            else:
-                lo_p, hi, hi_p = descend(s, p)
-            if lo_p is None:
-                return EdgeResult(None, None, n)  # no passing scale near a neighbour's edge: not scanned again
-    if lo_p is None:  # top-down scan
-        hi, hi_p = None, None
+                lo_p, hi, hi_p = descend(target, q)
+        if lo_p is None:
+            return EdgeResult(None, None, n)  # no passing scale near a neighbour's edge: not scanned again
+    else:  # top-down scan
         mask = np.ones(scan.size, bool) if admissible is None else np.asarray(admissible(scan), bool)
         for i in range(scan.size - 1, -1, -1):
             if not mask[i]:
@@ -246,7 +307,7 @@ class SearchResult:
     edge : EdgeResult
         Its feasibility edge.
     evaluated : dict
-        ``{shape: EdgeResult or None}`` of every shape evaluated.
+        ``{shape: EdgeResult}`` of every shape evaluated (pruned ones included).
     on_bound : list of str
         ``"name = value (lower|upper bound)"`` for each shape parameter of the winner on a bound of the box.
     """
@@ -268,30 +329,38 @@ def _objective(e: EdgeResult | None) -> float:
     return float(e.best.crossover_hz)
 
 
-def pattern_search(edge_of: Callable[[tuple, float | None], EdgeResult | None], names: Sequence[str],
-                   bounds: Sequence[tuple[float, float]], *, starts: int = 3, min_step: float = 1 / 16,
-                   improve: float = 1e-3, initial: Sequence[float] | None = None, initial_scale: float | None = None,
+EdgeOf = Callable[[tuple, "tuple | None", "float | None"], EdgeResult]
+
+
+def pattern_search(edge_of: EdgeOf, names: Sequence[str], bounds: Sequence[tuple[float, float]], *,
+                   starts: int = 3, restarts: int = 2, min_step: float = 1 / 16, improve: float = 1e-3,
+                   initial: Sequence[float] | None = None, ref: tuple | None = None,
                    initial_step: float = 1 / 8) -> SearchResult | None:
-    """Maximise the first crossover at the feasibility edge over a box of shape parameters (log coordinates).
+    """Maximise the first crossover at the feasibility edge over a box of shape parameters (module docstring).
 
     Parameters
     ----------
     edge_of : callable
-        ``edge_of(shape, start_scale) -> EdgeResult`` (:func:`feasibility_edge` of one shape; the
-        second argument is the edge scale of a neighbouring shape, or None).
+        ``edge_of(shape, ref, beat) -> EdgeResult``: :func:`feasibility_edge` of one shape. ``ref`` is
+        ``(shape, Probe)`` of a neighbouring shape's edge (None for the first shape: a full scan); ``beat`` is the
+        crossover [Hz] a local move must exceed (None on the lattice).
     names : sequence of str
         Names of the shape parameters (for the bound warnings).
     bounds : sequence of (float, float)
         ``(low, high)`` of each parameter (> 0; equal bounds fix it).
     starts : int
         Lattice points per free parameter of the initial scan (>= 2: the corners are included).
+    restarts : int
+        Local searches, from the best distinct lattice points.
     min_step : float
-        Smallest compass step as a fraction of each parameter's log range [-].
+        Smallest step as a fraction of each parameter's log range [-].
     improve : float
-        Relative gain of the crossover [-] a step must bring to be taken.
+        Relative gain of the crossover [-] a move must bring to be taken.
     initial : sequence of float, optional
-        A local search instead: from this shape (rounded to the lattice), with compass steps from
-        ``initial_step`` of the box, the first edge sought from ``initial_scale``.
+        A single local search instead: from this shape (rounded to the lattice), with steps from ``initial_step``
+        of the box.
+    ref : (shape, Probe), optional
+        A passing probe of a similar design: the first edge is sought from it instead of by a full scan.
 
     Returns
     -------
@@ -302,63 +371,74 @@ def pattern_search(edge_of: Callable[[tuple, float | None], EdgeResult | None], 
     hi = np.log([b[1] for b in bounds])
     span = hi - lo
     free = span > 0
+    dims = len(bounds)
     unit = np.where(free, span * min_step, 1.0)
+    n_units = np.where(free, np.round(span / unit), 0).astype(int)
     evaluated: dict = {}
     cache: dict = {}
+    last: list = [] if ref is None else [ref]  # (shape, probe) of the latest feasible edge
 
     def point(k: tuple) -> tuple:
         return tuple(float(np.exp(min(max(lo[i] + k[i] * unit[i], lo[i]), hi[i]))) if free[i] else
-                     float(bounds[i][0]) for i in range(len(k)))
+                     float(bounds[i][0]) for i in range(dims))
 
-    last: list = []
-    if initial_scale is not None:
-        last.append(EdgeResult(Probe(float(initial_scale), True, math.nan, None), None, 0))
+    beaten: dict = {}  # the crossover a pruned shape was asked to beat
 
-    def value(k: tuple, near: EdgeResult | None = None) -> float:
-        if k not in cache:
-            ref = near if near is not None else (last[-1] if last else None)
-            e = edge_of(point(k), None if ref is None else ref.best.scale)
+    def value(k: tuple, ref: tuple | None = None, beat: float | None = None) -> float:
+        if k not in cache or (cache[k].pruned and (beat is None or beat < beaten[k])):
+            e = edge_of(point(k), ref if ref is not None else (last[-1] if last else None), beat)
             cache[k] = e
+            beaten[k] = beat
             evaluated[point(k)] = e
-            if e is not None and e.best is not None:
-                last.append(e)
+            if e.best is not None:
+                last.append((point(k), e.best))
         return _objective(cache[k])
 
-    n_units = np.where(free, np.round(span / unit), 0).astype(int)
+    moves = [d for d in np.array(np.meshgrid(*[[-1, 0, 1] if f else [0] for f in free], indexing="ij"))
+             .reshape(dims, -1).T if np.any(d != 0)]
+
+    def local(k: tuple, step: int) -> tuple:
+        while True:
+            here = _objective(cache[k])
+            target = here * (1 + improve)
+            ref = (point(k), cache[k].best)
+            best_k, best_v = None, target
+            for d in moves:
+                j = tuple(int(min(max(k[i] + d[i] * step, 0), n_units[i])) for i in range(dims))
+                if j == k:
+                    continue
+                v = value(j, ref, target)
+                if v > best_v:
+                    best_k, best_v = j, v
+            if best_k is not None:
+                k = best_k
+            elif step > 1:
+                step //= 2
+            else:
+                return k
+
     if initial is not None:
         k0 = tuple(int(min(max(round((math.log(v) - lo[i]) / unit[i]), 0), n_units[i])) if free[i] else 0
                    for i, v in enumerate(initial))
         value(k0)
-        best = k0
-        step = max(round(initial_step / min_step), 1)
+        if _objective(cache[k0]) == -math.inf:
+            return None
+        best = local(k0, max(round(initial_step / min_step), 1))
     else:
         axes = [np.unique(np.round(np.linspace(0, n_units[i], starts))).astype(int) if free[i] else np.array([0])
-                for i in range(len(bounds))]
-        grid = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(bounds), -1).T
+                for i in range(dims)]
+        grid = np.array(np.meshgrid(*axes, indexing="ij")).reshape(dims, -1).T
         centre = n_units / 2.0
         grid = sorted(grid.tolist(), key=lambda g: (float(np.sum(((np.array(g) - centre) / np.maximum(n_units, 1))
                                                                  ** 2)), g))  # the centre first: the one full scan
         for g in grid:
             value(tuple(int(v) for v in g))
-        best = max(cache, key=lambda k: (_objective(cache[k]), k))
-        step = max(int(max(np.max(n_units) // max(starts - 1, 1), 1)) // 2, 1)
-    if _objective(cache[best]) == -math.inf:
-        return None
-    while True:
-        moved = False
-        for i in np.flatnonzero(free):
-            for sgn in (1, -1):
-                k = list(best)
-                k[i] = min(max(k[i] + sgn * step, 0), n_units[i])
-                k = tuple(k)
-                if k == best:
-                    continue
-                if value(k, cache[best]) > _objective(cache[best]) * (1 + improve):
-                    best, moved = k, True
-        if not moved:
-            if step == 1:
-                break
-            step //= 2
+        lattice = sorted((k for k in cache if _objective(cache[k]) > -math.inf), key=lambda k: -_objective(cache[k]))
+        if not lattice:
+            return None
+        step = max(int(np.max(n_units) // max(starts - 1, 1)) // 2, 1)
+        ends = [local(k, step) for k in lattice[:restarts]]
+        best = max(ends, key=lambda k: (_objective(cache[k]), k))
     on_bound = []
     for i in np.flatnonzero(free):
         if best[i] == 0:
