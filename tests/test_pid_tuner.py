@@ -26,6 +26,7 @@ from feedtune.analysis.limits import DEFAULT_LIMITS, check_cases
 from feedtune.design.filters import Notch
 from feedtune.design.gantry_pid import PidLaw, pid_gains
 from feedtune.design.loopshape import LoopFilters
+from feedtune.errors import DesignError, UsageError
 from feedtune.frf import Frf
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.pid import RHO_BOUNDS, ZETA_BOUNDS, tune_gantry_pid
@@ -120,15 +121,22 @@ def twin_frf():
     return res.frf
 
 
+_TUNED: dict = {}
+
+
 def _tuned(**kw):
-    d = tune_gantry_pid(MODEL, limits=POLICY, fs=FS, **kw)
-    return d, d.tuning["com_crossover_hz"]
+    """``(design, first CoM crossover [Hz])`` of the tuner (memoised: several tests judge the same tuning)."""
+    key = tuple(sorted((k, id(v) if isinstance(v, Frf) else repr(v)) for k, v in kw.items()))
+    if key not in _TUNED:
+        d = tune_gantry_pid(MODEL, limits=POLICY, fs=FS, **kw)
+        _TUNED[key] = (d, d.tuning["com_crossover_hz"])
+    return _TUNED[key]
 
 
 # -------------------------------------------------------------------------------------------- the tests
 def test_quick_brute_force_on_the_model():
     d, xo = _tuned(filters=NOTCH_LPF)
-    bf = brute_force(MODEL, NOTCH_LPF, POLICY, zetas=np.geomspace(*ZETA_BOUNDS, 3), rhos=np.geomspace(*RHO_BOUNDS, 3))
+    bf = brute_force(MODEL, NOTCH_LPF, POLICY, zetas=ZETA_BOUNDS, rhos=RHO_BOUNDS)  # the corners of the box
     assert xo >= (1 - BRUTE_TOL) * bf["crossover_hz"], (xo, bf)
     # the judge: the design as written meets the limits in its checked case and is stable in every case
     full = analyze_gantry(d.law, MODEL)
@@ -161,3 +169,107 @@ def test_never_below_hand_set_designs(twin_frf):
         _, xo = _tuned(filters=NOTCH_LPF, frf=frf)
         for bw, z, r in ((5.5, 1.0, 4.0), (6.0, 0.7, 2.0), (3.0, 0.5, 1.0)):
             assert xo >= _hand(MODEL, NOTCH_LPF, POLICY, bw, z, r, frf=frf)
+
+
+# ------------------------------------------------------------------------------------------ filter choice
+@pytest.fixture(scope="module")
+def mode_plant():
+    """The series-mode plant, tuned with its own filters and with none."""
+    frf = series_mode_frf()
+    own, x_own = _tuned(frf=frf, filter_choice="own")
+    _, x_none = _tuned(frf=frf, filters=LoopFilters())
+    return frf, own, x_own, x_none
+
+
+def test_own_notch_at_a_lightly_damped_mode_raises_the_crossover(mode_plant):
+    frf, own, x_own, x_none = mode_plant
+    notches = own.law.filters.notches
+    assert [round(n.freq_hz) for n in notches] == [150]  # at the mode, found from the FRF
+    assert x_own > 5 * x_none  # 12.2 Hz against 1.07 Hz without a filter
+    rec = own.tuning["filters"]
+    assert rec["choice"] == "own" and len(rec["chosen"]) == 1 and "150" in rec["chosen"][0]
+    # the judge accepts it
+    full = analyze_gantry(own.law, MODEL, frf=frf)
+    verdict = check_cases(POLICY, {k: None if c is None else c.metrics for k, c in full.cases.items()}, ["discrete"])
+    assert verdict.ok, verdict.violations
+
+
+def test_own_filters_equal_the_identical_search_with_the_same_filters(mode_plant):
+    frf, own, x_own, _ = mode_plant
+    _, x_same = _tuned(frf=frf, filters=own.law.filters, filter_choice="identical")
+    assert x_same == pytest.approx(x_own, rel=0.01)
+
+
+@pytest.mark.slow
+def test_dense_brute_force_with_the_own_filters(mode_plant):
+    frf, own, x_own, _ = mode_plant
+    bf = brute_force(MODEL, own.law.filters, POLICY, frf=frf)
+    assert x_own >= (1 - BRUTE_TOL) * bf["crossover_hz"], (x_own, bf)
+
+
+def test_own_filters_drop_given_filters_that_lower_the_crossover():
+    # on the model, the thesis' notches and low-pass only cost bandwidth: 'own' may drop them
+    identical, x_identical = _tuned(filters=NOTCH_LPF)
+    own, x_own = _tuned(filters=NOTCH_LPF, filter_choice="own")
+    _, x_bare = _tuned(filters=LoopFilters(), filter_choice="identical")
+    assert x_own == pytest.approx(x_bare, rel=1e-9) and x_own > 10 * x_identical
+    assert not own.law.filters.notches and own.law.filters.lpf_hz is None
+    assert identical.tuning["filters"]["choice"] == "identical"  # the default when filters are given
+
+
+# ------------------------------------------------------------------------------------------ rules and record
+def test_tuning_records_the_rule_and_warns_on_bounds():
+    d, xo = _tuned(filters=NOTCH_LPF)
+    t = d.tuning
+    for key in ("method", "objective", "limits", "active_limit", "checked_case", "search", "filters", "warnings"):
+        assert key in t
+    assert t["limits"]["profile"] == "textbook" and t["active_limit"] == "ms" and t["checked_case"] == "ideal_discrete"
+    assert any("rho = 10 (upper bound)" in w for w in t["warnings"])
+    # a larger box holds the old winner: the crossover cannot fall
+    wide, x_wide = _tuned(filters=NOTCH_LPF, rho_bounds=(0.5, 40.0))
+    assert x_wide >= xo * (1 - 1e-3) and wide.tuning["rho"] > 10.0
+
+
+def test_bad_input_and_infeasible_limits():
+    with pytest.raises(UsageError, match="filter_choice"):
+        tune_gantry_pid(MODEL, filter_choice="mine")
+    with pytest.raises(UsageError, match="zeta_bounds"):
+        tune_gantry_pid(MODEL, zeta_bounds=(1.0, 0.5))
+    with pytest.raises(DesignError, match="no PID pair"):
+        tune_gantry_pid(MODEL, ms_max=1.02, filters=NOTCH_LPF)
+
+
+# ------------------------------------------------------------------------------------------------ CLI
+def test_cli_pid_filters_option(tmp_path, capsys, monkeypatch):
+    import json
+    import sys
+
+    from feedtune.cli.main import main
+    from feedtune.io import save_model
+
+    model_file = tmp_path / "gantry.toml"
+    save_model(model_file, MODEL)
+
+    def run(args):
+        monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
+        try:
+            main()
+            code = 0
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 1
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    notch_lpf = ["--notch", "110,0.5,0.7", "--notch", "320,0.2,0.9", "--notch", "400,0.15,1.0", "--notch",
+                 "940,0.6,0.75", "--lpf", "450", "--lpf-order", "2"]
+    code, out, err = run(["design", "pid", model_file, *notch_lpf, "--filters", "identical", "--json"])
+    assert code == 0, err
+    res = json.loads(out)
+    assert res["design"]["filters"]["choice"] == "identical" and res["check"]["ok"]
+    assert res["analysis"]["ideal_discrete"]["crossovers_hz"][0] == pytest.approx(_tuned(filters=NOTCH_LPF)[1],
+                                                                                   rel=1e-9)
+    code, out, err = run(["design", "pid", model_file, "--out", tmp_path / "pid.toml"])
+    assert code == 0, err
+    assert "filters (own)" in out and "active limit" in out and (tmp_path / "pid.toml").exists()
+    code, _, err = run(["design", "pid", model_file, "--filters", "mine"])
+    assert code == 2 and "--filters" in err
