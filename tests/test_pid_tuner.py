@@ -111,14 +111,24 @@ def series_mode_frf(freq_hz: float = 150.0, zeta: float = 0.02, x: float = 0.0) 
     return Frf(f, base.response * mode, base.outputs, base.inputs, "position", meta={"source": "series mode"})
 
 
-@pytest.fixture(scope="module")
-def twin_frf():
+_TWIN_FRFS: dict = {}
+
+
+def measured_twin_frf(x: float = 0.0) -> Frf:
+    """The gantry twin's 2x2 FRF measured at table position ``x`` [m] (2-1000 Hz, multisine), cached."""
     from feedtune.sim.gantry_experiments import measure_gantry_frf
     from feedtune.sim.gantry_twin import GantryTwin
 
-    res = measure_gantry_frf(GantryTwin(), 0.0, f_lo=2.0, f_hi=1000.0, seed=3)
-    assert not res.tripped
-    return res.frf
+    if x not in _TWIN_FRFS:
+        res = measure_gantry_frf(GantryTwin(), x, f_lo=2.0, f_hi=1000.0, seed=3)
+        assert not res.tripped
+        _TWIN_FRFS[x] = res.frf
+    return _TWIN_FRFS[x]
+
+
+@pytest.fixture(scope="module")
+def twin_frf():
+    return measured_twin_frf(0.0)
 
 
 _TUNED: dict = {}
@@ -155,11 +165,12 @@ def test_dense_brute_force_on_the_model(x):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("filters", ["notch_lpf", "none"])
-def test_dense_brute_force_on_the_twin_frf(twin_frf, filters):
+@pytest.mark.parametrize("x, filters", [(0.0, "notch_lpf"), (0.0, "none"), (0.3, "notch_lpf"), (-0.3, "none")])
+def test_dense_brute_force_on_the_twin_frf(x, filters):
     pack = NOTCH_LPF if filters == "notch_lpf" else LoopFilters()
-    _, xo = _tuned(filters=pack, frf=twin_frf)
-    bf = brute_force(MODEL, pack, POLICY, frf=twin_frf)
+    frf = measured_twin_frf(x)
+    _, xo = _tuned(filters=pack, frf=frf, x=x)
+    bf = brute_force(MODEL, pack, POLICY, frf=frf, x=x)
     assert xo >= (1 - BRUTE_TOL) * bf["crossover_hz"], (xo, bf)
 
 
@@ -273,3 +284,60 @@ def test_cli_pid_filters_option(tmp_path, capsys, monkeypatch):
     assert "filters (own)" in out and "active limit" in out and (tmp_path / "pid.toml").exists()
     code, _, err = run(["design", "pid", model_file, "--filters", "mine"])
     assert code == 2 and "--filters" in err
+
+
+# ------------------------------------------------------------------------------------- search machinery
+def test_rigid_crossover_equals_a_dense_numerical_solution():
+    from feedtune.tune.pid import rigid_crossover
+
+    w = np.geomspace(0.1, 100.0, 400001)  # rad/s, unit bandwidth
+    for zeta, rho in ((0.3, 0.5), (0.7, 2.0), (1.0, 10.0)):
+        kp, kd, ki = 1 + 2 * zeta / rho, 2 * zeta + 1 / rho, 1 / rho
+        mag = np.abs(kp + 1j * w * kd + ki / (1j * w)) / w**2
+        assert rigid_crossover(zeta, rho) == pytest.approx(w[np.argmax(mag < 1)], rel=1e-4)
+
+
+def test_feasibility_edge_on_a_known_edge():
+    from feedtune.tune.search import Probe, feasibility_edge
+
+    scan = np.geomspace(0.2, 400.0, 24)
+
+    def check(edges):
+        def f(s):
+            ok = any(lo <= s <= hi for lo, hi in edges)
+            return Probe(s, ok, s, min(abs(s - e) / e for pair in edges for e in pair) * (1 if ok else -1))
+        return f
+
+    one = check([(0.1, 7.3)])
+    for start in (None, 3.0, 7.0, 20.0):
+        e = feasibility_edge(one, scan, rtol=2e-3, start=start)
+        assert 7.3 / 1.002 <= e.best.scale <= 7.3
+    # the cheap condition never accepts: a pessimistic one only saves checks
+    e = feasibility_edge(one, scan, admissible=lambda s: np.asarray(s) <= 7.5)
+    assert 7.3 / 1.002 <= e.best.scale <= 7.3
+    # two ranges: the top-down scan finds the upper one, a start near the lower one stays there
+    two = check([(0.1, 7.3), (30.0, 55.0)])  # ranges narrower than the scan's step (ratio 1.39) can be missed
+    assert 55.0 / 1.002 <= feasibility_edge(two, scan).best.scale <= 55.0
+    assert feasibility_edge(two, scan, start=5.0).best.scale <= 7.3
+    # pruning: a start that fails with a crossover below 'beat' drops the shape after one check
+    e = feasibility_edge(one, scan, start=8.0, beat=9.0)
+    assert e.pruned and e.best is None and e.checks == 1
+
+
+def test_pattern_search_climbs_a_diagonal_ridge():
+    from feedtune.tune.search import EdgeResult, Probe, pattern_search
+
+    bounds = [(0.2, 2.0), (0.01, 10.0)]
+    slope = math.log(1000.0) / math.log(10.0)  # the lattice's diagonal in log coordinates
+
+    def objective(u, v):  # a narrow ridge along the diagonal, highest at a = 0.8: axis moves fall off it
+        return 100.0 * np.exp(-((v - slope * (u - math.log(0.2)) - math.log(0.01)) ** 2) / 0.02
+                              - ((u - math.log(0.8)) ** 2) / 0.5)
+
+    def edge_of(shape, ref, beat):
+        return EdgeResult(Probe(1.0, True, float(objective(*np.log(shape))), 1.0), 2.0, 1)
+
+    res = pattern_search(edge_of, ("a", "b"), bounds, min_step=1 / 32)
+    ua, ub = np.meshgrid(np.linspace(*np.log(bounds[0]), 801), np.linspace(*np.log(bounds[1]), 801))
+    assert res.edge.best.crossover_hz >= 0.97 * np.max(objective(ua, ub))
+    assert res.point[0] == pytest.approx(0.8, rel=0.1)

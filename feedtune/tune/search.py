@@ -378,9 +378,15 @@ def pattern_search(edge_of: EdgeOf, names: Sequence[str], bounds: Sequence[tuple
     cache: dict = {}
     last: list = [] if ref is None else [ref]  # (shape, probe) of the latest feasible edge
 
+    def coordinate(i: int, k: int) -> float:
+        if not free[i] or k <= 0:
+            return float(bounds[i][0])
+        if k >= n_units[i]:
+            return float(bounds[i][1])
+        return float(np.exp(lo[i] + k * unit[i]))
+
     def point(k: tuple) -> tuple:
-        return tuple(float(np.exp(min(max(lo[i] + k[i] * unit[i], lo[i]), hi[i]))) if free[i] else
-                     float(bounds[i][0]) for i in range(dims))
+        return tuple(coordinate(i, k[i]) for i in range(dims))
 
     beaten: dict = {}  # the crossover a pruned shape was asked to beat
 
