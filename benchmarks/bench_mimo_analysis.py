@@ -22,10 +22,10 @@ from feedtune.analysis.mimo import analyze_mimo, matmul, sensitivity, singular_v
 from feedtune.design.filters import Notch
 from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
-from feedtune.design.gantry_pid import tune_gantry_pid
 from feedtune.design.loopshape import LeadStage, LoopFilters, PrefilterGains, design_loopshape
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.sim.gantry_runtime import AxisRuntime, GantryRuntime
+from feedtune.tune.pid import tune_gantry_pid
 
 N_FREQ = 20000
 N_STEPS = 15000

@@ -20,13 +20,14 @@ from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.loop import analyze_loop, extension_grid, junction_scale, model_extension
 from feedtune.analysis.mimo import mimo_nyquist
 from feedtune.design.filters import THESIS_FILTER_PACK
-from feedtune.design.gantry_pid import PidLaw, pid_gains, tune_gantry_pid
+from feedtune.design.gantry_pid import PidLaw, pid_gains
 from feedtune.design.loopshape import LoopFilters
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi
 from feedtune.frf import Frf
 from feedtune.models import THESIS_TABLE_3_1 as BALLSCREW
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
+from feedtune.tune.pid import tune_gantry_pid
 from feedtune.tune.ppi import tune_ppi
 
 LOWEST_LINES_HZ = (0.5, 2.0, 5.0, 10.0)

@@ -18,10 +18,10 @@ from feedtune.design.gantry_mimo import (
     design_gantry_mimo,
     torsional_damping,
 )
-from feedtune.design.gantry_pid import tune_gantry_pid
 from feedtune.design.loopshape import LeadStage, LoopFilters
 from feedtune.errors import DesignError, UsageError
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
+from feedtune.tune.pid import tune_gantry_pid
 
 THESIS_H = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                        450.0, 2, 0.7, [LeadStage(154, 70)])

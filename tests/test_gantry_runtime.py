@@ -12,7 +12,7 @@ from feedtune.design.filters import Notch
 from feedtune.design.gains import gains_document
 from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
-from feedtune.design.gantry_pid import design_gantry_pid, tune_gantry_pid
+from feedtune.design.gantry_pid import design_gantry_pid
 from feedtune.design.loopshape import LeadStage, LoopFilters, PrefilterGains, design_loopshape
 from feedtune.design.mcppc import design_mcppc
 from feedtune.errors import DataError, UsageError
@@ -21,6 +21,7 @@ from feedtune.models import THESIS_TABLE_3_1
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.sim.gantry_runtime import AxisRuntime, GantryRuntime, load_runtime
 from feedtune.sim.runtime import GainsRuntime
+from feedtune.tune.pid import tune_gantry_pid
 
 FS = 15000.0
 H = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],

@@ -9,7 +9,7 @@ The verdicts are recomputed here without :mod:`feedtune.analysis`: loops from th
 zero-order hold and delay times the discrete controller, singular values in closed form, and closed-loop
 stability from the eigenvalues of the twin's exact discrete state space closed with the controller's state
 space (ground truth the twin was built with, not a Nyquist count). The PID ceiling is a brute-force search
-over ``(kp, kd, ki)``, not :func:`~feedtune.design.gantry_pid.tune_gantry_pid`.
+over ``(kp, kd, ki)``, not :func:`~feedtune.tune.pid.tune_gantry_pid`.
 
 Published figures (seed text ~l. 760-925): x axis 130 Hz at PM 35 deg was "the highest crossover ... while
 maintaining adequate stability margins", two 63 deg leads (126 deg, eq. 4.17-4.18), ``|S| < 1`` up to 98 Hz;
@@ -29,11 +29,11 @@ from feedtune.analysis.gantry import analyze_axis, analyze_gantry
 from feedtune.design.discretize import matched
 from feedtune.design.filters import Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
-from feedtune.design.gantry_pid import tune_gantry_pid
 from feedtune.design.loopshape import LeadStage, LoopFilters, design_loopshape
 from feedtune.identify.gantry import fit_gantry
 from feedtune.sim.gantry_experiments import measure_axis_frf, measure_gantry_frf
 from feedtune.sim.gantry_twin import I_X, GantryTwin, axis_encoder_row, continuous_system, encoder_matrix
+from feedtune.tune.pid import tune_gantry_pid
 
 XS = (-0.3, 0.0, 0.3)
 H_THESIS = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],

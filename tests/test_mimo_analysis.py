@@ -20,10 +20,11 @@ from feedtune.analysis.loop import analyze_loop
 from feedtune.analysis.mimo import analyze_mimo, mimo_nyquist, sensitivity, singular_values
 from feedtune.design.filters import Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
-from feedtune.design.gantry_pid import PidLaw, pid_gains, tune_gantry_pid
+from feedtune.design.gantry_pid import PidLaw, pid_gains
 from feedtune.design.loopshape import LeadStage, LoopFilters, design_loopshape, zoh_double_integrator
 from feedtune.lti import Zpk, delay_response
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
+from feedtune.tune.pid import tune_gantry_pid
 
 THESIS_H = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                        450.0, 2, 0.7, [LeadStage(154, 70)])

@@ -1,11 +1,13 @@
 """``feedtune design loopshape|gantry|pid``: the x axis and the gantry of thesis chapter 4.
 
 * ``loopshape``: double-lead-and-integral loop shaping of an axis (eq. 4.17-4.20) from a mass, a gantry model
-  (its ``m_x``) or a measured SISO FRF.
+  (its ``m_x``) or a measured SISO FRF; without ``--crossover-hz`` the highest crossover under the limits
+  (:func:`feedtune.tune.loopshape.tune_loopshape`).
 * ``gantry``: the MIMO law of eq. 4.30 (sensor/actuator averaging, lead, active damping, actuator-level
   integral) with feedforward and pre-filters scheduled in the table position.
-* ``pid``: the independent-PID baseline tuned to a peak sensitivity (``--ms-max``) or to the one of a MIMO
-  gains file (``--match``).
+* ``pid``: the independent-PID baseline tuned for the highest crossover under the limits
+  (:func:`feedtune.tune.pid.tune_gantry_pid`), with ``--match`` to the Ms of a MIMO gains file and its filters;
+  ``--filters own|identical`` says whether the tuner may choose its own notches and low-pass.
 
 The commands are registered on the ``design`` group in :mod:`feedtune.cli.main`.
 """
@@ -132,11 +134,16 @@ def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, 
 def loopshape(
     plant_file: Path = typer.Argument(..., help="Model file (.toml/.json: a gantry model's m_x) or a measured "
                                                 "SISO FRF (.csv/.mat/.uff)."),
-    crossover_hz: float = typer.Option(..., "--crossover-hz", help="Crossover frequency [Hz] (thesis: 130)."),
-    pm_deg: float = typer.Option(..., "--pm-deg", help="Phase margin at the crossover [deg] (thesis: 35)."),
-    pi_lag_deg: float = typer.Option(10.0, "--pi-lag-deg", help="Phase lag of the integral action at the "
-                                                                "crossover [deg]."),
-    max_stage_deg: float = typer.Option(70.0, "--max-stage-deg", help="Largest phase of one lead stage [deg]."),
+    crossover_hz: float = typer.Option(None, "--crossover-hz", help="Crossover frequency [Hz] (thesis: 130); "
+                                                                    "without it the tuner finds the highest "
+                                                                    "crossover under the limits."),
+    pm_deg: float = typer.Option(None, "--pm-deg", help="Phase margin at the crossover [deg] (thesis: 35); needed "
+                                                        "with --crossover-hz, fixes the target when tuning."),
+    pi_lag_deg: float = typer.Option(None, "--pi-lag-deg", help="Phase lag of the integral action at the "
+                                                                "crossover [deg] (default 10; searched when "
+                                                                "tuning unless given)."),
+    max_stage_deg: float = typer.Option(70.0, "--max-stage-deg", help="Largest phase of one lead stage [deg] "
+                                                                      "(the tuner searches 1-3 stages instead)."),
     mass: float = typer.Option(None, "--mass", help="Axis mass [V/(m/s^2)] (instead of the model's m_x or the "
                                                     "FRF estimate)."),
     channel: str = typer.Option(None, "--channel", help="FRF channel OUT/IN when the FRF has several."),
@@ -162,11 +169,13 @@ def loopshape(
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20)."""
+    """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20), designed or tuned."""
     from ..analysis.gantry import analyze_axis, target_violations
     from ..analysis.limits import check_analysis
     from ..design.gantry_gains import axis_gains_document
     from ..design.loopshape import PrefilterGains, design_loopshape
+    from ..errors import UsageError
+    from ..tune.loopshape import tune_loopshape
     from .frf_options import read_optional_frf
 
     if plant_file.suffix.lower() in (".toml", ".json"):
@@ -175,18 +184,28 @@ def loopshape(
         plant = load_model(plant_file)
     else:
         plant = read_optional_frf(plant_file, quantity)
-    design = design_loopshape(
-        plant, crossover_hz=crossover_hz, pm_deg=pm_deg, pi_lag_deg=pi_lag_deg,
-        filters=_loop_filters(notch, lpf, lpf_order, lpf_zeta, lead), fs=fs, delay_samples=delay_samples,
-        max_stage_deg=max_stage_deg, prefilter=PrefilterGains.parse(prefilter), prefilter_hz=prefilter_hz,
-        mass=mass, channel=channel)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     measured = read_optional_frf(frf, quantity)
+    filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
+    common = dict(filters=filters, fs=fs, delay_samples=delay_samples, prefilter=PrefilterGains.parse(prefilter),
+                  prefilter_hz=prefilter_hz, mass=mass, channel=channel)
+    if crossover_hz is not None:
+        if pm_deg is None:
+            raise UsageError("--crossover-hz needs --pm-deg (or give neither to tune the crossover)")
+        design = design_loopshape(plant, crossover_hz=crossover_hz, pm_deg=pm_deg,
+                                  pi_lag_deg=10.0 if pi_lag_deg is None else pi_lag_deg, max_stage_deg=max_stage_deg,
+                                  **common)
+    else:
+        design = tune_loopshape(plant, limits=policy, frf=measured,
+                                pm_bounds=None if pm_deg is None else (pm_deg, pm_deg),
+                                pi_lag_bounds=None if pi_lag_deg is None else (pi_lag_deg, pi_lag_deg), **common)
+        if not as_json:
+            _print_tuning(design.tuning)
     full = analyze_axis(design, measured, channel=channel if measured is not None else None)
     analysis = full.to_dict()
     check, checked = check_analysis(full, policy)
     own = design.design_dict()["checked_case"]
-    extra = target_violations(analysis[own], crossover_hz, pm_deg, name=own)
+    extra = target_violations(analysis[own], design.crossover_hz, design.pm_deg, name=own)
     doc = axis_gains_document(design, analysis)
     gains = {k: v["value"] for k, v in doc["gains"].items()}
     result = {"kind": "axis", "controller": "loopshape", "gains": gains,
@@ -279,6 +298,29 @@ def _matched(match: Path, frf):
         LoopFilters(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta)
 
 
+FILTERS_CHOICE_OPTION = typer.Option(
+    None, "--filters", metavar="own|identical",
+    help="Filters of the tuned PIDs: identical (the filter options, or with --match the matched file's notches and "
+         "low-pass: the thesis' rule) or own (the tuner chooses notches and a low-pass where they raise the "
+         "crossover; the filter options or the matched ones are candidates). Default: identical with --match, "
+         "else own.")
+
+
+def _print_tuning(tuning: dict) -> None:
+    """A few lines on how a tuner chose the design (its ``tuning`` record)."""
+    lim = tuning.get("limits", {})
+    typer.echo(f"tuned: {tuning['method']}")
+    typer.echo(f"  limits {lim.get('profile')} in the {tuning['checked_case']} case; active limit: "
+               f"{tuning.get('active_limit')}; {tuning['search']['checks']} checks in {tuning['search']['seconds']} s")
+    filt = tuning.get("filters")
+    if filt:
+        chosen = filt.get("chosen")
+        text = "; ".join(chosen) if chosen else filt.get("why", "")
+        typer.echo(f"  filters ({filt['choice']}): {text or 'none'}")
+    for w in tuning.get("warnings", []):
+        typer.echo(f"  warning: {w}")
+
+
 def pid(
     model_file: Path = typer.Argument(..., help="Gantry model file from 'feedtune identify gantry'."),
     limits: str = LIMITS_OPTION,
@@ -289,6 +331,7 @@ def pid(
     match: Path = typer.Option(None, "--match", help="Gantry gains file (e.g. the MIMO design) whose Ms the "
                                                      "PIDs are tuned to; without filter options its notches "
                                                      "and low-pass are used (not its leads)."),
+    filter_choice: str = FILTERS_CHOICE_OPTION,
     kp: str = typer.Option(None, "--kp", help="Proportional gain [V/m], one value or SIDE1,SIDE2 (with --kd, "
                                               "--ki: no tuning)."),
     kd: str = typer.Option(None, "--kd", help="Derivative gain [V/(m/s)], one value or SIDE1,SIDE2."),
@@ -314,12 +357,16 @@ def pid(
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Independent PID per side behind notches and low-pass, tuned to a peak sensitivity (thesis baseline)."""
-    from ..design.gantry_pid import design_gantry_pid, tune_gantry_pid
+    """Independent PID per side behind notches and low-pass, tuned for the highest crossover under the limits
+    (thesis baseline)."""
+    from ..design.gantry_pid import design_gantry_pid
     from ..design.loopshape import PrefilterGains
     from ..errors import UsageError
+    from ..tune.pid import FILTER_CHOICES, tune_gantry_pid
     from .frf_options import read_optional_frf
 
+    if filter_choice is not None and filter_choice not in FILTER_CHOICES:
+        raise UsageError(f"--filters must be own or identical, got {filter_choice!r}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     model = _gantry_model(model_file)
     measured = read_optional_frf(frf, quantity)
@@ -333,6 +380,7 @@ def pid(
         ms_max, matched_filters = _matched(match, measured)
         if not (notch or lpf is not None or lead):
             filters = matched_filters  # the thesis' PIDs: identical notch and low-pass filters
+    choice = filter_choice or ("identical" if match is not None else "own")
     common = dict(filters=filters, fs=fs, delay_samples=delay_samples, x=x,
                   x_grid=_x_grid(model, x_min, x_max, x_points),
                   prefilter1=PrefilterGains.parse(prefilter1, "--prefilter1"),
@@ -340,6 +388,9 @@ def pid(
     if all(given):
         design = design_gantry_pid(model, kp=_pair(kp, "--kp"), kd=_pair(kd, "--kd"), ki=_pair(ki, "--ki"), **common)
     else:
-        design = tune_gantry_pid(model, limits=policy.override(ms_max=ms_max), frf=measured, **common)
+        design = tune_gantry_pid(model, limits=policy.override(ms_max=ms_max), frf=measured, filter_choice=choice,
+                                 **common)
+        if not as_json:
+            _print_tuning(design.tuning)
     _gantry_finish(design, measured, limits=policy.override(ms_max=ms_max), targets=None, out=out, force=force,
                    allow_unstable=allow_unstable, as_json=as_json)  # --match: the MIMO design's Ms

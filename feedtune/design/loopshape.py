@@ -180,7 +180,14 @@ class LoopFilters:
         return cls(pack.notches, pack.lpf_hz, 1)
 
     def zpk(self) -> Zpk:
-        """The combined continuous transfer function (unit gain at 0 Hz)."""
+        """The combined continuous transfer function (unit gain at 0 Hz); computed once per pack."""
+        cached = self.__dict__.get("_zpk")
+        if cached is None:
+            cached = self._build_zpk()
+            object.__setattr__(self, "_zpk", cached)
+        return cached
+
+    def _build_zpk(self) -> Zpk:
         g = Zpk.constant(1.0)
         for n in self.notches:
             g = g * n.zpk()
@@ -469,6 +476,10 @@ class LoopShapeDesign:
         Pre-filter low-pass frequency [Hz].
     iterations : int
         Lead/gain iterations on the discrete loop.
+    max_stage_deg : float
+        Largest phase of one lead stage [deg].
+    tuning : dict
+        How the targets were chosen (:func:`feedtune.tune.loopshape.tune_loopshape`); empty when given.
     """
 
     plant: AxisPlant
@@ -485,6 +496,7 @@ class LoopShapeDesign:
     prefilter_hz: float
     iterations: int
     max_stage_deg: float = 70.0
+    tuning: dict = field(default_factory=dict)
 
     kind = "loopshape"
 
@@ -533,6 +545,7 @@ class LoopShapeDesign:
             "plant": self.plant.to_dict(),
             "prefilter_hz": self.prefilter_hz,
             "checked_case": "discrete" if self.plant.frf is not None else "ideal_discrete",
+            **({"tuning": self.tuning} if self.tuning else {}),
         }
 
 
@@ -574,6 +587,7 @@ def design_loopshape(
     prefilter_hz: float = 80.0,
     mass: float | None = None,
     channel: str | None = None,
+    stages: int | None = None,
 ) -> LoopShapeDesign:
     """Double-lead-and-integral loop shaping of an axis (thesis eq. 4.17-4.18), see the module docstring.
 
@@ -603,6 +617,8 @@ def design_loopshape(
         Mass [V/(m/s^2)] overriding the model's (or the FRF estimate).
     channel : str, optional
         FRF channel when the FRF has several.
+    stages : int, optional
+        Number of equal lead stages (each below 90 deg); default ``ceil(lead / max_stage_deg)``.
 
     Returns
     -------
@@ -623,6 +639,8 @@ def design_loopshape(
         raise UsageError(f"--pm-deg must lie in (0, 90) deg, got {pm_deg}")
     if not 0 < pi_lag_deg < 45:
         raise UsageError(f"--pi-lag-deg must lie in (0, 45) deg, got {pi_lag_deg}")
+    if stages is not None and (isinstance(stages, bool) or int(stages) != stages or stages < 1):
+        raise UsageError(f"the number of lead stages must be an integer >= 1, got {stages!r}")
     pack = filters if isinstance(filters, LoopFilters) else (
         LoopFilters.from_filter_pack(filters) if isinstance(filters, FilterPack) else LoopFilters())
     pack.check_nyquist(fs)
@@ -638,8 +656,14 @@ def design_loopshape(
     lead = float(wrap_deg(target - np.angle(other, deg=True)))
     design = base
     for it in range(1, 31):
-        stages = tuple(LeadStage(wc_hz, p) for p in split_lead(lead, max_stage_deg))
-        trial = replace(base, lead_stages=stages, gain=1.0)
+        if stages is None:
+            split = split_lead(lead, max_stage_deg)
+        elif abs(lead) / stages >= 89.9:
+            raise DesignError(f"loop shaping needs {lead:.0f} deg of lead at {wc_hz:g} Hz, more than {stages} "
+                              "stage(s) can give")
+        else:
+            split = [lead / stages] * int(stages)
+        trial = replace(base, lead_stages=tuple(LeadStage(wc_hz, p) for p in split), gain=1.0)
         loop = p_c * trial.controller_discrete().freqresp([wc_hz])[0]
         err = float(wrap_deg(target - np.angle(loop, deg=True)))
         design = replace(trial, gain=float(1.0 / abs(loop)), iterations=it)

@@ -178,10 +178,10 @@ def _design(twin, fit, m_x, frf0, texts):
     from ..analysis.limits import Limits, check_cases
     from ..design.gantry_gains import axis_gains_document, gantry_gains_document
     from ..design.gantry_mimo import design_gantry_mimo
-    from ..design.gantry_pid import tune_gantry_pid
     from ..design.loopshape import design_loopshape
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
+    from ..tune.pid import tune_gantry_pid
     from .gantry_runtime import load_runtime
 
     p = twin.params

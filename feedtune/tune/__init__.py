@@ -5,7 +5,10 @@ interpolation, extension below the FRF and limits), ranks them by the true first
 it chose.
 """
 
+from .gantry import tune_gantry_mimo
+from .loopshape import tune_loopshape
 from .mcppc import tune_mcppc
+from .pid import tune_gantry_pid
 from .ppi import tune_ppi
 
-__all__ = ["tune_mcppc", "tune_ppi"]
+__all__ = ["tune_gantry_mimo", "tune_gantry_pid", "tune_loopshape", "tune_mcppc", "tune_ppi"]

@@ -1,36 +1,479 @@
-"""The search shared by the tuners: the highest feasible value of a bandwidth-like parameter, per design shape.
+"""Search machinery shared by the tuners: the feasibility edge of a scale and a bounded pattern search over shapes.
 
-A tuner describes a family of designs by a few *shape* parameters and one *bandwidth* parameter that moves the
-loop's crossover up (MC-PPC: the rigid-body pole frequency; gantry MIMO: the CoM crossover). For each shape the
-feasible bandwidths are scanned from the top down on a log grid (so the highest feasible region is found even when
-the feasible set is not an interval) and the edge above the highest feasible point is bisected to a relative width
-of :data:`EDGE_REL_TOL`. A candidate is feasible when the caller's check — exactly the analysis and limits the result
-is judged by — passes. The best shape is the one with the highest objective (the first crossover).
+A tuner parametrises its controller by a *scale* (a bandwidth or crossover [Hz]: the loop gets faster as it grows,
+and its first crossover with it) and a few *shape* parameters.
+
+:func:`feasibility_edge` finds, for one shape, the largest scale that passes the real check (:class:`Probe`: the
+analysis and the limits policy). Without a start it scans log-spaced scales from the top down to the first pass
+(a feasible range above a failing one is found); from a start (a neighbouring shape's edge) it steps up or down
+to a bracket, assuming the passing scales of a shape form one range from below. The bracket is then narrowed to
+``rtol`` by bisection, or by a secant step on the smallest limit slack when both ends have one. A cheap necessary
+condition (``admissible``: e.g. the peak sensitivity on the analysis' base grid, a lower bound of the refined one)
+rejects scales without a real check; it never accepts one. With ``beat`` (a crossover the shape must exceed to
+matter) the first check is at the start, chosen by the tuner to give about that crossover: if it fails with a
+crossover at or below ``beat``, the shape's edge lies below the start and its crossover cannot exceed ``beat``, so
+the shape is pruned after one check (after none when the start fails the cheap condition and the crossover
+estimated on the base grid is clearly below ``beat``).
+
+:func:`highest_feasible` runs the edge search over a fixed list of shapes (the MC-PPC and gantry-MIMO tuners).
+
+:func:`pattern_search` maximises the first crossover at the edge over the box of shapes, in log coordinates: a
+lattice of starts (3 per parameter, the corners included), then a local search from the best lattice points
+(``restarts``) moving to the best improving neighbour, diagonals included (ridges where two limits meet run
+diagonally), with steps halved down to ``min_step`` of the box. Shapes are points of the lattice of the smallest
+step, so that equal problems give equal shapes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-EDGE_REL_TOL = 2e-3
-"""Relative width [-] to which the feasibility edge is bisected."""
+CHEAP_MARGIN = 5e-3
+"""Relative margin [-] by which a crossover estimated on the base grid must lie below ``beat`` to prune."""
+
+
+def unreliable(warnings) -> str | None:
+    """The analysis' warning that its Nyquist count is unreliable (winding not close to an integer), or None."""
+    return next((w for w in warnings or [] if "not close to an integer" in w), None)
+
+
+def band_top_doubt(sigma_l_top: float, top_hz: float, fs: float, ms_max: float | None) -> str | None:
+    """Why a loop on a band-limited FRF cannot be accepted, or None.
+
+    Above the FRF's last line (``top_hz`` below ``fs / 2``) the loop is unknown. Assuming only that it rolls off
+    there (``sigma_max(L)`` no larger than at the last line), the sensitivity above the band stays within
+    ``ms_max`` when ``sigma_max(L) <= 1 - 1/ms_max`` at the last line (``sigma_max(S) <= 1 / (1 - sigma_max(L))``);
+    without an ``Ms`` limit, ``sigma_max(L) < 1``.
+    """
+    if top_hz >= 0.999 * fs / 2:
+        return None
+    allowed = 1.0 if ms_max is None else 1.0 - 1.0 / ms_max
+    if sigma_l_top > allowed:
+        return (f"sigma_max(L) = {sigma_l_top:.3g} at the last line of the band ({top_hz:g} Hz) exceeds {allowed:.3g}: "
+                "the loop above the band could break the limits")
+    return None
+
+
+@dataclass(frozen=True)
+class Probe:
+    """One candidate judged by the real check.
+
+    Attributes
+    ----------
+    scale : float
+        The scale parameter of the candidate [Hz].
+    ok : bool
+        Every limit met and the loop stable in the checked case.
+    crossover_hz : float
+        First crossover of the loop [Hz] (``metrics.crossovers_hz[0]``; nan without one).
+    slack : float or None
+        Smallest relative slack of the limits (negative: violated); None when unstable.
+    result : object
+        What the tuner's check built (law, metrics, limit items).
+    """
+
+    scale: float
+    ok: bool
+    crossover_hz: float
+    slack: float | None
+    result: object = None
+
+
+@dataclass
+class EdgeResult:
+    """The feasibility edge of one shape.
+
+    Attributes
+    ----------
+    best : Probe or None
+        The passing candidate at the edge (None: no scale passed).
+    fail_scale : float or None
+        The smallest failing scale above it [Hz] (None: the scan's top passed).
+    checks : int
+        Real checks made.
+    pruned : bool
+        Given up after the first check: the shape cannot beat the crossover it was asked to beat.
+    """
+
+    best: Probe | None
+    fail_scale: float | None
+    checks: int
+    pruned: bool = False
+
+    @property
+    def at_top(self) -> bool:
+        """The edge is the top of the scan range (the scale bound)."""
+        return self.best is not None and self.fail_scale is None
+
+
+def _slack(p: Probe | None) -> float | None:
+    return None if p is None or p.slack is None or not math.isfinite(p.slack) else float(p.slack)
+
+
+def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
+                     admissible: Callable[[np.ndarray], np.ndarray] | None = None, rtol: float = 2e-3,
+                     start: float | None = None, beat: float | None = None,
+                     cheap_crossover: Callable[[float], float] | None = None) -> EdgeResult:
+    """Largest scale passing ``check`` (module docstring); ``best`` is None when no point passes.
+
+    Parameters
+    ----------
+    check : callable
+        ``check(scale) -> Probe``, the real check.
+    scan : ndarray
+        Increasing log-spaced scales [Hz]: the range, and the points of the top-down scan when there is no
+        ``start``.
+    admissible : callable, optional
+        ``admissible(scales) -> bool array``: a necessary condition (False: certainly failing, no real check).
+    rtol : float
+        Relative width of the final bracket [-].
+    start : float, optional
+        A scale expected near the edge (a neighbouring shape's): the bracket is sought around it.
+    beat : float, optional
+        With ``start``: prune the shape when ``start`` fails with a first crossover at or below ``beat`` [Hz].
+    cheap_crossover : callable, optional
+        ``cheap_crossover(scale)`` -> an estimate of the first crossover [Hz] on the analysis' base grid: when
+        ``start`` fails the cheap condition and the estimate is ``CHEAP_MARGIN`` below ``beat``, the shape is
+        pruned without a real check.
+    """
+    scan = np.asarray(scan, float)
+    bottom, top = float(scan[0]), float(scan[-1])
+    n = 0
+
+    def real(s: float) -> Probe:
+        nonlocal n
+        n += 1
+        return check(float(s))
+
+    def cheap(s: float) -> bool:
+        return True if admissible is None else bool(np.asarray(admissible(np.array([s])))[0])
+
+    def cheap_edge(a: float, b: float) -> tuple[float, float]:
+        """Narrow ``cheap(a) and not cheap(b)`` to a ratio of ``1 + rtol / 8``."""
+        while b / a > 1 + rtol / 8:
+            m = math.sqrt(a * b)
+            if cheap(m):
+                a = m
+            else:
+                b = m
+        return a, b
+
+    def below(a: float, b: float) -> float:
+        """The scale just below the cheap edge ``b`` to check."""
+        return max(a, b / (1 + 0.5 * rtol))
+
+    def descend(s: float, p: Probe | None) -> tuple[Probe | None, float, Probe | None]:
+        """Real steps down from a failing ``s`` until a pass: ``(pass, lowest failing scale, its probe)``.
+
+        The step extrapolates the slack of the last two failures to zero (30 % beyond it); without slacks it is
+        15 %, doubling (in log scale) after each failure up to a factor 2.
+        """
+        prev = None
+        grow = math.log(1.15)
+        for _ in range(12):
+            sl = _slack(p)
+            ln_step = grow
+            grow = min(2 * grow, math.log(2.0))
+            if sl is not None and prev is not None:
+                gain = (sl - prev[1]) / (prev[0] - math.log(s))  # slack gained per unit of log scale down
+                ln_step = min(max(1.3 * -sl / gain + rtol, rtol), math.log(2.0)) if gain > 0 else math.log(1.5)
+            elif sl is not None:
+                ln_step = min(max(2 * abs(sl) + rtol, rtol), math.log(1.15))
+            if sl is not None:
+                prev = (math.log(s), sl)
+            t = s / math.exp(ln_step)
+            if t < bottom:
+                if s <= bottom * (1 + rtol):
+                    return None, s, p
+                t = bottom
+            q = real(t) if cheap(t) else None
+            if q is not None and q.ok:
+                return q, s, p
+            s, p = t, q
+        return None, s, p
+
+    def climb(p: Probe) -> tuple[Probe, float | None, Probe | None]:
+        """Real steps up from a passing ``p`` (15 %, the step squared after each pass up to a factor 2) to the first
+        failure: ``(last pass, first failing scale or None at the top, its probe)``."""
+        step = 1.15
+        while True:
+            if p.scale >= top:
+                return p, None, None
+            u = min(p.scale * step, top)
+            q = real(u) if cheap(u) else None
+            if q is None or not q.ok:
+                return p, u, q
+            p, step = q, min(step * step, 2.0)
+
+    lo_p: Probe | None = None
+    hi: float | None = None
+    hi_p: Probe | None = None
+    if start is not None and bottom <= start <= top:
+        s = float(start)
+        if beat is not None and cheap_crossover is not None and not cheap(s):
+            xc = cheap_crossover(s)
+            if math.isfinite(xc) and xc <= beat * (1 - CHEAP_MARGIN):
+                return EdgeResult(None, s, n, pruned=True)
+        p = real(s) if beat is not None else None
+        if p is not None and not p.ok:
+            if math.isfinite(p.crossover_hz) and p.crossover_hz <= beat:
+                return EdgeResult(None, s, n, pruned=True)
+            lo_p, hi, hi_p = descend(s, p)
+        else:
+            target, b = s, None
+            if cheap(s):  # the cheap edge, when it is near above the start, is the first guess
+                t = s
+                for _ in range(3):
+                    u = min(t * 1.15, top)
+                    if u <= t:
+                        break
+                    if not cheap(u):
+                        a, b = cheap_edge(t, u)
+                        target = below(a, b)
+                        break
+                    t = u
+            else:  # down to the cheap edge below the start
+                u, t = s, s / 1.15
+                while t >= bottom and not cheap(t):
+                    u, t = t, t / 1.15
+                if t < bottom:
+                    return EdgeResult(None, None, n)
+                a, b = cheap_edge(t, u)
+                target = below(a, b)
+            q = p if p is not None and target == s else real(target)
+            if q.ok:
+                lo_p, hi, hi_p = (q, b, None) if b is not None else climb(q)
+                if hi is None:
+                    return EdgeResult(lo_p, None, n)
+            elif p is not None and p.ok:
+                lo_p, hi, hi_p = p, target, q
+            else:
+                lo_p, hi, hi_p = descend(target, q)
+        if lo_p is None:
+            return EdgeResult(None, None, n)  # no passing scale near a neighbour's edge: not scanned again
+    else:  # top-down scan
+        mask = np.ones(scan.size, bool) if admissible is None else np.asarray(admissible(scan), bool)
+        for i in range(scan.size - 1, -1, -1):
+            if not mask[i]:
+                hi, hi_p = float(scan[i]), None
+                continue
+            p = real(scan[i])
+            if p.ok:
+                lo_p = p
+                break
+            hi, hi_p = float(scan[i]), p
+        if lo_p is None:
+            return EdgeResult(None, None, n)
+        if hi is None:
+            return EdgeResult(lo_p, None, n)
+    if hi_p is None and hi / lo_p.scale > 1 + rtol:  # the cheap edge inside the bracket, a real check below it
+        a, hi = cheap_edge(lo_p.scale, hi)
+        s = below(a, hi)
+        if s > lo_p.scale * (1 + 0.25 * rtol):
+            p = real(s)
+            if p.ok:
+                lo_p = p
+            else:
+                hi, hi_p = s, p
+    lo = lo_p.scale
+    while hi / lo > 1 + rtol:
+        m = math.sqrt(lo * hi)
+        s_lo, s_hi = _slack(lo_p), _slack(hi_p)
+        if s_lo is not None and s_hi is not None and s_lo > s_hi:
+            t = s_lo / (s_lo - s_hi)  # secant on the slack in log scale, kept inside the bracket
+            t = min(max(t, 0.1), 0.9)
+            m = math.exp(math.log(lo) + t * math.log(hi / lo))
+        if not cheap(m):
+            hi, hi_p = m, None
+            continue
+        p = real(m)
+        if p.ok:
+            lo, lo_p = m, p
+        else:
+            hi, hi_p = m, p
+    return EdgeResult(lo_p, hi, n)
+
+
+@dataclass
+class SearchResult:
+    """Outcome of :func:`pattern_search`.
+
+    Attributes
+    ----------
+    point : tuple of float
+        The best shape.
+    edge : EdgeResult
+        Its feasibility edge.
+    evaluated : dict
+        ``{shape: EdgeResult}`` of every shape evaluated (pruned ones included).
+    on_bound : list of str
+        ``"name = value (lower|upper bound)"`` for each shape parameter of the winner on a bound of the box.
+    """
+
+    point: tuple
+    edge: EdgeResult
+    evaluated: dict = field(default_factory=dict)
+    on_bound: list = field(default_factory=list)
+
+    @property
+    def checks(self) -> int:
+        """Real checks made over the whole search."""
+        return int(sum(e.checks for e in self.evaluated.values() if e is not None))
+
+
+def _objective(e: EdgeResult | None) -> float:
+    if e is None or e.best is None or not math.isfinite(e.best.crossover_hz):
+        return -math.inf
+    return float(e.best.crossover_hz)
+
+
+EdgeOf = Callable[[tuple, "tuple | None", "float | None"], EdgeResult]
+
+
+def pattern_search(edge_of: EdgeOf, names: Sequence[str], bounds: Sequence[tuple[float, float]], *,
+                   starts: int = 3, restarts: int = 2, min_step: float = 1 / 16, improve: float = 1e-3,
+                   initial: Sequence[float] | None = None, ref: tuple | None = None,
+                   initial_step: float = 1 / 8) -> SearchResult | None:
+    """Maximise the first crossover at the feasibility edge over a box of shape parameters (module docstring).
+
+    Parameters
+    ----------
+    edge_of : callable
+        ``edge_of(shape, ref, beat) -> EdgeResult``: :func:`feasibility_edge` of one shape. ``ref`` is
+        ``(shape, Probe)`` of a neighbouring shape's edge (None for the first shape: a full scan); ``beat`` is the
+        crossover [Hz] a local move must exceed (None on the lattice).
+    names : sequence of str
+        Names of the shape parameters (for the bound warnings).
+    bounds : sequence of (float, float)
+        ``(low, high)`` of each parameter (> 0; equal bounds fix it).
+    starts : int
+        Lattice points per free parameter of the initial scan (>= 2: the corners are included).
+    restarts : int
+        Local searches, from the best distinct lattice points.
+    min_step : float
+        Smallest step as a fraction of each parameter's log range [-].
+    improve : float
+        Relative gain of the crossover [-] a move must bring to be taken.
+    initial : sequence of float, optional
+        A single local search instead: from this shape (rounded to the lattice), with steps from ``initial_step``
+        of the box.
+    ref : (shape, Probe), optional
+        A passing probe of a similar design: the first edge is sought from it instead of by a full scan.
+
+    Returns
+    -------
+    SearchResult or None
+        None when no shape has a feasible scale.
+    """
+    lo = np.log([b[0] for b in bounds])
+    hi = np.log([b[1] for b in bounds])
+    span = hi - lo
+    free = span > 0
+    dims = len(bounds)
+    unit = np.where(free, span * min_step, 1.0)
+    n_units = np.where(free, np.round(span / unit), 0).astype(int)
+    evaluated: dict = {}
+    cache: dict = {}
+    last: list = [] if ref is None else [ref]  # (shape, probe) of the latest feasible edge
+
+    def coordinate(i: int, k: int) -> float:
+        if not free[i] or k <= 0:
+            return float(bounds[i][0])
+        if k >= n_units[i]:
+            return float(bounds[i][1])
+        return float(np.exp(lo[i] + k * unit[i]))
+
+    def point(k: tuple) -> tuple:
+        return tuple(coordinate(i, k[i]) for i in range(dims))
+
+    beaten: dict = {}  # the crossover a pruned shape was asked to beat
+
+    def value(k: tuple, ref: tuple | None = None, beat: float | None = None) -> float:
+        if k not in cache or (cache[k].pruned and (beat is None or beat < beaten[k])):
+            e = edge_of(point(k), ref if ref is not None else (last[-1] if last else None), beat)
+            cache[k] = e
+            beaten[k] = beat
+            evaluated[point(k)] = e
+            if e.best is not None:
+                last.append((point(k), e.best))
+        return _objective(cache[k])
+
+    moves = [d for d in np.array(np.meshgrid(*[[-1, 0, 1] if f else [0] for f in free], indexing="ij"))
+             .reshape(dims, -1).T if np.any(d != 0)]
+
+    def local(k: tuple, step: int) -> tuple:
+        while True:
+            here = _objective(cache[k])
+            target = here * (1 + improve)
+            ref = (point(k), cache[k].best)
+            best_k, best_v = None, target
+            for d in moves:
+                j = tuple(int(min(max(k[i] + d[i] * step, 0), n_units[i])) for i in range(dims))
+                if j == k:
+                    continue
+                v = value(j, ref, target)
+                if v > best_v:
+                    best_k, best_v = j, v
+            if best_k is not None:
+                k = best_k
+            elif step > 1:
+                step //= 2
+            else:
+                return k
+
+    if initial is not None:
+        k0 = tuple(int(min(max(round((math.log(v) - lo[i]) / unit[i]), 0), n_units[i])) if free[i] else 0
+                   for i, v in enumerate(initial))
+        value(k0)
+        if _objective(cache[k0]) == -math.inf:
+            return None
+        best = local(k0, max(round(initial_step / min_step), 1))
+    else:
+        axes = [np.unique(np.round(np.linspace(0, n_units[i], starts))).astype(int) if free[i] else np.array([0])
+                for i in range(dims)]
+        grid = np.array(np.meshgrid(*axes, indexing="ij")).reshape(dims, -1).T
+        centre = n_units / 2.0
+        grid = sorted(grid.tolist(), key=lambda g: (float(np.sum(((np.array(g) - centre) / np.maximum(n_units, 1))
+                                                                 ** 2)), g))  # the centre first: the one full scan
+        for g in grid:
+            value(tuple(int(v) for v in g))
+        lattice = sorted((k for k in cache if _objective(cache[k]) > -math.inf), key=lambda k: -_objective(cache[k]))
+        if not lattice:
+            return None
+        step = max(int(np.max(n_units) // max(starts - 1, 1)) // 2, 1)
+        ends = [local(k, step) for k in lattice[:restarts]]
+        best = max(ends, key=lambda k: (_objective(cache[k]), k))
+    on_bound = []
+    for i in np.flatnonzero(free):
+        if best[i] == 0:
+            on_bound.append(f"{names[i]} = {point(best)[i]:g} (lower bound)")
+        elif best[i] == n_units[i]:
+            on_bound.append(f"{names[i]} = {point(best)[i]:g} (upper bound)")
+    return SearchResult(point(best), cache[best], evaluated, on_bound)
+
+
+# ------------------------------------------------------------------------------------------ fixed shape lists
+CROSSOVER_TIE = 0.02
+"""Shapes whose best first crossover is within this fraction of the highest count as equal [-] (the P-PI tuner's
+rule, :data:`feedtune.tune.ppi.CROSSOVER_TIE`): the first crossover is nearly flat over the shapes."""
 COARSE_POINTS = 16
-"""Log-spaced bandwidths scanned per shape before the bisection."""
+"""Log-spaced scales of the top-down scan per shape in :func:`highest_feasible`."""
 
 
 @dataclass(frozen=True)
 class Candidate:
-    """A checked design.
+    """A design that passed the tuner's check.
 
     Attributes
     ----------
     shape : dict
         The shape parameters.
     bandwidth : float
-        The bandwidth parameter (unit of the tuner).
+        The scale parameter [Hz].
     design : object
         The design object.
     metrics : object
@@ -48,83 +491,66 @@ class Candidate:
 
 @dataclass
 class SearchRecord:
-    """What the search did: evaluations, every shape's best and warnings."""
+    """What :func:`highest_feasible` did: real checks, every shape's edge and warnings."""
 
     evaluations: int = 0
     per_shape: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
 
 
-CROSSOVER_TIE = 0.02
-"""Shapes whose best first crossover is within this fraction of the highest count as equal [-] (the P-PI tuner's
-rule, :data:`feedtune.tune.ppi.CROSSOVER_TIE`): the first crossover is nearly flat over the shapes."""
-
-
-def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes: Iterable[dict], lo: float, hi: float,
+def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, lo: float, hi: float,
                      record: SearchRecord | None = None, *, bound_name: str = "bandwidth", unit: str = "Hz",
                      secondary: Callable[[Candidate], float] | None = None,
                      tie: float = CROSSOVER_TIE) -> Candidate | None:
-    """The feasible candidate with the highest objective over the shapes (module docstring).
+    """The best candidate over a fixed list of shapes: each shape's :func:`feasibility_edge` in the scale (a top-down
+    scan of :data:`COARSE_POINTS` log-spaced scales in ``[lo, hi]``, then bisection to 0.2 %), the highest first
+    crossover over the shapes; among the shapes within ``tie`` of it, the highest ``secondary`` (e.g. the integral
+    gain: stiffness against slow disturbances) when given.
 
     Parameters
     ----------
     check : callable
-        ``check(shape, bandwidth)`` -> the :class:`Candidate` when it passes the tuner's check, else None.
+        ``check(shape, scale)`` -> the :class:`Candidate` when it passes the tuner's check (the analysis and the
+        limits), else None.
     shapes : iterable of dict
-        The shapes to search.
     lo, hi : float
-        Search bounds of the bandwidth parameter (> 0).
+        Bounds of the scale (> 0).
     record : SearchRecord, optional
-        Filled with the evaluations, the best of every shape and warnings (winner at a search bound).
+        Filled with the checks, every shape's edge and the warnings (winner on a bound).
     bound_name, unit : str
-        Name and unit of the bandwidth parameter in the warnings.
+        Name and unit of the scale in the warnings.
     secondary : callable, optional
-        ``secondary(candidate)`` -> the tie-breaker: among the shapes whose best objective is within ``tie`` of the
-        highest, the one with the highest ``secondary`` wins (e.g. the integral gain: stiffness against slow
-        disturbances). Without it the highest objective wins.
+        Tie-breaker (see above).
     tie : float
-        Relative tie of the objective [-].
+        Relative tie of the first crossover [-].
     """
     rec = record if record is not None else SearchRecord()
-    grid = np.geomspace(lo, hi, COARSE_POINTS)
-
-    def run(shape, b):
-        rec.evaluations += 1
-        try:
-            return check(shape, float(b))
-        except ArithmeticError:
-            return None
-
+    scan = np.geomspace(lo, hi, COARSE_POINTS)
     bests: list[Candidate] = []
     for shape in shapes:
-        found, i_found = None, None
-        for i in range(grid.size - 1, -1, -1):  # top down: the highest feasible point first
-            found = run(shape, grid[i])
-            if found is not None:
-                i_found = i
-                break
-        if found is None:
+        def probe(scale: float, shape=shape) -> Probe:
+            try:
+                c = check(shape, scale)
+            except ArithmeticError:
+                c = None
+            return Probe(scale, c is not None, math.nan if c is None else c.objective, None, c)
+
+        edge = feasibility_edge(probe, scan)
+        rec.evaluations += edge.checks
+        if edge.best is None:
             continue
-        if i_found + 1 < grid.size:
-            a, b = grid[i_found], grid[i_found + 1]
-            while b / a > 1 + EDGE_REL_TOL:
-                mid = float(np.sqrt(a * b))
-                c = run(shape, mid)
-                if c is not None:
-                    a, found = mid, c
-                else:
-                    b = mid
+        found = edge.best.result
         rec.per_shape.append({"shape": dict(shape), bound_name: found.bandwidth, "objective": found.objective})
         bests.append(found)
-    best = None
-    if bests:
-        top = max(c.objective for c in bests)
-        best = max(bests, key=lambda c: c.objective)
-        if secondary is not None:
-            best = max((c for c in bests if c.objective >= (1 - tie) * top), key=secondary)
-    if best is not None and best.bandwidth >= hi * (1 - EDGE_REL_TOL):
+    if not bests:
+        return None
+    top = max(c.objective for c in bests)
+    best = max(bests, key=lambda c: c.objective)
+    if secondary is not None:
+        best = max((c for c in bests if c.objective >= (1 - tie) * top), key=secondary)
+    if best.bandwidth >= hi * (1 - 2e-3):
         rec.warnings.append(f"the best design sits on the upper search bound {bound_name} = {hi:.4g} {unit}; the "
                             "limits may allow more")
-    if best is not None and best.bandwidth <= lo * (1 + EDGE_REL_TOL):
+    if best.bandwidth <= lo * (1 + 2e-3):
         rec.warnings.append(f"the best design sits on the lower search bound {bound_name} = {lo:.4g} {unit}")
     return best

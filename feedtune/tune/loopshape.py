@@ -1,0 +1,276 @@
+"""Tuner of the x axis' double-lead loop shaping (thesis §4.4.1, eq. 4.17-4.18): the highest crossover under the limits.
+
+:func:`feedtune.design.loopshape.design_loopshape` places the crossover ``wc`` and its phase margin exactly on the
+discrete loop; its other parameters are the integral's phase lag at ``wc`` and the number of lead stages. The
+tuner searches them as the PID tuner does (:mod:`feedtune.tune.pid`):
+
+* the scale is the crossover ``wc``: for a shape, the largest ``wc`` whose design passes the check
+  (:func:`feedtune.tune.search.feasibility_edge`, bracket ``RTOL`` = 0.2 %; a design that cannot be made, e.g. more
+  lead than the stages give, fails);
+* the shape is the phase-margin target and the integral lag, continuous over ``PM_BOUNDS`` (from just above the
+  policy's phase-margin limit: a smaller target cannot pass) x ``PI_LAG_BOUNDS``
+  (:func:`feedtune.tune.search.pattern_search`, log coordinates), for each number of lead stages in ``STAGES``.
+
+**The check** is the analysis the design is judged by: the plant cases of
+:func:`feedtune.analysis.gantry.axis_plant_cases` (the double integrator of the axis' mass, and the measured FRF
+when the plant is one or one is given: then the ``discrete`` case, interpolated between the lines and continued by
+the mass below them, else ``ideal_discrete``), :func:`analyze_axis_case` and the limits policy. On a band-limited
+FRF the tuner also refuses a loop with ``|L| > 1 - 1/ms_max`` at the last line
+(:func:`feedtune.tune.search.band_top_doubt`), or one whose Nyquist count the analysis calls unreliable
+(:func:`feedtune.tune.search.unreliable`). The objective is the true first crossover (``metrics.crossovers_hz[0]``),
+which equals the target ``wc`` unless the loop crosses 0 dB earlier. The winner is verified stable in every case.
+
+The gain margin binds on ``1/(m s^2)`` with the thesis' axis filters and the textbook limits, and the crossover at
+the edge falls as the PM target and the integral lag grow (241 Hz at PM 30 deg and 5 deg of lag, 191 Hz at 70 and
+20 deg): the winner sits on the lower bounds, reported in ``tuning["warnings"]``. ``PI_LAG_BOUNDS`` starts at 5 deg,
+an integral corner about a decade below the crossover.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..analysis.gantry import analyze_axis_case, axis_plant_cases
+from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
+from ..design.filters import FilterPack
+from ..design.loopshape import (
+    LoopFilters,
+    LoopShapeDesign,
+    PrefilterGains,
+    axis_plant,
+    check_sampling,
+    design_loopshape,
+)
+from ..errors import DesignError, UsageError
+from ..frf import Frf
+from .search import Probe, SearchResult, band_top_doubt, feasibility_edge, pattern_search, unreliable
+
+PM_BOUNDS = (30.0, 75.0)
+"""Phase-margin targets searched [deg]; the low bound is raised to just above the policy's ``pm_min_deg``."""
+PI_LAG_BOUNDS = (5.0, 20.0)
+"""Phase lag of the integral action at the crossover searched [deg]."""
+STAGES = (1, 2, 3)
+"""Numbers of equal lead stages searched."""
+SCAN_HZ = (1.0, None)
+"""Scan of the crossover [Hz]: from 1 Hz to ``fs / 8`` (None)."""
+SCAN_POINTS = 24
+RTOL = 2e-3
+"""Relative width of the final bracket on the crossover [-]."""
+PM_ABOVE_LIMIT = 0.01
+"""The lowest PM target is this much [deg] above the policy's limit (the designed PM holds to 1e-6 deg)."""
+
+
+@dataclass
+class _AxisCase:
+    """The checked plant case of the axis and its plant on the base grid (``|L|`` at the last line)."""
+
+    name: str
+    pc: object
+    cases: dict
+    Ge: np.ndarray
+    policy: Limits
+    fs: float
+    checks: int = 0
+
+
+class _AxisSearch:
+    """Designs for a number of lead stages: the real check, the edge and the shape search."""
+
+    def __init__(self, case: _AxisCase, make, stages: int, bounds, scan: np.ndarray):
+        self.case = case
+        self.make = make  # make(crossover_hz, pm_deg, pi_lag_deg, stages) -> LoopShapeDesign (or DesignError)
+        self.stages = stages
+        self.bounds = bounds
+        self.scan = scan
+        self._designs: dict = {}
+
+    def design(self, xo: float, pm: float, lag: float) -> LoopShapeDesign | None:
+        key = (xo, pm, lag)
+        if key not in self._designs:
+            try:
+                self._designs[key] = self.make(xo, pm, lag, self.stages)
+            except (DesignError, UsageError):
+                self._designs[key] = None
+        return self._designs[key]
+
+    def check(self, xo: float, pm: float, lag: float) -> Probe:
+        """The analysis' own check of the design for ``(xo, pm, lag)`` in the checked case."""
+        c = self.case
+        d = self.design(xo, pm, lag)
+        if d is None:
+            return Probe(float(xo), False, math.nan, None, None)
+        c.checks += 1
+        m = analyze_axis_case(d, c.pc, responses=False).metrics
+        items = c.policy.check(m, c.name)
+        top = c.pc.freq_hz[-1:]
+        l_top = float(np.abs(c.Ge[-1:] * d.controller_discrete().freqresp(top))[0])
+        doubt = unreliable(m.warnings) or band_top_doubt(l_top, float(top[0]), c.fs, c.policy.ms_max)
+        ok = all(i.ok for i in items) and doubt is None
+        slacks = [i.slack for i in items if i.slack is not None]
+        slack = None if not m.stable or doubt is not None else (min(slacks) if slacks else 1.0)
+        xc = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
+        return Probe(float(xo), ok, xc, slack, (d, m, items))
+
+    def edge(self, shape: tuple, ref: tuple | None = None, beat: float | None = None):
+        """The largest crossover of one shape whose design passes the check (:func:`feasibility_edge`); with
+        ``beat`` [Hz] the first check is at that crossover."""
+        pm, lag = shape
+        start = beat if beat is not None else (None if ref is None else ref[1].scale)
+        return feasibility_edge(lambda xo: self.check(xo, pm, lag), self.scan, rtol=RTOL, start=start, beat=beat)
+
+    def run(self, ref: tuple | None) -> SearchResult | None:
+        """The shape search over the box (the first edge from ``ref``, a passing probe of another stage count)."""
+        return pattern_search(self.edge, ("pm_deg", "pi_lag_deg"), self.bounds, ref=ref)
+
+
+def _bounds(value, default, name: str, lo_limit: float, hi_limit: float) -> tuple[float, float]:
+    b = default if value is None else tuple(float(v) for v in value)
+    if len(b) != 2 or not (lo_limit < b[0] <= b[1] < hi_limit and all(math.isfinite(v) for v in b)):
+        raise UsageError(f"{name} must be two numbers {lo_limit:g} < low <= high < {hi_limit:g}, got {value!r}")
+    return b
+
+
+def tune_loopshape(
+    plant,
+    *,
+    limits: Limits | None = None,
+    ms_max: float | None = None,
+    filters: LoopFilters | FilterPack | None = None,
+    fs: float = 15000.0,
+    delay_samples: int = 1,
+    frf: Frf | None = None,
+    mass: float | None = None,
+    channel: str | None = None,
+    prefilter: PrefilterGains | None = None,
+    prefilter_hz: float = 80.0,
+    pm_bounds=None,
+    pi_lag_bounds=None,
+    stages=STAGES,
+) -> LoopShapeDesign:
+    """The loop-shaping design of an axis with the highest first crossover that meets the limits.
+
+    See the module docstring for the search and the check.
+
+    Parameters
+    ----------
+    plant : float, GantryModel, rigid-body model, Frf or AxisPlant
+        The axis, as for :func:`~feedtune.design.loopshape.design_loopshape` (an FRF's mass is estimated once, from
+        its first decade, unless ``mass`` is given).
+    limits : Limits, optional
+        The limits policy (default :data:`feedtune.analysis.limits.DEFAULT_LIMITS`).
+    ms_max : float, optional
+        Overrides the policy's peak sensitivity limit [-].
+    filters : LoopFilters or FilterPack, optional
+        Filter pack of the controller (as given).
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    frf : Frf, optional
+        Measured SISO position FRF [m/V] of the ``measured``/``discrete`` cases when the plant is not one.
+    mass : float, optional
+        Axis mass [V/(m/s^2)] overriding the model's or the FRF estimate.
+    channel : str, optional
+        FRF channel when the FRF has several.
+    prefilter, prefilter_hz
+        Pre-filter gains and low-pass [Hz] of the design (not part of the loop).
+    pm_bounds, pi_lag_bounds : (float, float), optional
+        The shape box [deg] (default ``PM_BOUNDS``, ``PI_LAG_BOUNDS``).
+    stages : sequence of int
+        Numbers of lead stages searched.
+
+    Returns
+    -------
+    LoopShapeDesign
+        ``tuning`` records the rule, the limits, the active limit, the checked case and the warnings.
+
+    Raises
+    ------
+    DesignError
+        No design meets the limits.
+    """
+    t0 = time.perf_counter()
+    policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
+    check_sampling(fs, delay_samples)
+    pack = filters if isinstance(filters, LoopFilters) else (
+        LoopFilters.from_filter_pack(filters) if isinstance(filters, FilterPack) else LoopFilters())
+    pack.check_nyquist(fs)
+    ap = axis_plant(plant, mass=mass, channel=channel)
+    pmb = _bounds(pm_bounds, PM_BOUNDS, "pm_bounds", 0.0, 90.0)
+    floor = (policy.pm_min_deg or 0.0) + PM_ABOVE_LIMIT
+    if pmb[1] < floor:
+        raise UsageError(f"a phase-margin target of at most {pmb[1]:g} deg cannot meet the phase-margin limit "
+                         f"{policy.pm_min_deg:g} deg")
+    pmb = (max(pmb[0], floor), pmb[1])
+    lagb = _bounds(pi_lag_bounds, PI_LAG_BOUNDS, "pi_lag_bounds", 0.0, 45.0)
+    counts = tuple(int(n) for n in stages)
+    if not counts or any(n < 1 for n in counts):
+        raise UsageError(f"stages must be integers >= 1, got {stages!r}")
+
+    def make(xo, pm, lag, n):
+        return design_loopshape(ap, crossover_hz=xo, pm_deg=pm, pi_lag_deg=lag, filters=pack, fs=fs,
+                                delay_samples=delay_samples, prefilter=prefilter, prefilter_hz=prefilter_hz,
+                                stages=n)
+
+    trial = design_loopshape(ap, crossover_hz=min(10.0, fs / 20), pm_deg=45.0, filters=pack, fs=fs,
+                             delay_samples=delay_samples)
+    cases = axis_plant_cases(trial, frf, channel=channel if frf is not None else None)
+    name = "discrete" if cases.get("discrete") is not None else "ideal_discrete"
+    pc = cases[name]
+    f = pc.freq_hz
+    case = _AxisCase(name, pc, cases, pc.plant(f) * pc.hold(f), policy, float(fs))
+    top = fs / 8 if SCAN_HZ[1] is None else SCAN_HZ[1]
+    scan = np.geomspace(SCAN_HZ[0], top, SCAN_POINTS)
+    results = {}
+    ref = None
+    for n in counts:
+        r = _AxisSearch(case, make, n, (pmb, lagb), scan).run(ref)
+        results[n] = r
+        if r is not None:
+            ref = (r.point, r.edge.best)
+    found = {n: r for n, r in results.items() if r is not None}
+    if not found:
+        raise DesignError(f"no loop-shaping design meets the limits ({policy.describe()}) in the {name} case; "
+                          "relax the limits or change the filters")
+    n_best = max(found, key=lambda n: (found[n].edge.best.crossover_hz, -n))
+    best = found[n_best]
+    design, metrics, _ = best.edge.best.result
+    stable = {k: True if k == name else bool(analyze_axis_case(design, p, responses=False).metrics.stable)
+              for k, p in cases.items() if p is not None}
+    if not all(stable.values()):
+        raise DesignError(f"the best loop-shaping design meets the limits in the {name} case but is unstable in "
+                          f"the {', '.join(k for k, v in stable.items() if not v)} case")
+    warnings = [f"the winner sits on a search bound: {b}" for b in best.on_bound]
+    if best.edge.at_top:
+        warnings.append(f"the winner's crossover is the top of the scan ({best.edge.best.scale:g} Hz = fs/8)")
+    act = check_cases(policy, {name: metrics}, [name]).active()
+    pm, lag = best.point
+    tuning = {
+        "method": "highest first crossover under the limits; loop shaping (eq. 4.17-4.18) with the crossover by "
+                  "bisection to the feasibility edge and (PM target, integral lag) by a pattern search, for each "
+                  "number of lead stages",
+        "objective": "first crossover of the loop over the whole contour",
+        "limits": policy.to_dict(),
+        "active_limit": None if act is None else act.name,
+        "active_limit_value": None if act is None else act.value,
+        "checked_case": name,
+        "checked_from_hz": float(f[0]),
+        "checked_to_hz": float(f[-1]),
+        "stable_in_cases": stable,
+        "crossover_hz": float(metrics.crossovers_hz[0]),
+        "pm_target_deg": float(pm),
+        "pi_lag_deg": float(lag),
+        "lead_stages": int(n_best),
+        "ms_found": float(metrics.ms),
+        "search": {"pm_bounds_deg": list(pmb), "pi_lag_bounds_deg": list(lagb), "stages": list(counts),
+                   "crossover_scan_hz": [float(scan[0]), float(scan[-1])], "crossover_rtol": RTOL,
+                   "best_per_stages_hz": {str(n): (None if r is None else float(r.edge.best.crossover_hz))
+                                          for n, r in results.items()},
+                   "checks": case.checks, "seconds": round(time.perf_counter() - t0, 3)},
+        "warnings": warnings,
+    }
+    return replace(design, tuning=tuning)

@@ -1,0 +1,532 @@
+"""Tuner of the gantry's independent-PID baseline (thesis §4.4.2; issue 10: tuned as well as the proposal).
+
+The PIDs (:mod:`feedtune.design.gantry_pid`) are placed from a bandwidth ``w`` and a shape ``(zeta, rho)``, gains
+proportional to the side masses: the rigid body's closed loop has the poles of
+``(s^2 + 2 zeta w s + w^2)(s + w/rho)``. Every positive ``(kp, kd, ki)`` per unit mass with a stable rigid-body loop
+is one such triple, so the search covers the mass-scaled PIDs; it is continuous in all three:
+
+* for a shape, the largest ``w`` that passes the check (:func:`feedtune.tune.search.feasibility_edge`; bracket
+  ``RTOL`` = 0.2 %), from a scan of ``w`` over ``SCAN_HZ`` (log-spaced) or from a neighbouring shape's edge;
+* over the shapes, the highest first CoM crossover at the edge (:func:`feedtune.tune.search.pattern_search`,
+  log coordinates, a 3 x 3 lattice of starts, local searches from the best two with diagonal moves, steps down
+  to ``SHAPE_STEP`` = 1/32 of the box).
+
+**The check** is the analysis the design is judged by: the plant case of the checked case
+(:func:`feedtune.analysis.gantry.gantry_plant_cases`: the measured FRF interpolated between its lines and the model
+below them, ``discrete``; without an FRF the ZOH model, ``ideal_discrete``), :func:`analyze_gantry_case` and the
+limits policy (:class:`feedtune.analysis.limits.Limits`: MIMO Nyquist stability, ``max sigma_max(S)``, and the
+CoM loop's phase and gain margins at every crossover). Candidates whose ``Ms`` on the case's base grid already
+exceeds the limit are skipped unchecked (a lower bound of the checked ``Ms``). The objective is the true first
+crossover of the CoM loop (``metrics.crossovers_hz[0]``, including crossovers below the FRF's band). The winner is
+verified in every case (stable in all, the limits in the checked case).
+
+**The shape box** is ``ZETA_BOUNDS`` x ``RHO_BOUNDS``. On the thesis gantry with the MIMO design's notches and
+low-pass at Ms 2.5 the crossover at the edge rises towards ``zeta = 1`` and large ``rho`` (12.1 Hz at (0.3, 0.5),
+13.5 Hz at (1, 10); it falls to 3.7 Hz at (0.3, 10), where the phase margin binds) and goes on rising beyond the
+box (14.4 Hz at ``zeta = 3``, ``rho = 32``): the ``Ms`` peak near the yaw mode caps the derivative gain, which sets
+the crossover, and the crossover alone prefers a PD. The box keeps the PID a PID: ``zeta <= 1`` keeps the rigid-body
+pair complex (above 1 its slow pole ``w (zeta - sqrt(zeta^2 - 1))`` creeps towards 0) and ``rho <= 10`` keeps the
+integral pole within a decade of the bandwidth. A winner on a bound is reported in ``tuning["warnings"]``. Where
+two limits meet (the phase margin and ``Ms``, or the band's last line) the best shapes lie on a diagonal ridge
+(on the twin's FRF without filters: 202 Hz at (0.30, 2.2), 241 Hz at (0.36, 10)), hence the diagonal moves.
+
+**Filters** (``filter_choice``; default ``"identical"`` when ``filters`` are given, else ``"own"``):
+``"identical"`` uses the filters given (the thesis: the MIMO design's notches and low-pass); ``"own"`` lets the
+tuner choose (:func:`choose_filters`): it seeds notches at the plant's resonances (the FRF's, or the model's lightly
+damped poles) and at the sensitivity peaks of the best design without filters, tries low-pass filters of order 1 and
+2, and keeps a filter only when it raises the first crossover under the limits.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_cases
+from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
+from ..analysis.margins import crossings
+from ..analysis.mimo import com_loop, matmul, sensitivity, singular_values
+from ..design.discretize import backward_difference, backward_euler_integrator, matched
+from ..design.gantry_pid import GantryPidDesign, PidLaw, design_gantry_pid, pid_gains
+from ..design.loopshape import TWO_PI, LoopFilters, PrefilterGains, check_sampling
+from ..errors import DesignError, UsageError
+from ..frf import Frf
+from ..models.gantry import GantryModel
+from .search import EdgeResult, Probe, SearchResult, band_top_doubt, feasibility_edge, pattern_search, unreliable
+
+ZETA_BOUNDS = (0.3, 1.0)
+"""Damping of the rigid-body closed-loop pair searched [-]."""
+RHO_BOUNDS = (0.5, 10.0)
+"""Ratio ``w / p`` of the bandwidth to the real closed-loop pole searched [-]."""
+SCAN_HZ = (0.2, None)
+"""Scan of the bandwidth ``w`` [Hz]: from 0.2 Hz to ``fs / 40`` (None)."""
+SCAN_POINTS = 24
+"""Points of that scan (ratio 1.38)."""
+RTOL = 2e-3
+"""Relative width of the final bracket on ``w`` [-]."""
+SHAPE_STEP = 1 / 32
+"""Smallest step of the shape search, a fraction of each parameter's log range [-]."""
+FILTER_CHOICES = ("own", "identical")
+"""Values of ``filter_choice``."""
+
+
+@dataclass
+class _Case:
+    """The checked plant case and the base-grid arrays of the cheap ``Ms`` bound."""
+
+    model: GantryModel
+    x: float
+    fs: float
+    delay_samples: int
+    name: str
+    pc: object
+    cases: dict
+    weights: tuple
+    masses: np.ndarray
+    Ge: np.ndarray
+    D: np.ndarray
+    Iz: np.ndarray
+    policy: Limits
+    checks: int = 0
+
+
+def _case(model, x, fs, delay_samples, frf, grid, policy) -> _Case:
+    name = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
+    cases = gantry_plant_cases(model, x, fs, delay_samples, frf, grid)
+    pc = cases[name]
+    f = pc.freq_hz
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Iz = backward_euler_integrator(fs).freqresp(f)
+    return _Case(model, float(x), float(fs), int(delay_samples), name, pc, cases, model.alpha(x),
+                 np.array(model.side_masses(x)), pc.plant(f) * pc.hold(f), backward_difference(fs).freqresp(f), Iz,
+                 policy)
+
+
+class _Search:
+    """The search for one filter pack: the cheap bound, the real check, the edge and the shape search."""
+
+    def __init__(self, case: _Case, pack: LoopFilters, zeta_bounds, rho_bounds, scan: np.ndarray):
+        self.case = case
+        self.pack = pack
+        self.h = matched(pack.zpk(), case.fs).tf.freqresp(case.pc.freq_hz)
+        self.bounds = (tuple(zeta_bounds), tuple(rho_bounds))
+        self.scan = scan
+
+    def grid_loops(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
+        """``L`` on the case's base grid for each bandwidth [Hz] of ``bw_hz``, shape ``(2, 2, n_bw, n_f)``."""
+        c = self.case
+        w = TWO_PI * np.asarray(bw_hz, float)[:, None]
+        pid = w * w * (1 + 2 * zeta / rho) + w * (2 * zeta + 1 / rho) * c.D + w**3 / rho * c.Iz  # per unit mass
+        k = self.h * pid  # (n_bw, n_f)
+        return c.Ge[:, :, None, :] * (c.masses[None, :, None, None] * k[None, None, :, :])  # column j: m_j k
+
+    def grid_ms(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
+        """``max sigma_max(S)`` on the case's base grid for each bandwidth [Hz] of ``bw_hz``."""
+        L = self.grid_loops(bw_hz, zeta, rho)
+        n_bw, n_f = L.shape[2:]
+        smax = singular_values(sensitivity(L.reshape(2, 2, n_bw * n_f)))[0]
+        return np.max(smax.reshape(n_bw, n_f), axis=1)
+
+    def grid_crossover(self, bw_hz: float, zeta: float, rho: float) -> float:
+        """First crossover [Hz] of the CoM loop on the base grid (nan when the loop starts below 1 on the grid)."""
+        lc = com_loop(self.grid_loops([bw_hz], zeta, rho)[:, :, 0, :], self.case.weights)
+        x = crossings(self.case.pc.freq_hz, np.log(np.abs(lc)), 0.0)
+        return float(x[0]) if x.size and abs(lc[0]) > 1 else math.nan
+
+    def admissible(self, zeta: float, rho: float):
+        ms_max = self.case.policy.ms_max
+        if ms_max is None:
+            return None
+        return lambda bw: self.grid_ms(np.atleast_1d(bw), zeta, rho) <= ms_max
+
+    def law(self, bw_hz: float, zeta: float, rho: float) -> PidLaw:
+        c = self.case
+        return PidLaw(**pid_gains(c.model, c.x, bw_hz, zeta, rho), filters=self.pack, fs=c.fs,
+                      delay_samples=c.delay_samples)
+
+    def check(self, bw_hz: float, zeta: float, rho: float) -> Probe:
+        """The analysis' own check of one candidate in the checked case."""
+        c = self.case
+        c.checks += 1
+        law = self.law(bw_hz, zeta, rho)
+        m = analyze_gantry_case(law, c.pc, c.weights).metrics
+        items = c.policy.check(m, c.name)
+        top = c.pc.freq_hz[-1:]
+        l_top = float(singular_values(matmul(c.Ge[:, :, -1:], law.response_discrete(top)))[0][0])
+        doubt = untrusted(m, c.pc.freq_hz, c.fs, l_top, c.policy.ms_max)
+        ok = all(i.ok for i in items) and doubt is None
+        slacks = [i.slack for i in items if i.slack is not None]
+        slack = None if not m.stable or doubt is not None else (min(slacks) if slacks else 1.0)
+        xo = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
+        return Probe(float(bw_hz), ok, xo, slack, (law, m, items))
+
+    def edge(self, shape: tuple, ref: tuple | None = None, beat: float | None = None, rtol: float = RTOL) -> EdgeResult:
+        """The largest bandwidth of one shape passing the check (:func:`feasibility_edge`).
+
+        ``ref`` is ``(shape, Probe)`` of a neighbouring edge; with ``beat`` [Hz] the first check is at the bandwidth
+        expected to give that crossover: the reference's crossover per bandwidth, scaled by the ratio of the
+        rigid-body crossovers of the two shapes (:func:`rigid_crossover`).
+        """
+        zeta, rho = shape
+        start = None
+        if ref is not None:
+            (z0, r0), p0 = ref
+            start = p0.scale
+            if beat is not None and math.isfinite(p0.crossover_hz) and p0.crossover_hz > 0:
+                start = beat * p0.scale / p0.crossover_hz * rigid_crossover(z0, r0) / rigid_crossover(zeta, rho)
+        return feasibility_edge(lambda bw: self.check(bw, zeta, rho), self.scan,
+                                admissible=self.admissible(zeta, rho), rtol=rtol, start=start,
+                                beat=beat if start is not None else None,
+                                cheap_crossover=lambda bw: self.grid_crossover(bw, zeta, rho))
+
+    def run(self) -> SearchResult | None:
+        """The shape search over the whole box."""
+        return pattern_search(self.edge, ("zeta", "rho"), self.bounds, min_step=SHAPE_STEP)
+
+    def run_from(self, shape: tuple, probe: Probe) -> SearchResult | None:
+        """A local shape search from ``shape``, whose edge is expected near that of ``probe``."""
+        return pattern_search(self.edge, ("zeta", "rho"), self.bounds, min_step=SHAPE_STEP, initial=shape,
+                              ref=(tuple(shape), probe))
+
+
+def rigid_crossover(zeta: float, rho: float) -> float:
+    """Crossover [rad/s] of the PID loop on the rigid body at unit bandwidth ``w = 1 rad/s`` (scales with ``w``).
+
+    ``|kp + j (w kd - ki / w)| = w^2`` with the gains per unit mass of :func:`~feedtune.design.gantry_pid.pid_gains`;
+    in ``u = w^2``: ``u^3 - kd^2 u^2 - (kp^2 - 2 kd ki) u - ki^2 = 0``, whose largest real root is taken.
+    """
+    kp, kd, ki = 1 + 2 * zeta / rho, 2 * zeta + 1 / rho, 1 / rho
+    roots = np.roots([1.0, -kd * kd, -(kp * kp - 2 * kd * ki), -ki * ki])
+    return float(math.sqrt(max(r.real for r in roots if abs(r.imag) < 1e-9 * max(1.0, abs(r)))))
+
+
+def untrusted(metrics, freq_hz: np.ndarray, fs: float, sigma_l_top: float, ms_max: float | None) -> str | None:
+    """Why the analysis' verdict on a candidate cannot be relied on, or None.
+
+    The tuner accepts no candidate whose Nyquist count the analysis calls unreliable
+    (:func:`~feedtune.tune.search.unreliable`), nor on a band-limited FRF one whose loop is still large at the last
+    line (:func:`~feedtune.tune.search.band_top_doubt`). On the gantry twin's 2-1000 Hz FRF an unfiltered PID tuned
+    to Ms 2.5 without these rules crossed over at 336 Hz with a winding of -0.49 and ``sigma_max(S)`` still rising at
+    1000 Hz; on the twin's analytic FRF to 7.5 kHz its Ms is 3.0 (at 1.28 kHz).
+    """
+    return unreliable(metrics.warnings) or band_top_doubt(sigma_l_top, float(freq_hz[-1]), fs, ms_max)
+
+
+def _bounds(value, default, name: str) -> tuple[float, float]:
+    b = default if value is None else tuple(float(v) for v in value)
+    if len(b) != 2 or not (0 < b[0] <= b[1] and all(math.isfinite(v) for v in b)):
+        raise UsageError(f"{name} must be two numbers 0 < low <= high, got {value!r}")
+    return b
+
+
+def _resolve_choice(filter_choice: str | None, filters: LoopFilters | None) -> str:
+    choice = ("identical" if filters is not None else "own") if filter_choice is None else str(filter_choice)
+    if choice not in FILTER_CHOICES:
+        raise UsageError(f"filter_choice must be 'own' or 'identical', got {filter_choice!r}")
+    return choice
+
+
+def tune_gantry_pid(
+    model: GantryModel,
+    *,
+    limits: Limits | None = None,
+    ms_max: float | None = None,
+    filters: LoopFilters | None = None,
+    filter_choice: str | None = None,
+    fs: float = 15000.0,
+    delay_samples: int = 1,
+    x: float = 0.0,
+    frf: Frf | None = None,
+    x_grid=None,
+    prefilter1: PrefilterGains | None = None,
+    prefilter2: PrefilterGains | None = None,
+    prefilter_hz: float = 80.0,
+    grid_points: int | None = None,
+    zeta_bounds=None,
+    rho_bounds=None,
+) -> GantryPidDesign:
+    """The PID pair with the highest first CoM crossover that meets the limits in the checked case.
+
+    See the module docstring for the parametrisation, the search, the check and the filter choice.
+
+    Parameters
+    ----------
+    model : GantryModel
+        Design model (side masses, CoM weights; the plant below the FRF's band).
+    limits : Limits, optional
+        The limits policy (default :data:`feedtune.analysis.limits.DEFAULT_LIMITS`).
+    ms_max : float, optional
+        Overrides the policy's ``max sigma_max(S)`` [-] (e.g. the MIMO design's ``Ms``, ``design pid --match``).
+    filters : LoopFilters, optional
+        Filter pack ``h(s)`` in front of both PIDs: used as given (``identical``), or as candidates the tuner
+        may keep or drop (``own``; its leads are kept).
+    filter_choice : {"identical", "own"}, optional
+        Default ``identical`` when ``filters`` are given, else ``own``.
+    fs : float
+        Sample rate [Hz].
+    delay_samples : int
+        Computational delay [samples].
+    x : float
+        Table position [m] of the design.
+    frf : Frf, optional
+        Measured 2x2 position FRF [m/V] to check on (``discrete`` case); default the model (``ideal_discrete``).
+    x_grid, prefilter1, prefilter2, prefilter_hz
+        Schedule grid [m], pre-filter gains and low-pass [Hz] of the design.
+    grid_points : int, optional
+        Points of the model's grid when no FRF is given (default that of
+        :func:`feedtune.analysis.gantry.default_grid`, so the analysis' ``ideal_discrete`` case is the check).
+    zeta_bounds, rho_bounds : (float, float), optional
+        The shape box (default ``ZETA_BOUNDS``, ``RHO_BOUNDS``).
+
+    Returns
+    -------
+    GantryPidDesign
+        ``tuning`` records the rule, the limits, the active limit, the checked case, the filters chosen and why,
+        and the warnings (winner on a search bound).
+
+    Raises
+    ------
+    DesignError
+        No candidate meets the limits.
+    """
+    t0 = time.perf_counter()
+    policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
+    check_sampling(fs, delay_samples)
+    choice = _resolve_choice(filter_choice, filters)
+    given = filters or LoopFilters()
+    given.check_nyquist(fs)
+    zb = _bounds(zeta_bounds, ZETA_BOUNDS, "zeta_bounds")
+    rb = _bounds(rho_bounds, RHO_BOUNDS, "rho_bounds")
+    grid = default_grid(fs) if grid_points is None else default_grid(fs, grid_points)
+    case = _case(model, x, fs, delay_samples, frf, grid, policy)
+    top = fs / 40 if SCAN_HZ[1] is None else SCAN_HZ[1]
+    scan = np.geomspace(SCAN_HZ[0], top, SCAN_POINTS)
+
+    if choice == "identical":
+        pack, result = given, _Search(case, given, zb, rb, scan).run()
+        filter_record = {"choice": "identical", "why": "the filters given are used as they are"}
+    else:
+        pack, result, filter_record = choose_filters(case, given, zb, rb, scan)
+    if result is None:
+        raise DesignError(f"no PID pair meets the limits ({policy.describe()}) with a stable loop in the "
+                          f"{case.name} case; relax the limits or change the filter pack")
+    winner, verify = _verified_winner(result, case)
+    law, metrics, _ = winner.result
+    zeta, rho = result.point if winner is result.edge.best else _shape_of(result, winner)
+    bw = winner.scale
+    warnings = [f"the winner sits on a search bound: {b}" for b in result.on_bound] if winner is result.edge.best else \
+        ["the best candidate was unstable in another case; the next best stable in every case was taken"]
+    if winner is result.edge.best and result.edge.at_top:
+        warnings.append(f"the winner's bandwidth is the top of the scan ({bw:g} Hz = fs/40)")
+    act = check_cases(policy, {case.name: metrics}, [case.name]).active()
+    xo = float(metrics.crossovers_hz[0])
+    tuning = {
+        "method": "highest first CoM crossover under the limits; PID gains from (bandwidth w, shape zeta, rho) "
+                  "scaled by the side masses, searched continuously: w by bisection to the feasibility edge, "
+                  "(zeta, rho) by a pattern search over the shape box",
+        "objective": "first crossover of the CoM loop over the whole contour (incl. the model below the FRF)",
+        "ms_measure": "max over frequency of the largest singular value of the 2x2 sensitivity",
+        "limits": policy.to_dict(),
+        "active_limit": None if act is None else act.name,
+        "active_limit_value": None if act is None else act.value,
+        "checked_case": case.name,
+        "checked_from_hz": float(case.pc.freq_hz[0]),
+        "checked_to_hz": float(case.pc.freq_hz[-1]),
+        "stable_in_cases": verify,
+        "ms_max": policy.ms_max,
+        "ms_found": float(metrics.ms),
+        "bandwidth_hz": float(bw),
+        "zeta": float(zeta),
+        "rho": float(rho),
+        "com_crossover_hz": xo,
+        "com_phase_margin_deg": float(abs(metrics.phase_margins_deg[0])),
+        "search": {"zeta_bounds": list(zb), "rho_bounds": list(rb), "bandwidth_scan_hz": [float(scan[0]),
+                   float(scan[-1])], "bandwidth_rtol": RTOL, "shapes_evaluated": len(result.evaluated),
+                   "checks": case.checks, "seconds": round(time.perf_counter() - t0, 3)},
+        "filters": filter_record,
+        "warnings": warnings,
+    }
+    return design_gantry_pid(model, kp=law.kp, kd=law.kd, ki=law.ki, filters=pack, fs=fs,
+                             delay_samples=delay_samples, x=x, x_grid=x_grid, prefilter1=prefilter1,
+                             prefilter2=prefilter2, prefilter_hz=prefilter_hz, tuning=tuning)
+
+
+# ------------------------------------------------------------------------------------------ own filters
+MAX_OWN_FILTERS = 3
+"""Most filters the tuner adds (notches and one low-pass)."""
+KEEP_GAIN = 0.02
+"""Relative rise of the first crossover [-] a filter must bring (screened at the current shape) to be kept."""
+SCREEN_RTOL = 1e-2
+"""Bracket [-] of the bandwidth edge when screening a filter."""
+NOTCH_POLE_DAMPING = (0.3, 0.6)
+"""Damping of the notch poles tried [-]; the zeros get the resonance's damping (0.05 at a sensitivity peak)."""
+
+
+def plant_resonances(case: _Case, n: int = 3, prominence_db: float = 6.0) -> list[tuple[float, float]]:
+    """The ``n`` most prominent resonances ``(Hz, damping)`` of the checked plant.
+
+    Without an FRF, the model's lightly damped poles; with one, the peaks of ``sigma_max(G) (2 pi f)^2`` (flat for
+    the rigid body) that stand ``prominence_db`` [dB] above their surroundings, with the damping from the
+    half-power width (0.05 when the lines do not resolve it).
+    """
+    from scipy.signal import find_peaks
+
+    pc = case.pc
+    if not pc.measured:
+        feats = [(float(f), float(z)) for f, z in np.asarray(pc.features).reshape(-1, 2) if 0 < f < 0.45 * case.fs]
+        return sorted(feats, key=lambda fz: fz[1])[:n]
+    f = pc.freq_hz
+    acc = singular_values(pc.plant(f))[0] * (TWO_PI * f) ** 2
+    db = 20 * np.log10(acc)
+    idx, props = find_peaks(db, prominence=prominence_db)
+    out = []
+    for i in idx[np.argsort(props["prominences"])[::-1]][:n]:
+        half = acc[i] / math.sqrt(2)
+        lo = i
+        while lo > 0 and acc[lo] > half:
+            lo -= 1
+        hi = i
+        while hi < f.size - 1 and acc[hi] > half:
+            hi += 1
+        ok = acc[lo] <= half and acc[hi] <= half and hi - lo >= 3
+        out.append((float(f[i]), float((f[hi] - f[lo]) / (2 * f[i])) if ok else 0.05))
+    return out
+
+
+def sensitivity_peaks(case: _Case, law: PidLaw, above_hz: float, n: int = 2) -> list[float]:
+    """Frequencies [Hz] of the ``n`` highest local maxima of ``sigma_max(S)`` above ``above_hz`` on the base grid."""
+    from scipy.signal import find_peaks
+
+    f = case.pc.freq_hz
+    K = law.response_discrete(f) if case.pc.discrete else law.response(f)
+    smax = singular_values(sensitivity(matmul(case.Ge, K)))[0]
+    idx, _ = find_peaks(np.r_[0.0, smax, 0.0])
+    idx = idx - 1
+    idx = idx[(f[idx] > above_hz) & (smax[idx] > 1.0)]
+    return [float(f[i]) for i in idx[np.argsort(smax[idx])[::-1]][:n]]
+
+
+def _describe(item) -> str:
+    if isinstance(item, tuple):
+        return f"low-pass {item[0]:.4g} Hz, order {item[1]}"
+    return f"notch {item.freq_hz:.4g} Hz (zeta_z {item.zeta_z:.3g}, zeta_p {item.zeta_p:.3g})"
+
+
+def _with(pack: LoopFilters, item) -> LoopFilters:
+    from dataclasses import replace
+
+    if isinstance(item, tuple):
+        return replace(pack, lpf_hz=item[0], lpf_order=item[1])
+    return replace(pack, notches=(*pack.notches, item))
+
+
+def _candidates(case: _Case, pack: LoopFilters, given: LoopFilters, law: PidLaw, xo: float,
+                resonances: list) -> list[tuple[object, str]]:
+    """Filters to try next: ``[(Notch or (lpf_hz, order), why)]``."""
+    from ..design.filters import Notch
+
+    out: list = []
+    top = 0.45 * case.fs
+    seeds = [(f, z, "plant resonance") for f, z in resonances if 0.5 * xo < f < top]
+    peaks = sensitivity_peaks(case, law, xo)
+    for f in peaks:
+        if f < top and all(abs(f / s[0] - 1) > 0.1 for s in seeds):
+            seeds.append((f, None, "sensitivity peak"))
+    for f, z, why in seeds:
+        if any(abs(n.freq_hz / f - 1) < 0.05 for n in pack.notches):
+            continue
+        zz = 0.05 if z is None else min(max(z, 0.005), 0.25)
+        out += [(Notch(f, zz, zp), f"{why} at {f:.4g} Hz") for zp in NOTCH_POLE_DAMPING if zz < zp]
+    out += [(n, "given") for n in given.notches if all(abs(m.freq_hz / n.freq_hz - 1) > 1e-6 for m in pack.notches)]
+    if pack.lpf_hz is None:
+        if peaks and peaks[0] > 2 * xo:
+            fp = peaks[0]
+            out += [((fc, order), f"below the sensitivity peak at {fp:.4g} Hz") for fc in (math.sqrt(xo * fp), fp / 2)
+                    for order in (1, 2) if fc < top]
+        if given.lpf_hz is not None:
+            out.append(((given.lpf_hz, given.lpf_order), "given"))
+    return out
+
+
+def choose_filters(case: _Case, given: LoopFilters, zeta_bounds, rho_bounds, scan: np.ndarray):
+    """The tuner's own filter pack (module docstring): ``(pack, SearchResult or None, record)``.
+
+    From the best design without notches or low-pass (the leads of ``given`` are kept), each round screens the
+    candidates of :func:`_candidates` at the winner's shape (the bandwidth edge to ``SCREEN_RTOL``), keeps the
+    one that raises the first crossover most if by more than ``KEEP_GAIN``, and re-runs the shape search locally;
+    it stops when no candidate helps or after ``MAX_OWN_FILTERS`` filters.
+    """
+    from dataclasses import replace
+
+    pack = replace(given, notches=(), lpf_hz=None)
+    result = _Search(case, pack, zeta_bounds, rho_bounds, scan).run()
+    if result is None:
+        return pack, None, {"choice": "own", "chosen": [], "rounds": [],
+                            "why": "no design without filters met the limits; none was searched with filters"}
+    resonances = plant_resonances(case)
+    rounds = []
+    chosen = []
+    for _ in range(MAX_OWN_FILTERS):
+        law = result.edge.best.result[0]
+        x0 = result.edge.best.crossover_hz
+        zeta, rho = result.point
+        tried = []
+        ref = ((zeta, rho), result.edge.best)
+        for item, why in _candidates(case, pack, given, law, x0, resonances):
+            search = _Search(case, _with(pack, item), zeta_bounds, rho_bounds, scan)
+            e = search.edge((zeta, rho), ref, x0 * (1 + KEEP_GAIN), SCREEN_RTOL)
+            t = {"filter": _describe(item), "why": why, "item": item, "probe": e.best,
+                 "crossover_hz": None if e.best is None else e.best.crossover_hz}
+            if e.pruned:
+                t["screen"] = (f"fails at w = {e.fail_scale:.4g} Hz, where the crossover is still below "
+                               f"{x0 * (1 + KEEP_GAIN):.4g} Hz (+{100 * KEEP_GAIN:g} %): it cannot raise it")
+            tried.append(t)
+        rec = {"crossover_before_hz": x0, "shape": [zeta, rho],
+               "candidates": [{k: v for k, v in t.items() if k in ("filter", "why", "crossover_hz", "screen")}
+                              for t in tried]}
+        rounds.append(rec)
+        good = [t for t in tried if t["crossover_hz"] is not None and t["crossover_hz"] > x0 * (1 + KEEP_GAIN)]
+        if not good:
+            rec["kept"] = None
+            break
+        top = max(good, key=lambda t: t["crossover_hz"])
+        trial = _with(pack, top["item"])
+        local = _Search(case, trial, zeta_bounds, rho_bounds, scan).run_from((zeta, rho), top["probe"])
+        if local is None or local.edge.best.crossover_hz <= x0 * (1 + KEEP_GAIN):
+            rec["kept"] = None
+            break
+        rec["kept"] = top["filter"]
+        chosen.append(f"{top['filter']} ({top['why']}): first crossover {x0:.4g} -> "
+                      f"{local.edge.best.crossover_hz:.4g} Hz")
+        pack, result = trial, local
+    why = ("no notch or low-pass raised the first crossover by more than "
+           f"{100 * KEEP_GAIN:g} %" if not chosen else "each kept filter raised the first crossover by more than "
+           f"{100 * KEEP_GAIN:g} % at the winner's shape")
+    return pack, result, {"choice": "own", "chosen": chosen, "why": why, "rounds": rounds}
+
+
+def _stable_everywhere(law: PidLaw, case: _Case) -> dict:
+    """``{case: stable}`` of a candidate in every case of the plant (the limits were met in the checked one)."""
+    return {name: True if name == case.name else bool(analyze_gantry_case(law, pc, case.weights).metrics.stable)
+            for name, pc in case.cases.items() if pc is not None}
+
+
+def _verified_winner(result: SearchResult, case: _Case, tries: int = 5) -> tuple[Probe, dict]:
+    """The best evaluated candidate that is stable in every case (the search's winner unless it is not)."""
+    edges = sorted((e for e in result.evaluated.values() if e is not None and e.best is not None),
+                   key=lambda e: -e.best.crossover_hz)
+    order = [result.edge.best] + [e.best for e in edges if e.best is not result.edge.best]
+    for probe in order[:tries]:
+        verdict = _stable_everywhere(probe.result[0], case)
+        if all(verdict.values()):
+            return probe, verdict
+    raise DesignError(f"the best PID candidates meet the limits in the {case.name} case but are unstable in another "
+                      f"case ({', '.join(k for k, v in verdict.items() if not v)})")
+
+
+def _shape_of(result: SearchResult, probe: Probe) -> tuple:
+    return next(shape for shape, e in result.evaluated.items() if e is not None and e.best is probe)
