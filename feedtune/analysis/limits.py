@@ -29,7 +29,8 @@ class LimitItem:
     Attributes
     ----------
     name : str
-        ``ms``, ``pm_deg``, ``gm_db``, ``disk_margin`` or ``stable``.
+        ``ms``, ``pm_deg``, ``gm_db``, ``disk_margin``, ``stable`` or ``band_top`` (the loop at the last line of a
+        measured FRF, small enough that the limits hold above the band if it rolls off there).
     value : float or None
         The design's value (the worst over crossovers) [-, deg, dB]; None when the loop has none (no crossover).
     limit : float or None
@@ -53,7 +54,7 @@ class LimitItem:
         """How far the value is inside the limit, relative to the limit [-] (negative: violated)."""
         if self.value is None or self.limit is None or self.limit == 0:
             return None
-        if self.name == "ms":
+        if self.name in ("ms", "band_top"):
             return (self.limit - self.value) / self.limit
         return (abs(self.value) - self.limit) / self.limit
 
@@ -127,7 +128,7 @@ class Limits:
         case : str
             Name of the case (reported).
         """
-        items = [LimitItem("stable", None, None, bool(metrics.stable), case)]
+        items = [_stability(metrics, case)]
         if self.ms_max is not None:
             items.append(LimitItem("ms", float(metrics.ms), self.ms_max, metrics.ms <= self.ms_max, case,
                                    float(metrics.ms_freq_hz)))
@@ -143,6 +144,10 @@ class Limits:
             dm = metrics.disk_margin
             items.append(LimitItem("disk_margin", dm, self.disk_margin_min, dm >= self.disk_margin_min, case,
                                    metrics.disk_margin_freq_hz))
+        top = getattr(metrics, "band_top_loop_gain", None)
+        if top is not None:
+            allowed = 1.0 if self.ms_max is None else 1.0 - 1.0 / self.ms_max
+            items.append(LimitItem("band_top", float(top), allowed, top <= allowed, case, metrics.band_top_hz))
         return items
 
     def to_dict(self) -> dict:
@@ -228,10 +233,22 @@ class LimitCheck:
                 "items": [i.to_dict() for i in self.items], "active": None if act is None else act.name}
 
 
+def _stability(metrics, case: str) -> LimitItem:
+    """Stable by a Nyquist count that came out close to an integer (an unreliable count is not a verdict)."""
+    reliable = bool(getattr(metrics, "nyquist_reliable", True))
+    return LimitItem("stable", None if reliable else 0.0, None, bool(metrics.stable) and reliable, case)
+
+
 def _violation(i: LimitItem, limit: str = "the limit") -> str:
     where = f" at {i.freq_hz:.4g} Hz" if i.freq_hz is not None else ""
+    if i.name == "stable" and i.value is not None:
+        return (f"the Nyquist count is unreliable in the {i.case} case (winding far from an integer: the loop is "
+                "not resolved or not closed); no stability verdict")
     if i.name == "stable":
         return f"closed loop is unstable in the {i.case} case"
+    if i.name == "band_top":
+        return (f"|L| = {i.value:.3g} at the FRF's last line{where} exceeds {i.limit:.3g} (1 - 1/Ms limit): above the "
+                f"measured band the loop could break the limits ({i.case} case); measure a wider band")
     if i.name == "ms":
         return f"peak sensitivity Ms = {i.value:.3g}{where} exceeds {limit} {i.limit:g} ({i.case} case)"
     if i.name == "pm_deg":
@@ -251,7 +268,7 @@ def check_cases(limits: Limits, cases: dict, checked: list[str] | tuple[str, ...
         if name in checked:
             items += limits.check(m, name)
         else:
-            items.append(LimitItem("stable", None, None, bool(m.stable), name))
+            items.append(_stability(m, name))
     return LimitCheck(limits, items)
 
 

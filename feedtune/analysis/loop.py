@@ -122,6 +122,11 @@ class LoopMetrics:
         Frequencies the figures were taken from (grid after refinement, extension included) [-].
     interpolation : str or None
         How measured parts were evaluated between their lines; None when the loop is known exactly or as samples.
+    nyquist_reliable : bool
+        The winding number came out close to an integer (else the count, hence ``stable``, is not trusted).
+    band_top_hz, band_top_loop_gain : float or None
+        For a measured loop, the FRF's last line [Hz] and ``|L|`` there [-]: above the band the loop is unknown, and
+        the limits hold there only if it is small enough (:meth:`feedtune.analysis.limits.Limits.check`).
     """
 
     crossovers_hz: list
@@ -146,6 +151,9 @@ class LoopMetrics:
     merged_crossovers: list = field(default_factory=list)
     points: int = 0
     interpolation: str | None = None
+    nyquist_reliable: bool = True
+    band_top_hz: float | None = None
+    band_top_loop_gain: float | None = None
 
     @property
     def rejection_band_hz(self) -> list | None:
@@ -203,6 +211,9 @@ class LoopMetrics:
             "merged_crossovers": list(self.merged_crossovers),
             "points": int(self.points),
             "interpolation": self.interpolation,
+            "nyquist_reliable": bool(self.nyquist_reliable),
+            "band_top_hz": _f(self.band_top_hz),
+            "band_top_loop_gain": _f(self.band_top_loop_gain),
             "warnings": list(self.warnings),
         }
 
@@ -623,6 +634,9 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
         mg.merged,
         int(fc.size),
         INTERPOLATION if measured else None,
+        abs(winding - n_ccw) <= 0.2,
+        float(f0[-1]) if measured else None,
+        float(abs(Lg[-1])) if measured else None,
     )
 
 

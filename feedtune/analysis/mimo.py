@@ -245,6 +245,9 @@ class MimoMetrics:
     merged_crossovers : list of dict
     points : int
     interpolation : str or None
+    band_top_hz, band_top_loop_gain : float or None
+        For a measured loop, the FRF's last line [Hz] and ``sigma_max(L)`` there [-] (see
+        :class:`~feedtune.analysis.loop.LoopMetrics`).
     """
 
     crossovers_hz: list
@@ -266,11 +269,18 @@ class MimoMetrics:
     merged_crossovers: list = field(default_factory=list)
     points: int = 0
     interpolation: str | None = None
+    band_top_hz: float | None = None
+    band_top_loop_gain: float | None = None
 
     @property
     def stable(self) -> bool:
         """MIMO Nyquist stability."""
         return self.nyquist.stable
+
+    @property
+    def nyquist_reliable(self) -> bool:
+        """The winding number came out close to an integer."""
+        return abs(self.nyquist.winding - round(self.nyquist.winding)) <= 0.2
 
     @property
     def warnings(self) -> list:
@@ -331,6 +341,9 @@ class MimoMetrics:
             "merged_crossovers": list(self.merged_crossovers),
             "points": int(self.points),
             "interpolation": self.interpolation,
+            "nyquist_reliable": bool(self.nyquist_reliable),
+            "band_top_hz": _f(self.band_top_hz),
+            "band_top_loop_gain": _f(self.band_top_loop_gain),
             "warnings": list(ny.warnings),
         }
 
@@ -444,4 +457,6 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     return MimoMetrics(wc, mg.phase_margins_deg, worst(mg.phase_margins_deg), worst(mg.gain_margins_db),
                        mg.gain_margins_db, mg.phase_crossovers_hz, float(ms), float(ms_f), bands, sl_x, active,
                        damping, ny, [x for x in wc if x < f[0]], float(1.0 / dm_peak) if dm_peak > 0 else float("inf"),
-                       float(dm_f), mg.merged, int(fc.size), INTERPOLATION if measured else None)
+                       float(dm_f), mg.merged, int(fc.size), INTERPOLATION if measured else None,
+                       float(f0[-1]) if measured else None,
+                       float(_sigma_max(Lg[:, :, -1:])[0]) if measured else None)
