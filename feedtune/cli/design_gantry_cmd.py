@@ -310,8 +310,10 @@ def _print_tuning(tuning: dict) -> None:
     """A few lines on how a tuner chose the design (its ``tuning`` record)."""
     lim = tuning.get("limits", {})
     typer.echo(f"tuned: {tuning['method']}")
+    act = tuning.get("active_limit") or {}
+    act = act.get("name") if isinstance(act, dict) else act
     typer.echo(f"  limits {lim.get('profile')} in the {tuning['checked_case']} case; active limit: "
-               f"{tuning.get('active_limit')}; {tuning['search']['checks']} checks in {tuning['search']['seconds']} s")
+               f"{act}; {tuning['search']['checks']} checks in {tuning['search']['seconds']} s")
     filt = tuning.get("filters")
     if filt:
         chosen = filt.get("chosen")

@@ -253,15 +253,16 @@ def tune_loopshape(
         "method": "highest first crossover under the limits; loop shaping (eq. 4.17-4.18) with the crossover by "
                   "bisection to the feasibility edge and (PM target, integral lag) by a pattern search, for each "
                   "number of lead stages",
+        "rule": f"x-axis loop shaping tuned by feedtune.tune.loopshape under {policy.describe()}",
         "objective": "first crossover of the loop over the whole contour",
         "limits": policy.to_dict(),
-        "active_limit": None if act is None else act.name,
-        "active_limit_value": None if act is None else act.value,
+        "active_limit": None if act is None else act.to_dict(),
         "checked_case": name,
         "checked_from_hz": float(f[0]),
         "checked_to_hz": float(f[-1]),
         "stable_in_cases": stable,
         "crossover_hz": float(metrics.crossovers_hz[0]),
+        "first_crossover_hz": float(metrics.crossovers_hz[0]),
         "pm_target_deg": float(pm),
         "pi_lag_deg": float(lag),
         "lead_stages": int(n_best),

@@ -328,11 +328,11 @@ def tune_gantry_pid(
         "method": "highest first CoM crossover under the limits; PID gains from (bandwidth w, shape zeta, rho) "
                   "scaled by the side masses, searched continuously: w by bisection to the feasibility edge, "
                   "(zeta, rho) by a pattern search over the shape box",
+        "rule": f"gantry PID tuned by feedtune.tune.pid ({choice} filters) under {policy.describe()}",
         "objective": "first crossover of the CoM loop over the whole contour (incl. the model below the FRF)",
         "ms_measure": "max over frequency of the largest singular value of the 2x2 sensitivity",
         "limits": policy.to_dict(),
-        "active_limit": None if act is None else act.name,
-        "active_limit_value": None if act is None else act.value,
+        "active_limit": None if act is None else act.to_dict(),
         "checked_case": case.name,
         "checked_from_hz": float(case.pc.freq_hz[0]),
         "checked_to_hz": float(case.pc.freq_hz[-1]),
@@ -343,6 +343,7 @@ def tune_gantry_pid(
         "zeta": float(zeta),
         "rho": float(rho),
         "com_crossover_hz": xo,
+        "first_crossover_hz": xo,
         "com_phase_margin_deg": float(abs(metrics.phase_margins_deg[0])),
         "search": {"zeta_bounds": list(zb), "rho_bounds": list(rb), "bandwidth_scan_hz": [float(scan[0]),
                    float(scan[-1])], "bandwidth_rtol": RTOL, "shapes_evaluated": len(result.evaluated),
