@@ -15,7 +15,9 @@ Nyquist criterion with open-loop poles at the origin
 The Nyquist contour runs up the imaginary axis and is indented into the right half plane around ``s = 0``
 with radius ``w_min = 2 pi f_min``, the lowest frequency of the contour. Along the positive axis the winding
 of ``1 + L`` is taken from the unwrapped phase; the mirrored negative axis contributes the same by conjugate
-symmetry; the indentation arc, where ``L(s) ~ L(j w_min) (j w_min / s)^n`` with ``n`` the low-frequency slope
+symmetry; above the grid's top, where ``|L| < 1``, the loop is taken to roll off to 0 without reaching ``|L| = 1``
+again (the ``band_top`` limit holds measured loops to it); the indentation arc, where
+``L(s) ~ L(j w_min) (j w_min / s)^n`` with ``n`` the low-frequency slope
 of ``|L|`` (integer number of integrators, read from the data), turns ``L`` clockwise by about ``n pi`` from
 ``conj(L(j w_min))`` to ``L(j w_min)`` (the exact turn that closes the curve is used); the arc at infinity
 contributes nothing when ``|L(j w_max)| < 1``. Closed-loop right-half-plane poles ``Z = N_cw + P`` where
@@ -268,6 +270,12 @@ def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: float) -> f
     arc = 1.0 + np.abs(L0) * np.exp(1j * (-phi0 + turn * np.linspace(0.0, 1.0, 721)))
     arc_ph = np.unwrap(np.angle(arc))
     arc_change = arc_ph[-1] - arc_ph[0]
+    # above the grid: when |L| < 1 at its top, the loop is taken to roll off to 0 without reaching |L| = 1 again
+    # (what the band_top limit checks), so 1 + L returns to 1 inside the disk |1 + L - 1| < 1, whose points all
+    # have a positive real part: that return adds exactly -angle(1 + L_top). A loop closed at fs / 2 ends on
+    # the real axis, where this is 0.
+    if abs(L[-1]) < 1:
+        along = along - float(np.angle(one_plus[-1]))
     # negative frequencies: conjugate branch from -inf to -0 has the same phase change as 0 -> +inf
     total = 2 * along + arc_change
     return total / (2 * np.pi)

@@ -51,7 +51,7 @@ def demo(
     if machine == "gantry":
         from ..sim.gantry_demo import run_gantry_demo
 
-        result = run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw)
+        result = run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=policy)
     else:
         from ..sim.demo import run_demo
 

@@ -117,9 +117,9 @@ def better_per_figure(rows: list, a: str = "mcppc", b: str = "ppi") -> list[tupl
     out = []
     for row in rows:
         for key in ("max_um", "rms_um", "peak_um", "settling_time_s"):
-            if key not in row[a]:
+            if key not in row[a] and key not in row[b]:
                 continue
-            x, y = row[a][key], row[b][key]
+            x, y = row[a].get(key), row[b].get(key)
             if x is None or y is None:
                 better = a if y is None and x is not None else b if x is None and y is not None else None
             elif abs(x - y) <= 0.005 * max(abs(x), abs(y)):
@@ -130,15 +130,17 @@ def better_per_figure(rows: list, a: str = "mcppc", b: str = "ppi") -> list[tupl
     return out
 
 
-def verdict_line(rows: list) -> str:
-    """One sentence: how many figures each controller wins, and which ones the baseline wins."""
-    per = better_per_figure(rows)
-    mc = [f"{t} {k}" for t, k, w in per if w == "mcppc"]
-    pp = [f"{t} {k}" for t, k, w in per if w == "ppi"]
-    ties = len(per) - len(mc) - len(pp)
-    text = f"MC-PPC is better in {len(mc)} of {len(per)} figures, P-PI in {len(pp)}"
-    text += f", {ties} tie(s) within 0.5 %" if ties else ""
-    return text + (f"; P-PI is better in: {', '.join(pp)}." if pp else ".")
+def verdict_line(rows: list, proposal: tuple[str, str] = ("mcppc", "MC-PPC"),
+                 baseline: tuple[str, str] = ("ppi", "P-PI")) -> str:
+    """One sentence: how many figures each controller wins (``(key, label)`` of the proposal and the baseline), and
+    which ones the baseline wins."""
+    per = better_per_figure(rows, proposal[0], baseline[0])
+    a = [f"{t} {k}" for t, k, w in per if w == proposal[0]]
+    b = [f"{t} {k}" for t, k, w in per if w == baseline[0]]
+    ties = len(per) - len(a) - len(b)
+    text = f"{proposal[1]} is better in {len(a)} of {len(per)} figures, {baseline[1]} in {len(b)}"
+    text += f", {ties} tie(s) within 0.5 % or both missing" if ties else ""
+    return text + (f"; {baseline[1]} is better in: {', '.join(b)}." if b else ".")
 
 
 def _fmt_s(x) -> str:

@@ -6,13 +6,18 @@
    runs there plus an x-axis run, all under the built-in holding controllers;
 2. the mass distribution and ``m_x`` (:mod:`feedtune.identify.mass`), then the gantry model of eq. 4.16 with
    the side masses imposed (:func:`~feedtune.identify.gantry.fit_gantry`; the span ``L`` is known);
-3. the x axis by loop shaping (130 Hz, 35 deg, the notches and low-pass of §4.4.1), the MIMO law of eq. 4.30
-   (60 Hz, 40 deg, +590 % damping, the filter pack of §4.4.2) and independent PIDs tuned to the MIMO design's
-   peak sensitivity on the measured FRF, each checked on the measured FRF (DesignError when unstable);
+3. every controller tuned for the highest first crossover under the same limits (default: textbook) on the measured
+   FRFs: the x axis by loop shaping (:func:`feedtune.tune.loopshape.tune_loopshape`, on the x FRF measured at
+   x = 0, with the notches and low-pass of section 4.4.1), the MIMO law of eq. 4.30
+   (:func:`feedtune.tune.gantry.tune_gantry_mimo`, with the filter pack of section 4.4.2) and the independent PIDs
+   (:func:`feedtune.tune.pid.tune_gantry_pid`) twice: with the MIMO design's notches and low-pass (the thesis'
+   rule, and the MIMO tuner's: filters fixed, gains searched) and choosing their own filters; each checked on the
+   FRF at x = 0;
 4. the gains files exported and read back as the runtimes run them (``GantryRuntime``/``AxisRuntime``), and
-   with both gantry controllers: the 57 N rope snap, tracking at 1 mm/s and 200 mm/s, and circle and diamond
-   contours;
-5. a comparison table (crossover, Ms, rope-snap peak and settling, tracking and contour errors).
+   with the three gantry controllers, on the twin with its own trip limits: the 57 N rope snap, tracking at 1 mm/s and
+   200 mm/s, and circle and diamond contours (a run that trips is reported as tripped);
+5. a comparison table (crossover, Ms, rope-snap peak and settling, tracking and contour errors) with the limits,
+   the rules and, against each PID, the better controller per figure.
 
 Nothing is written; :meth:`GantryDemoResult.texts` holds every file (``feedtune.sim.demo.write_texts``
 writes them all or none).
@@ -33,11 +38,10 @@ MIMO_DESIGN = {"crossover_hz": 60.0, "pm_deg": 40.0, "damping_increase": 5.9,
                "notches": ((110.0, 0.5, 0.7), (320.0, 0.2, 0.9), (400.0, 0.15, 1.0), (940.0, 0.6, 0.75)),
                "lpf_hz": 450.0, "lead": (154.0, 70.0)}
 """Gantry MIMO design of §4.4.2: CoM crossover [Hz], PM [deg], damping increase [-], filter pack h(s)."""
-DEMO_ENVELOPE_M = 5e-3
-"""Following-error envelope of the demo's twin [m]: the PID baseline tuned to the MIMO design's Ms is soft
-(about 4 Hz), and the 57 N rope snap moves it by about 1 mm, more than the twin's default 0.5 mm trip."""
-CONTROLLERS = ("mimo", "pid")
-LABELS = {"mimo": "MIMO", "pid": "PID"}
+CONTROLLERS = ("mimo", "pid", "pid_own")
+"""The gantry controllers compared: MIMO, independent PIDs with the MIMO design's notches and low-pass (the thesis'
+rule: the same filters, the same search over the gains), independent PIDs that choose their own filters."""
+LABELS = {"mimo": "MIMO", "pid": "PID (same filters)", "pid_own": "PID (own filters)"}
 
 
 @dataclass(frozen=True)
@@ -64,50 +68,58 @@ class GantryDemoResult:
     designs: dict
     texts: dict = field(repr=False)
     twin: dict = field(repr=False, default_factory=dict)
+    limits: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """JSON-ready: comparison rows, identification, designs, twin parameters, file names."""
-        return {"comparison": self.rows, "identified": self.identified, "designs": self.designs, "twin": self.twin,
-                "files": sorted(self.texts),
+        """JSON-ready: limits, comparison rows (with the better controller per figure), identification, designs
+        with their rules, twin parameters, file names."""
+        return {"limits": self.limits, "comparison": self.rows, "identified": self.identified,
+                "designs": self.designs, "twin": self.twin, "files": sorted(self.texts),
                 "units": {"max_um": "um", "rms_um": "um", "peak_um": "um", "settling_time_s": "s",
                           "crossover_hz": "Hz", "ms": "-"}}
 
     def table(self) -> str:
-        """The comparison as text: MIMO against independent PIDs, and the improvement."""
-        head = f"{'test':34s} {'MIMO':>14s} {'PID':>14s} {'change':>8s}"
-        lines = ["Gantry: MIMO (eq. 4.30) against independent PIDs on the twin (design figures on the FRF "
-                 "measured at x = 0)", head]
+        """The comparison as text: the limits and rules, the three controllers and the verdict against each PID."""
+        from .demo import verdict_line
+
+        lines = [f"Limits: {self.limits.get('profile')}; every controller tuned for the highest first crossover under "
+                 "them on the FRFs measured at x = 0 (discrete case):"]
+        for name in (*CONTROLLERS, "axis"):
+            d = self.designs.get(name)
+            if d:
+                xo = "-" if d.get("crossover_hz") is None else f"{d['crossover_hz']:.4g} Hz"
+                lines.append(f"  {d['label']}: first crossover {xo}, Ms {d['ms']:.3g}; {d['rule']}"
+                             + (f"; filters chosen: {d['filters']}" if d.get("filters") else ""))
+        head = f"{'test':34s}" + "".join(f" {LABELS[c]:>19s}" for c in CONTROLLERS)
+        lines += ["", "Gantry: MIMO (eq. 4.30) against independent PIDs on the twin", head]
         for row in self.rows:
-            a, b = row["mimo"], row["pid"]
             for key, label, unit in (("crossover_hz", "CoM crossover", "Hz"), ("ms", "Ms = max sigma_max(S)", ""),
                                      ("peak_um", "peak", "um"), ("settling_time_s", "5 % settling", "s"),
                                      ("max_um", "max", "um"), ("rms_um", "RMS", "um")):
-                if key not in a:
+                if not any(key in row[c] for c in CONTROLLERS):
                     continue
                 name = f"{row['test']} {label}".strip()
-                lines.append(f"{name:34s} {_cell(a[key], unit):>14s} {_cell(b[key], unit):>14s} "
-                             f"{_change(a[key], b[key]):>8s}")
+                lines.append(f"{name:34s}" + "".join(f" {_cell(row[c].get(key), unit, row[c]):>19s}"
+                                                      for c in CONTROLLERS))
+        tests = [r for r in self.rows if not r["test"].startswith("design")]
+        lines += [""] + [verdict_line(tests, ("mimo", "MIMO"), (c, LABELS[c])) for c in CONTROLLERS[1:]]
         return "\n".join(lines)
 
 
-def _cell(v, unit: str) -> str:
+def _cell(v, unit: str, figures: dict | None = None) -> str:
+    if figures is not None and figures.get("tripped"):
+        return "tripped"
     if v is None:
         return "not settled" if unit == "s" else "-"
     return f"{v:.4g} {unit}".strip()
 
 
-def _change(a, b) -> str:
-    if a is None or b is None or not b:
-        return ""
-    return f"{100.0 * (a / b - 1.0):+.0f} %"
-
-
 # ------------------------------------------------------------------------------------------ steps
-def _texts_of(result, name: str, log: bool = True) -> dict:
+def _texts_of(result, name: str, log: bool = True, allow_trip: bool = False) -> dict:
     from ..io.frf_csv import frf_to_csv_text
     from ..io.log_csv import log_to_csv_text
 
-    if result.tripped:
+    if result.tripped and not allow_trip:
         raise DesignError(f"{result.kind} run ({name}): {result.run.trip_message}")
     out = {f"{name}.csv": log_to_csv_text(result.log)} if log else {}
     if result.frf is not None:
@@ -116,7 +128,7 @@ def _texts_of(result, name: str, log: bool = True) -> dict:
 
 
 def _measure(twin, xs, seed, engine, texts, keep_raw):
-    from .gantry_experiments import measure_gantry_frf, run_axis_mass, run_mass
+    from .gantry_experiments import measure_axis_frf, measure_gantry_frf, run_axis_mass, run_mass
 
     frfs = []
     for x in xs:
@@ -130,7 +142,9 @@ def _measure(twin, xs, seed, engine, texts, keep_raw):
         mass_logs.append(res.log)
     res = run_axis_mass(twin, x_start=min(xs), seed=seed, engine=engine)
     texts.update(_texts_of(res, "mass_axis", log=keep_raw))
-    return frfs, mass_logs, res.log
+    axis = measure_axis_frf(twin, 0.0, seed=seed, engine=engine)
+    texts.update(_texts_of(axis, "frf_axis", log=keep_raw))
+    return frfs, mass_logs, res.log, axis.frf
 
 
 def _identify(twin, xs, frfs, mass_logs, axis_log, texts):
@@ -158,64 +172,78 @@ def _filters(spec: dict):
     return LoopFilters([Notch(*n) for n in spec["notches"]], spec["lpf_hz"], order, 0.7, leads)
 
 
-def _figures(analysis: dict) -> dict:
-    """Design figures: the measured-FRF (discrete) case, and the Nyquist verdicts of both checked cases."""
-    c = analysis["discrete"]
-    return {"case": "discrete (measured FRF at x = 0, discrete controller, ZOH, delay)",
+def _figures(label: str, design, check, checked: str, analysis: dict) -> dict:
+    """What the demo prints and stores of a design: its rule and the checked case's figures."""
+    c = analysis[checked]
+    tuning = design.tuning if hasattr(design, "tuning") else design.extra.get("tuning", {})
+    filters = (tuning.get("filters") or {}).get("chosen") if isinstance(tuning.get("filters"), dict) else None
+    return {"label": label, "case": f"{checked} (measured FRF at x = 0, discrete controller, ZOH, delay)",
             "crossover_hz": c["crossovers_hz"][0] if c["crossovers_hz"] else None, "ms": c["ms"],
             "ms_freq_hz": c["ms_freq_hz"], "phase_margin_deg": c["phase_margin_deg"],
-            "stable_model": analysis["ideal_discrete"]["stable"], "stable_measured": c["stable"]}
+            "gain_margin_db": c["gain_margin_db"], "rule": tuning.get("rule", tuning.get("method", "given")),
+            "active_limit": (tuning.get("active_limit") or {}).get("name")
+            if isinstance(tuning.get("active_limit"), dict) else tuning.get("active_limit"),
+            "filters": None if filters is None else (", ".join(str(f) for f in filters) or "none"),
+            "check_ok": check.ok, "stable_model": analysis["ideal_discrete"]["stable"],
+            "stable_measured": analysis[checked]["stable"]}
 
 
-def _design(twin, fit, m_x, frf0, texts):
-    """Axis, MIMO and PID designs on the identified model; figures on the measured FRF at x = 0; runtimes.
-
-    The PIDs are tuned on the measured FRF to the MIMO design's peak sensitivity there (discrete case). A design
-    that is unstable in any analysed case raises DesignError (the measured-FRF Nyquist count continues the
-    loop below the FRF's band with the model, so it does not depend on the lowest measured line).
-    """
-    from ..analysis.gantry import analyze_gantry
-    from ..analysis.limits import Limits, check_cases
+def _design(twin, fit, frf0, axis_frf, texts, policy):
+    """Axis, MIMO and PID designs tuned under ``policy`` on the identified model and the FRFs measured at x = 0,
+    checked there (DesignError when a tuned design fails its own check), exported and read back as runtimes."""
+    from ..analysis.gantry import analyze_axis, analyze_gantry
+    from ..analysis.limits import check_analysis
     from ..design.gantry_gains import axis_gains_document, gantry_gains_document
-    from ..design.gantry_mimo import design_gantry_mimo
-    from ..design.loopshape import design_loopshape
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
+    from ..tune.gantry import tune_gantry_mimo
+    from ..tune.loopshape import tune_loopshape
     from ..tune.pid import tune_gantry_pid
     from .gantry_runtime import load_runtime
 
     p = twin.params
     model = fit.model
-    axis = design_loopshape(m_x, crossover_hz=AXIS_DESIGN["crossover_hz"], pm_deg=AXIS_DESIGN["pm_deg"],
-                            filters=_filters(AXIS_DESIGN), fs=p.fs, delay_samples=p.delay_samples)
+    common = {"limits": policy, "fs": p.fs, "delay_samples": p.delay_samples}
     h = _filters(MIMO_DESIGN)
-    mimo = design_gantry_mimo(model, crossover_hz=MIMO_DESIGN["crossover_hz"], pm_deg=MIMO_DESIGN["pm_deg"],
-                              damping_increase=MIMO_DESIGN["damping_increase"], filters=h, fs=p.fs,
-                              delay_samples=p.delay_samples)
-    an_mimo = analyze_gantry(mimo.law, model, frf=frf0).to_dict()
-    pid_filters = type(h)(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta, ())  # the same notches and low-pass
-    stability_only = Limits(None, None, None, None, "stability only")
-    pid = tune_gantry_pid(model, limits=stability_only, ms_max=an_mimo["discrete"]["ms"], filters=pid_filters,
-                          fs=p.fs, delay_samples=p.delay_samples, frf=frf0)
-    an_pid = analyze_gantry(pid.law, model, frf=frf0).to_dict()
+    pid_identical_filters = type(h)(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta, ())  # the thesis' rule
+    tuned = {
+        "mimo": tune_gantry_mimo(model, filters=h, frf=frf0, **common),
+        "pid": tune_gantry_pid(model, filters=pid_identical_filters, filter_choice="identical", frf=frf0, **common),
+        "pid_own": tune_gantry_pid(model, filter_choice="own", frf=frf0, **common),
+    }
     designs, runtimes = {}, {}
-    for name, design, an in (("mimo", mimo, an_mimo), ("pid", pid, an_pid)):
+    for name, design in tuned.items():
         full = analyze_gantry(design.law, model, frf=frf0)
-        violations = check_cases(stability_only, {k: None if c is None else c.metrics for k, c in full.cases.items()},
-                                 ["discrete"]).violations
-        if violations:
-            raise DesignError(f"the {LABELS[name]} design on the identified model: {'; '.join(violations)}")
+        check, checked = check_analysis(full, policy)
+        if not check.ok:
+            raise DesignError(f"the tuned {LABELS[name]} design on the identified model: {'; '.join(check.violations)}")
+        an = full.to_dict()
+        designs[name] = _figures(LABELS[name], design, check, checked, an)
         doc = gantry_gains_document(design, an)
         texts[f"{name}_gains.toml"], texts[f"{name}_gains.json"] = dumps_toml(doc), dumps_json(doc)
         runtimes[name] = load_runtime(loads_document(texts[f"{name}_gains.toml"], "toml", f"{name}_gains.toml"),
                                        f"{name}_gains.toml")
-        designs[name] = _figures(an)
-    doc = axis_gains_document(axis)
+    axis = tune_loopshape(axis_frf, filters=_filters(AXIS_DESIGN), **common)
+    full = analyze_axis(axis)
+    check, checked = check_analysis(full, policy)
+    if not check.ok:
+        raise DesignError(f"the tuned x-axis design on the measured x FRF: {'; '.join(check.violations)}")
+    designs["axis"] = _figures("x axis (loop shaping)", axis, check, checked, full.to_dict())
+    doc = axis_gains_document(axis, full.to_dict())
     texts["axis_gains.toml"], texts["axis_gains.json"] = dumps_toml(doc), dumps_json(doc)
     runtimes["axis"] = load_runtime(loads_document(texts["axis_gains.toml"], "toml", "axis_gains.toml"),
                                     "axis_gains.toml")
-    designs["axis"] = {"crossover_hz": AXIS_DESIGN["crossover_hz"], "pm_deg": AXIS_DESIGN["pm_deg"], "m_x": m_x}
     return designs, runtimes
+
+
+ERROR_FIGURES = {"max_um": lambda s: s["max_um"], "rms_um": lambda s: s["rms_um"]}
+
+
+def _run_figures(res, figures: dict) -> dict:
+    """The run's figures, or ``{"tripped": message}`` (figures None) when the twin's safety limits stopped it."""
+    if res.tripped:
+        return {**{k: None for k in figures}, "tripped": res.run.trip_message}
+    return {k: get(res.summary) for k, get in figures.items()}
 
 
 def _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts) -> list:
@@ -227,16 +255,17 @@ def _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, text
     row = {"test": "rope snap 57 N"}
     for name in CONTROLLERS:
         res = run_gantry_ropesnap(twin, runtimes[name], axis, seed=seed, engine=engine)
-        texts.update(_texts_of(res, f"ropesnap_{name}"))
-        row[name] = {"peak_um": abs(res.summary["peak_um"]), "settling_time_s": res.summary["settling_time_s"]}
+        texts.update(_texts_of(res, f"ropesnap_{name}", allow_trip=True))
+        row[name] = _run_figures(res, {"peak_um": lambda s: abs(s["peak_um"]),
+                                       "settling_time_s": lambda s: s["settling_time_s"]})
     rows.append(row)
     for test in tracking:
         tr = tracking_trajectory(test, twin.fs)
         row = {"test": f"track {test.replace('_', '/')}"}
         for name in CONTROLLERS:
             res = run_gantry_tracking(twin, runtimes[name], tr, axis, seed=seed, engine=engine)
-            texts.update(_texts_of(res, f"track_{test}_{name}"))
-            row[name] = {"max_um": res.summary["max_um"], "rms_um": res.summary["rms_um"]}
+            texts.update(_texts_of(res, f"track_{test}_{name}", allow_trip=True))
+            row[name] = _run_figures(res, ERROR_FIGURES)
         rows.append(row)
     for shape in shapes:
         path = thesis_path(shape, contour_feature, fs=twin.fs, start=(0.1 if contour_feature == "200mm" else 0.0,
@@ -244,15 +273,15 @@ def _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, text
         row = {"test": f"{shape} {contour_feature}"}
         for name in CONTROLLERS:
             res = run_contour(twin, runtimes[name], axis, path, seed=seed, engine=engine)
-            texts.update(_texts_of(res, f"contour_{shape}_{contour_feature}_{name}"))
-            row[name] = {"max_um": res.summary["max_um"], "rms_um": res.summary["rms_um"]}
+            texts.update(_texts_of(res, f"contour_{shape}_{contour_feature}_{name}", allow_trip=True))
+            row[name] = _run_figures(res, ERROR_FIGURES)
         rows.append(row)
     return rows
 
 
 def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO_XS,
                     tracking=("1mm_s", "200mm_s"), contour_feature: str = "200mm",
-                    shapes=("circle", "diamond"), keep_raw: bool = False) -> GantryDemoResult:
+                    shapes=("circle", "diamond"), keep_raw: bool = False, limits=None) -> GantryDemoResult:
     """Run the gantry job on the twin (see the module docstring); nothing is written.
 
     Parameters
@@ -260,8 +289,7 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     seed : int
         Seed of the multisine phases and of the noise.
     params : GantryTwinParams, optional
-        The twin (default: the thesis's gantry with every unmodelled effect, and a following-error envelope of
-        :data:`DEMO_ENVELOPE_M`).
+        The twin (default: the thesis's gantry with every unmodelled effect and its own trip limits).
     engine : str
         Plant step engine (auto, numba, python).
     xs : sequence of float
@@ -276,6 +304,8 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     keep_raw : bool
         Also keep the excitation logs of the FRF measurements and the mass runs (about 9 MB each as CSV);
         by default only the FRF files, the mass and model files and the closed-loop test logs are kept.
+    limits : Limits, optional
+        The limits every controller is tuned under (default: textbook).
 
     Returns
     -------
@@ -284,34 +314,30 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     Raises
     ------
     DesignError
-        A design is unstable on the measured FRF, or a test run tripped.
+        No design meets the limits on the measured FRFs, or an identification run tripped.
     """
+    from ..analysis.limits import DEFAULT_LIMITS
     from ..errors import UsageError
     from ..io import dumps_json
-    from .demo import _plain
+    from .demo import _plain, better_per_figure
     from .gantry_twin import GantryTwin
 
     xs = [float(x) for x in xs]
     if 0.0 not in xs or len(set(xs)) < 3:
         raise UsageError(f"the demo needs >= 3 distinct table positions including 0, got {xs}")
-    if params is None:
-        from dataclasses import replace
-
-        from .gantry_twin import GantryTwinParams
-
-        params = replace(GantryTwinParams(), envelope_m=DEMO_ENVELOPE_M)
+    policy = limits or DEFAULT_LIMITS
     twin = GantryTwin(params)
     texts: dict = {}
-    frfs, mass_logs, axis_log = _measure(twin, xs, seed, engine, texts, keep_raw)
+    frfs, mass_logs, axis_log, axis_frf = _measure(twin, xs, seed, engine, texts, keep_raw)
     fit, mass, m_x = _identify(twin, xs, frfs, mass_logs, axis_log, texts)
-    designs, runtimes = _design(twin, fit, m_x, frfs[xs.index(0.0)], texts)
-    rows = [{"test": "design:",
-             "mimo": {k: designs["mimo"][k] for k in ("crossover_hz", "ms")},
-             "pid": {k: designs["pid"][k] for k in ("crossover_hz", "ms")}}]
+    designs, runtimes = _design(twin, fit, frfs[xs.index(0.0)], axis_frf, texts, policy)
+    rows = [{"test": "design:", **{c: {k: designs[c][k] for k in ("crossover_hz", "ms")} for c in CONTROLLERS}}]
     rows += _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts)
+    for row in rows[1:]:
+        row["better"] = {c: {k: w for _, k, w in better_per_figure([row], "mimo", c)} for c in CONTROLLERS[1:]}
     identified = {"gantry": fit.to_dict(), "mass": mass.to_dict(), "m_x": m_x,
                   "true": {**twin.model.params()}}
-    result = GantryDemoResult(rows, identified, designs, texts, twin.params.to_dict())
+    result = GantryDemoResult(rows, identified, designs, texts, twin.params.to_dict(), policy.to_dict())
     texts["summary.json"] = dumps_json(_plain({k: v for k, v in result.to_dict().items() if k != "files"}))
     return result
 

@@ -56,7 +56,8 @@ PI_LAG_BOUNDS = (5.0, 20.0)
 STAGES = (1, 2, 3)
 """Numbers of equal lead stages searched."""
 SCAN_HZ = (1.0, None)
-"""Scan of the crossover [Hz]: from 1 Hz to ``fs / 8`` (None)."""
+"""Scan of the crossover [Hz]: from 1 Hz to ``fs / 8`` (None), inside the design FRF's lines (1.25 x the first to the
+last / 1.25) when the design is made on an FRF."""
 SCAN_POINTS = 24
 RTOL = 2e-3
 """Relative width of the final bracket on the crossover [-]."""
@@ -110,6 +111,14 @@ class _AxisSearch:
         l_top = float(np.abs(c.Ge[-1:] * d.controller_discrete().freqresp(top))[0])
         doubt = unreliable(m.warnings) or band_top_doubt(l_top, float(top[0]), c.fs, c.policy.ms_max)
         ok = all(i.ok for i in items) and doubt is None
+        if ok:  # stable in every other case too (the check a design is judged by), only for candidates that pass
+            for k, p in c.cases.items():
+                if p is None or k == c.name:
+                    continue
+                other = analyze_axis_case(d, p, responses=False).metrics
+                if not (other.stable and other.nyquist_reliable):
+                    ok, doubt = False, f"unstable in the {k} case"
+                    break
         slacks = [i.slack for i in items if i.slack is not None]
         slack = None if not m.stable or doubt is not None else (min(slacks) if slacks else 1.0)
         xc = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
@@ -125,6 +134,10 @@ class _AxisSearch:
     def run(self, ref: tuple | None) -> SearchResult | None:
         """The shape search over the box (the first edge from ``ref``, a passing probe of another stage count)."""
         return pattern_search(self.edge, ("pm_deg", "pi_lag_deg"), self.bounds, ref=ref)
+
+
+def _stable(metrics) -> bool:
+    return bool(metrics.stable and metrics.nyquist_reliable)
 
 
 def _bounds(value, default, name: str, lo_limit: float, hi_limit: float) -> tuple[float, float]:
@@ -223,8 +236,11 @@ def tune_loopshape(
     pc = cases[name]
     f = pc.freq_hz
     case = _AxisCase(name, pc, cases, pc.plant(f) * pc.hold(f), policy, float(fs))
-    top = fs / 8 if SCAN_HZ[1] is None else SCAN_HZ[1]
-    scan = np.geomspace(SCAN_HZ[0], top, SCAN_POINTS)
+    bottom, top = SCAN_HZ[0], fs / 8 if SCAN_HZ[1] is None else SCAN_HZ[1]
+    if ap.frf is not None:  # a design on an FRF places its crossover inside the measured band
+        lines = ap.frf.freq_hz[ap.frf.freq_hz > 0]
+        bottom, top = max(bottom, float(lines[0]) * 1.25), min(top, float(lines[-1]) / 1.25)
+    scan = np.geomspace(bottom, top, SCAN_POINTS)
     results = {}
     ref = None
     for n in counts:
@@ -239,14 +255,15 @@ def tune_loopshape(
     n_best = max(found, key=lambda n: (found[n].edge.best.crossover_hz, -n))
     best = found[n_best]
     design, metrics, _ = best.edge.best.result
-    stable = {k: True if k == name else bool(analyze_axis_case(design, p, responses=False).metrics.stable)
+    stable = {k: True if k == name else _stable(analyze_axis_case(design, p, responses=False).metrics)
               for k, p in cases.items() if p is not None}
     if not all(stable.values()):
         raise DesignError(f"the best loop-shaping design meets the limits in the {name} case but is unstable in "
                           f"the {', '.join(k for k, v in stable.items() if not v)} case")
     warnings = [f"the winner sits on a search bound: {b}" for b in best.on_bound]
     if best.edge.at_top:
-        warnings.append(f"the winner's crossover is the top of the scan ({best.edge.best.scale:g} Hz = fs/8)")
+        warnings.append(f"the winner's crossover is the top of the scan ({best.edge.best.scale:g} Hz: fs/8, or the "
+                        "top of the design FRF / 1.25)")
     act = check_cases(policy, {name: metrics}, [name]).active()
     pm, lag = best.point
     tuning = {

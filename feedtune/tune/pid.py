@@ -512,7 +512,10 @@ def choose_filters(case: _Case, given: LoopFilters, zeta_bounds, rho_bounds, sca
 
 def _stable_everywhere(law: PidLaw, case: _Case) -> dict:
     """``{case: stable}`` of a candidate in every case of the plant (the limits were met in the checked one)."""
-    return {name: True if name == case.name else bool(analyze_gantry_case(law, pc, case.weights).metrics.stable)
+    def stable(m) -> bool:
+        return bool(m.stable and m.nyquist_reliable)
+
+    return {name: True if name == case.name else stable(analyze_gantry_case(law, pc, case.weights).metrics)
             for name, pc in case.cases.items() if pc is not None}
 
 
