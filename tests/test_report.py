@@ -464,3 +464,23 @@ def test_gantry_runs_use_each_side_and_the_table_displacement(tmp_path):
     assert snap_entry["options"] == {"position": "y_table"}
     expected = cli_json("analyze", "ropesnap", tmp_path / "snap.csv", "--position", "y_table")["metrics"]
     assert snap_entry["metrics"] == expected and expected["peak_abs_m"] == pytest.approx(5e-6, rel=1e-9)
+
+
+def test_summary_names_every_figure_a_baseline_wins():
+    from feedtune.report.summary import _baseline_wins
+
+    data = {"comparison": {
+        "tracking": {"rows": [{"run": "tracking 200 mm/s", "runs": {
+            "MIMO": {"max_m": 2e-6, "rms_m": 1e-6},
+            "PID (pid_gains)": {"max_m": 4e-6, "rms_m": 3e-6},
+            "PID (pid_own_gains)": {"max_m": 1e-6, "rms_m": 0.999e-6}}}]},
+        "ropesnap": {"rope snap": {"MIMO": {"baseline": "PID (pid_gains)", "peak": 50.0, "settling_time": 20.0},
+                                   "PID (pid_own_gains)": {"baseline": "PID (pid_gains)", "peak": 60.0,
+                                                           "settling_time": 10.0}}}}}
+    text = _baseline_wins(data)
+    # the own-filter PID: max 1 < 2 um, rope-snap peak 0.4 < 0.5 of the baseline's; its RMS is within 0.5 %
+    assert text == ("PID (pid_own_gains) is better than MIMO in 2 of 4 figures: tracking 200 mm/s max, rope snap "
+                    "peak.")
+    data["comparison"]["tracking"]["rows"][0]["runs"]["PID (pid_own_gains)"]["max_m"] = 3e-6
+    data["comparison"]["ropesnap"]["rope snap"]["PID (pid_own_gains)"]["peak"] = 40.0
+    assert _baseline_wins(data) is None

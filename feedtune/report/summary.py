@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from .collect import Inputs
 from .content import Alert, Cell, Paragraph, Section, Table, text_cell
 from .design import CASE_TITLES
-from .sections import ReportLimits
+from .sections import BASELINE_CONTROLLERS, ReportLimits
 
 
 def _verdict_table(designs: list) -> Table:
@@ -129,22 +129,46 @@ def _reduction_sentence(red: dict) -> str | None:
     return " ".join(parts) or None
 
 
-def _baseline_wins(red: dict) -> str | None:
-    """A sentence naming every figure in which the baseline is better (a negative reduction), or None."""
+def _is_baseline(label: str) -> bool:
+    return any(label == b or label.startswith(b + " ") for b in BASELINE_CONTROLLERS)
+
+
+def _figures_by_label(data: Mapping) -> dict[str, dict[str, float]]:
+    """``{label: {figure: value}}`` of every compared run (smaller is better): tracking max/RMS [m] per run, and for
+    rope snaps and contours the value relative to the group's baseline ``1 - reduction / 100`` (the baseline's is
+    1)."""
+    comp = data.get("comparison") or {}
+    out: dict[str, dict[str, float]] = {}
+    for row in (comp.get("tracking") or {}).get("rows", []):
+        for label, run in row["runs"].items():
+            for key, what in (("max_m", "max"), ("rms_m", "RMS")):
+                if run.get(key) is not None:
+                    out.setdefault(label, {})[f"{row['run']} {what}"] = run[key]
+    for section, figures in (("ropesnap", (("peak", "peak"), ("settling_time", "settling time"))),
+                             ("contour", (("max", "max"),))):
+        for test, per in (comp.get(section) or {}).items():
+            for label, red in per.items():
+                base = red.get("baseline")
+                for key, what in figures:
+                    if red.get(key) is not None:
+                        out.setdefault(label, {})[f"{test} {what}"] = 1.0 - red[key] / 100.0
+                        out.setdefault(base, {})[f"{test} {what}"] = 1.0
+    return out
+
+
+def _baseline_wins(data: Mapping) -> str | None:
+    """A sentence naming, for every proposal and every baseline (P-PI, PID, and their variants), the figures in
+    which the baseline is better (by more than 0.5 %), or None."""
+    figs = _figures_by_label(data)
+    proposals = [lb for lb in figs if not _is_baseline(lb)]
+    baselines = [lb for lb in figs if _is_baseline(lb)]
     parts = []
-    for label, r in red.items():
-        items = []
-        for key, what in (("tracking_max_pct", "maximum tracking error"), ("tracking_rms_pct", "RMS tracking error"),
-                          ("contour_max_pct", "maximum contour error")):
-            span = r.get(key)
-            if span is not None and span[0] < 0:
-                items.append(what + (" (in some runs)" if span[1] >= 0 else ""))
-        for test, snap in (r.get("ropesnap") or {}).items():
-            for key, what in (("peak_pct", "rope-snap peak"), ("settling_time_pct", "rope-snap settling time")):
-                if snap.get(key) is not None and snap[key] < 0:
-                    items.append(f"{what} ({test})")
-        if items:
-            parts.append(f"{r['baseline']} is better than {label} in: " + ", ".join(items) + ".")
+    for p in proposals:
+        for b in baselines:
+            wins = [k for k, v in figs[b].items() if k in figs[p] and v < figs[p][k] - 0.005 * abs(figs[p][k])]
+            if wins:
+                parts.append(f"{b} is better than {p} in {len(wins)} of {len(set(figs[b]) & set(figs[p]))} "
+                             f"figures: {', '.join(wins)}.")
     return " ".join(parts) or None
 
 
@@ -158,7 +182,7 @@ def summary_section(designs: list, data: dict, warnings: list[str],
     sentence = _reduction_sentence(red)
     if sentence:
         blocks.append(Paragraph(sentence + " Negative values are increases."))
-    wins = _baseline_wins(red)
+    wins = _baseline_wins(data)
     if wins:
         blocks.append(Alert("The baseline wins here: " + wins))
     data.setdefault("verdict", {})["baseline_wins"] = wins

@@ -185,14 +185,23 @@ def _analyze(li: LogInput, kind: str, strict: bool, warnings: list[str], names: 
         return None
 
 
-def _unique_labels(runs: list[Run]) -> list[Run]:
-    """Give runs that share a group and a label the file stem as well."""
+def _run_tag(li: LogInput) -> str:
+    """What tells runs of one controller kind apart: the gains file the run names (the same in every test), else
+    the log's file name."""
+    gains = li.log.meta.get("gains")
+    return Path(str(gains)).stem if gains else li.path.stem
+
+
+def _unique_labels(runs: list[Run], colors: Colors) -> list[Run]:
+    """Give runs that share a group and a label the name of their gains file (else of their log) as well."""
     from dataclasses import replace
 
     seen: dict[tuple, int] = {}
     for r in runs:
         seen[(r.group, r.label)] = seen.get((r.group, r.label), 0) + 1
-    return [replace(r, label=f"{r.label} ({r.li.path.stem})") if seen[(r.group, r.label)] > 1 else r for r in runs]
+    return [replace(r, label=f"{r.label} ({_run_tag(r.li)})", base_label=f"{r.base_label} ({_run_tag(r.li)})",
+                    color=colors(f"{r.label} ({_run_tag(r.li)})")) if seen[(r.group, r.label)] > 1 else r
+            for r in runs]
 
 
 def tracking_runs(inputs: Inputs, names: Mapping, colors: Colors, strict: bool, warnings: list[str],
@@ -208,7 +217,7 @@ def tracking_runs(inputs: Inputs, names: Mapping, colors: Colors, strict: bool, 
         label = base + (PREFILTER_SUFFIX if pre else "")
         group, title = _group(li)
         runs.append(Run(names[li.path], li, label, colors(label), group, title, metrics, base, pre, options, sides))
-    runs = _unique_labels(runs)
+    runs = _unique_labels(runs, colors)
     return sorted(runs, key=lambda r: (r.group[0] == "cut", str(type(r.group[1])), r.group[1]))
 
 
@@ -226,7 +235,7 @@ def ropesnap_runs(inputs: Inputs, names: Mapping, colors: Colors, strict: bool, 
         group = ("ropesnap", str(force) if force is not None else "")
         title = f"rope snap, {force} V" if force is not None else "rope snap"
         runs.append(Run(names[li.path], li, base, colors(base), group, title, metrics, base, pre, options))
-    return _unique_labels(runs)
+    return _unique_labels(runs, colors)
 
 
 def _groups(runs: list[Run]) -> list[list[Run]]:
@@ -490,7 +499,10 @@ def _contour_runs(inputs: Inputs, names: Mapping, colors: Colors, data: dict, st
         data.setdefault("contour", {})[names[li.path]] = {"log": names[li.path], "controller": label, "run": title,
                                                           "metrics": metrics}
         out.append((Run(names[li.path], li, label, colors(label), group, title, metrics, label, False), d))
-    return out
+    unique = _unique_labels([r for r, _ in out], colors)
+    for (r, _), u in zip(out, unique, strict=True):
+        data["contour"][r.name]["controller"] = u.label
+    return [(u, d) for u, (_, d) in zip(unique, out, strict=True)]
 
 
 def _contour_subsection(inputs: Inputs, names: Mapping, colors: Colors, data: dict, strict: bool,
