@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from feedtune.analysis.ballscrew import analyze_ballscrew
-from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.mcppc import design_mcppc
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import LeadStage, LoopFilters, design_loopshape

@@ -19,7 +19,7 @@ import numpy as np
 
 from feedtune.analysis.gantry import analyze_gantry, reference_from_schedule
 from feedtune.analysis.mimo import analyze_mimo, matmul, sensitivity, singular_values
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import LeadStage, LoopFilters, PrefilterGains, design_loopshape

@@ -16,7 +16,7 @@ eq. 3.16). Target: < 1 s per fit.
 
 It also compares discretizations of the pre-filter correction ``F(s) - 1`` (gains of the MC-PPC twin fit,
 80 Hz) at 20 kHz: the largest error of ``F(e^{jwT})`` against ``F(jw)`` up to 200 Hz, relative to ``|F - 1|``,
-for the bilinear transform used by feedtune, pole-zero matching (``feedtune.design.discretize.matched``) and
+for the bilinear transform used by feedtune, pole-zero matching (``feedtune.control.discretize.matched``) and
 scipy's zero- and first-order holds.
 """
 
@@ -63,7 +63,7 @@ def discretization_errors(fs: float, lpf_hz: float = 80.0, f_max: float = 200.0)
     """Largest ``|F_d - F| / |F - 1|`` on 1..f_max Hz for four discretizations of the correction."""
     from scipy.signal import cont2discrete, freqz
 
-    from feedtune.design.discretize import matched
+    from feedtune.control.discretize import matched
     from feedtune.lti import Zpk
 
     f = np.geomspace(1.0, f_max, 400)

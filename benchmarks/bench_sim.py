@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.models import THESIS_TABLE_3_1

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from feedtune.analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.loopshape import LoopFilters
 from feedtune.frf import Frf
 from feedtune.models.gantry import THESIS_GANTRY as MODEL

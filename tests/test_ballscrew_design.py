@@ -5,7 +5,7 @@ import pytest
 
 from feedtune.analysis.ballscrew import analyze_ballscrew, closed_loop_poles
 from feedtune.analysis.loop import analyze_loop
-from feedtune.design.filters import THESIS_FILTER_PACK, FilterPack
+from feedtune.control.filters import THESIS_FILTER_PACK, FilterPack
 from feedtune.design.mcppc import design_mcppc, desired_poles
 from feedtune.design.ppi import design_ppi
 from feedtune.errors import UsageError
@@ -67,7 +67,7 @@ def _discrete_closed_loop_eigs(law):
     """Eigenvalues of the sampled loop (ZOH plant, discrete controller, delay) from a state-space assembly."""
     from scipy.signal import cont2discrete, tf2ss
 
-    from feedtune.design.discretize import backward_difference, backward_euler_integrator
+    from feedtune.control.discretize import backward_difference, backward_euler_integrator
 
     T = 1 / law.fs
     A, B, C = MODEL.state_space()
@@ -79,7 +79,7 @@ def _discrete_closed_loop_eigs(law):
         num = np.r_[np.zeros(len(den) - len(num)), num]
         return tf2ss(num, den)
 
-    from feedtune.design.ballscrew_law import _sum_zpk
+    from feedtune.control.ballscrew_law import _sum_zpk
     from feedtune.lti import Zpk
 
     p1 = _sum_zpk(Zpk.constant(g["Kx1"], T), backward_difference(law.fs) * g["Kv1"])

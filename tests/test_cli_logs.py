@@ -59,7 +59,7 @@ def _csv(path) -> pd.DataFrame:
 @pytest.fixture(scope="module")
 def twin_files(tmp_path_factory):
     """Gains file, and the logs of `feedtune simulate track` and `feedtune simulate ropesnap` (CSV)."""
-    from feedtune.design.filters import THESIS_FILTER_PACK
+    from feedtune.control.filters import THESIS_FILTER_PACK
     from feedtune.design.gains import gains_document
     from feedtune.design.mcppc import design_mcppc
     from feedtune.io import save_model, write_document
@@ -230,7 +230,7 @@ def _multi_speed_trajectory(speeds, hold: float = 0.3, acc: float = 0.05, jerk: 
 
 
 def test_identify_friction_recovers_the_twin_stribeck_parameters(twin_files, tmp_path, capsys, monkeypatch):
-    from feedtune.design.filters import THESIS_FILTER_PACK
+    from feedtune.control.filters import THESIS_FILTER_PACK
     from feedtune.design.gains import gains_document
     from feedtune.design.mcppc import design_mcppc
     from feedtune.io import load_model, write_log_csv

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from feedtune.design.discretize import backward_difference, backward_euler_integrator, matched
-from feedtune.design.filters import THESIS_FILTER_PACK, FilterPack, Notch, lead, lead_gamma, lowpass1, pi_controller
+from feedtune.control.discretize import backward_difference, backward_euler_integrator, matched
+from feedtune.control.filters import THESIS_FILTER_PACK, FilterPack, Notch, lead, lead_gamma, lowpass1, pi_controller
 from feedtune.errors import UsageError
 from feedtune.lti import Zpk, sos_freqresp
 

@@ -19,7 +19,7 @@ from feedtune.analysis.cases import PlantCase
 from feedtune.analysis.limits import PROFILES
 from feedtune.analysis.loop import BandLimitedError, analyze_loop, model_extension
 from feedtune.analysis.resolution import ResolutionError, lightly_damped
-from feedtune.design.filters import THESIS_FILTER_PACK, FilterPack
+from feedtune.control.filters import THESIS_FILTER_PACK, FilterPack
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi
 from feedtune.frf import Frf

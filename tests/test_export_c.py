@@ -6,7 +6,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.friction_ff import with_friction_feedforward
 from feedtune.design.gains import gains_document, law_from_document
 from feedtune.design.mcppc import design_mcppc

@@ -10,7 +10,7 @@ import pytest
 
 from feedtune.analysis.ballscrew import analyze_ballscrew
 from feedtune.cli.main import main
-from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.mcppc import design_mcppc
 from feedtune.errors import DataError, UsageError
 from feedtune.frf import Frf

@@ -11,7 +11,7 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_gantry, reference_from_schedule
 from feedtune.cli.main import main
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.gantry_mimo import (
     averaged_plant,
     damping_gain,

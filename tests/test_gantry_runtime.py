@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.signal import freqz_zpk, lfilter, sosfilt
 
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.gains import gains_document
 from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo

@@ -348,7 +348,7 @@ def test_ropesnap_tracking_and_contour_logs():
 
 
 def test_real_gantry_runtime_runs_on_the_twin():
-    from feedtune.design.filters import Notch
+    from feedtune.control.filters import Notch
     from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
     from feedtune.design.gantry_mimo import design_gantry_mimo
     from feedtune.design.loopshape import LeadStage, LoopFilters, design_loopshape

@@ -26,8 +26,8 @@ import pytest
 from scipy.signal import zpk2ss
 
 from feedtune.analysis.gantry import analyze_axis, analyze_gantry
-from feedtune.design.discretize import matched
-from feedtune.design.filters import Notch
+from feedtune.control.discretize import matched
+from feedtune.control.filters import Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import LeadStage, LoopFilters, design_loopshape
 from feedtune.identify.gantry import fit_gantry

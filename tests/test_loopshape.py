@@ -13,7 +13,7 @@ from scipy.signal import cont2discrete, freqz_zpk, sosfilt, ss2tf
 from feedtune.analysis.gantry import analyze_axis
 from feedtune.analysis.loop import analyze_loop
 from feedtune.cli.main import main
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.loopshape import (
     LeadStage,
     LoopFilters,

@@ -24,7 +24,7 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_axis, analyze_axis_case, axis_plant_cases
 from feedtune.analysis.limits import DEFAULT_LIMITS, check_cases
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.loopshape import LoopFilters, axis_plant, design_loopshape
 from feedtune.errors import DesignError, UsageError
 from feedtune.frf import Frf

@@ -23,7 +23,7 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
 from feedtune.analysis.limits import DEFAULT_LIMITS, check_cases
-from feedtune.design.filters import Notch
+from feedtune.control.filters import Notch
 from feedtune.design.gantry_pid import PidLaw, pid_gains
 from feedtune.design.loopshape import LoopFilters
 from feedtune.errors import DesignError, UsageError

@@ -11,7 +11,7 @@ import pytest
 from scipy.signal import bilinear, lfilter, lsim
 
 from feedtune.cli.main import main
-from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.friction_ff import friction_feedforward, with_friction_feedforward
 from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc

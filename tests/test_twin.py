@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from feedtune.analysis.ballscrew import analyze_ballscrew
-from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi

@@ -29,7 +29,7 @@ from typer.testing import CliRunner
 
 from feedtune.analysis.ballscrew import analyze_ballscrew
 from feedtune.cli.main import app
-from feedtune.design.filters import THESIS_FILTER_PACK
+from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.identify.ballscrew import fit_ballscrew

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..design.ballscrew_law import BallScrewLaw
+from ..control.ballscrew_law import BallScrewLaw
 from ..errors import DataError
 from ..frf import Frf
 from ..lti import Zpk

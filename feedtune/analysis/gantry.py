@@ -84,7 +84,7 @@ class GantryReference:
 
         Discrete (``fs`` given): matched filters with the preview compensated, as the runtime executes them.
         """
-        from ..design.discretize import matched
+        from ..control.discretize import matched
         from ..design.loopshape import prefilter_response
         from ..lti import Zpk
 
@@ -281,7 +281,7 @@ def gantry_extension(f, G, model: GantryModel, x: float, controller, fs: float |
 
 def law_features(law, discrete: bool) -> np.ndarray:
     """Lightly damped poles and zeros (Hz, damping) of a gantry law's filter pack."""
-    from ..design.discretize import matched
+    from ..control.discretize import matched
 
     h = law.filters.zpk()
     if discrete:
@@ -408,7 +408,7 @@ class AxisAnalysis:
 def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisCase:
     """One case of a loop-shaped axis design on a plant case (plant ``(n,)`` [m/V]); without ``responses`` the
     tracking curves are None (for searches)."""
-    from ..design.discretize import matched
+    from ..control.discretize import matched
     from ..design.loopshape import prefilter_response
 
     fs = design.fs

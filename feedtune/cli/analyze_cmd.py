@@ -90,7 +90,7 @@ def analyze(
 def _analyze_ballscrew(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None, as_json: bool,
                        policy, strict: bool) -> None:
     from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
-    from ..design.ballscrew_law import GAIN_UNITS
+    from ..control.ballscrew_law import GAIN_UNITS
     from ..design.gains import law_from_document
     from ..design.ppi import PPI_UNITS
     from .frf_options import read_optional_frf

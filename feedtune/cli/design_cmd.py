@@ -43,7 +43,7 @@ FRICTION_BAND_OPTION = typer.Option(
 
 
 def _filters(notch, lpf):
-    from ..design.filters import FilterPack, Notch
+    from ..control.filters import FilterPack, Notch
 
     return FilterPack([Notch.parse(n) for n in notch or []], lpf)
 
@@ -76,7 +76,7 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
     frf = read_optional_frf(frf_path, quantity)
     check = check_design(design, frf=frf, limits=limits)
     analysis = check.analysis.to_dict()
-    from ..design.ballscrew_law import GAIN_UNITS
+    from ..control.ballscrew_law import GAIN_UNITS
     from ..design.ppi import PPI_UNITS
 
     result = {

@@ -49,7 +49,7 @@ GANTRY_FRF_OPTION = typer.Option(None, "--frf", help="Measured 2x2 position FRF 
 
 # ------------------------------------------------------------------------------------------ helpers
 def _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead):
-    from ..design.filters import Notch
+    from ..control.filters import Notch
     from ..design.loopshape import LeadStage, LoopFilters
 
     return LoopFilters([Notch.parse(n) for n in notch or []], lpf, lpf_order, lpf_zeta,

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from .. import __version__
+from ..control.ballscrew_law import GAIN_NAMES, GAIN_UNITS, BallScrewLaw
+from ..control.filters import FilterPack
 from ..errors import DataError
 from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel
-from .ballscrew_law import GAIN_NAMES, GAIN_UNITS, BallScrewLaw
-from .filters import FilterPack
 from .mcppc import McppcDesign, model_inversion, rotary_command_generator
 from .ppi import PPI_UNITS, PpiDesign, acceleration_feedforward
 

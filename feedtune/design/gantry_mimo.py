@@ -26,10 +26,10 @@ from functools import cached_property
 
 import numpy as np
 
+from ..control.discretize import backward_difference, backward_euler_integrator, matched
 from ..errors import DesignError, UsageError
 from ..lti import Zpk
 from ..models.gantry import GantryModel
-from .discretize import backward_difference, backward_euler_integrator, matched
 from .loopshape import (
     TWO_PI,
     LeadStage,

@@ -21,9 +21,9 @@ from functools import cached_property
 
 import numpy as np
 
+from ..control.discretize import backward_difference, backward_euler_integrator, matched
 from ..errors import UsageError
 from ..models.gantry import GantryModel
-from .discretize import backward_difference, backward_euler_integrator, matched
 from .gantry_mimo import GantrySchedule, default_x_grid, gantry_schedule
 from .loopshape import TWO_PI, LoopFilters, PrefilterGains, check_sampling, preview_samples
 

@@ -29,11 +29,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..control.discretize import matched
+from ..control.filters import FilterPack, Notch, lowpass1, lowpass2
 from ..errors import DataError, DesignError, UsageError
 from ..frf import Frf
 from ..lti import Zpk, delay_response
-from .discretize import matched
-from .filters import FilterPack, Notch, lowpass1, lowpass2
 
 TWO_PI = 2 * np.pi
 
@@ -176,7 +176,7 @@ class LoopFilters:
 
     @classmethod
     def from_filter_pack(cls, pack: FilterPack) -> LoopFilters:
-        """The ball-screw :class:`~feedtune.design.filters.FilterPack` (notches, 1st-order low-pass)."""
+        """The ball-screw :class:`~feedtune.control.filters.FilterPack` (notches, 1st-order low-pass)."""
         return cls(pack.notches, pack.lpf_hz, 1)
 
     def zpk(self) -> Zpk:
@@ -309,7 +309,7 @@ def reference_filters(lpf_hz: float, fs: float) -> dict[str, Zpk]:
     ``acceleration`` is the matched ``s^2`` made causal with ``P = 2`` poles at ``z = 0`` and ``position``
     is ``z^-P``: fed with the reference ``P`` samples ahead they realise ``s^2`` and ``1`` without delay.
     """
-    from .ballscrew_law import reference_path
+    from ..control.ballscrew_law import reference_path
 
     out = {}
     for name, term in zip(PREFILTER_ORDERS, prefilter_terms(lpf_hz), strict=True):

@@ -14,11 +14,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..control.ballscrew_law import BallScrewLaw
+from ..control.filters import FilterPack
 from ..errors import DesignError, UsageError
 from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
-from .ballscrew_law import BallScrewLaw
-from .filters import FilterPack
 
 
 @dataclass(frozen=True)

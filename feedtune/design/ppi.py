@@ -6,7 +6,7 @@ into the command, the same filter pack as MC-PPC::
 
     u = G_fp (Kpv + Kiv / s) (Kpx (x_r - x2) + s x_r - s x1) + U_ff x_r
 
-It is the shared ball-screw law (:mod:`feedtune.design.ballscrew_law`) with ``Kx1 = Kiv, Kv1 = Kpv,
+It is the shared ball-screw law (:mod:`feedtune.control.ballscrew_law`) with ``Kx1 = Kiv, Kv1 = Kpv,
 Kx2 = Kpv Kpx, Kv2 = 0, Ki2 = Kiv Kpx`` and ``R1 = 1``. :func:`feedtune.tune.ppi.tune_ppi` searches the gains with
 the highest first crossover under the limits policy.
 """
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..control.ballscrew_law import BallScrewLaw
+from ..control.filters import FilterPack
 from ..errors import UsageError
 from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
-from .ballscrew_law import BallScrewLaw
-from .filters import FilterPack
 from .mcppc import check_sampling
 
 PPI_UNITS = {"Kpx": "1/s", "Kpv": "V/(rad/s)", "Kiv": "V/rad"}

@@ -19,7 +19,7 @@ bilinear map is a substitution, so ``s^k G^(k+1)`` discretizes exactly into the 
 cascade the fit filters with) and the gains-file filter is exactly the fitted model; it has no delay (real
 frequency response error ``O((wT)^2)``: 4e-5 at 80 Hz and 20 kHz), an exact differentiator zero at ``z = 1``
 (the pre-filter never moves a reference at rest) and exact low-frequency derivatives. Pole-zero matching
-(:mod:`feedtune.design.discretize`) would map the poles exactly but match the differentiator by a backward
+(:mod:`feedtune.control.discretize`) would map the poles exactly but match the differentiator by a backward
 difference, i.e. half a sample of lag on the velocity term; zero- and first-order holds do not compose.
 
 The gains file holds the correction ``F(z) - 1`` as second-order sections (``prefilter_sos``), built from its

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import re
 
-from ..design.ballscrew_law import GAIN_NAMES
+from ..control.ballscrew_law import GAIN_NAMES
 from ..design.gains import check_ballscrew_gains, value
 from ..errors import DataError
 

@@ -75,7 +75,7 @@ def analyze_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, ob
     if "ppi_gains" in gi.doc:
         gains.update({k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc["ppi_gains"].items()})
     poles = closed_loop_poles(law, model)
-    from ..design.ballscrew_law import GAIN_UNITS
+    from ..control.ballscrew_law import GAIN_UNITS
     from ..design.ppi import PPI_UNITS
 
     result = {"kind": kind, "controller": kind, "gains": gains, "gain_units": {**GAIN_UNITS, **PPI_UNITS},

@@ -164,7 +164,7 @@ def _identify(twin, xs, frfs, mass_logs, axis_log, texts):
 
 
 def _filters(spec: dict):
-    from ..design.filters import Notch
+    from ..control.filters import Notch
     from ..design.loopshape import LeadStage, LoopFilters
 
     leads = [LeadStage(*spec["lead"])] if spec.get("lead") else []

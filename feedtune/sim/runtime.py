@@ -34,8 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..design.ballscrew_law import GAIN_NAMES as GAIN_ORDER
-from ..design.ballscrew_law import GAIN_UNITS
+from ..control.ballscrew_law import GAIN_NAMES as GAIN_ORDER
+from ..control.ballscrew_law import GAIN_UNITS
 from ..design.friction_ff import FrictionFeedforward, reference_velocity
 from ..design.gains import check_gains_header, value
 from ..errors import DataError, UsageError

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..analysis.gantry import analyze_axis_case, axis_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
-from ..design.filters import FilterPack
+from ..control.filters import FilterPack
 from ..design.loopshape import (
     LoopFilters,
     LoopShapeDesign,

@@ -14,8 +14,8 @@ from dataclasses import replace
 
 from ..analysis.ballscrew import analyze_case, plant_cases
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+from ..control.filters import FilterPack
 from ..design.check import check_design, resolve_limits
-from ..design.filters import FilterPack
 from ..design.mcppc import McppcDesign, check_sampling, design_mcppc
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf

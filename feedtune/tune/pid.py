@@ -50,7 +50,7 @@ from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_ca
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
 from ..analysis.margins import crossings
 from ..analysis.mimo import com_loop, matmul, sensitivity, singular_values
-from ..design.discretize import backward_difference, backward_euler_integrator, matched
+from ..control.discretize import backward_difference, backward_euler_integrator, matched
 from ..design.gantry_pid import GantryPidDesign, PidLaw, design_gantry_pid, pid_gains
 from ..design.loopshape import TWO_PI, LoopFilters, PrefilterGains, check_sampling
 from ..errors import DesignError, UsageError
@@ -428,7 +428,7 @@ def _with(pack: LoopFilters, item) -> LoopFilters:
 def _candidates(case: _Case, pack: LoopFilters, given: LoopFilters, law: PidLaw, xo: float,
                 resonances: list) -> list[tuple[object, str]]:
     """Filters to try next: ``[(Notch or (lpf_hz, order), why)]``."""
-    from ..design.filters import Notch
+    from ..control.filters import Notch
 
     out: list = []
     top = 0.45 * case.fs
