@@ -19,8 +19,7 @@ import time
 import numpy as np
 
 from feedtune.analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
-from feedtune.control.filters import Notch
-from feedtune.design.loopshape import LoopFilters
+from feedtune.control.filters import LoopFilters, Notch
 from feedtune.frf import Frf
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.loopshape import tune_loopshape

@@ -47,11 +47,11 @@ def frf_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def gains_files(tmp_path_factory):
     """A MIMO, an unstable PID and an x-axis gains file written with the design library."""
-    from feedtune.control.filters import Notch
+    from feedtune.control.filters import LeadStage, LoopFilters, Notch
     from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
     from feedtune.design.gantry_mimo import design_gantry_mimo
     from feedtune.design.gantry_pid import design_gantry_pid
-    from feedtune.design.loopshape import LeadStage, LoopFilters, design_loopshape
+    from feedtune.design.loopshape import design_loopshape
     from feedtune.io import write_document
 
     d = tmp_path_factory.mktemp("gains")

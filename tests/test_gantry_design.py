@@ -11,14 +11,13 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_gantry, reference_from_schedule
 from feedtune.cli.main import main
-from feedtune.control.filters import Notch
+from feedtune.control.filters import LeadStage, LoopFilters, Notch
 from feedtune.design.gantry_mimo import (
     averaged_plant,
     damping_gain,
     design_gantry_mimo,
     torsional_damping,
 )
-from feedtune.design.loopshape import LeadStage, LoopFilters
 from feedtune.errors import DesignError, UsageError
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.pid import tune_gantry_pid

@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 from scipy.signal import freqz_zpk, lfilter, sosfilt
 
-from feedtune.control.filters import Notch
+from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.prefilter import PrefilterGains
 from feedtune.design.gains import gains_document
 from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.gantry_pid import design_gantry_pid
-from feedtune.design.loopshape import LeadStage, LoopFilters, PrefilterGains, design_loopshape
+from feedtune.design.loopshape import design_loopshape
 from feedtune.design.mcppc import design_mcppc
 from feedtune.errors import DataError, UsageError
 from feedtune.io import write_document

@@ -27,9 +27,9 @@ from scipy.signal import zpk2ss
 
 from feedtune.analysis.gantry import analyze_axis, analyze_gantry
 from feedtune.control.discretize import matched
-from feedtune.control.filters import Notch
+from feedtune.control.filters import LeadStage, LoopFilters, Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
-from feedtune.design.loopshape import LeadStage, LoopFilters, design_loopshape
+from feedtune.design.loopshape import design_loopshape
 from feedtune.identify.gantry import fit_gantry
 from feedtune.sim.gantry_experiments import measure_axis_frf, measure_gantry_frf
 from feedtune.sim.gantry_twin import I_X, GantryTwin, axis_encoder_row, continuous_system, encoder_matrix

@@ -13,17 +13,9 @@ from scipy.signal import cont2discrete, freqz_zpk, sosfilt, ss2tf
 from feedtune.analysis.gantry import analyze_axis
 from feedtune.analysis.loop import analyze_loop
 from feedtune.cli.main import main
-from feedtune.control.filters import Notch
-from feedtune.design.loopshape import (
-    LeadStage,
-    LoopFilters,
-    PrefilterGains,
-    design_loopshape,
-    prefilter_terms,
-    reference_filters,
-    split_lead,
-    thesis_gamma,
-)
+from feedtune.control.filters import LeadStage, LoopFilters, Notch, split_lead, thesis_gamma
+from feedtune.control.prefilter import PrefilterGains, prefilter_terms, reference_filters
+from feedtune.design.loopshape import design_loopshape
 from feedtune.errors import DataError, UsageError
 from feedtune.frf import Frf
 

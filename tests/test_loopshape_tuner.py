@@ -24,8 +24,8 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_axis, analyze_axis_case, axis_plant_cases
 from feedtune.analysis.limits import DEFAULT_LIMITS, check_cases
-from feedtune.control.filters import Notch
-from feedtune.design.loopshape import LoopFilters, axis_plant, design_loopshape
+from feedtune.control.filters import LoopFilters, Notch
+from feedtune.design.loopshape import axis_plant, design_loopshape
 from feedtune.errors import DesignError, UsageError
 from feedtune.frf import Frf
 from feedtune.tune.loopshape import PI_LAG_BOUNDS, PM_BOUNDS, STAGES, tune_loopshape

@@ -85,7 +85,7 @@ class GantryReference:
         Discrete (``fs`` given): matched filters with the preview compensated, as the runtime executes them.
         """
         from ..control.discretize import matched
-        from ..design.loopshape import prefilter_response
+        from ..control.prefilter import prefilter_response
         from ..lti import Zpk
 
         r = np.array([prefilter_response(p, self.prefilter_hz, f, fs) for p in (self.prefilter1, self.prefilter2)])
@@ -336,7 +336,7 @@ def analyze_gantry(law, model: GantryModel, *, x: float = 0.0, frf: Frf | None =
     freq_hz : array_like, optional
         Grid for the model cases [Hz].
     """
-    from ..design.loopshape import PrefilterGains
+    from ..control.prefilter import PrefilterGains
 
     ref = reference or GantryReference(model.at(x).M, PrefilterGains(), PrefilterGains(), 80.0)
     weights = model.alpha(x)
@@ -409,7 +409,7 @@ def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisC
     """One case of a loop-shaped axis design on a plant case (plant ``(n,)`` [m/V]); without ``responses`` the
     tracking curves are None (for searches)."""
     from ..control.discretize import matched
-    from ..design.loopshape import prefilter_response
+    from ..control.prefilter import prefilter_response
 
     fs = design.fs
     C = design.controller_discrete() if pc.discrete else design.controller()

@@ -49,8 +49,7 @@ GANTRY_FRF_OPTION = typer.Option(None, "--frf", help="Measured 2x2 position FRF 
 
 # ------------------------------------------------------------------------------------------ helpers
 def _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead):
-    from ..control.filters import Notch
-    from ..design.loopshape import LeadStage, LoopFilters
+    from ..control.filters import LeadStage, LoopFilters, Notch
 
     return LoopFilters([Notch.parse(n) for n in notch or []], lpf, lpf_order, lpf_zeta,
                        [LeadStage.parse(s) for s in lead or []])
@@ -172,8 +171,9 @@ def loopshape(
     """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20), designed or tuned."""
     from ..analysis.gantry import analyze_axis, target_violations
     from ..analysis.limits import check_analysis
+    from ..control.prefilter import PrefilterGains
     from ..design.gantry_gains import axis_gains_document
-    from ..design.loopshape import PrefilterGains, design_loopshape
+    from ..design.loopshape import design_loopshape
     from ..errors import UsageError
     from ..tune.loopshape import tune_loopshape
     from .frf_options import read_optional_frf
@@ -253,8 +253,8 @@ def gantry(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Gantry MIMO control: averaging, lead, active damping, actuator-level integral (eq. 4.22-4.33)."""
+    from ..control.prefilter import PrefilterGains
     from ..design.gantry_mimo import design_gantry_mimo
-    from ..design.loopshape import PrefilterGains
     from .frf_options import read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
@@ -287,8 +287,8 @@ def _pair(text: str | None, name: str):
 def _matched(match: Path, frf):
     """Ms of a gantry gains file in the case the PID is checked in, and its filters without the leads."""
     from ..analysis.gantry import analyze_gantry
+    from ..control.filters import LoopFilters
     from ..design.gantry_gains import gantry_law_from_document
-    from ..design.loopshape import LoopFilters
     from ..io import read_document
 
     law, model, x, ref = gantry_law_from_document(read_document(match), str(match))
@@ -361,8 +361,8 @@ def pid(
 ) -> None:
     """Independent PID per side behind notches and low-pass, tuned for the highest crossover under the limits
     (thesis baseline)."""
+    from ..control.prefilter import PrefilterGains
     from ..design.gantry_pid import design_gantry_pid
-    from ..design.loopshape import PrefilterGains
     from ..errors import UsageError
     from ..tune.pid import FILTER_CHOICES, tune_gantry_pid
     from .frf_options import read_optional_frf

@@ -13,6 +13,7 @@ zeros-poles-gain data directly.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -126,3 +127,11 @@ def backward_euler_integrator(fs: float) -> Zpk:
 def unit_delay(n: int, fs: float) -> Zpk:
     """``z^-n``."""
     return Zpk([], np.zeros(int(n)), 1.0, 1.0 / fs)
+
+
+def check_sampling(fs: float, delay_samples: int) -> None:
+    """UsageError unless ``fs`` [Hz] > 0 and ``delay_samples`` is an integer >= 0."""
+    if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+        raise UsageError(f"--fs must be a sample rate > 0 Hz, got {fs}")
+    if int(delay_samples) != delay_samples or delay_samples < 0:
+        raise UsageError(f"--delay-samples must be an integer >= 0, got {delay_samples}")

@@ -188,7 +188,7 @@ def _law_section(text: str) -> dict:
 
 
 def _reference_section(prefilter_hz: float, fs: float) -> dict:
-    from .loopshape import reference_filters
+    from ..control.prefilter import reference_filters
 
     refs = reference_filters(prefilter_hz, fs)
     out = {f"{name}_sos": _sos(z) for name, z in refs.items()}
@@ -294,7 +294,7 @@ def _design_x(doc: dict, where: str) -> float:
 
 
 def _stages(raw, where: str):
-    from .loopshape import LeadStage
+    from ..control.filters import LeadStage
 
     if not isinstance(raw, list):
         raise DataError(f"{where}: expected a list of lead stages {{center_hz, phase_deg}}")
@@ -311,10 +311,11 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
     [m] with ``alpha`` taken from the schedule there; ``reference`` holds the feedforward and pre-filters.
     """
     from ..analysis.gantry import GantryReference
+    from ..control.filters import LoopFilters
+    from ..control.prefilter import PrefilterGains
     from ..models.gantry import gantry_model_from_doc
     from .gantry_mimo import MimoLaw
     from .gantry_pid import PidLaw
-    from .loopshape import LoopFilters, PrefilterGains
 
     check_header(doc, where, (GANTRY_KIND,))
     controller = doc.get("controller")
@@ -348,7 +349,9 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
 
 def axis_design_from_document(doc: dict, where: str = "gains file"):
     """Rebuild the :class:`~feedtune.design.loopshape.LoopShapeDesign` of an axis gains document."""
-    from .loopshape import AxisPlant, LoopFilters, LoopShapeDesign, PrefilterGains
+    from ..control.filters import LoopFilters
+    from ..control.prefilter import PrefilterGains
+    from .loopshape import AxisPlant, LoopShapeDesign
 
     check_header(doc, where, (AXIS_KIND,))
     fs, delay = _sampling_values(doc, where)

@@ -26,21 +26,13 @@ from functools import cached_property
 
 import numpy as np
 
-from ..control.discretize import backward_difference, backward_euler_integrator, matched
+from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
+from ..control.filters import TWO_PI, LeadStage, LoopFilters, split_lead
+from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import DesignError, UsageError
 from ..lti import Zpk
 from ..models.gantry import GantryModel
-from .loopshape import (
-    TWO_PI,
-    LeadStage,
-    LoopFilters,
-    PrefilterGains,
-    check_sampling,
-    preview_samples,
-    split_lead,
-    wrap_deg,
-    zoh_double_integrator,
-)
+from .loopshape import wrap_deg, zoh_double_integrator
 
 
 # ------------------------------------------------------------------------------------- averaging

@@ -21,11 +21,12 @@ from functools import cached_property
 
 import numpy as np
 
-from ..control.discretize import backward_difference, backward_euler_integrator, matched
+from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
+from ..control.filters import TWO_PI, LoopFilters
+from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import UsageError
 from ..models.gantry import GantryModel
 from .gantry_mimo import GantrySchedule, default_x_grid, gantry_schedule
-from .loopshape import TWO_PI, LoopFilters, PrefilterGains, check_sampling, preview_samples
 
 
 @dataclass(frozen=True)

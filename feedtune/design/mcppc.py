@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..control.ballscrew_law import BallScrewLaw
+from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
 from ..errors import DesignError, UsageError
 from ..lti import Zpk
@@ -186,11 +187,3 @@ def design_mcppc(
     return McppcDesign(
         model, float(beta), float(pole_hz), float(zeta), gains, poles, filters, float(fs), int(delay_samples)
     )
-
-
-def check_sampling(fs: float, delay_samples: int) -> None:
-    """Validate the target's sample rate [Hz] and computational delay [samples]."""
-    if not (np.isfinite(fs) and fs > 0):
-        raise UsageError(f"--fs must be a sample rate > 0 Hz, got {fs}")
-    if int(delay_samples) != delay_samples or delay_samples < 0:
-        raise UsageError(f"--delay-samples must be an integer >= 0, got {delay_samples}")

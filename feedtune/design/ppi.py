@@ -18,11 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..control.ballscrew_law import BallScrewLaw
+from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
 from ..errors import UsageError
 from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
-from .mcppc import check_sampling
 
 PPI_UNITS = {"Kpx": "1/s", "Kpv": "V/(rad/s)", "Kiv": "V/rad"}
 

@@ -164,8 +164,7 @@ def _identify(twin, xs, frfs, mass_logs, axis_log, texts):
 
 
 def _filters(spec: dict):
-    from ..control.filters import Notch
-    from ..design.loopshape import LeadStage, LoopFilters
+    from ..control.filters import LeadStage, LoopFilters, Notch
 
     leads = [LeadStage(*spec["lead"])] if spec.get("lead") else []
     order = 2 if spec.get("lead") else 1

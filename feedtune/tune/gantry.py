@@ -13,8 +13,9 @@ from dataclasses import replace
 
 from ..analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, check_analysis
+from ..control.discretize import check_sampling
+from ..control.filters import LoopFilters
 from ..design.gantry_mimo import GantryMimoDesign, design_gantry_mimo
-from ..design.loopshape import LoopFilters, check_sampling
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.gantry import GantryModel

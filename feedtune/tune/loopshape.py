@@ -36,15 +36,10 @@ import numpy as np
 
 from ..analysis.gantry import analyze_axis_case, axis_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
-from ..control.filters import FilterPack
-from ..design.loopshape import (
-    LoopFilters,
-    LoopShapeDesign,
-    PrefilterGains,
-    axis_plant,
-    check_sampling,
-    design_loopshape,
-)
+from ..control.discretize import check_sampling
+from ..control.filters import FilterPack, LoopFilters
+from ..control.prefilter import PrefilterGains
+from ..design.loopshape import LoopShapeDesign, axis_plant, design_loopshape
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from .search import Probe, SearchResult, band_top_doubt, feasibility_edge, pattern_search, unreliable

@@ -14,9 +14,10 @@ from dataclasses import replace
 
 from ..analysis.ballscrew import analyze_case, plant_cases
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
 from ..design.check import check_design, resolve_limits
-from ..design.mcppc import McppcDesign, check_sampling, design_mcppc
+from ..design.mcppc import McppcDesign, design_mcppc
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel

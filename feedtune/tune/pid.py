@@ -50,9 +50,10 @@ from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_ca
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
 from ..analysis.margins import crossings
 from ..analysis.mimo import com_loop, matmul, sensitivity, singular_values
-from ..control.discretize import backward_difference, backward_euler_integrator, matched
+from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
+from ..control.filters import TWO_PI, LoopFilters
+from ..control.prefilter import PrefilterGains
 from ..design.gantry_pid import GantryPidDesign, PidLaw, design_gantry_pid, pid_gains
-from ..design.loopshape import TWO_PI, LoopFilters, PrefilterGains, check_sampling
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel

@@ -66,10 +66,9 @@ from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF, PlantCase
 from ..analysis.limits import Limits
 from ..analysis.loop import count_integrators, model_extension, nyquist_winding
 from ..analysis.resolution import ResolutionError, feature_points, lightly_damped
-from ..control.discretize import matched
+from ..control.discretize import check_sampling, matched
 from ..control.filters import FilterPack
 from ..design.check import check_design, resolve_limits
-from ..design.mcppc import check_sampling
 from ..design.ppi import PpiDesign, design_ppi
 from ..errors import DesignError, UsageError
 from ..frf import Frf
