@@ -17,9 +17,10 @@ import time
 
 import numpy as np
 
-from feedtune.analysis.gantry import analyze_gantry, reference_from_schedule
+from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.mimo import analyze_mimo, matmul, sensitivity, singular_values
 from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.gantry import reference_from_schedule
 from feedtune.control.prefilter import PrefilterGains
 from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo

@@ -191,3 +191,10 @@ def zoh_response(freq_hz, fs: float) -> np.ndarray:
     nz = w_t != 0
     out[nz] = (1 - np.exp(-1j * w_t[nz])) / (1j * w_t[nz])
     return out
+
+
+def zoh_double_integrator(mass: float, fs: float, freq_hz) -> np.ndarray:
+    """Exact ZOH discretization of ``1/(m s^2)``: ``T^2 (z + 1) / (2 m (z - 1)^2)`` at ``z = e^{j w T}`` [m/V]."""
+    T = 1.0 / fs
+    z = np.exp(2j * np.pi * np.asarray(freq_hz, float) * T)
+    return T * T * (z + 1) / (2 * mass * (z - 1) ** 2)

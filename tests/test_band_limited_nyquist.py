@@ -20,7 +20,8 @@ from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.loop import analyze_loop, extension_grid, junction_scale, model_extension
 from feedtune.analysis.mimo import mimo_nyquist
 from feedtune.control.filters import THESIS_FILTER_PACK, LoopFilters
-from feedtune.design.gantry_pid import PidLaw, pid_gains
+from feedtune.control.gantry import PidLaw
+from feedtune.design.gantry_pid import pid_gains
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi
 from feedtune.frf import Frf

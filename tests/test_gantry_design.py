@@ -9,9 +9,10 @@ import sys
 import numpy as np
 import pytest
 
-from feedtune.analysis.gantry import analyze_gantry, reference_from_schedule
+from feedtune.analysis.gantry import analyze_gantry
 from feedtune.cli.main import main
 from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.gantry import reference_from_schedule
 from feedtune.design.gantry_mimo import (
     averaged_plant,
     damping_gain,

@@ -19,10 +19,11 @@ from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.loop import analyze_loop
 from feedtune.analysis.mimo import analyze_mimo, mimo_nyquist, sensitivity, singular_values
 from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.gantry import PidLaw
 from feedtune.design.gantry_mimo import design_gantry_mimo
-from feedtune.design.gantry_pid import PidLaw, pid_gains
-from feedtune.design.loopshape import design_loopshape, zoh_double_integrator
-from feedtune.lti import Zpk, delay_response
+from feedtune.design.gantry_pid import pid_gains
+from feedtune.design.loopshape import design_loopshape
+from feedtune.lti import Zpk, delay_response, zoh_double_integrator
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.pid import tune_gantry_pid
 

@@ -24,7 +24,8 @@ import pytest
 from feedtune.analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
 from feedtune.analysis.limits import DEFAULT_LIMITS, check_cases
 from feedtune.control.filters import LoopFilters, Notch
-from feedtune.design.gantry_pid import PidLaw, pid_gains
+from feedtune.control.gantry import PidLaw
+from feedtune.design.gantry_pid import pid_gains
 from feedtune.errors import DesignError, UsageError
 from feedtune.frf import Frf
 from feedtune.models.gantry import THESIS_GANTRY as MODEL

@@ -31,9 +31,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..control.gantry import GantryReference
 from ..errors import DataError
 from ..frf import Frf
-from ..lti import delay_response, zoh_response
+from ..lti import delay_response, zoh_double_integrator, zoh_response
 from ..models.gantry import GantryModel
 from .cases import CASES as CASES  # re-exported: the case names
 from .cases import PlantCase, measured_cases, model_cases
@@ -59,49 +60,8 @@ def _bandwidth(f, t, tol_db: float = 3.0):
     return float(f[np.argmax(dev)]) if dev.any() else None
 
 
-# ----------------------------------------------------------------------------------- reference
-@dataclass(frozen=True)
-class GantryReference:
-    """What the reference path does at one table position (for the tracking figures).
-
-    Attributes
-    ----------
-    mass_matrix : ndarray, shape (2, 2)
-        Feedforward ``M`` [V/(m/s^2)] (eq. 4.31).
-    prefilter1, prefilter2 : PrefilterGains
-        Per-side pre-filter gains (eq. 4.32).
-    prefilter_hz : float
-        Pre-filter low-pass [Hz].
-    """
-
-    mass_matrix: np.ndarray
-    prefilter1: object
-    prefilter2: object
-    prefilter_hz: float
-
-    def responses(self, f: np.ndarray, fs: float | None) -> tuple[np.ndarray, np.ndarray]:
-        """``(r, ff)``: per-side reference ``r_i / y_r`` [-] and feedforward ``u_ff / y_r`` [V/m], ``(2, n)``.
-
-        Discrete (``fs`` given): matched filters with the preview compensated, as the runtime executes them.
-        """
-        from ..control.discretize import matched
-        from ..control.prefilter import prefilter_response
-        from ..lti import Zpk
-
-        r = np.array([prefilter_response(p, self.prefilter_hz, f, fs) for p in (self.prefilter1, self.prefilter2)])
-        s2 = Zpk([0.0, 0.0], [], 1.0)
-        if fs is None:
-            acc = s2.freqresp(f)
-        else:
-            m = matched(s2, fs)
-            acc = m.tf.freqresp(f) * np.exp(2j * np.pi * f * m.delay_samples / fs)
-        return r, np.einsum("ij,jn->in", self.mass_matrix, r * acc)
 
 
-def reference_from_schedule(schedule, x: float, prefilter_hz: float) -> GantryReference:
-    """The :class:`GantryReference` of a schedule at ``x`` [m]."""
-    p1, p2 = schedule.prefilters(x)
-    return GantryReference(schedule.mass_matrix(x), p1, p2, float(prefilter_hz))
 
 
 # ----------------------------------------------------------------------------------- gantry cases
@@ -447,8 +407,6 @@ def axis_plant_cases(design, frf: Frf | None = None, *, channel: str | None = No
                      freq_hz=None) -> dict[str, PlantCase | None]:
     """The four plant cases of a loop-shaped axis: the double integrator ``1/(m s^2)`` of the design's mass and the
     measured SISO FRF (by default the design's own, if it was designed on one) [m/V]."""
-    from ..design.loopshape import frf_at, zoh_double_integrator
-
     fs, delay = design.fs, design.delay_samples
     f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
     m = design.plant.mass
@@ -473,7 +431,7 @@ def axis_plant_cases(design, frf: Frf | None = None, *, channel: str | None = No
     fm = pos.freq_hz[keep]
     coh = pos.channel_coherence(ch)
     coh = None if coh is None or not np.all(np.isfinite(coh[keep])) else coh[keep]
-    cases.update(measured_cases(fm, frf_at(meas, ch, fm), fs, delay, model_plant=rigid, coherence=coh))
+    cases.update(measured_cases(fm, pos.channel(ch)[keep], fs, delay, model_plant=rigid, coherence=coh))
     return cases
 
 

@@ -106,8 +106,9 @@ def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, 
 
 
 def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, as_json) -> None:
-    from ..analysis.gantry import analyze_gantry, reference_from_schedule, target_violations
+    from ..analysis.gantry import analyze_gantry, target_violations
     from ..analysis.limits import check_analysis
+    from ..control.gantry import reference_from_schedule
     from ..design.gantry_gains import gantry_gains_document, mimo_gain_units, pid_gain_units
 
     ref = reference_from_schedule(design.schedule, design.x, design.prefilter_hz)

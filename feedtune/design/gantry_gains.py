@@ -310,12 +310,10 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
     The law is the continuous/discrete description (filters, lead, gains) at the design position ``x``
     [m] with ``alpha`` taken from the schedule there; ``reference`` holds the feedforward and pre-filters.
     """
-    from ..analysis.gantry import GantryReference
     from ..control.filters import LoopFilters
+    from ..control.gantry import GantryReference, MimoLaw, PidLaw
     from ..control.prefilter import PrefilterGains
     from ..models.gantry import gantry_model_from_doc
-    from .gantry_mimo import MimoLaw
-    from .gantry_pid import PidLaw
 
     check_header(doc, where, (GANTRY_KIND,))
     controller = doc.get("controller")

@@ -17,88 +17,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 
-import numpy as np
-
-from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
+from ..control.discretize import check_sampling
 from ..control.filters import TWO_PI, LoopFilters
+from ..control.gantry import GantrySchedule, PidLaw
 from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import UsageError
 from ..models.gantry import GantryModel
-from .gantry_mimo import GantrySchedule, default_x_grid, gantry_schedule
-
-
-@dataclass(frozen=True)
-class PidLaw:
-    """One PID per side behind the filter pack (module docstring).
-
-    Attributes
-    ----------
-    kp, kd, ki : (float, float)
-        Per-side gains [V/m, V/(m/s), V/(m s)].
-    filters : LoopFilters
-    fs : float
-        Sample rate [Hz].
-    delay_samples : int
-    """
-
-    kp: tuple
-    kd: tuple
-    ki: tuple
-    filters: LoopFilters
-    fs: float
-    delay_samples: int = 1
-
-    controller = "pid"
-
-    @cached_property
-    def _zpk(self) -> dict:
-        """The law's transfer functions, computed once (the analysis evaluates them many times)."""
-        h = self.filters.zpk()
-        return {"h": h, "h_discrete": matched(h, self.fs).tf, "diff": backward_difference(self.fs),
-                "integ": backward_euler_integrator(self.fs)}
-
-    def filter_pack_discrete(self):
-        """Matched ``h(z)``."""
-        return self._zpk["h_discrete"]
-
-    @property
-    def integrators(self) -> int:
-        """Controller poles at the origin."""
-        return int(sum(1 for k in self.ki if k != 0))
-
-    def _assemble(self, h, deriv, integ) -> np.ndarray:
-        K = np.zeros((2, 2, h.size), complex)
-        for i in range(2):  # two sides
-            K[i, i] = h * (self.kp[i] + self.kd[i] * deriv + self.ki[i] * integ)
-        return K
-
-    def response(self, freq_hz) -> np.ndarray:
-        """Continuous ``K(j w)`` [V/m], shape ``(2, 2, n)``."""
-        f = np.asarray(freq_hz, float)
-        s = TWO_PI * 1j * f
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return self._assemble(self._zpk["h"].freqresp(f), s, 1.0 / s)
-
-    def response_discrete(self, freq_hz) -> np.ndarray:
-        """Discrete ``K(e^{j w T})`` [V/m] (backward difference, backward-Euler integral)."""
-        f = np.asarray(freq_hz, float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return self._assemble(self.filter_pack_discrete().freqresp(f), self._zpk["diff"].freqresp(f),
-                                  self._zpk["integ"].freqresp(f))
-
-    def rhp_poles(self, discrete: bool) -> int:
-        """Controller poles in the right half plane (outside the unit circle)."""
-        if discrete:
-            return int(np.sum(np.abs(self.filter_pack_discrete().poles) > 1 + 1e-9))
-        return int(np.sum(self._zpk["h"].poles.real > 1e-9))
-
-    def to_dict(self) -> dict:
-        """Gains with units."""
-        return {"controller": "pid", "kp_V_per_m": list(self.kp), "kd_V_per_m_s": list(self.kd),
-                "ki_V_per_m_s": list(self.ki), "filters": self.filters.to_dict(), "fs_hz": self.fs,
-                "delay_samples": self.delay_samples}
+from .gantry_mimo import default_x_grid, gantry_schedule
 
 
 @dataclass(frozen=True)

@@ -43,7 +43,7 @@ from ..control.prefilter import (
 )
 from ..errors import DataError, DesignError, UsageError
 from ..frf import Frf
-from ..lti import Zpk, delay_response
+from ..lti import Zpk, delay_response, zoh_double_integrator
 
 
 # ----------------------------------------------------------------------------------------- x-axis plant
@@ -257,13 +257,6 @@ class LoopShapeDesign:
             "checked_case": "discrete" if self.plant.frf is not None else "ideal_discrete",
             **({"tuning": self.tuning} if self.tuning else {}),
         }
-
-
-def zoh_double_integrator(mass: float, fs: float, freq_hz) -> np.ndarray:
-    """Exact ZOH discretization of ``1/(m s^2)``: ``T^2 (z + 1) / (2 m (z - 1)^2)`` at ``z = e^{j w T}`` [m/V]."""
-    T = 1.0 / fs
-    z = np.exp(TWO_PI * 1j * np.asarray(freq_hz, float) * T)
-    return T * T * (z + 1) / (2 * mass * (z - 1) ** 2)
 
 
 def design_plant_response(plant: AxisPlant, fs: float, delay_samples: int, freq_hz) -> np.ndarray:

@@ -52,8 +52,9 @@ from ..analysis.margins import crossings
 from ..analysis.mimo import com_loop, matmul, sensitivity, singular_values
 from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
 from ..control.filters import TWO_PI, LoopFilters
+from ..control.gantry import PidLaw
 from ..control.prefilter import PrefilterGains
-from ..design.gantry_pid import GantryPidDesign, PidLaw, design_gantry_pid, pid_gains
+from ..design.gantry_pid import GantryPidDesign, design_gantry_pid, pid_gains
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
