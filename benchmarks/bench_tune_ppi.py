@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from feedtune.analysis.ballscrew import analyze_ballscrew, analyze_case, plant_cases
+from feedtune.analysis.check import resolve_limits
 from feedtune.analysis.limits import PROFILES
 from feedtune.control.filters import THESIS_FILTER_PACK, FilterPack
-from feedtune.design.check import resolve_limits
 from feedtune.design.ppi import design_ppi
 from feedtune.identify.ballscrew import fit_ballscrew
 from feedtune.io import read_frf

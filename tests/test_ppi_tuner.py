@@ -21,12 +21,12 @@ import numpy as np
 import pytest
 
 from feedtune.analysis.ballscrew import analyze_case, plant_cases
+from feedtune.analysis.check import check_design, resolve_limits
 from feedtune.analysis.limits import PROFILES, Limits
 from feedtune.analysis.loop import extension_grid, model_extension
 from feedtune.cli.main import main
 from feedtune.control.ballscrew_law import GAIN_NAMES, BallScrewLaw
 from feedtune.control.filters import THESIS_FILTER_PACK, FilterPack
-from feedtune.design.check import check_design, resolve_limits
 from feedtune.design.ppi import design_ppi
 from feedtune.errors import DesignError, UsageError
 from feedtune.identify.ballscrew import fit_ballscrew

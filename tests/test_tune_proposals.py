@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from feedtune.analysis.check import check_design
 from feedtune.analysis.limits import PROFILES
 from feedtune.control.filters import THESIS_FILTER_PACK
-from feedtune.design.check import check_design
 from feedtune.design.mcppc import design_mcppc
 from feedtune.errors import FeedtuneError
 from feedtune.io import read_frf

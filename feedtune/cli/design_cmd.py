@@ -66,7 +66,7 @@ def _load_friction(path: Path | None):
 def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, as_json, friction=None,
             friction_band=None):
     """Analyse, check the limits, write the gains file, print the result."""
-    from ..design.check import check_design
+    from ..analysis.check import check_design
     from ..design.gains import gains_document
     from ..errors import DesignError
     from ..io import write_document

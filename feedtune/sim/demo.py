@@ -235,8 +235,8 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     DesignError
         No design meets the limits on the measured FRF (with the default twin and limits this does not happen).
     """
+    from ..analysis.check import check_design
     from ..control.filters import THESIS_FILTER_PACK
-    from ..design.check import check_design
     from ..design.gains import gains_document
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document

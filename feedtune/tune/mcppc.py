@@ -5,7 +5,7 @@ search and under the same limits as the baseline).
 Shapes: ``beta`` in :data:`BETAS` (the thesis's drive allowed up to 4, section 3.2.3) and ``zeta`` in :data:`ZETAS`;
 bandwidth parameter: the pole frequency ``pole_hz`` (eq. 3.8), searched by :func:`feedtune.tune.search.
 highest_feasible` on the checked case (``discrete`` with an FRF, else ``ideal_discrete``), with the filter pack given
-(default none). The winner is re-checked in every case (:func:`feedtune.design.check.check_design`).
+(default none). The winner is re-checked in every case (:func:`feedtune.analysis.check.check_design`).
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from dataclasses import replace
 
 from ..analysis.ballscrew import analyze_case, plant_cases
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
+from ..analysis.check import check_design, resolve_limits
 from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
-from ..design.check import check_design, resolve_limits
 from ..design.mcppc import McppcDesign, design_mcppc
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf

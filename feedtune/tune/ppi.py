@@ -7,7 +7,7 @@ The first crossover ``f_c1`` [Hz] of the loop broken at the plant input, ``L = G
 :func:`~feedtune.analysis.ballscrew.analyze_case`, the lowest frequency where ``|L| = 1`` over the whole Nyquist
 contour, below the FRF's band too (model extension). It must meet every limit of the
 :class:`~feedtune.analysis.limits.Limits` in the checked case (``discrete`` with an FRF, else ``ideal_discrete``) and
-the winner must be stable in every analysis case (:func:`~feedtune.design.check.check_design`).
+the winner must be stable in every analysis case (:func:`~feedtune.analysis.check.check_design`).
 
 The first crossover is nearly flat over the P-PI's shape: on the example FRF (``Ms <= 3.25``, ``PM >= 30 deg``,
 ``GM >= 6 dB``) most shapes with ``Kiv / Kpv`` and ``Kpx`` below about 10 Hz reach 107-110 Hz; the highest, 110.6 Hz,
@@ -48,7 +48,7 @@ Search (the surrogate proposes, the analysis decides)
    the same plant case, :meth:`~feedtune.analysis.limits.Limits.check`) at the surrogate's edge, stepping and bisecting
    ``Kpv`` until the edge is known to :data:`EDGE_TOL` (relative). The rule above picks among the checked candidates
    with the analysis' own figures (``f_c1`` at the edge and with less gain); the winner must pass
-   :func:`~feedtune.design.check.check_design`, else the next.
+   :func:`~feedtune.analysis.check.check_design`, else the next.
 
 Search box (``2 pi`` times these [rad/s]): ``Kiv / Kpv`` and ``Kpx`` from :data:`SHAPE_LOW_HZ` to half the top of the
 checked grid, ``Kpv / M`` from :data:`SHAPE_LOW_HZ` to ``fs / 2``. A winner within :data:`BOUND_TOL` of a bound is
@@ -63,12 +63,12 @@ import numpy as np
 
 from ..analysis.ballscrew import analyze_case, plant_cases
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF, PlantCase
+from ..analysis.check import check_design, resolve_limits
 from ..analysis.limits import Limits
 from ..analysis.loop import count_integrators, model_extension, nyquist_winding
 from ..analysis.resolution import ResolutionError, feature_points, lightly_damped
 from ..control.discretize import check_sampling, matched
 from ..control.filters import FilterPack
-from ..design.check import check_design, resolve_limits
 from ..design.ppi import PpiDesign, design_ppi
 from ..errors import DesignError, UsageError
 from ..frf import Frf

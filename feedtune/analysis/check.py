@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..analysis.ballscrew import BallScrewAnalysis, analyze_ballscrew, closed_loop_poles
-from ..analysis.limits import DEFAULT_LIMITS, LimitCheck, Limits, check_analysis
 from ..frf import Frf
+from .ballscrew import BallScrewAnalysis, analyze_ballscrew, closed_loop_poles
+from .limits import DEFAULT_LIMITS, LimitCheck, Limits, check_analysis
 
 
 @dataclass(frozen=True)
