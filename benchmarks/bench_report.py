@@ -45,7 +45,8 @@ def _cli(args: list[str]) -> float:
 
 
 def main() -> int:
-    from feedtune.sim.demo import run_demo, write_texts
+    from feedtune.workflows.ballscrew_demo import run_demo
+    from feedtune.workflows.files import write_texts
 
     with tempfile.TemporaryDirectory() as tmp:
         demo = Path(tmp) / "demo_out"

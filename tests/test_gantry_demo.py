@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from feedtune.cli.main import app
 from feedtune.errors import UsageError
-from feedtune.sim.gantry_demo import identified_errors, run_gantry_demo
+from feedtune.workflows.gantry_demo import identified_errors, run_gantry_demo
 
 
 @pytest.fixture(scope="module")

@@ -23,7 +23,8 @@ from feedtune.report.content import Alert, FigureBlock, Paragraph, Table
 from feedtune.report.figures import envelope, log_envelope
 from feedtune.report.sections import ReportLimits
 from feedtune.report.time_domain import saturation
-from feedtune.sim.demo import run_demo, write_texts
+from feedtune.workflows.ballscrew_demo import run_demo
+from feedtune.workflows.files import write_texts
 
 runner = CliRunner()
 
@@ -391,9 +392,9 @@ def test_plot_decimation_keeps_extremes():
 # ------------------------------------------------------------------------------------------ demo command
 def test_demo_command_ends_with_the_report(demo_result, tmp_path, monkeypatch, report):
     import feedtune.report.html
-    import feedtune.sim.demo
+    import feedtune.workflows.ballscrew_demo
 
-    monkeypatch.setattr(feedtune.sim.demo, "run_demo", lambda **kwargs: demo_result)
+    monkeypatch.setattr(feedtune.workflows.ballscrew_demo, "run_demo", lambda **kwargs: demo_result)
     # the figures' rendering is checked on the module's report; a stand-in PNG keeps this test fast
     monkeypatch.setattr(feedtune.report.html, "figure_png", lambda fig: b"\x89PNG\r\n\x1a\n")
     out = tmp_path / "demo_out"

@@ -42,18 +42,18 @@ def demo(
     rope snap, tracking at 1 and 200 mm/s, contours.
     """
     from ..errors import UsageError
-    from ..sim.demo import check_out_dir, write_texts
+    from ..workflows.files import check_out_dir, write_texts
 
     if machine not in MACHINES:
         raise UsageError(f"unknown machine {machine!r}: expected one of {', '.join(MACHINES)}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_out_dir(out, force)
     if machine == "gantry":
-        from ..sim.gantry_demo import run_gantry_demo
+        from ..workflows.gantry_demo import run_gantry_demo
 
         result = run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=policy)
     else:
-        from ..sim.demo import run_demo
+        from ..workflows.ballscrew_demo import run_demo
 
         result = run_demo(seed=seed, engine=engine, limits=policy)
     written = write_texts(result.texts, force=force, out_dir=out)

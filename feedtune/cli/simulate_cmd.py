@@ -69,7 +69,7 @@ def _check_csv(out: Path, what: str = "--out") -> None:
 def _finish(result, texts: dict, force: bool, as_json: bool, lines: list[str]) -> None:
     """Write the files all-or-nothing, print, and turn a trip into an error after writing its log."""
     from ..errors import DataError
-    from ..sim.demo import write_texts
+    from ..workflows.files import write_texts
 
     written = write_texts(texts, force=force)
     out = result.to_dict()
@@ -128,8 +128,8 @@ def frf(
     The FRF file is the continuous plant: the ZOH and the computational delay are divided out unless
     --keep-sampling is given.
     """
-    from ..sim.demo import experiment_texts
     from ..sim.experiments import measure_frf
+    from ..workflows.files import experiment_texts
 
     _check_csv(out)
     frf_path = frf_out or out.with_name(out.stem + "_frf.csv")
@@ -186,8 +186,8 @@ def track(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Run a trajectory under the controller of a gains file; the log holds x_ref and derivatives, x1, x2, u."""
-    from ..sim.demo import experiment_texts
     from ..sim.experiments import run_tracking
+    from ..workflows.files import experiment_texts
 
     _check_csv(out)
     twin = _twin(machine, param, ideal)
@@ -223,8 +223,8 @@ def ropesnap(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Rope snap: a constant table force released at --t-release; the log holds the table displacement and u."""
-    from ..sim.demo import experiment_texts
     from ..sim.experiments import run_ropesnap
+    from ..workflows.files import experiment_texts
 
     _check_csv(out)
     twin = _twin(machine, param, ideal)
@@ -264,9 +264,9 @@ def cut(
 ) -> None:
     """Slotting at constant feed (thesis 3.4): cutting force at the tooth-passing frequency entering and leaving."""
     from ..errors import UsageError
-    from ..sim.demo import experiment_texts
     from ..sim.experiments import SlotCut, run_cut
     from ..sim.trajectory import point_to_point
+    from ..workflows.files import experiment_texts
 
     _check_csv(out)
     if isinstance(flutes, bool) or flutes < 1:

@@ -91,7 +91,7 @@ def _finish(results: list, texts: dict, force: bool, as_json: bool, lines: list[
             ) -> None:
     """Write every file all-or-nothing, print, and turn a trip into an error after writing its log."""
     from ..errors import DataError
-    from ..sim.demo import write_texts
+    from ..workflows.files import write_texts
 
     written = write_texts(texts, force=force)
     out = results[0].to_dict() if len(results) == 1 else {"runs": [r.to_dict() for r in results]}

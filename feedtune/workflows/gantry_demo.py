@@ -19,7 +19,7 @@
 5. a comparison table (crossover, Ms, rope-snap peak and settling, tracking and contour errors) with the limits,
    the rules and, against each PID, the better controller per figure.
 
-Nothing is written; :meth:`GantryDemoResult.texts` holds every file (``feedtune.sim.demo.write_texts``
+Nothing is written; :meth:`GantryDemoResult.texts` holds every file (``feedtune.workflows.ballscrew_demo.write_texts``
 writes them all or none).
 """
 
@@ -80,7 +80,7 @@ class GantryDemoResult:
 
     def table(self) -> str:
         """The comparison as text: the limits and rules, the three controllers and the verdict against each PID."""
-        from .demo import verdict_line
+        from .comparison import verdict_line
 
         lines = [f"Limits: {self.limits.get('profile')}; every controller tuned for the highest first crossover under "
                  "them on the FRFs measured at x = 0 (discrete case):"]
@@ -128,7 +128,7 @@ def _texts_of(result, name: str, log: bool = True, allow_trip: bool = False) -> 
 
 
 def _measure(twin, xs, seed, engine, texts, keep_raw):
-    from .gantry_experiments import measure_axis_frf, measure_gantry_frf, run_axis_mass, run_mass
+    from ..sim.gantry_experiments import measure_axis_frf, measure_gantry_frf, run_axis_mass, run_mass
 
     frfs = []
     for x in xs:
@@ -151,7 +151,7 @@ def _identify(twin, xs, frfs, mass_logs, axis_log, texts):
     from ..identify.gantry import fit_gantry
     from ..identify.mass import fit_axis_mass, fit_mass_distribution
     from ..io import dumps_json, dumps_toml, model_document
-    from .gantry_experiments import mass_document
+    from ..sim.gantry_experiments import mass_document
 
     mass = fit_mass_distribution(mass_logs, xs, acc_ref="ay_ref")
     m_x = fit_axis_mass(axis_log, u="ux", acc_ref="a_ref")
@@ -195,10 +195,10 @@ def _design(twin, fit, frf0, axis_frf, texts, policy):
     from ..design.gantry_gains import axis_gains_document, gantry_gains_document
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
+    from ..sim.gantry_runtime import load_runtime
     from ..tune.gantry import tune_gantry_mimo
     from ..tune.loopshape import tune_loopshape
     from ..tune.pid import tune_gantry_pid
-    from .gantry_runtime import load_runtime
 
     p = twin.params
     model = fit.model
@@ -246,8 +246,8 @@ def _run_figures(res, figures: dict) -> dict:
 
 
 def _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts) -> list:
-    from .contour import thesis_path
-    from .gantry_experiments import run_contour, run_gantry_ropesnap, run_gantry_tracking, tracking_trajectory
+    from ..sim.contour import thesis_path
+    from ..sim.gantry_experiments import run_contour, run_gantry_ropesnap, run_gantry_tracking, tracking_trajectory
 
     axis = runtimes["axis"]
     rows = []
@@ -318,8 +318,9 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     from ..analysis.limits import DEFAULT_LIMITS
     from ..errors import UsageError
     from ..io import dumps_json
-    from .demo import _plain, better_per_figure
-    from .gantry_twin import GantryTwin
+    from ..sim.gantry_twin import GantryTwin
+    from .comparison import better_per_figure
+    from .files import plain_json
 
     xs = [float(x) for x in xs]
     if 0.0 not in xs or len(set(xs)) < 3:
@@ -337,7 +338,7 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     identified = {"gantry": fit.to_dict(), "mass": mass.to_dict(), "m_x": m_x,
                   "true": {**twin.model.params()}}
     result = GantryDemoResult(rows, identified, designs, texts, twin.params.to_dict(), policy.to_dict())
-    texts["summary.json"] = dumps_json(_plain({k: v for k, v in result.to_dict().items() if k != "files"}))
+    texts["summary.json"] = dumps_json(plain_json({k: v for k, v in result.to_dict().items() if k != "files"}))
     return result
 
 

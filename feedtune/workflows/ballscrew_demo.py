@@ -14,14 +14,12 @@ holds the comparison table and the text of every file; :func:`write_texts` write
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
-from pathlib import Path
-
-import numpy as np
 
 from ..analysis.limits import DEFAULT_LIMITS, Limits
-from ..errors import DesignError, UsageError
+from ..errors import DesignError
+from .comparison import better_per_figure, reduction_pct, verdict_line
+from .files import experiment_texts, plain_json
 
 SPEEDS_M_PER_S = (0.2, 0.5, 1.0)
 """Tracking speeds of Table 3.2 [m/s]."""
@@ -87,8 +85,8 @@ class DemoResult:
             c = row.get("mcppc_prefilter")
             extra = "" if not pf else f" {c['max_um']:13.3f} {c['rms_um']:7.3f}" if c else f" {'-':>13s} {'-':>7s}"
             lines.append(f"{row['test']:22s} {a['max_um']:10.3f} {a['rms_um']:7.3f} {b['max_um']:10.3f} "
-                         f"{b['rms_um']:7.3f} {_drop(a['max_um'], b['max_um']):7.1f} "
-                         f"{_drop(a['rms_um'], b['rms_um']):7.1f}{extra}")
+                         f"{b['rms_um']:7.3f} {reduction_pct(a['max_um'], b['max_um']):7.1f} "
+                         f"{reduction_pct(a['rms_um'], b['rms_um']):7.1f}{extra}")
         if self.prefilter:
             g, u = self.prefilter["gains"], self.prefilter["units"]
             lines += ["", f"MC-PPC+PF: pre-filter identified from the MC-PPC run at "
@@ -104,104 +102,22 @@ class DemoResult:
         return "\n".join(lines)
 
 
-def _drop(a: float, b: float) -> float:
-    return 100.0 * (1.0 - a / b) if b else float("nan")
 
 
-FIGURE_LABELS = {"max_um": "max", "rms_um": "RMS", "peak_um": "peak", "settling_time_s": "settling time"}
 
 
-def better_per_figure(rows: list, a: str = "mcppc", b: str = "ppi") -> list[tuple[str, str, str | None]]:
-    """``(test, figure, better)`` for every figure of every row: the label of the controller with the smaller
-    value (``None`` for a tie within 0.5 % or a missing value)."""
-    out = []
-    for row in rows:
-        for key in ("max_um", "rms_um", "peak_um", "settling_time_s"):
-            if key not in row[a] and key not in row[b]:
-                continue
-            x, y = row[a].get(key), row[b].get(key)
-            if x is None or y is None:
-                better = a if y is None and x is not None else b if x is None and y is not None else None
-            elif abs(x - y) <= 0.005 * max(abs(x), abs(y)):
-                better = None
-            else:
-                better = a if x < y else b
-            out.append((row["test"], FIGURE_LABELS[key], better))
-    return out
 
 
-def verdict_line(rows: list, proposal: tuple[str, str] = ("mcppc", "MC-PPC"),
-                 baseline: tuple[str, str] = ("ppi", "P-PI")) -> str:
-    """One sentence: how many figures each controller wins (``(key, label)`` of the proposal and the baseline), and
-    which ones the baseline wins."""
-    per = better_per_figure(rows, proposal[0], baseline[0])
-    a = [f"{t} {k}" for t, k, w in per if w == proposal[0]]
-    b = [f"{t} {k}" for t, k, w in per if w == baseline[0]]
-    ties = len(per) - len(a) - len(b)
-    text = f"{proposal[1]} is better in {len(a)} of {len(per)} figures, {baseline[1]} in {len(b)}"
-    text += f", {ties} tie(s) within 0.5 % or both missing" if ties else ""
-    return text + (f"; {baseline[1]} is better in: {', '.join(b)}." if b else ".")
 
 
 def _fmt_s(x) -> str:
     return "not settled" if x is None else f"{x:.4f} s"
 
 
-# ------------------------------------------------------------------------------------------ files
-def check_out_dir(out_dir: str | os.PathLike[str], force: bool) -> Path:
-    """Refuse an existing non-empty output folder without ``force``; the parent must exist."""
-    from ..errors import DataError
-
-    d = Path(out_dir)
-    if d.exists() and not d.is_dir():
-        raise DataError(f"{d} is a file; --out expects a folder")
-    if d.is_dir() and any(d.iterdir()) and not force:
-        raise UsageError(f"{d} exists and is not empty; pass --force to write into it")
-    parent = d.parent if str(d.parent) else Path(".")
-    if not parent.is_dir():
-        raise DataError(f"{d}: folder {parent} does not exist")
-    return d
 
 
-def write_texts(texts: dict, *, force: bool = False, out_dir: str | os.PathLike[str] | None = None) -> list[Path]:
-    """Write ``{path: text}`` all-or-nothing (:func:`feedtune.io.atomic_outputs`); create ``out_dir`` if needed.
-
-    Returns
-    -------
-    list of Path
-        The files written.
-    """
-    from ..io import atomic_outputs
-
-    created = False
-    if out_dir is not None:
-        d = Path(out_dir)
-        if not d.exists():
-            d.mkdir()
-            created = True
-        paths = [d / name for name in texts]
-    else:
-        paths = [Path(p) for p in texts]
-    try:
-        with atomic_outputs(paths, force=force) as temps:
-            for tmp, text in zip(temps, texts.values(), strict=True):
-                tmp.write_bytes(text.encode("utf-8"))
-    except BaseException:
-        if created and not any(Path(out_dir).iterdir()):
-            Path(out_dir).rmdir()
-        raise
-    return paths
 
 
-def experiment_texts(result, log_name: str, frf_name: str | None = None) -> dict:
-    """CSV texts of an experiment's log (and FRF): ``{log_name: text[, frf_name: text]}``."""
-    from ..io.frf_csv import frf_to_csv_text
-    from ..io.log_csv import log_to_csv_text
-
-    texts = {log_name: log_to_csv_text(result.log)}
-    if frf_name is not None and result.frf is not None:
-        texts[frf_name] = frf_to_csv_text(result.frf)
-    return texts
 
 
 # ------------------------------------------------------------------------------------------ demo
@@ -240,10 +156,10 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     from ..design.gains import gains_document
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document
+    from ..sim.experiments import measure_frf
+    from ..sim.twin import BallScrewTwin, TwinParams
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
-    from .experiments import measure_frf
-    from .twin import BallScrewTwin, TwinParams
 
     twin = BallScrewTwin(params or TwinParams())
     p = twin.params
@@ -273,7 +189,7 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     for row in rows:
         row["better"] = {k: w for t, k, w in better_per_figure([row])}
     result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict(), prefilter, policy.to_dict())
-    texts["summary.json"] = dumps_json(_plain({k: v for k, v in result.to_dict().items() if k != "files"}))
+    texts["summary.json"] = dumps_json(plain_json({k: v for k, v in result.to_dict().items() if k != "files"}))
     return result
 
 
@@ -296,14 +212,14 @@ def _design_figures(design, check) -> dict:
 def _runtime_from_text(text: str, name: str):
     """The runtime built from exactly the exported TOML text."""
     from ..io.document import loads_document
-    from .runtime import GainsRuntime
+    from ..sim.runtime import GainsRuntime
 
     return GainsRuntime.from_document(loads_document(text, "toml", name), name)
 
 
 def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts) -> list:
-    from .experiments import SlotCut, run_cut, run_ropesnap, run_tracking
-    from .trajectory import point_to_point
+    from ..sim.experiments import SlotCut, run_cut, run_ropesnap, run_tracking
+    from ..sim.trajectory import point_to_point
 
     rows = []
     row = {"test": f"{rope_force:g} V"}
@@ -345,7 +261,7 @@ def _prefilter_tests(twin, texts, speeds, seed, engine, rows) -> dict:
     from ..design.prefilter import fit_prefilter, with_prefilter
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
-    from .experiments import run_tracking
+    from ..sim.experiments import run_tracking
 
     speed = min(speeds, key=lambda v: abs(v - PREFILTER_SPEED))
     mcppc = _runtime_from_text(texts["mcppc_gains.toml"], "mcppc_gains.toml")
@@ -367,7 +283,7 @@ def _prefilter_tests(twin, texts, speeds, seed, engine, rows) -> dict:
 
 def _demo_move(v: float, fs: float):
     """The demo's point-to-point move at ``v`` [m/s]."""
-    from .trajectory import point_to_point
+    from ..sim.trajectory import point_to_point
 
     return point_to_point(DEMO_MOVE["distance"], v_max=v, a_max=DEMO_MOVE["a_max"], j_max=DEMO_MOVE["j_max"],
                           fs=fs, dwell_before=DEMO_MOVE["dwell_before"], dwell_after=DEMO_MOVE["dwell_after"])
@@ -385,11 +301,3 @@ def _figures(res, keys) -> dict:
     return {k: res.summary.get(k) for k in keys}
 
 
-def _plain(obj):
-    if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    return obj

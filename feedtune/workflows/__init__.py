@@ -1,0 +1,1 @@
+"""Pipelines across stages: the demos (measure, identify, tune, test, compare) and the files they write."""
