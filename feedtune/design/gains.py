@@ -61,7 +61,7 @@ def q(value: float, unit: str) -> dict:
 
 def value(entry, where: str, unit: str | None = None) -> float:
     """A finite number given bare or as ``{"value", "unit"}`` (parsed by :func:`feedtune.io.value_of`)."""
-    from ..io.document import value_of
+    from ..quantity import value_of
 
     if entry is None:
         raise DataError(f"{where}: missing")

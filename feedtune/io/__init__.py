@@ -11,17 +11,9 @@ Heavy libraries (pandas, scipy, h5py, pyuff, asammdf) are imported only when a r
 The formats are described in ``docs/formats.md``.
 """
 
+from ..quantity import is_quantity, quantity, value_of
 from .atomic import atomic_output, atomic_outputs, atomic_write_bytes, atomic_write_text, ensure_writable
-from .document import (
-    dumps_json,
-    dumps_toml,
-    is_quantity,
-    quantity,
-    read_document,
-    require_schema,
-    value_of,
-    write_document,
-)
+from .document import dumps_json, dumps_toml, read_document, require_schema, write_document
 from .frf_csv import read_frf_csv, write_frf_csv
 from .frf_mat import read_frf_mat, read_mat_variables, write_frf_mat
 from .frf_read import FRF_EXTENSIONS, read_frf, write_frf

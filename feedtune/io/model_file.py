@@ -34,7 +34,8 @@ from typing import Any
 
 from ..errors import DataError
 from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel
-from .document import quantity, read_document, require_schema, value_of, write_document
+from ..quantity import quantity, value_of
+from .document import read_document, require_schema, write_document
 
 MODEL_SCHEMA = "feedtune.model"
 MODEL_SCHEMA_MAJOR = 1

@@ -166,7 +166,7 @@ class StribeckFriction:
     @classmethod
     def from_doc(cls, doc: Mapping[str, object], where: str = "friction model") -> StribeckFriction:
         """Build the model from a document written by :meth:`to_doc` (errors name ``where`` and the key)."""
-        from ..io.document import value_of
+        from ..quantity import value_of
 
         model = doc.get("model", "stribeck")
         if model != "stribeck":

@@ -162,7 +162,7 @@ class RigidBodyModel:
     @classmethod
     def from_doc(cls, doc: Mapping[str, object], where: str = "rigid-body model") -> RigidBodyModel:
         """Build the model from a document written by :meth:`to_doc` (errors name ``where`` and the key)."""
-        from ..io.document import value_of
+        from ..quantity import value_of
 
         command_unit = doc.get("command_unit")
         position_unit = doc.get("position_unit")
