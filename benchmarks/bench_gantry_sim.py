@@ -19,9 +19,9 @@ import time
 import numpy as np
 
 from feedtune.control.filters import LeadStage, LoopFilters, Notch
-from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import design_loopshape
+from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.models.gantry import THESIS_GANTRY
 from feedtune.sim.gantry_experiments import AxisHoldingController, HoldingController
 from feedtune.sim.gantry_runtime import load_runtime

@@ -22,9 +22,9 @@ from feedtune.analysis.mimo import analyze_mimo, matmul, sensitivity, singular_v
 from feedtune.control.filters import LeadStage, LoopFilters, Notch
 from feedtune.control.gantry import reference_from_schedule
 from feedtune.control.prefilter import PrefilterGains
-from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import design_loopshape
+from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.sim.gantry_runtime import AxisRuntime, GantryRuntime
 from feedtune.tune.pid import tune_gantry_pid

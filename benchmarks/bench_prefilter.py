@@ -28,7 +28,8 @@ import warnings
 
 import numpy as np
 
-from feedtune.design.prefilter import ORDERS, correction_sos, fit_prefilter, prefilter_response
+from feedtune.control.ballscrew_prefilter import ORDERS, correction_sos, prefilter_response
+from feedtune.design.prefilter import fit_prefilter
 from feedtune.sim.trajectory import multi_segment
 
 W0 = 2 * np.pi * 100.0

@@ -14,8 +14,8 @@ import time
 import numpy as np
 
 from feedtune.control.filters import THESIS_FILTER_PACK
-from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
+from feedtune.io.gains import gains_document
 from feedtune.models import THESIS_TABLE_3_1
 from feedtune.sim.runtime import GainsRuntime
 from feedtune.sim.trajectory import multi_segment

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .errors import DataError
+from .errors import DataError, UsageError
 
 
 @dataclass(frozen=True)
@@ -121,3 +121,22 @@ class Log:
         if t1 is not None:
             m &= self.t <= t1
         return replace(self, t=self.t[m], signals={k: v[m] for k, v in self.signals.items()})
+
+
+_LOG_LETTERS = ("v", "a", "j", "s")
+
+
+def log_signal_names(prefix: str) -> tuple[str, str, str, str, str]:
+    """Signal names ``(position, velocity, acceleration, jerk, snap)`` used by :meth:`Trajectory.to_log`.
+
+    Parameters
+    ----------
+    prefix : str
+        Position signal name, e.g. ``"x_ref"`` (gives ``v_ref`` ...) or ``"y_ref"`` (gives ``vy_ref`` ...).
+    """
+    if not isinstance(prefix, str) or not prefix.strip():
+        raise UsageError(f"prefix must be a non-empty signal name such as 'x_ref', got {prefix!r}")
+    stem, sep, tag = prefix.partition("_")
+    kept = "" if stem == "x" else stem
+    rest = sep + tag
+    return (prefix, *(f"{letter}{kept}{rest}" for letter in _LOG_LETTERS))

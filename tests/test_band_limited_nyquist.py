@@ -143,7 +143,7 @@ def measured_frf(twin):
 
 def _trips_on_twin(twin, design, seconds: float = 0.3) -> bool:
     """Hold y = 0 with the design's gains file on the twin (noise only) and report a safety trip."""
-    from feedtune.design.gantry_gains import gantry_gains_document
+    from feedtune.io.gantry_gains import gantry_gains_document
     from feedtune.sim.gantry_experiments import AxisHoldingController
     from feedtune.sim.gantry_runtime import GantryRuntime
 

@@ -60,9 +60,9 @@ def _csv(path) -> pd.DataFrame:
 def twin_files(tmp_path_factory):
     """Gains file, and the logs of `feedtune simulate track` and `feedtune simulate ropesnap` (CSV)."""
     from feedtune.control.filters import THESIS_FILTER_PACK
-    from feedtune.design.gains import gains_document
     from feedtune.design.mcppc import design_mcppc
     from feedtune.io import save_model, write_document
+    from feedtune.io.gains import gains_document
 
     d = tmp_path_factory.mktemp("twin")
     gains = d / "gains.toml"
@@ -231,9 +231,9 @@ def _multi_speed_trajectory(speeds, hold: float = 0.3, acc: float = 0.05, jerk: 
 
 def test_identify_friction_recovers_the_twin_stribeck_parameters(twin_files, tmp_path, capsys, monkeypatch):
     from feedtune.control.filters import THESIS_FILTER_PACK
-    from feedtune.design.gains import gains_document
     from feedtune.design.mcppc import design_mcppc
     from feedtune.io import load_model, write_log_csv
+    from feedtune.io.gains import gains_document
     from feedtune.models.friction import StribeckFriction
     from feedtune.sim.experiments import run_tracking
     from feedtune.sim.runtime import GainsRuntime

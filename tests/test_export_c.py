@@ -7,12 +7,10 @@ import numpy as np
 import pytest
 
 from feedtune.control.filters import THESIS_FILTER_PACK
-from feedtune.design.friction_ff import with_friction_feedforward
-from feedtune.design.gains import gains_document, law_from_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi
-from feedtune.design.prefilter import with_prefilter
 from feedtune.export.c_header import c_header
+from feedtune.io.gains import gains_document, law_from_document, with_friction_feedforward, with_prefilter
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 from feedtune.models.friction import StribeckFriction
 

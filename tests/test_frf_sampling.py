@@ -136,8 +136,8 @@ def test_bad_parameters(fs, delay, err, match):
 @pytest.fixture(scope="module")
 def twin_files(tmp_path_factory):
     """An excitation log of the ideal twin, a model file and an MC-PPC gains file."""
-    from feedtune.design.gains import gains_document
     from feedtune.io import save_model, write_document, write_log_csv
+    from feedtune.io.gains import gains_document
     from feedtune.sim.experiments import measure_frf
 
     d = tmp_path_factory.mktemp("sampling")

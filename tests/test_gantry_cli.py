@@ -48,11 +48,11 @@ def frf_dir(tmp_path_factory):
 def gains_files(tmp_path_factory):
     """A MIMO, an unstable PID and an x-axis gains file written with the design library."""
     from feedtune.control.filters import LeadStage, LoopFilters, Notch
-    from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
     from feedtune.design.gantry_mimo import design_gantry_mimo
     from feedtune.design.gantry_pid import design_gantry_pid
     from feedtune.design.loopshape import design_loopshape
     from feedtune.io import write_document
+    from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 
     d = tmp_path_factory.mktemp("gains")
     h = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],

@@ -10,14 +10,14 @@ from scipy.signal import freqz_zpk, lfilter, sosfilt
 
 from feedtune.control.filters import LeadStage, LoopFilters, Notch
 from feedtune.control.prefilter import PrefilterGains
-from feedtune.design.gains import gains_document
-from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.gantry_pid import design_gantry_pid
 from feedtune.design.loopshape import design_loopshape
 from feedtune.design.mcppc import design_mcppc
 from feedtune.errors import DataError, UsageError
 from feedtune.io import write_document
+from feedtune.io.gains import gains_document
+from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.models import THESIS_TABLE_3_1
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.sim.gantry_runtime import AxisRuntime, GantryRuntime, load_runtime

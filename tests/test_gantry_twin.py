@@ -349,9 +349,9 @@ def test_ropesnap_tracking_and_contour_logs():
 
 def test_real_gantry_runtime_runs_on_the_twin():
     from feedtune.control.filters import LeadStage, LoopFilters, Notch
-    from feedtune.design.gantry_gains import axis_gains_document, gantry_gains_document
     from feedtune.design.gantry_mimo import design_gantry_mimo
     from feedtune.design.loopshape import design_loopshape
+    from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
     from feedtune.sim.gantry_runtime import load_runtime
 
     h = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],

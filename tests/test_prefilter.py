@@ -11,21 +11,14 @@ import pytest
 from scipy.signal import bilinear, lfilter, lsim
 
 from feedtune.cli.main import main
+from feedtune.control.ballscrew_prefilter import ORDERS, correction_sos, prefilter_response
 from feedtune.control.filters import THESIS_FILTER_PACK
-from feedtune.design.friction_ff import friction_feedforward, with_friction_feedforward
-from feedtune.design.gains import gains_document
+from feedtune.control.friction import friction_feedforward
 from feedtune.design.mcppc import design_mcppc
-from feedtune.design.prefilter import (
-    ORDERS,
-    correction_sos,
-    filtered_derivatives,
-    fit_prefilter,
-    fit_prefilter_arrays,
-    prefilter_response,
-    with_prefilter,
-)
+from feedtune.design.prefilter import filtered_derivatives, fit_prefilter, fit_prefilter_arrays
 from feedtune.errors import DataError, IllConditionedError, UsageError
 from feedtune.io import read_document, write_document, write_log_csv
+from feedtune.io.gains import gains_document, with_friction_feedforward, with_prefilter
 from feedtune.log import Log
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 from feedtune.models.friction import StribeckFriction

@@ -9,11 +9,11 @@ import pytest
 from scipy.signal import sosfilt
 
 from feedtune.control.filters import THESIS_FILTER_PACK
-from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi
 from feedtune.errors import DataError
 from feedtune.io import write_document
+from feedtune.io.gains import gains_document
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 from feedtune.sim.runtime import GainsRuntime
 
@@ -132,8 +132,7 @@ PF_GAINS = {"K_vel": 1e-4, "K_acc": -2e-6, "K_jerk": 3e-9, "K_snap": -4e-12}
 
 
 def _with_extras():
-    from feedtune.design.friction_ff import with_friction_feedforward
-    from feedtune.design.prefilter import with_prefilter
+    from feedtune.io.gains import with_friction_feedforward, with_prefilter
     from feedtune.models.friction import StribeckFriction
 
     fr = StribeckFriction(dc_pos=0.1, ds_pos=0.16, dc_neg=-0.09, ds_neg=-0.15, omega_pos=0.8, omega_neg=0.6,

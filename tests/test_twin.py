@@ -7,11 +7,11 @@ import pytest
 
 from feedtune.analysis.ballscrew import analyze_ballscrew
 from feedtune.control.filters import THESIS_FILTER_PACK
-from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.ppi import design_ppi
 from feedtune.errors import DataError, UsageError
 from feedtune.identify.ballscrew import fit_ballscrew
+from feedtune.io.gains import gains_document
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 from feedtune.sim.experiments import measure_closed_loop, measure_frf, run_ropesnap, run_tracking
 from feedtune.sim.runtime import GainsRuntime

@@ -30,10 +30,10 @@ from typer.testing import CliRunner
 from feedtune.analysis.ballscrew import analyze_ballscrew
 from feedtune.cli.main import app
 from feedtune.control.filters import THESIS_FILTER_PACK
-from feedtune.design.gains import gains_document
 from feedtune.design.mcppc import design_mcppc
 from feedtune.identify.ballscrew import fit_ballscrew
 from feedtune.identify.frf_estimate import estimate_frf
+from feedtune.io.gains import gains_document
 from feedtune.models import THESIS_TABLE_3_1
 from feedtune.sim.experiments import measure_frf
 from feedtune.sim.runtime import GainsRuntime

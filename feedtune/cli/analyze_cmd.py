@@ -90,9 +90,8 @@ def analyze(
 def _analyze_ballscrew(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None, as_json: bool,
                        policy, strict: bool) -> None:
     from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
-    from ..control.ballscrew_law import GAIN_UNITS
-    from ..design.gains import law_from_document
-    from ..design.ppi import PPI_UNITS
+    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
+    from ..io.gains import law_from_document
     from .frf_options import read_optional_frf
     from .limits_options import finish_analysis
 

@@ -38,7 +38,7 @@ def analyze_gantry_document(doc: dict, path, frf_path, quantity, as_json: bool, 
 
 def gantry_document_result(doc: dict, where: str, frf_path=None, quantity=None) -> tuple[dict, object]:
     """``{"kind", "controller", "gains", "analysis"}`` of a gantry or axis gains document, and the analysis."""
-    from ..design.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
+    from ..io.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
     from .frf_options import read_optional_frf
 
     kind = check_header(doc, where, (GANTRY_KIND, AXIS_KIND))
@@ -46,14 +46,14 @@ def gantry_document_result(doc: dict, where: str, frf_path=None, quantity=None) 
     gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in doc.get("gains", {}).items()}
     if kind == AXIS_KIND:
         from ..analysis.gantry import analyze_axis
-        from ..design.gantry_gains import axis_design_from_document
+        from ..io.gantry_gains import axis_design_from_document
 
         design = axis_design_from_document(doc, where)
         full = analyze_axis(design, frf)
         return {"kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _units(doc),
                 "lead_stages": [s.to_dict() for s in design.lead_stages], "analysis": full.to_dict()}, full
     from ..analysis.gantry import analyze_gantry
-    from ..design.gantry_gains import gantry_law_from_document
+    from ..io.gantry_gains import gantry_law_from_document
 
     law, model, x, reference = gantry_law_from_document(doc, where)
     full = analyze_gantry(law, model, x=x, frf=frf, reference=reference)

@@ -67,17 +67,16 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
             friction_band=None):
     """Analyse, check the limits, write the gains file, print the result."""
     from ..analysis.check import check_design
-    from ..design.gains import gains_document
     from ..errors import DesignError
     from ..io import write_document
+    from ..io.gains import gains_document, with_friction_feedforward
     from .frf_options import read_optional_frf
 
     friction_model = _load_friction(friction)
     frf = read_optional_frf(frf_path, quantity)
     check = check_design(design, frf=frf, limits=limits)
     analysis = check.analysis.to_dict()
-    from ..control.ballscrew_law import GAIN_UNITS
-    from ..design.ppi import PPI_UNITS
+    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
 
     result = {
         "kind": design.kind,
@@ -93,7 +92,9 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
         result["gains"].update(design.ppi_gains)
     else:
         result["placed_poles"] = [[float(p.real), float(p.imag)] for p in design.poles]
-    doc = gains_document(design, analysis, friction=friction_model, friction_band=friction_band)
+    doc = gains_document(design, analysis)
+    if friction_model is not None:
+        doc = with_friction_feedforward(doc, friction_model, v_band=friction_band)
     if friction_model is not None:
         result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
     written = False

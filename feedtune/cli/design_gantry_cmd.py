@@ -109,7 +109,7 @@ def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, 
     from ..analysis.gantry import analyze_gantry, target_violations
     from ..analysis.limits import check_analysis
     from ..control.gantry import reference_from_schedule
-    from ..design.gantry_gains import gantry_gains_document, mimo_gain_units, pid_gain_units
+    from ..io.gantry_gains import gantry_gains_document, mimo_gain_units, pid_gain_units
 
     ref = reference_from_schedule(design.schedule, design.x, design.prefilter_hz)
     full = analyze_gantry(design.law, design.model, x=design.x, frf=frf, reference=ref)
@@ -173,9 +173,9 @@ def loopshape(
     from ..analysis.gantry import analyze_axis, target_violations
     from ..analysis.limits import check_analysis
     from ..control.prefilter import PrefilterGains
-    from ..design.gantry_gains import axis_gains_document
     from ..design.loopshape import design_loopshape
     from ..errors import UsageError
+    from ..io.gantry_gains import axis_gains_document
     from ..tune.loopshape import tune_loopshape
     from .frf_options import read_optional_frf
 
@@ -289,8 +289,8 @@ def _matched(match: Path, frf):
     """Ms of a gantry gains file in the case the PID is checked in, and its filters without the leads."""
     from ..analysis.gantry import analyze_gantry
     from ..control.filters import LoopFilters
-    from ..design.gantry_gains import gantry_law_from_document
     from ..io import read_document
+    from ..io.gantry_gains import gantry_law_from_document
 
     law, model, x, ref = gantry_law_from_document(read_document(match), str(match))
     a = analyze_gantry(law, model, x=x, frf=frf, reference=ref)

@@ -76,7 +76,7 @@ def _same_file(a: Path, b: Path) -> bool:
 
 def _lead(doc: dict, where: str) -> float | None:
     """The screw lead [m/rad] of a gains file's ``[model]``, None when absent."""
-    from ..design.gains import check_gains_header, value
+    from ..io.gains import check_gains_header, value
 
     check_gains_header(doc, where)
     model = doc.get("model")
@@ -89,8 +89,8 @@ def _updated(doc: dict, fit, where: str, refine: bool) -> tuple[dict, str]:
     """The gains document with the new ``[prefilter]`` and a note on what happened to an existing one."""
     import math
 
-    from ..design.prefilter import read_prefilter_gains, with_prefilter
     from ..errors import UsageError
+    from ..io.gains import read_prefilter_gains, with_prefilter
 
     old = read_prefilter_gains(doc, where)
     if not refine:
@@ -110,7 +110,7 @@ def _updated(doc: dict, fit, where: str, refine: bool) -> tuple[dict, str]:
 
 
 def _summary(result: dict, fit) -> None:
-    from ..design.prefilter import GAIN_UNITS
+    from ..control.ballscrew_prefilter import GAIN_UNITS
 
     length = fit.length_unit or ""
     factor, shown = (1e6, "um") if length == "m" else (1.0, length)

@@ -161,3 +161,6 @@ def _sum_zpk(a: Zpk, b: Zpk) -> Zpk:
     if np.allclose(num, 0):
         return Zpk([], [], 0.0, a.dt)
     return Zpk.from_tf(num, den, a.dt)
+
+
+PPI_UNITS = {"Kpx": "1/s", "Kpv": "V/(rad/s)", "Kiv": "V/rad"}

@@ -24,8 +24,6 @@ from ..errors import UsageError
 from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
 
-PPI_UNITS = {"Kpx": "1/s", "Kpv": "V/(rad/s)", "Kiv": "V/rad"}
-
 
 @dataclass(frozen=True)
 class PpiDesign:

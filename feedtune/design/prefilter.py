@@ -36,15 +36,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..control.ballscrew_prefilter import (
+    DEFAULT_LPF_HZ,
+    GAIN_NAMES,
+    GAIN_UNITS,
+    ORDERS,
+    _check_rates,
+    _samples,
+    correction_sos,
+    derivative_section,
+    lowpass_section,
+)
 from ..errors import DataError, IllConditionedError, UsageError
 from ..log import Log
 
-ORDERS = ("vel", "acc", "jerk", "snap")
-"""Derivative orders of the pre-filter, 1..4."""
-GAIN_NAMES = {"vel": "K_vel", "acc": "K_acc", "jerk": "K_jerk", "snap": "K_snap"}
-GAIN_UNITS = {"K_vel": "s", "K_acc": "s^2", "K_jerk": "s^3", "K_snap": "s^4"}
-DEFAULT_LPF_HZ = 80.0
-"""Pole frequency of ``G`` in the thesis [Hz]."""
 MAX_CONDITION = 1e6
 """Largest accepted condition number of the column-normalised regressor matrix [-]."""
 ABSENT_RATIO = 1e-9
@@ -54,44 +59,12 @@ INCONSISTENT_RATIO = 0.1
 DERIVATIVE_UNITS = ("/s", "/s^2", "/s^3", "/s^4")
 
 
-# ------------------------------------------------------------------------------------------ filters
-def _check_rates(lpf_hz: float, fs: float) -> tuple[float, float]:
-    if isinstance(fs, bool) or not isinstance(fs, (int, float, np.floating)) or not (math.isfinite(fs) and fs > 0):
-        raise UsageError(f"sample rate must be a finite number > 0 Hz, got {fs!r}")
-    if (isinstance(lpf_hz, bool) or not isinstance(lpf_hz, (int, float, np.floating))
-            or not (math.isfinite(lpf_hz) and 0 < lpf_hz < fs / 4)):
-        raise UsageError(f"--lpf-hz must be > 0 and below fs/4 = {fs / 4:g} Hz, got {lpf_hz!r}")
-    return float(lpf_hz), float(fs)
 
 
-def _bilinear_constants(lpf_hz: float, fs: float) -> tuple[float, float, float]:
-    """``(w [rad/s], 1 + wT/2, 1 - wT/2)`` of the bilinear low-pass."""
-    w = 2 * math.pi * lpf_hz
-    h = w / (2 * fs)
-    return w, 1 + h, 1 - h
 
 
-def lowpass_section(lpf_hz: float, fs: float) -> np.ndarray:
-    """``G(z)``, the bilinear discretization of ``w / (s + w)``, as one normalised section (shape (1, 6)).
-
-    Parameters
-    ----------
-    lpf_hz : float
-        Pole frequency [Hz].
-    fs : float
-        Sample rate [Hz].
-    """
-    lpf_hz, fs = _check_rates(lpf_hz, fs)
-    w, al, be = _bilinear_constants(lpf_hz, fs)
-    g = w / (2 * fs) / al
-    return np.array([[g, g, 0.0, 1.0, -be / al, 0.0]])
 
 
-def derivative_section(lpf_hz: float, fs: float) -> np.ndarray:
-    """``sG(z)``, the bilinear discretization of ``s w / (s + w)`` [1/s], as one normalised section."""
-    lpf_hz, fs = _check_rates(lpf_hz, fs)
-    w, al, be = _bilinear_constants(lpf_hz, fs)
-    return np.array([[w / al, -w / al, 0.0, 1.0, -be / al, 0.0]])
 
 
 def _filter(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -206,16 +179,6 @@ def _disagree(direct: np.ndarray, chained: np.ndarray) -> bool:
     return scale > 0 and _rms(direct - chained) > INCONSISTENT_RATIO * scale
 
 
-def _samples(x, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise DataError(f"{name}: expected a sequence of numbers") from None
-    if a.size < 2:
-        raise DataError(f"{name}: needs at least 2 samples, got {a.size}")
-    if not np.all(np.isfinite(a)):
-        raise DataError(f"{name}: contains NaN or infinite values (sample {int(np.flatnonzero(~np.isfinite(a))[0])})")
-    return a
 
 
 def _rms(x: np.ndarray) -> float:
@@ -469,7 +432,7 @@ def fit_prefilter(log: Log, *, lpf_hz: float = DEFAULT_LPF_HZ, orders=ORDERS, re
     IllConditionedError
         See :func:`fit_prefilter_arrays`.
     """
-    from ..sim.trajectory import log_signal_names
+    from ..log import log_signal_names
 
     if not isinstance(log, Log):
         raise UsageError(f"fit_prefilter expects a Log, got {type(log).__name__}")
@@ -534,177 +497,17 @@ def _factor_to(log: Log, name: str, want: str, lead: float | None) -> float:
     return lead if got == "rad" else 1.0 / lead
 
 
-# ------------------------------------------------------------------------------------------ the filter
-def _gain_vector(gains: Mapping[str, float]) -> list[float]:
-    out = []
-    for o in ORDERS:
-        v = float(gains.get(GAIN_NAMES[o], 0.0))
-        if not math.isfinite(v):
-            raise UsageError(f"pre-filter gain {GAIN_NAMES[o]} must be finite, got {v}")
-        out.append(v)
-    return out
 
 
-def correction_sos(gains: Mapping[str, float], lpf_hz: float, fs: float) -> np.ndarray:
-    """Second-order sections of ``F(z) - 1 = sum_k K_k G(z) sG(z)^k`` (bilinear, see the module docstring).
-
-    The target computes ``x_r' = x_r + sosfilt(sections, x_r)``.
-
-    Parameters
-    ----------
-    gains : dict
-        ``K_vel`` [s], ``K_acc`` [s^2], ``K_jerk`` [s^3], ``K_snap`` [s^4] (missing ones are 0).
-    lpf_hz : float
-        Pole frequency of ``G`` [Hz].
-    fs : float
-        Sample rate [Hz].
-
-    Returns
-    -------
-    ndarray, shape (n_sections, 6)
-        Normalised sections ``[b0, b1, b2, 1, a1, a2]`` in powers of ``z^-1``; one zero section when all
-        gains are 0.
-    """
-    lpf_hz, fs = _check_rates(lpf_hz, fs)
-    K = _gain_vector(gains)
-    if not any(K):
-        return np.array([[0.0, 0.0, 0.0, 1.0, 0.0, 0.0]])
-    w, al, be = _bilinear_constants(lpf_hz, fs)
-    deg = max(i for i, k in enumerate(K) if k != 0.0)  # B(d) = K_vel + K_acc d + ... has degree deg
-    roots = np.roots(K[deg::-1]) if deg > 0 else np.zeros(0)
-    g = w / (2 * fs)
-    # K_lead G(z) sG(z): K g w (1 + q)(1 - q) / (al - be q)^2, q = z^-1
-    rows = [[K[deg] * g * w, 0.0, -K[deg] * g * w, al * al, -2 * al * be, be * be]]
-    # each root d of B: sG(z) - d = ((w - d al) + (d be - w) q) / (al - be q)
-    num = [(w - d * al, d * be - w) for d in _conjugate_first(roots)]
-    i = 0
-    while i < len(num):
-        p0, p1 = num[i]
-        if i + 1 < len(num):
-            r0, r1 = num[i + 1]
-            b = [p0 * r0, p0 * r1 + p1 * r0, p1 * r1]
-            rows.append([float(np.real(c)) for c in b] + [al * al, -2 * al * be, be * be])
-            i += 2
-        else:
-            rows.append([float(np.real(p0)), float(np.real(p1)), 0.0, al, -be, 0.0])
-            i += 1
-    sos = np.array(rows, dtype=float)
-    return sos / sos[:, 3:4]
 
 
-def _conjugate_first(roots: np.ndarray) -> list:
-    """Roots ordered so that complex conjugates are adjacent, real roots (as floats) after them."""
-    tol = 1e-9 * max(1.0, float(np.max(np.abs(roots)))) if roots.size else 0.0
-    cplx = [r for r in roots if r.imag > tol]
-    real = sorted(float(r.real) for r in roots if abs(r.imag) <= tol)
-    out: list = []
-    for r in cplx:
-        out += [complex(r), complex(r).conjugate()]
-    return out + real
 
 
-def prefilter_response(freq_hz, gains: Mapping[str, float], lpf_hz: float, fs: float | None = None) -> np.ndarray:
-    """``F = 1 + sum_k K_k s^k G^(k+1)`` on a grid [Hz]: continuous (``fs`` None) or the discrete sections."""
-    from ..lti import sos_freqresp
-
-    f = np.asarray(freq_hz, dtype=float)
-    if fs is not None:
-        return 1.0 + sos_freqresp(correction_sos(gains, lpf_hz, fs), f, fs)
-    K = _gain_vector(gains)
-    s = 2j * np.pi * f
-    G = 2 * np.pi * lpf_hz / (s + 2 * np.pi * lpf_hz)
-    return 1.0 + sum(k * s ** (i + 1) * G ** (i + 2) for i, k in enumerate(K))
 
 
-def apply_prefilter(x_ref, gains: Mapping[str, float], lpf_hz: float, fs: float) -> np.ndarray:
-    """``x_r' = x_r + (F(z) - 1) x_r`` from zero filter states (as the target runs it) [unit of x_ref]."""
-    from scipy.signal import sosfilt
-
-    x = _samples(x_ref, "x_ref")
-    return x + sosfilt(correction_sos(gains, lpf_hz, fs), x)
 
 
-# ------------------------------------------------------------------------------------------ gains file
-def prefilter_section(gains: Mapping[str, float], lpf_hz: float, fs: float, fit: PrefilterFit | None = None) -> dict:
-    """The ``[prefilter]`` section of a gains file.
-
-    Parameters
-    ----------
-    gains : dict
-        ``K_vel .. K_snap`` [s .. s^4].
-    lpf_hz, fs : float
-        Pole frequency of ``G`` and the target's sample rate [Hz].
-    fit : PrefilterFit, optional
-        Fit statistics to record (information only).
-    """
-    K = dict(zip((GAIN_NAMES[o] for o in ORDERS), _gain_vector(gains), strict=True))
-    sec = {
-        "form": "x_r' = x_r + K_vel s G^2 x_r + K_acc s^2 G^3 x_r + K_jerk s^3 G^4 x_r + K_snap s^4 G^5 x_r, "
-                "G = w/(s + w), w = 2 pi lpf_hz (eq. 3.17-3.20)",
-        "execution": "x_r'[k+P] = x_r[k+P] + prefilter(x_r[k+P]) before the rotary, table, feedforward and "
-                     "friction paths",
-        "discretization": "bilinear (Tustin), G and s G discretized separately and multiplied",
-        "lpf_hz": {"value": float(lpf_hz), "unit": "Hz"},
-        "gains": {n: {"value": v, "unit": GAIN_UNITS[n]} for n, v in K.items()},
-        "prefilter_sos": [[float(c) for c in row] for row in correction_sos(K, lpf_hz, fs)],
-    }
-    if fit is not None:
-        d = fit.to_dict()
-        u = fit.length_unit or "u"
-        sec["fit"] = {
-            "orders": d["orders"],
-            "std": {n: {"value": v, "unit": GAIN_UNITS[n]} for n, v in fit.std.items()},
-            "condition_number": d["condition_number"],
-            "error_rms": {"value": fit.error_rms, "unit": u},
-            "fitted_rms": {"value": fit.fitted_rms, "unit": u},
-            "residual_rms": {"value": fit.residual_rms, "unit": u},
-            "predicted_reduction": fit.predicted_reduction,
-            "n_samples": fit.n_samples,
-            "fs_hz": {"value": fit.fs, "unit": "Hz"},
-            "sources": {k: str(v) for k, v in fit.sources.items()},
-        }
-    return sec
 
 
-def with_prefilter(doc: Mapping, fit: PrefilterFit | None = None, *, gains: Mapping[str, float] | None = None,
-                   lpf_hz: float | None = None, where: str = "gains file") -> dict:
-    """A copy of a ball-screw gains document with a ``[prefilter]`` section (replacing any existing one).
-
-    Give ``fit`` (its gains and ``lpf_hz``), or ``gains`` and ``lpf_hz``. The sections are built at the
-    document's sample rate; a fit from a log at another rate is refused.
-
-    Raises
-    ------
-    DataError
-        Not a gains document, or the fit's sample rate differs from the file's.
-    """
-    import copy
-
-    from .gains import check_gains_header, refresh_law_text, value
-
-    check_gains_header(doc, where)
-    fs = value((doc.get("sampling") or {}).get("fs_hz"), f"{where}: sampling.fs_hz", "Hz")
-    if fit is not None:
-        if not math.isclose(fit.fs, fs, rel_tol=1e-6):
-            raise DataError(f"{where}: the gains run at fs = {fs:g} Hz but the tracking log was sampled at "
-                            f"{fit.fs:g} Hz; the pre-filter must be identified at the target's rate")
-        gains, lpf_hz = fit.gains, fit.lpf_hz
-    if gains is None or lpf_hz is None:
-        raise UsageError("with_prefilter needs a fit, or gains and lpf_hz")
-    out = copy.deepcopy(dict(doc))
-    out["prefilter"] = prefilter_section(gains, lpf_hz, fs, fit)
-    return refresh_law_text(out)
 
 
-def read_prefilter_gains(doc: Mapping, where: str = "gains file") -> tuple[dict, float] | None:
-    """``(gains, lpf_hz)`` of a document's ``[prefilter]`` section, or None when it has none."""
-    from .gains import value
-
-    sec = doc.get("prefilter")
-    if sec is None:
-        return None
-    if not isinstance(sec, Mapping) or not isinstance(sec.get("gains"), Mapping):
-        raise DataError(f"{where}: [prefilter] needs a [prefilter.gains] table with {', '.join(GAIN_UNITS)}")
-    gains = {n: value(sec["gains"].get(n, 0.0), f"{where}: prefilter.gains.{n}", u) for n, u in GAIN_UNITS.items()}
-    lpf = value(sec.get("lpf_hz"), f"{where}: prefilter.lpf_hz", "Hz")
-    return gains, lpf

@@ -12,8 +12,8 @@ from __future__ import annotations
 import re
 
 from ..control.ballscrew_law import GAIN_NAMES
-from ..design.gains import check_ballscrew_gains, value
 from ..errors import DataError
+from ..io.gains import check_ballscrew_gains, value
 
 PREFILTER_KEY = "PF"
 
@@ -40,7 +40,7 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file") -> str
     Parameters
     ----------
     doc : dict
-        Ball-screw gains document (:func:`feedtune.design.gains.gains_document`).
+        Ball-screw gains document (:func:`feedtune.io.gains.gains_document`).
     prefix : str
         Prefix of every C identifier (letters, digits, underscore).
     where : str
@@ -144,10 +144,10 @@ def _friction(doc: dict, where: str):
     """The friction feedforward of the document (read as the runtime reads it), or None."""
     if doc.get("friction_feedforward") is None:
         return None
-    from ..design.friction_ff import FrictionFeedforward
+    from ..io.gains import friction_from_section
 
     unit = doc.get("units", {}).get("command", "V") if isinstance(doc.get("units"), dict) else "V"
-    return FrictionFeedforward.from_section(doc["friction_feedforward"], str(unit), where)
+    return friction_from_section(doc["friction_feedforward"], str(unit), where)
 
 
 def _friction_constants(ff, P: str) -> list[str]:

@@ -3,7 +3,7 @@ transfer of every ball-screw gains file, overlaid (the MC-PPC vs P-PI comparison
 3.10-3.13).
 
 The analysis is the one ``feedtune analyze GAINS [--frf F] --json`` prints:
-:func:`feedtune.design.gains.law_from_document` rebuilds the law stored in the file (no redesign) and
+:func:`feedtune.io.gains.law_from_document` rebuilds the law stored in the file (no redesign) and
 :func:`feedtune.analysis.ballscrew.analyze_ballscrew` evaluates it, with the first given FRF holding
 ``x1/u`` and ``x2/u`` for the measured and discrete cases.
 """
@@ -67,7 +67,7 @@ def analysis_frf(inputs: Inputs) -> FrfInput | None:
 def analyze_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, object, object, dict]:
     """``(law, model, analysis, result)`` exactly as ``feedtune analyze`` computes them (result = its JSON)."""
     from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
-    from ..design.gains import law_from_document
+    from ..io.gains import law_from_document
 
     law, model, kind = law_from_document(gi.doc, str(gi.path))
     analysis = analyze_ballscrew(law, model, frf)
@@ -75,8 +75,7 @@ def analyze_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, ob
     if "ppi_gains" in gi.doc:
         gains.update({k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc["ppi_gains"].items()})
     poles = closed_loop_poles(law, model)
-    from ..control.ballscrew_law import GAIN_UNITS
-    from ..design.ppi import PPI_UNITS
+    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
 
     result = {"kind": kind, "controller": kind, "gains": gains, "gain_units": {**GAIN_UNITS, **PPI_UNITS},
               "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles], "analysis": analysis.to_dict(),
@@ -93,7 +92,7 @@ def prefilter_of(gi: GainsInput) -> tuple[dict, float] | None:
     """``(gains, lpf_hz)`` of the gains file's trajectory pre-filter (eq. 3.17-3.20), or None without one."""
     if "prefilter" not in gi.doc:
         return None
-    from ..design.prefilter import read_prefilter_gains
+    from ..io.gains import read_prefilter_gains
 
     return read_prefilter_gains(gi.doc, str(gi.path))
 
@@ -245,7 +244,7 @@ def _disturbance(designs) -> FigureBlock:
 
 
 def _prefiltered(designs) -> list[Curve]:
-    from ..design.prefilter import prefilter_response
+    from ..control.ballscrew_prefilter import prefilter_response
 
     out = []
     for d in designs:

@@ -1,8 +1,8 @@
 """Design subsections for gantry (2x2 MIMO or independent PID) and loop-shaped x-axis gains files (thesis §4.4).
 
 The analysis is the one ``feedtune analyze GAINS [--frf F] --json`` prints for these kinds
-(``feedtune.cli.analyze_gantry_cmd``): :func:`feedtune.design.gantry_gains.gantry_law_from_document` +
-:func:`feedtune.analysis.gantry.analyze_gantry` for a gantry, :func:`~feedtune.design.gantry_gains.
+(``feedtune.cli.analyze_gantry_cmd``): :func:`feedtune.io.gantry_gains.gantry_law_from_document` +
+:func:`feedtune.analysis.gantry.analyze_gantry` for a gantry, :func:`~feedtune.io.gantry_gains.
 axis_design_from_document` + :func:`~feedtune.analysis.gantry.analyze_axis` for an axis. The measured FRF is
 the first input FRF with the four channels ``y1/u1, y1/u2, y2/u1, y2/u2`` (gantry) or with a single channel
 (axis). Figures: singular values of L, S and SG against G, the MIMO Nyquist plot of det(I + L) and the CoM
@@ -85,14 +85,14 @@ def _units(doc: Mapping) -> dict:
 
 def analyze_machine_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, dict]:
     """``(analysis, result)`` of a gantry or axis gains file, ``result`` as ``feedtune analyze --json``."""
-    from ..design.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
+    from ..io.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
 
     where = str(gi.path)
     kind = check_header(gi.doc, where, (GANTRY_KIND, AXIS_KIND))
     gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc.get("gains", {}).items()}
     if kind == AXIS_KIND:
         from ..analysis.gantry import analyze_axis
-        from ..design.gantry_gains import axis_design_from_document
+        from ..io.gantry_gains import axis_design_from_document
 
         design = axis_design_from_document(gi.doc, where)
         analysis = analyze_axis(design, frf)
@@ -100,7 +100,7 @@ def analyze_machine_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[ob
                           "lead_stages": [s.to_dict() for s in design.lead_stages],
                           "analysis": analysis.to_dict(), "check": check_result(analysis, limits)}
     from ..analysis.gantry import analyze_gantry
-    from ..design.gantry_gains import gantry_law_from_document
+    from ..io.gantry_gains import gantry_law_from_document
 
     law, model, x, reference = gantry_law_from_document(gi.doc, where)
     analysis = analyze_gantry(law, model, x=x, frf=frf, reference=reference)

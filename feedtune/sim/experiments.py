@@ -162,8 +162,8 @@ def weak_controller(twin: BallScrewTwin, bandwidth_hz: float = 10.0):
     It only holds the axis in place during an FRF measurement, as the factory tuning of a real drive would;
     no filter pack, no feedforward that matters at standstill.
     """
-    from ..design.gains import gains_document
     from ..design.ppi import design_ppi
+    from ..io.gains import gains_document
     from .runtime import GainsRuntime
 
     w = 2 * np.pi * _positive(bandwidth_hz, "weak-controller bandwidth", "Hz")
@@ -288,7 +288,8 @@ def trajectory_from_log(source, fs: float | None = None):
         Required sample rate [Hz] (DataError when the log differs).
     """
     from ..io import read_log
-    from .trajectory import Trajectory, log_signal_names
+    from ..log import log_signal_names
+    from .trajectory import Trajectory
 
     log = source if isinstance(source, Log) else read_log(source)
     names = log_signal_names("x_ref")

@@ -37,9 +37,9 @@ from bisect import bisect_right
 
 import numpy as np
 
-from ..design.gains import value
 from ..errors import DataError, UsageError
-from .runtime import GainsRuntime, _as_vector, normalized_sos, read_sampling
+from ..io.gains import read_sampling, value
+from .runtime import GainsRuntime, _as_vector, normalized_sos
 
 _PREFILTER_KEYS = ("prefilter_vel_sos", "prefilter_acc_sos", "prefilter_jerk_sos", "prefilter_snap_sos")
 
@@ -68,7 +68,7 @@ class _Cascade:
 
 
 def _sos(doc: dict, sec_name: str, key: str, where: str) -> np.ndarray:
-    from ..design.gantry_gains import entry, section
+    from ..io.gantry_gains import entry, section
 
     return normalized_sos(entry(section(doc, sec_name, where), sec_name, key, where), f"{where}: {sec_name}.{key}")
 
@@ -126,7 +126,7 @@ class GantryRuntime:
     schedule_x : ndarray
         Table positions [m] of the schedule.
     schedule : ndarray, shape (n_x, 13)
-        Rows of :data:`feedtune.design.gantry_gains.SCHEDULE_COLUMNS`.
+        Rows of :data:`feedtune.io.gantry_gains.SCHEDULE_COLUMNS`.
     """
 
     def __init__(self, *, controller: str, gains: dict, sos: dict, schedule_x, schedule, fs: float,
@@ -171,7 +171,7 @@ class GantryRuntime:
             Not a gantry gains file of schema version 1, unknown controller, or a missing or invalid
             entry (named in the message).
         """
-        from ..design.gantry_gains import (
+        from ..io.gantry_gains import (
             GANTRY_CONTROLLERS,
             GANTRY_KIND,
             check_header,
@@ -350,7 +350,7 @@ class GantryRuntime:
 
     def to_dict(self) -> dict:
         """JSON-ready description (gains with units, sampling, section counts, schedule range)."""
-        from ..design.gantry_gains import mimo_gain_units, pid_gain_units
+        from ..io.gantry_gains import mimo_gain_units, pid_gain_units
 
         units = mimo_gain_units(self.command_unit) if self.controller == "mimo" else pid_gain_units(self.command_unit)
         return {
@@ -408,9 +408,9 @@ class AxisRuntime:
     @classmethod
     def from_document(cls, doc: dict, where: str = "gains document") -> AxisRuntime:
         """Read an axis gains document; DataError names the missing or invalid entry."""
-        from ..design.gantry_gains import AXIS_KIND, PREFILTER_TERMS, PREFILTER_UNITS, check_header, command_unit
-        from ..design.gantry_gains import entry as get
-        from ..design.gantry_gains import section as sec
+        from ..io.gantry_gains import AXIS_KIND, PREFILTER_TERMS, PREFILTER_UNITS, check_header, command_unit
+        from ..io.gantry_gains import entry as get
+        from ..io.gantry_gains import section as sec
 
         check_header(doc, where, (AXIS_KIND,))
         fs, delay, preview = read_sampling(doc, where)

@@ -36,9 +36,9 @@ import numpy as np
 
 from ..control.ballscrew_law import GAIN_NAMES as GAIN_ORDER
 from ..control.ballscrew_law import GAIN_UNITS
-from ..design.friction_ff import FrictionFeedforward, reference_velocity
-from ..design.gains import check_gains_header, value
+from ..control.friction import FrictionFeedforward, reference_velocity
 from ..errors import DataError, UsageError
+from ..io.gains import check_gains_header, friction_from_section, read_sampling, value
 
 SOS_KEYS = {
     "filter_pack": ("filters", "filter_pack_sos"),
@@ -86,21 +86,6 @@ def normalized_sos(rows, where: str) -> np.ndarray:
     return out
 
 
-def read_sampling(doc: dict, where: str) -> tuple[float, int, int]:
-    """``(fs [Hz], delay_samples, preview_samples)`` from ``[sampling]``; DataError when missing or invalid."""
-    sec = doc.get("sampling")
-    if not isinstance(sec, dict):
-        raise DataError(f"{where}: gains file has no [sampling] section")
-    fs = value(sec.get("fs_hz"), f"{where}: sampling.fs_hz", "Hz")
-    if fs <= 0:
-        raise DataError(f"{where}: sampling.fs_hz must be > 0 Hz, got {fs:g}")
-    counts = []
-    for key in ("delay_samples", "preview_samples"):
-        v = sec.get(key)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or v < 0:
-            raise DataError(f"{where}: sampling.{key} must be an integer >= 0, got {v!r}")
-        counts.append(int(v))
-    return fs, counts[0], counts[1]
 
 
 class _SosState:
@@ -224,7 +209,7 @@ class GainsRuntime:
             info = _prefilter_info(doc, where)
         friction = None
         if doc.get("friction_feedforward") is not None:
-            friction = FrictionFeedforward.from_section(doc["friction_feedforward"], unit, where)
+            friction = friction_from_section(doc["friction_feedforward"], unit, where)
         return cls(gains, sos, fs, delay, preview, str(doc.get("controller", "")), unit, where, friction, info)
 
     @classmethod
@@ -356,7 +341,7 @@ class GainsRuntime:
 
     def to_dict(self) -> dict:
         """JSON-ready description (gains with units, sampling, section counts, pre-filter, friction)."""
-        from ..design.prefilter import GAIN_UNITS as PREFILTER_UNITS
+        from ..control.ballscrew_prefilter import GAIN_UNITS as PREFILTER_UNITS
 
         pre = None
         if "prefilter" in self.sos:
@@ -378,7 +363,7 @@ class GainsRuntime:
 
 def _prefilter_info(doc: dict, where: str) -> dict | None:
     """Gains and low-pass of the ``[prefilter]`` (information), None when the section does not give them."""
-    from ..design.prefilter import read_prefilter_gains
+    from ..io.gains import read_prefilter_gains
 
     sec = doc["prefilter"]
     if not isinstance(sec, dict) or "gains" not in sec:

@@ -46,7 +46,7 @@ from itertools import combinations
 import numpy as np
 
 from ..errors import DataError, UsageError
-from ..log import Log
+from ..log import Log, log_signal_names
 
 __all__ = [
     "MAX_SAMPLES",
@@ -64,7 +64,6 @@ MAX_SAMPLES = 10_000_000
 
 _DERIVATIVE_NAMES = ("position", "velocity", "acceleration", "jerk", "snap")
 _UNITS = {"position": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3", "snap": "m/s^4"}
-_LOG_LETTERS = ("v", "a", "j", "s")
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -240,20 +239,6 @@ class Trajectory:
         }
 
 
-def log_signal_names(prefix: str) -> tuple[str, str, str, str, str]:
-    """Signal names ``(position, velocity, acceleration, jerk, snap)`` used by :meth:`Trajectory.to_log`.
-
-    Parameters
-    ----------
-    prefix : str
-        Position signal name, e.g. ``"x_ref"`` (gives ``v_ref`` ...) or ``"y_ref"`` (gives ``vy_ref`` ...).
-    """
-    if not isinstance(prefix, str) or not prefix.strip():
-        raise UsageError(f"prefix must be a non-empty signal name such as 'x_ref', got {prefix!r}")
-    stem, sep, tag = prefix.partition("_")
-    kept = "" if stem == "x" else stem
-    rest = sep + tag
-    return (prefix, *(f"{letter}{kept}{rest}" for letter in _LOG_LETTERS))
 
 
 # ----------------------------------------------------------------------------------------------------------

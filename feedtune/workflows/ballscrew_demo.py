@@ -153,9 +153,9 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     """
     from ..analysis.check import check_design
     from ..control.filters import THESIS_FILTER_PACK
-    from ..design.gains import gains_document
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document
+    from ..io.gains import gains_document
     from ..sim.experiments import measure_frf
     from ..sim.twin import BallScrewTwin, TwinParams
     from ..tune.mcppc import tune_mcppc
@@ -258,9 +258,10 @@ def _prefilter_tests(twin, texts, speeds, seed, engine, rows) -> dict:
     Adds ``"mcppc_prefilter"`` figures to the tracking rows and the files ``mcppc_prefilter_gains.toml/.json``
     and ``track_*_mcppc_prefilter.csv`` to ``texts``; returns the fit with the identification speed.
     """
-    from ..design.prefilter import fit_prefilter, with_prefilter
+    from ..design.prefilter import fit_prefilter
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
+    from ..io.gains import with_prefilter
     from ..sim.experiments import run_tracking
 
     speed = min(speeds, key=lambda v: abs(v - PREFILTER_SPEED))

@@ -192,9 +192,9 @@ def _design(twin, fit, frf0, axis_frf, texts, policy):
     checked there (DesignError when a tuned design fails its own check), exported and read back as runtimes."""
     from ..analysis.gantry import analyze_axis, analyze_gantry
     from ..analysis.limits import check_analysis
-    from ..design.gantry_gains import axis_gains_document, gantry_gains_document
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
+    from ..io.gantry_gains import axis_gains_document, gantry_gains_document
     from ..sim.gantry_runtime import load_runtime
     from ..tune.gantry import tune_gantry_mimo
     from ..tune.loopshape import tune_loopshape

@@ -1,6 +1,6 @@
 """Gains documents of the gantry (``kind = "gantry"``, MIMO or PID) and of the loop-shaped x axis (``"axis"``).
 
-Schema ``"feedtune.gains/1"`` like the ball-screw gains file (:mod:`feedtune.design.gains`): numbers with a
+Schema ``"feedtune.gains/1"`` like the ball-screw gains file (:mod:`feedtune.io.gains`): numbers with a
 unit are ``{"value", "unit"}``, discrete filters are second-order sections ``[b0, b1, b2, a0, a1, a2]`` in
 powers of ``z^-1`` at ``fs`` run as a transposed-direct-form-II cascade (``scipy.signal.sosfilt``), the
 position-dependent quantities of eq. 4.33 are tables over the table position ``x`` (linear interpolation,
@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DataError
-from .gains import SCHEMA, q, value
+from .gains import SCHEMA, q, read_sampling, value
 
 GANTRY_KIND = "gantry"
 AXIS_KIND = "axis"
@@ -280,7 +280,6 @@ def axis_gains_document(design, analysis: dict | None = None) -> dict:
 
 # -------------------------------------------------------------------------------- rebuilding designs
 def _sampling_values(doc: dict, where: str) -> tuple[float, int]:
-    from ..sim.runtime import read_sampling
 
     fs, delay, _ = read_sampling(doc, where)
     return fs, delay
@@ -349,7 +348,7 @@ def axis_design_from_document(doc: dict, where: str = "gains file"):
     """Rebuild the :class:`~feedtune.design.loopshape.LoopShapeDesign` of an axis gains document."""
     from ..control.filters import LoopFilters
     from ..control.prefilter import PrefilterGains
-    from .loopshape import AxisPlant, LoopShapeDesign
+    from ..design.loopshape import AxisPlant, LoopShapeDesign
 
     check_header(doc, where, (AXIS_KIND,))
     fs, delay = _sampling_values(doc, where)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,27 +99,6 @@ class FrictionFeedforward:
         d["units"] = {**d["units"], "v_band": VELOCITY}
         return d
 
-    @classmethod
-    def from_section(cls, sec, command_unit: str, where: str = "gains file") -> FrictionFeedforward:
-        """Read a ``[friction_feedforward]`` section; DataError naming the key when missing or inconsistent."""
-        from .gains import value
-
-        if not isinstance(sec, Mapping):
-            raise DataError(f"{where}: [friction_feedforward] must be a table")
-        if sec.get("model", "stribeck") != "stribeck":
-            raise DataError(f"{where}: friction_feedforward.model = {sec.get('model')!r}; only 'stribeck' is known")
-        vals = {}
-        for n in LEVELS:
-            vals[n] = value(sec.get(n), f"{where}: friction_feedforward.{n}", command_unit)
-        for n in ("omega_pos", "omega_neg", "v_band"):
-            vals[n] = value(sec.get(n), f"{where}: friction_feedforward.{n}", VELOCITY)
-        band = vals.pop("v_band")
-        try:
-            model = StribeckFriction(**vals, command_unit=command_unit, velocity_unit=VELOCITY)
-            return cls(model, band, sec.get("source"))
-        except (DataError, UsageError) as exc:
-            raise DataError(f"{where}: friction_feedforward: {exc}") from None
-
 
 def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_m_per_rad: float,
                          v_band: float | None = None, where: str = "friction model") -> FrictionFeedforward:
@@ -172,28 +150,3 @@ def reference_velocity(x_ref, fs: float) -> np.ndarray:
     return np.diff(x, prepend=x[:1]) * float(fs)
 
 
-def with_friction_feedforward(doc: Mapping, friction: StribeckFriction, *, v_band: float | None = None,
-                              where: str = "gains file", friction_where: str = "friction model") -> dict:
-    """A copy of a ball-screw gains document with a ``[friction_feedforward]`` section (replacing any).
-
-    The command unit comes from ``[units].command`` and the lead from ``[model].lead_m_per_rad``.
-
-    Raises
-    ------
-    DataError
-        The document lacks them, or the friction model's units do not fit (see :func:`friction_feedforward`).
-    """
-    from .gains import check_gains_header, refresh_law_text, value
-
-    check_gains_header(doc, where)
-    units = doc.get("units") if isinstance(doc.get("units"), Mapping) else {}
-    command_unit = str(units.get("command", "V"))
-    model = doc.get("model")
-    if not isinstance(model, Mapping) or "lead_m_per_rad" not in model:
-        raise DataError(f"{where}: no [model] lead_m_per_rad to convert the friction velocities to rad/s")
-    lead = value(model["lead_m_per_rad"], f"{where}: model.lead_m_per_rad", "m/rad")
-    ff = friction_feedforward(friction, command_unit=command_unit, lead_m_per_rad=lead, v_band=v_band,
-                              where=friction_where)
-    out = copy.deepcopy(dict(doc))
-    out["friction_feedforward"] = ff.section()
-    return refresh_law_text(out)
