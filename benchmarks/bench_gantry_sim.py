@@ -22,12 +22,12 @@ from feedtune.control.filters import LeadStage, LoopFilters, Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import design_loopshape
 from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
+from feedtune.machines import load_runtime
+from feedtune.machines.gantry.experiments import AxisHoldingController, HoldingController
+from feedtune.machines.gantry.twin import GantryTwin
 from feedtune.models.gantry import THESIS_GANTRY
-from feedtune.sim.gantry_experiments import AxisHoldingController, HoldingController
-from feedtune.sim.gantry_runtime import load_runtime
-from feedtune.sim.gantry_twin import GantryTwin
+from feedtune.sim.engine import numba_available
 from feedtune.sim.trajectory import multi_segment
-from feedtune.sim.twin import numba_available
 
 SECONDS = 1.0
 

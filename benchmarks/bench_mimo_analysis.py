@@ -25,8 +25,8 @@ from feedtune.control.prefilter import PrefilterGains
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import design_loopshape
 from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
+from feedtune.machines.gantry.runtime import AxisRuntime, GantryRuntime
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
-from feedtune.sim.gantry_runtime import AxisRuntime, GantryRuntime
 from feedtune.tune.pid import tune_gantry_pid
 
 N_FREQ = 20000

@@ -16,10 +16,11 @@ import numpy as np
 from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.mcppc import design_mcppc
 from feedtune.io.gains import gains_document
+from feedtune.machines.ballscrew.runtime import GainsRuntime
+from feedtune.machines.ballscrew.twin import BallScrewTwin
 from feedtune.models import THESIS_TABLE_3_1
-from feedtune.sim.runtime import GainsRuntime
+from feedtune.sim.engine import numba_available
 from feedtune.sim.trajectory import multi_segment
-from feedtune.sim.twin import BallScrewTwin, numba_available
 
 SECONDS = 10.0
 

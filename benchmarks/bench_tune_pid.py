@@ -49,8 +49,8 @@ def series_mode_frf(freq_hz: float = 150.0, zeta: float = 0.02) -> Frf:
 
 
 def main() -> None:
-    from feedtune.sim.gantry_experiments import measure_gantry_frf
-    from feedtune.sim.gantry_twin import GantryTwin
+    from feedtune.machines.gantry.experiments import measure_gantry_frf
+    from feedtune.machines.gantry.twin import GantryTwin
 
     twin_frf = measure_gantry_frf(GantryTwin(), 0.0, f_lo=2.0, f_hi=1000.0, seed=3).frf
     ref = tune_gantry_pid(MODEL, filters=NOTCH_LPF)

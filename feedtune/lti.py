@@ -198,3 +198,15 @@ def zoh_double_integrator(mass: float, fs: float, freq_hz) -> np.ndarray:
     T = 1.0 / fs
     z = np.exp(2j * np.pi * np.asarray(freq_hz, float) * T)
     return T * T * (z + 1) / (2 * mass * (z - 1) ** 2)
+
+
+def zoh(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact discretization for inputs held over ``h`` [s]: ``expm([[A, B], [0, 0]] h)``."""
+    from scipy.linalg import expm
+
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n] = A
+    M[:n, n:] = B
+    E = expm(M * h)
+    return E[:n, :n], E[:n, n:]

@@ -127,14 +127,14 @@ def test_gantry_verdicts_on_a_model_frf_with_a_gain_error_use_the_scaled_model_b
 # ---------------------------------------------------------------------------- gantry: twin behaviour
 @pytest.fixture(scope="module")
 def twin():
-    from feedtune.sim.gantry_twin import GantryTwin
+    from feedtune.machines.gantry.twin import GantryTwin
 
     return GantryTwin()
 
 
 @pytest.fixture(scope="module")
 def measured_frf(twin):
-    from feedtune.sim.gantry_experiments import measure_gantry_frf
+    from feedtune.machines.gantry.experiments import measure_gantry_frf
 
     res = measure_gantry_frf(twin, 0.0, f_lo=2.0, f_hi=1000.0, seed=3)
     assert not res.tripped
@@ -144,8 +144,8 @@ def measured_frf(twin):
 def _trips_on_twin(twin, design, seconds: float = 0.3) -> bool:
     """Hold y = 0 with the design's gains file on the twin (noise only) and report a safety trip."""
     from feedtune.io.gantry_gains import gantry_gains_document
-    from feedtune.sim.gantry_experiments import AxisHoldingController
-    from feedtune.sim.gantry_runtime import GantryRuntime
+    from feedtune.machines.gantry.experiments import AxisHoldingController
+    from feedtune.machines.gantry.runtime import GantryRuntime
 
     rt = GantryRuntime.from_document(gantry_gains_document(design))
     run = twin.simulate(rt, AxisHoldingController.for_twin(twin), np.zeros(int(seconds * twin.fs)), seed=0)

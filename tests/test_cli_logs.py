@@ -147,8 +147,8 @@ def test_analyze_unknown_machine_kind(twin_files, tmp_path, capsys, monkeypatch)
 @pytest.mark.parametrize("excitation", ["multisine", "chirp", "prbs"])
 def test_frf_from_twin_excitation_log_matches_the_twin(excitation, tmp_path, capsys, monkeypatch):
     from feedtune.io import read_frf, write_log_csv
-    from feedtune.sim.experiments import measure_frf
-    from feedtune.sim.twin import BallScrewTwin
+    from feedtune.machines.ballscrew.experiments import measure_frf
+    from feedtune.machines.ballscrew.twin import BallScrewTwin
 
     twin = BallScrewTwin()
     log_path, frf_path = tmp_path / "excitation.csv", tmp_path / "frf.csv"
@@ -234,10 +234,10 @@ def test_identify_friction_recovers_the_twin_stribeck_parameters(twin_files, tmp
     from feedtune.design.mcppc import design_mcppc
     from feedtune.io import load_model, write_log_csv
     from feedtune.io.gains import gains_document
+    from feedtune.machines.ballscrew.experiments import run_tracking
+    from feedtune.machines.ballscrew.runtime import GainsRuntime
+    from feedtune.machines.ballscrew.twin import BallScrewTwin, TwinParams
     from feedtune.models.friction import StribeckFriction
-    from feedtune.sim.experiments import run_tracking
-    from feedtune.sim.runtime import GainsRuntime
-    from feedtune.sim.twin import BallScrewTwin, TwinParams
 
     # eq. 2.1 has one Omega: the twin's motor friction with omega_neg = omega_pos, no table friction
     params = TwinParams().with_overrides({"friction_table": "none", "friction_motor.omega_neg": "0.8"})

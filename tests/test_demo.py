@@ -14,8 +14,8 @@ from feedtune.analysis.metrics import ropesnap_metrics, tracking_metrics
 from feedtune.cli import demo_cmd, simulate_cmd, trajectory_cmd
 from feedtune.errors import DataError, UsageError
 from feedtune.io import read_document, read_log, write_document
+from feedtune.machines.ballscrew.runtime import GainsRuntime
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
-from feedtune.sim.runtime import GainsRuntime
 from feedtune.workflows.ballscrew_demo import run_demo
 from feedtune.workflows.comparison import verdict_line
 from feedtune.workflows.files import write_texts

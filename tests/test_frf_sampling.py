@@ -21,8 +21,8 @@ from feedtune.frf_sampling import (
     sampling_response,
     sampling_state,
 )
+from feedtune.machines.ballscrew.twin import BallScrewTwin, TwinParams
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
-from feedtune.sim.twin import BallScrewTwin, TwinParams
 
 FS = 20000.0
 WARNING = "counts them twice"
@@ -138,7 +138,7 @@ def twin_files(tmp_path_factory):
     """An excitation log of the ideal twin, a model file and an MC-PPC gains file."""
     from feedtune.io import save_model, write_document, write_log_csv
     from feedtune.io.gains import gains_document
-    from feedtune.sim.experiments import measure_frf
+    from feedtune.machines.ballscrew.experiments import measure_frf
 
     d = tmp_path_factory.mktemp("sampling")
     write_log_csv(measure_frf(BallScrewTwin(TwinParams.ideal()), periods=3).log, d / "log.csv")

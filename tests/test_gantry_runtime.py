@@ -18,10 +18,11 @@ from feedtune.errors import DataError, UsageError
 from feedtune.io import write_document
 from feedtune.io.gains import gains_document
 from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
+from feedtune.machines import load_runtime
+from feedtune.machines.ballscrew.runtime import GainsRuntime
+from feedtune.machines.gantry.runtime import AxisRuntime, GantryRuntime
 from feedtune.models import THESIS_TABLE_3_1
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
-from feedtune.sim.gantry_runtime import AxisRuntime, GantryRuntime, load_runtime
-from feedtune.sim.runtime import GainsRuntime
 from feedtune.tune.pid import tune_gantry_pid
 
 FS = 15000.0

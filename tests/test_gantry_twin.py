@@ -10,9 +10,7 @@ import pytest
 from feedtune.errors import UsageError
 from feedtune.identify.gantry import fit_gantry
 from feedtune.identify.mass import fit_axis_mass, fit_mass_distribution
-from feedtune.models.gantry import THESIS_GANTRY as MODEL
-from feedtune.sim.contour import circle, diamond, thesis_path
-from feedtune.sim.gantry_experiments import (
+from feedtune.machines.gantry.experiments import (
     AxisHoldingController,
     HoldingController,
     measure_gantry_frf,
@@ -22,7 +20,9 @@ from feedtune.sim.gantry_experiments import (
     run_gantry_tracking,
     tracking_trajectory,
 )
-from feedtune.sim.gantry_twin import GantryTwin, GantryTwinParams, continuous_system, encoder_matrix
+from feedtune.machines.gantry.twin import GantryTwin, GantryTwinParams, continuous_system, encoder_matrix
+from feedtune.models.gantry import THESIS_GANTRY as MODEL
+from feedtune.sim.contour import circle, diamond, thesis_path
 
 FS = 15000.0
 QUIET = {"noise_m": 0, "pwm_noise_v": 0, "floor_m": 0, "quantization_m": 0}
@@ -126,7 +126,7 @@ def test_axis_response_is_the_table_mass_plus_its_modes_behind_the_amplifier():
     assert np.allclose(twin.axis_frequency_response(f, sampled=False), expected, rtol=1e-8, atol=0)
     # the sampled response: exact ZOH discretization and one sample of delay (python-control as the reference)
     control = pytest.importorskip("control")
-    from feedtune.sim.gantry_twin import axis_encoder_row
+    from feedtune.machines.gantry.twin import axis_encoder_row
 
     A, B = continuous_system(p, 0.0)
     sysd = control.c2d(control.ss(A, B[:, 2:3], axis_encoder_row(p)[None], np.zeros((1, 1))), 1 / FS, "zoh")
@@ -268,7 +268,7 @@ def test_measured_frf_agrees_with_the_analytic_response_near_the_yaw_mode(frf_ru
 
 
 def test_measured_axis_frf_agrees_with_the_analytic_response():
-    from feedtune.sim.gantry_experiments import measure_axis_frf
+    from feedtune.machines.gantry.experiments import measure_axis_frf
 
     twin = GantryTwin()
     res = measure_axis_frf(twin, 0.1, seed=1)
@@ -352,7 +352,7 @@ def test_real_gantry_runtime_runs_on_the_twin():
     from feedtune.design.gantry_mimo import design_gantry_mimo
     from feedtune.design.loopshape import design_loopshape
     from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
-    from feedtune.sim.gantry_runtime import load_runtime
+    from feedtune.machines import load_runtime
 
     h = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                     450.0, 2, 0.7, [LeadStage(154.0, 70.0)])

@@ -31,8 +31,8 @@ from feedtune.control.filters import LeadStage, LoopFilters, Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import design_loopshape
 from feedtune.identify.gantry import fit_gantry
-from feedtune.sim.gantry_experiments import measure_axis_frf, measure_gantry_frf
-from feedtune.sim.gantry_twin import I_X, GantryTwin, axis_encoder_row, continuous_system, encoder_matrix
+from feedtune.machines.gantry.experiments import measure_axis_frf, measure_gantry_frf
+from feedtune.machines.gantry.twin import I_X, GantryTwin, axis_encoder_row, continuous_system, encoder_matrix
 from feedtune.tune.pid import tune_gantry_pid
 
 XS = (-0.3, 0.0, 0.3)

@@ -116,8 +116,8 @@ _TWIN_FRFS: dict = {}
 
 def measured_twin_frf(x: float = 0.0) -> Frf:
     """The gantry twin's 2x2 FRF measured at table position ``x`` [m] (2-1000 Hz, multisine), cached."""
-    from feedtune.sim.gantry_experiments import measure_gantry_frf
-    from feedtune.sim.gantry_twin import GantryTwin
+    from feedtune.machines.gantry.experiments import measure_gantry_frf
+    from feedtune.machines.gantry.twin import GantryTwin
 
     if x not in _TWIN_FRFS:
         res = measure_gantry_frf(GantryTwin(), x, f_lo=2.0, f_hi=1000.0, seed=3)

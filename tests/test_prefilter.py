@@ -20,12 +20,12 @@ from feedtune.errors import DataError, IllConditionedError, UsageError
 from feedtune.io import read_document, write_document, write_log_csv
 from feedtune.io.gains import gains_document, with_friction_feedforward, with_prefilter
 from feedtune.log import Log
+from feedtune.machines.ballscrew.experiments import run_tracking
+from feedtune.machines.ballscrew.runtime import GainsRuntime
+from feedtune.machines.ballscrew.twin import BallScrewTwin, TwinParams
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 from feedtune.models.friction import StribeckFriction
-from feedtune.sim.experiments import run_tracking
-from feedtune.sim.runtime import GainsRuntime
 from feedtune.sim.trajectory import point_to_point
-from feedtune.sim.twin import BallScrewTwin, TwinParams
 
 FS = 20000.0
 GAINS = {"K_vel": 2e-4, "K_acc": -3e-6, "K_jerk": 4e-9, "K_snap": -5e-12}

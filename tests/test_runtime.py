@@ -14,8 +14,8 @@ from feedtune.design.ppi import design_ppi
 from feedtune.errors import DataError
 from feedtune.io import write_document
 from feedtune.io.gains import gains_document
+from feedtune.machines.ballscrew.runtime import GainsRuntime
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
-from feedtune.sim.runtime import GainsRuntime
 
 DESIGNS = {
     "mcppc": design_mcppc(MODEL, filters=THESIS_FILTER_PACK),

@@ -12,11 +12,12 @@ from feedtune.design.ppi import design_ppi
 from feedtune.errors import DataError, UsageError
 from feedtune.identify.ballscrew import fit_ballscrew
 from feedtune.io.gains import gains_document
+from feedtune.machines.ballscrew.experiments import measure_closed_loop, measure_frf, run_ropesnap, run_tracking
+from feedtune.machines.ballscrew.runtime import GainsRuntime
+from feedtune.machines.ballscrew.twin import BallScrewTwin, TwinParams, pitch_sos
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
-from feedtune.sim.experiments import measure_closed_loop, measure_frf, run_ropesnap, run_tracking
-from feedtune.sim.runtime import GainsRuntime
+from feedtune.sim.engine import numba_available
 from feedtune.sim.trajectory import point_to_point
-from feedtune.sim.twin import BallScrewTwin, TwinParams, numba_available, pitch_sos
 
 FS = 20000.0
 MCPPC = GainsRuntime.from_document(gains_document(design_mcppc(MODEL, filters=THESIS_FILTER_PACK)), "mcppc")

@@ -34,10 +34,10 @@ from feedtune.design.mcppc import design_mcppc
 from feedtune.identify.ballscrew import fit_ballscrew
 from feedtune.identify.frf_estimate import estimate_frf
 from feedtune.io.gains import gains_document
+from feedtune.machines.ballscrew.experiments import measure_frf
+from feedtune.machines.ballscrew.runtime import GainsRuntime
+from feedtune.machines.ballscrew.twin import BallScrewTwin, TwinParams
 from feedtune.models import THESIS_TABLE_3_1
-from feedtune.sim.experiments import measure_frf
-from feedtune.sim.runtime import GainsRuntime
-from feedtune.sim.twin import BallScrewTwin, TwinParams
 
 # thesis §3.3 (seed text lines 499-510)
 THESIS_MS_DISCRETE = 3.04

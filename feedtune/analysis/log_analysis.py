@@ -24,7 +24,7 @@ from ..errors import DataError, UsageError
 from ..log import Log
 from .metrics import RopeSnapMetrics, TrackingMetrics, ropesnap_metrics, tracking_metrics
 
-#: Preferred signal names written by the twin experiments (feedtune.sim.experiments).
+#: Preferred signal names written by the twin experiments (feedtune.machines.ballscrew.experiments).
 _ERROR_NAME = "e2"
 _TABLE_POSITION_NAME = "x2_table"
 _DEFAULT_REFERENCE = "x_ref"

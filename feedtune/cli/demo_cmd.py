@@ -16,8 +16,6 @@ from .limits_options import (
     limits_from_options,
 )
 
-MACHINES = ("ballscrew", "gantry")
-
 
 def demo(
     machine: str = typer.Argument("ballscrew", help="Which twin: ballscrew (thesis ch. 3) or gantry (ch. 4)."),
@@ -41,11 +39,10 @@ def demo(
     table positions, eq. 4.16 model, x-axis loop shaping, MIMO against independent PIDs tuned under the same limits,
     rope snap, tracking at 1 and 200 mm/s, contours.
     """
-    from ..errors import UsageError
+    from ..machines import get_machine
     from ..workflows.files import check_out_dir, write_texts
 
-    if machine not in MACHINES:
-        raise UsageError(f"unknown machine {machine!r}: expected one of {', '.join(MACHINES)}")
+    get_machine(machine)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_out_dir(out, force)
     if machine == "gantry":

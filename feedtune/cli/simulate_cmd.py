@@ -7,14 +7,13 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .twin_options import twin_from_options
 
 app = typer.Typer(
     rich_markup_mode=None,
     help="Run experiments on the digital twins (ball screw; gantry ...); write logs (and FRFs).",
     no_args_is_help=True,
 )
-
-MACHINES = ("ballscrew",)
 
 MACHINE_OPTION = typer.Option("ballscrew", "--machine", help="Machine kind of the twin (ballscrew).")
 PARAM_OPTION = typer.Option(
@@ -36,25 +35,8 @@ GAINS_OPTION = typer.Option(..., "--gains", "-g", help="Gains file (.toml or .js
 
 
 # ------------------------------------------------------------------------------------------ helpers
-def _twin(machine: str, params: list[str] | None, ideal: bool):
-    """Build the twin from the options (UsageError for an unknown machine or parameter)."""
-    from ..errors import UsageError
-    from ..sim.twin import BallScrewTwin, TwinParams
-
-    if machine not in MACHINES:
-        raise UsageError(f"unknown machine {machine!r}; the twin exists for: {', '.join(MACHINES)}")
-    base = TwinParams.ideal() if ideal else TwinParams()
-    overrides = {}
-    for item in params or []:
-        key, sep, val = item.partition("=")
-        if not sep or not key.strip():
-            raise UsageError(f"--param expects NAME=VALUE, got {item!r}")
-        overrides[key.strip()] = val.strip()
-    return BallScrewTwin(base.with_overrides(overrides))
-
-
 def _runtime(gains: Path):
-    from ..sim.runtime import GainsRuntime
+    from ..machines.ballscrew.runtime import GainsRuntime
 
     return GainsRuntime.from_file(gains)
 
@@ -92,7 +74,7 @@ def _trajectory(trajectory_file, distance, waypoints, v_max, a_max, j_max, s_max
     if trajectory_file is not None:
         if distance is not None or waypoints:
             raise UsageError("give either --trajectory FILE or --distance/--waypoints, not both")
-        from ..sim.experiments import trajectory_from_log
+        from ..machines.ballscrew.experiments import trajectory_from_log
 
         return trajectory_from_log(trajectory_file, fs)
     return build_trajectory(distance, waypoints, v_max, a_max, j_max, s_max, fs, 0.0, dwell_before, dwell_after)
@@ -128,13 +110,13 @@ def frf(
     The FRF file is the continuous plant: the ZOH and the computational delay are divided out unless
     --keep-sampling is given.
     """
-    from ..sim.experiments import measure_frf
+    from ..machines.ballscrew.experiments import measure_frf
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
     frf_path = frf_out or out.with_name(out.stem + "_frf.csv")
     _check_csv(frf_path, "--frf-out")
-    twin = _twin(machine, param, ideal)
+    twin = twin_from_options(machine, param, ideal)
     ctrl = _runtime(gains) if gains is not None else None
     res = measure_frf(
         twin,
@@ -186,11 +168,11 @@ def track(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Run a trajectory under the controller of a gains file; the log holds x_ref and derivatives, x1, x2, u."""
-    from ..sim.experiments import run_tracking
+    from ..machines.ballscrew.experiments import run_tracking
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
-    twin = _twin(machine, param, ideal)
+    twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
     tr = _trajectory(
         trajectory_file, distance, waypoints, v_max, a_max, j_max, s_max, twin.fs, dwell_before, dwell_after
@@ -223,11 +205,11 @@ def ropesnap(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Rope snap: a constant table force released at --t-release; the log holds the table displacement and u."""
-    from ..sim.experiments import run_ropesnap
+    from ..machines.ballscrew.experiments import run_ropesnap
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
-    twin = _twin(machine, param, ideal)
+    twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
     res = run_ropesnap(twin, rt, force=force_v, t_release=t_release, after_s=after, seed=seed, engine=engine)
     lines = []
@@ -264,7 +246,7 @@ def cut(
 ) -> None:
     """Slotting at constant feed (thesis 3.4): cutting force at the tooth-passing frequency entering and leaving."""
     from ..errors import UsageError
-    from ..sim.experiments import SlotCut, run_cut
+    from ..machines.ballscrew.experiments import SlotCut, run_cut
     from ..sim.trajectory import point_to_point
     from ..workflows.files import experiment_texts
 
@@ -279,7 +261,7 @@ def cut(
     ):
         if not v > 0:
             raise UsageError(f"{name} must be > 0, got {v:g}")
-    twin = _twin(machine, param, ideal)
+    twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
     sc = SlotCut(flutes, rpm, tool_diameter, cut_start, cut_length, mean_force, tooth_force)
     tr = point_to_point(

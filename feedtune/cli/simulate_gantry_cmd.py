@@ -12,6 +12,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .twin_options import twin_from_options
 
 app = typer.Typer(
     rich_markup_mode=None,
@@ -38,26 +39,13 @@ X_OPTION = typer.Option(0.0, "--x", help="Table position [m].")
 
 
 # ------------------------------------------------------------------------------------------ helpers
-def _twin(params: list[str] | None, ideal: bool):
-    from ..errors import UsageError
-    from ..sim.gantry_twin import GantryTwin, GantryTwinParams
-
-    base = GantryTwinParams.ideal() if ideal else GantryTwinParams()
-    overrides = {}
-    for item in params or []:
-        key, sep, val = item.partition("=")
-        if not sep or not key.strip():
-            raise UsageError(f"--param expects NAME=VALUE, got {item!r}")
-        overrides[key.strip()] = val.strip()
-    return GantryTwin(base.with_overrides(overrides))
-
-
 def _runtime(path: Path | None, kind: str, option: str):
     """The runtime of a gains file of the given kind ("gantry" or "axis"), or None."""
     if path is None:
         return None
     from ..errors import UsageError
-    from ..sim.gantry_runtime import AxisRuntime, GantryRuntime, load_runtime
+    from ..machines import load_runtime
+    from ..machines.gantry.runtime import AxisRuntime, GantryRuntime
 
     rt = load_runtime(path)
     expected = GantryRuntime if kind == "gantry" else AxisRuntime
@@ -140,13 +128,13 @@ def frf(
 ) -> None:
     """Measure the 2x2 FRF (u1, u2) -> (y1, y2) [m/V] at each table position under a stabilising controller."""
     from ..io.frf_csv import frf_to_csv_text
-    from ..sim.gantry_experiments import measure_gantry_frf
+    from ..machines.gantry.experiments import measure_gantry_frf
 
     _check_csv(out)
     if frf_out is not None:
         _check_csv(frf_out, "--frf-out")
     xs = _positions(x)
-    twin = _twin(param, ideal)
+    twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
     several = len(xs) > 1
     results, texts, lines = [], {}, []
@@ -190,12 +178,12 @@ def axis_frf(
 ) -> None:
     """Measure the x-axis FRF ux -> x [m/V] (for feedtune design loopshape FRF)."""
     from ..io.frf_csv import frf_to_csv_text
-    from ..sim.gantry_experiments import measure_axis_frf
+    from ..machines.gantry.experiments import measure_axis_frf
 
     _check_csv(out)
     if frf_out is not None:
         _check_csv(frf_out, "--frf-out")
-    twin = _twin(param, ideal)
+    twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
     res = measure_axis_frf(twin, x, rms=rms, f_lo=f_lo, f_hi=f_hi, period_s=period, periods=periods, controller=g,
                            axis=a, remove_delay=not keep_delay, seed=seed, engine=engine)
@@ -230,11 +218,11 @@ def mass(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Mass runs: slow y moves at each table position (u1, u2, ay_ref logged) for feedtune identify mass."""
-    from ..sim.gantry_experiments import run_axis_mass, run_mass
+    from ..machines.gantry.experiments import run_axis_mass, run_mass
 
     _check_csv(out)
     xs = _positions(x)
-    twin = _twin(param, ideal)
+    twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
     move = {"distance": distance, "v_max": v_max, "a_max": a_max, "j_max": j_max}
     several = len(xs) > 1
@@ -272,10 +260,10 @@ def ropesnap(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Rope snap (thesis 4.5): a table force released at --t-release; logs the table displacement y_table."""
-    from ..sim.gantry_experiments import run_gantry_ropesnap
+    from ..machines.gantry.experiments import run_gantry_ropesnap
 
     _check_csv(out)
-    twin = _twin(param, ideal)
+    twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
     res = run_gantry_ropesnap(twin, g, a, force_n=force_n, x=x, t_release=t_release, after_s=after, seed=seed,
                               engine=engine)
@@ -311,10 +299,10 @@ def track(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Track a y move with the table at --x; logs y_ref and derivatives, y1, y2, u1, u2 and the errors e1, e2."""
-    from ..sim.gantry_experiments import run_gantry_tracking, tracking_trajectory
+    from ..machines.gantry.experiments import run_gantry_tracking, tracking_trajectory
 
     _check_csv(out)
-    twin = _twin(param, ideal)
+    twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
     move = test if test is not None else {"distance": distance, "v_max": v_max, "a_max": a_max, "j_max": j_max,
                                           "s_max": s_max}
@@ -350,11 +338,11 @@ def contour(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """x-y contour: the table on x under --axis-gains, the gantry on y under --gains; logs the contour error."""
+    from ..machines.gantry.experiments import run_contour
     from ..sim.contour import THESIS_FEATURES, contour_path
-    from ..sim.gantry_experiments import run_contour
 
     _check_csv(out)
-    twin = _twin(param, ideal)
+    twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
     lim = {"size_m": size, "v_max": v_max, "a_max": a_max, "j_max": j_max}
     if feature is not None:

@@ -7,7 +7,7 @@ previewed (and pre-filtered, when there is a ``[prefilter]``) reference, by back
     v_r[k] = (x_r'[k+P] - x_r'[k+P-1]) * fs     [rad/s of screw rotation];  v_r = 0 on the first sample
 
 It depends on the reference only, so it is computed with the other reference paths (for a whole trajectory
-at once in :meth:`feedtune.sim.runtime.GainsRuntime.reference_signals`).
+at once in :meth:`feedtune.machines.ballscrew.runtime.GainsRuntime.reference_signals`).
 
 Near ``v = 0`` eq. 2.1 jumps between the static levels ``ds-`` and ``ds+``; a reference that dwells or
 reverses would switch the full static friction on and off. Inside a small band ``|v| < v_band`` the

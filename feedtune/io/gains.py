@@ -3,7 +3,7 @@
 The document is a plain dict (written as TOML with a JSON twin by :mod:`feedtune.io.document`). Numbers
 that have a unit are ``{"value": v, "unit": "..."}``. Discrete filters are second-order sections
 ``[b0, b1, b2, a0, a1, a2]`` in powers of ``z^-1`` at ``fs``. See ``docs/gains.md`` for the execution order;
-:mod:`feedtune.sim.runtime` and the C header exporter execute exactly that.
+:mod:`feedtune.machines.ballscrew.runtime` and the C header exporter execute exactly that.
 """
 
 from __future__ import annotations
@@ -379,3 +379,31 @@ def read_prefilter_gains(doc: Mapping, where: str = "gains file") -> tuple[dict,
     gains = {n: value(sec["gains"].get(n, 0.0), f"{where}: prefilter.gains.{n}", u) for n, u in PREFILTER_UNITS.items()}
     lpf = value(sec.get("lpf_hz"), f"{where}: prefilter.lpf_hz", "Hz")
     return gains, lpf
+
+
+def read_sos(rows, where: str) -> np.ndarray:
+    """Second-order sections ``[b0, b1, b2, a0, a1, a2]`` divided by ``a0``; DataError when malformed.
+
+    Parameters
+    ----------
+    rows : list of list of float
+        Sections in powers of ``z^-1``.
+    where : str
+        Name used in error messages (file and key).
+
+    Returns
+    -------
+    ndarray, shape (n_sections, 6)
+        With ``a0 = 1`` in every row.
+    """
+    if not isinstance(rows, (list, tuple)) or len(rows) == 0:
+        raise DataError(f"{where}: expected a non-empty list of second-order sections [b0, b1, b2, a0, a1, a2]")
+    out = np.empty((len(rows), 6))
+    for i, row in enumerate(rows):
+        if not isinstance(row, (list, tuple)) or len(row) != 6:
+            raise DataError(f"{where}[{i}]: a section must have 6 coefficients [b0, b1, b2, a0, a1, a2]")
+        out[i] = [value(c, f"{where}[{i}]") for c in row]
+        if out[i, 3] == 0:
+            raise DataError(f"{where}[{i}]: a0 = 0 is not a valid section")
+        out[i] /= out[i, 3]
+    return out

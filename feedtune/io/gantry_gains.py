@@ -5,7 +5,7 @@ unit are ``{"value", "unit"}``, discrete filters are second-order sections ``[b0
 powers of ``z^-1`` at ``fs`` run as a transposed-direct-form-II cascade (``scipy.signal.sosfilt``), the
 position-dependent quantities of eq. 4.33 are tables over the table position ``x`` (linear interpolation,
 clamped at the ends). ``docs/gantry_gains.md`` describes every key and the execution order;
-:mod:`feedtune.sim.gantry_runtime` executes exactly that, reading nothing else.
+:mod:`feedtune.machines.gantry.runtime` executes exactly that, reading nothing else.
 
 This module reads and checks those documents (used by the runtime) and builds them from designs
 (:func:`gantry_gains_document`, :func:`axis_gains_document`).

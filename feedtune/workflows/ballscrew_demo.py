@@ -5,7 +5,7 @@
 ``beta`` up to the thesis's 4 whose design meets ``feedtune design ppc``'s default limit Ms <= 3.5 on the
 measured FRF) and a P-PI tuned for the same peak sensitivity with a phase-margin floor no tighter than
 MC-PPC's own, exports both gains files and runs every test
-through :class:`~feedtune.sim.runtime.GainsRuntime` reading the exported text only: rope snap and
+through :class:`~feedtune.machines.ballscrew.runtime.GainsRuntime` reading the exported text only: rope snap and
 tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. Then it
 identifies the trajectory pre-filter (§3.2.4) from the MC-PPC tracking run at 500 mm/s, exports
 ``mcppc_prefilter_gains.toml`` and tracks the three speeds again with it ("MC-PPC+PF"). The result
@@ -156,8 +156,8 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document
     from ..io.gains import gains_document
-    from ..sim.experiments import measure_frf
-    from ..sim.twin import BallScrewTwin, TwinParams
+    from ..machines.ballscrew.experiments import measure_frf
+    from ..machines.ballscrew.twin import BallScrewTwin, TwinParams
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
 
@@ -212,13 +212,13 @@ def _design_figures(design, check) -> dict:
 def _runtime_from_text(text: str, name: str):
     """The runtime built from exactly the exported TOML text."""
     from ..io.document import loads_document
-    from ..sim.runtime import GainsRuntime
+    from ..machines.ballscrew.runtime import GainsRuntime
 
     return GainsRuntime.from_document(loads_document(text, "toml", name), name)
 
 
 def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts) -> list:
-    from ..sim.experiments import SlotCut, run_cut, run_ropesnap, run_tracking
+    from ..machines.ballscrew.experiments import SlotCut, run_cut, run_ropesnap, run_tracking
     from ..sim.trajectory import point_to_point
 
     rows = []
@@ -262,7 +262,7 @@ def _prefilter_tests(twin, texts, speeds, seed, engine, rows) -> dict:
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
     from ..io.gains import with_prefilter
-    from ..sim.experiments import run_tracking
+    from ..machines.ballscrew.experiments import run_tracking
 
     speed = min(speeds, key=lambda v: abs(v - PREFILTER_SPEED))
     mcppc = _runtime_from_text(texts["mcppc_gains.toml"], "mcppc_gains.toml")

@@ -1,8 +1,8 @@
 """The gantry job in one call, on the twin: measure, identify, design, test, compare (thesis chapter 4).
 
-:func:`run_gantry_demo` follows §4.3-4.5 on :class:`~feedtune.sim.gantry_twin.GantryTwin`:
+:func:`run_gantry_demo` follows §4.3-4.5 on :class:`~feedtune.machines.gantry.twin.GantryTwin`:
 
-1. 2x2 FRFs at three table positions (:func:`~feedtune.sim.gantry_experiments.measure_gantry_frf`) and mass
+1. 2x2 FRFs at three table positions (:func:`~feedtune.machines.gantry.experiments.measure_gantry_frf`) and mass
    runs there plus an x-axis run, all under the built-in holding controllers;
 2. the mass distribution and ``m_x`` (:mod:`feedtune.identify.mass`), then the gantry model of eq. 4.16 with
    the side masses imposed (:func:`~feedtune.identify.gantry.fit_gantry`; the span ``L`` is known);
@@ -128,7 +128,7 @@ def _texts_of(result, name: str, log: bool = True, allow_trip: bool = False) -> 
 
 
 def _measure(twin, xs, seed, engine, texts, keep_raw):
-    from ..sim.gantry_experiments import measure_axis_frf, measure_gantry_frf, run_axis_mass, run_mass
+    from ..machines.gantry.experiments import measure_axis_frf, measure_gantry_frf, run_axis_mass, run_mass
 
     frfs = []
     for x in xs:
@@ -151,7 +151,7 @@ def _identify(twin, xs, frfs, mass_logs, axis_log, texts):
     from ..identify.gantry import fit_gantry
     from ..identify.mass import fit_axis_mass, fit_mass_distribution
     from ..io import dumps_json, dumps_toml, model_document
-    from ..sim.gantry_experiments import mass_document
+    from ..machines.gantry.experiments import mass_document
 
     mass = fit_mass_distribution(mass_logs, xs, acc_ref="ay_ref")
     m_x = fit_axis_mass(axis_log, u="ux", acc_ref="a_ref")
@@ -195,7 +195,7 @@ def _design(twin, fit, frf0, axis_frf, texts, policy):
     from ..io import dumps_json, dumps_toml
     from ..io.document import loads_document
     from ..io.gantry_gains import axis_gains_document, gantry_gains_document
-    from ..sim.gantry_runtime import load_runtime
+    from ..machines import load_runtime
     from ..tune.gantry import tune_gantry_mimo
     from ..tune.loopshape import tune_loopshape
     from ..tune.pid import tune_gantry_pid
@@ -246,8 +246,8 @@ def _run_figures(res, figures: dict) -> dict:
 
 
 def _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts) -> list:
+    from ..machines.gantry.experiments import run_contour, run_gantry_ropesnap, run_gantry_tracking, tracking_trajectory
     from ..sim.contour import thesis_path
-    from ..sim.gantry_experiments import run_contour, run_gantry_ropesnap, run_gantry_tracking, tracking_trajectory
 
     axis = runtimes["axis"]
     rows = []
@@ -295,7 +295,7 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
         Table positions of the FRF and mass runs [m] (at least 3; 0 must be among them: the designs are
         checked on the FRF measured there).
     tracking : sequence of str
-        Tracking tests of :data:`~feedtune.sim.gantry_experiments.THESIS_TRACKING`.
+        Tracking tests of :data:`~feedtune.machines.gantry.experiments.THESIS_TRACKING`.
     contour_feature : str
         ``"1um"``, ``"1mm"`` or ``"200mm"`` (:data:`~feedtune.sim.contour.THESIS_FEATURES`).
     shapes : sequence of str
@@ -318,7 +318,7 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     from ..analysis.limits import DEFAULT_LIMITS
     from ..errors import UsageError
     from ..io import dumps_json
-    from ..sim.gantry_twin import GantryTwin
+    from ..machines.gantry.twin import GantryTwin
     from .comparison import better_per_figure
     from .files import plain_json
 

@@ -24,7 +24,7 @@ normalised by its ``a0`` when the file is read. The schedule is interpolated lin
 at the first and last row.
 
 :meth:`GantryRuntime.replay` and :meth:`AxisRuntime.replay` evaluate the same law for recorded signals
-without a per-sample loop (``sosfilt``); :func:`load_runtime` dispatches on the file's ``kind``.
+without a per-sample loop (``sosfilt``); :func:`feedtune.machines.load_runtime` dispatches on the file's ``kind``.
 
 Units: positions [m], commands in the drive's unit (V), time [s].
 """
@@ -37,46 +37,19 @@ from bisect import bisect_right
 
 import numpy as np
 
-from ..errors import DataError, UsageError
-from ..io.gains import read_sampling, value
-from .runtime import GainsRuntime, _as_vector, normalized_sos
+from ...control.sos import SosCascade, sos_filter
+from ...errors import DataError, UsageError
+from ...io.gains import read_sampling, read_sos, value
+from ...sim.engine import sample_vector
 
 _PREFILTER_KEYS = ("prefilter_vel_sos", "prefilter_acc_sos", "prefilter_jerk_sos", "prefilter_snap_sos")
 
 
 # ------------------------------------------------------------------------------------------- helpers
-class _Cascade:
-    """Cascaded second-order sections (``a0 = 1``), transposed direct form II, one sample at a time."""
-
-    __slots__ = ("rows", "w")
-
-    def __init__(self, sos: np.ndarray) -> None:
-        self.rows = [(float(r[0]), float(r[1]), float(r[2]), float(r[4]), float(r[5])) for r in sos]
-        self.w = [[0.0, 0.0] for _ in self.rows]
-
-    def reset(self) -> None:
-        for w in self.w:
-            w[0] = w[1] = 0.0
-
-    def step(self, x: float) -> float:
-        for (b0, b1, b2, a1, a2), w in zip(self.rows, self.w):  # noqa: B905 - equal lengths by construction
-            y = b0 * x + w[0]
-            w[0] = b1 * x - a1 * y + w[1]
-            w[1] = b2 * x - a2 * y
-            x = y
-        return x
-
-
 def _sos(doc: dict, sec_name: str, key: str, where: str) -> np.ndarray:
-    from ..io.gantry_gains import entry, section
+    from ...io.gantry_gains import entry, section
 
-    return normalized_sos(entry(section(doc, sec_name, where), sec_name, key, where), f"{where}: {sec_name}.{key}")
-
-
-def _sosfilt(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
-    from scipy.signal import sosfilt
-
-    return sosfilt(sos, x)
+    return read_sos(entry(section(doc, sec_name, where), sec_name, key, where), f"{where}: {sec_name}.{key}")
 
 
 def _previewed(x: np.ndarray, preview: int) -> np.ndarray:
@@ -153,11 +126,11 @@ class GantryRuntime:
         self._beta = self.gains.get("beta", 0.0)
         self._ki = self.gains.get("ki", 0.0)
         self._pid = tuple(self.gains.get(k, 0.0) for k in ("kp1", "kd1", "ki1", "kp2", "kd2", "ki2"))
-        self._h = (_Cascade(self.sos["filter_pack"]), _Cascade(self.sos["filter_pack"]))
-        self._pos = (_Cascade(self.sos["position"]), _Cascade(self.sos["position"]))
-        self._acc = (_Cascade(self.sos["acceleration"]), _Cascade(self.sos["acceleration"]))
-        self._pre = tuple(_Cascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
-        self._lead = _Cascade(self.sos["lead"]) if controller == "mimo" else None
+        self._h = (SosCascade(self.sos["filter_pack"]), SosCascade(self.sos["filter_pack"]))
+        self._pos = (SosCascade(self.sos["position"]), SosCascade(self.sos["position"]))
+        self._acc = (SosCascade(self.sos["acceleration"]), SosCascade(self.sos["acceleration"]))
+        self._pre = tuple(SosCascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
+        self._lead = SosCascade(self.sos["lead"]) if controller == "mimo" else None
         self.reset()
 
     # ------------------------------------------------------------------ construction
@@ -171,7 +144,7 @@ class GantryRuntime:
             Not a gantry gains file of schema version 1, unknown controller, or a missing or invalid
             entry (named in the message).
         """
-        from ..io.gantry_gains import (
+        from ...io.gantry_gains import (
             GANTRY_CONTROLLERS,
             GANTRY_KIND,
             check_header,
@@ -202,7 +175,7 @@ class GantryRuntime:
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> GantryRuntime:
         """Read a ``.toml`` or ``.json`` gantry gains file."""
-        from ..io import read_document
+        from ...io import read_document
 
         return cls.from_document(read_document(path), str(path))
 
@@ -293,11 +266,11 @@ class GantryRuntime:
     # ------------------------------------------------------------------ vectorised
     def previewed(self, y_ref) -> np.ndarray:
         """The sequence ``y_r[k + P]`` fed to :meth:`step`, holding the last value past the end [m]."""
-        return _previewed(_as_vector(y_ref, "y_ref"), self.preview_samples)
+        return _previewed(sample_vector(y_ref, "y_ref", min_size=1), self.preview_samples)
 
     def schedule_table(self, x) -> np.ndarray:
         """Schedule rows for a sequence of positions [m], shape ``(n, 13)`` (vectorised :meth:`schedule_at`)."""
-        xs = _as_vector(x, "x")
+        xs = sample_vector(x, "x", min_size=1)
         return np.column_stack([np.interp(xs, self.schedule_x, col) for col in self.schedule.T])
 
     def replay(self, y_ref, y1, y2, x) -> tuple[np.ndarray, np.ndarray]:
@@ -316,22 +289,22 @@ class GantryRuntime:
         """
         r = self.previewed(y_ref)
         n = r.size
-        y1, y2 = _as_vector(y1, "y1", n), _as_vector(y2, "y2", n)
+        y1, y2 = sample_vector(y1, "y1", n, min_size=1), sample_vector(y2, "y2", n, min_size=1)
         s = self.schedule_table(np.broadcast_to(np.asarray(x, float), (n,)))
         if self._prefilter_on:
-            d = np.column_stack([_sosfilt(self.sos[k[:-4]], r) for k in _PREFILTER_KEYS])
+            d = np.column_stack([sos_filter(self.sos[k[:-4]], r) for k in _PREFILTER_KEYS])
             ra1 = r + np.sum(s[:, 5:9] * d, axis=1)
             ra2 = r + np.sum(s[:, 9:13] * d, axis=1)
         else:
             ra1 = ra2 = r
-        acc1, acc2 = _sosfilt(self.sos["acceleration"], ra1), _sosfilt(self.sos["acceleration"], ra2)
-        e1 = _sosfilt(self.sos["position"], ra1) - y1
-        e2 = _sosfilt(self.sos["position"], ra2) - y2
+        acc1, acc2 = sos_filter(self.sos["acceleration"], ra1), sos_filter(self.sos["acceleration"], ra2)
+        e1 = sos_filter(self.sos["position"], ra1) - y1
+        e2 = sos_filter(self.sos["position"], ra2) - y2
         fs, g = self.fs, self.gains
         ie1, ie2 = np.cumsum(e1) / fs, np.cumsum(e2) / fs
         if self.controller == "mimo":
             a1, a2 = s[:, 0], s[:, 1]
-            v = _sosfilt(self.sos["lead"], a1 * e1 + a2 * e2)
+            v = sos_filter(self.sos["lead"], a1 * e1 + a2 * e2)
             diff = e1 - e2
             dd = g["beta"] * np.diff(diff, prepend=diff[0]) * fs
             w1 = a1 * (v + dd + g["ki"] * ie1)
@@ -340,8 +313,8 @@ class GantryRuntime:
             w1 = g["kp1"] * e1 + g["kd1"] * np.diff(e1, prepend=e1[0]) * fs + g["ki1"] * ie1
             w2 = g["kp2"] * e2 + g["kd2"] * np.diff(e2, prepend=e2[0]) * fs + g["ki2"] * ie2
         h = self.sos["filter_pack"]
-        return (_sosfilt(h, w1) + s[:, 2] * acc1 + s[:, 3] * acc2,
-                _sosfilt(h, w2) + s[:, 3] * acc1 + s[:, 4] * acc2)
+        return (sos_filter(h, w1) + s[:, 2] * acc1 + s[:, 3] * acc2,
+                sos_filter(h, w2) + s[:, 3] * acc1 + s[:, 4] * acc2)
 
     # ------------------------------------------------------------------ checks and description
     def check_target(self, fs: float, where: str | None = None) -> None:
@@ -350,7 +323,7 @@ class GantryRuntime:
 
     def to_dict(self) -> dict:
         """JSON-ready description (gains with units, sampling, section counts, schedule range)."""
-        from ..io.gantry_gains import mimo_gain_units, pid_gain_units
+        from ...io.gantry_gains import mimo_gain_units, pid_gain_units
 
         units = mimo_gain_units(self.command_unit) if self.controller == "mimo" else pid_gain_units(self.command_unit)
         return {
@@ -399,18 +372,18 @@ class AxisRuntime:
         self.command_unit = command_unit
         self.source = source
         self._prefilter_on = any(v != 0.0 for v in self.prefilter_gains)
-        self._c = _Cascade(self.sos["controller"])
-        self._pos = _Cascade(self.sos["position"])
-        self._acc = _Cascade(self.sos["acceleration"])
-        self._pre = tuple(_Cascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
+        self._c = SosCascade(self.sos["controller"])
+        self._pos = SosCascade(self.sos["position"])
+        self._acc = SosCascade(self.sos["acceleration"])
+        self._pre = tuple(SosCascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
         self.reset()
 
     @classmethod
     def from_document(cls, doc: dict, where: str = "gains document") -> AxisRuntime:
         """Read an axis gains document; DataError names the missing or invalid entry."""
-        from ..io.gantry_gains import AXIS_KIND, PREFILTER_TERMS, PREFILTER_UNITS, check_header, command_unit
-        from ..io.gantry_gains import entry as get
-        from ..io.gantry_gains import section as sec
+        from ...io.gantry_gains import AXIS_KIND, PREFILTER_TERMS, PREFILTER_UNITS, check_header, command_unit
+        from ...io.gantry_gains import entry as get
+        from ...io.gantry_gains import section as sec
 
         check_header(doc, where, (AXIS_KIND,))
         fs, delay, preview = read_sampling(doc, where)
@@ -429,7 +402,7 @@ class AxisRuntime:
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> AxisRuntime:
         """Read a ``.toml`` or ``.json`` axis gains file."""
-        from ..io import read_document
+        from ...io import read_document
 
         return cls.from_document(read_document(path), str(path))
 
@@ -451,18 +424,18 @@ class AxisRuntime:
 
     def previewed(self, x_ref) -> np.ndarray:
         """The sequence ``x_r[k + P]`` fed to :meth:`step`, holding the last value past the end [m]."""
-        return _previewed(_as_vector(x_ref, "x_ref"), self.preview_samples)
+        return _previewed(sample_vector(x_ref, "x_ref", min_size=1), self.preview_samples)
 
     def replay(self, x_ref, x) -> np.ndarray:
         """Commands [V] for a recorded reference ``x_r[k]`` and encoder ``x[k]`` [m], without a per-sample loop."""
         r = self.previewed(x_ref)
-        xm = _as_vector(x, "x", r.size)
+        xm = sample_vector(x, "x", r.size, min_size=1)
         ra = r.copy()
         if self._prefilter_on:
             for k, key in zip(self.prefilter_gains, _PREFILTER_KEYS, strict=True):
-                ra = ra + k * _sosfilt(self.sos[key[:-4]], r)
-        e = _sosfilt(self.sos["position"], ra) - xm
-        return _sosfilt(self.sos["controller"], e) + self.mass * _sosfilt(self.sos["acceleration"], r)
+                ra = ra + k * sos_filter(self.sos[key[:-4]], r)
+        e = sos_filter(self.sos["position"], ra) - xm
+        return sos_filter(self.sos["controller"], e) + self.mass * sos_filter(self.sos["acceleration"], r)
 
     def check_target(self, fs: float, where: str | None = None) -> None:
         """DataError unless the file was made for sample rate ``fs`` [Hz]."""
@@ -483,35 +456,3 @@ class AxisRuntime:
             "units": {"mass": f"{self.command_unit}/(m/s^2)", "k_vel": "s", "k_acc": "s^2", "k_jerk": "s^3",
                       "k_snap": "s^4", "fs_hz": "Hz", "command": self.command_unit},
         }
-
-
-# ------------------------------------------------------------------------------------------ dispatch
-def load_runtime(path_or_doc, where: str | None = None) -> GainsRuntime | GantryRuntime | AxisRuntime:
-    """The runtime of a gains file or document, chosen by its ``kind`` (ballscrew, gantry, axis).
-
-    Parameters
-    ----------
-    path_or_doc : path-like or dict
-        A ``.toml``/``.json`` gains file, or the document read from one.
-    where : str, optional
-        Name used in error messages (default: the path, or ``"gains document"``).
-
-    Raises
-    ------
-    DataError
-        Unreadable file, or a ``kind`` that is not ballscrew, gantry or axis.
-    """
-    if isinstance(path_or_doc, dict):
-        doc, name = path_or_doc, where or "gains document"
-    else:
-        from ..io import read_document
-
-        doc, name = read_document(path_or_doc), where or str(path_or_doc)
-    kind = doc.get("kind")
-    if kind == "ballscrew":
-        return GainsRuntime.from_document(doc, name)
-    if kind == "gantry":
-        return GantryRuntime.from_document(doc, name)
-    if kind == "axis":
-        return AxisRuntime.from_document(doc, name)
-    raise DataError(f"{name}: gains file kind {kind!r} unknown; expected 'ballscrew', 'gantry' or 'axis'")

@@ -28,9 +28,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import DataError, UsageError
-from ..log import Log
-from .gantry_twin import GantryRun, GantryTwin
+from ...errors import DataError, UsageError
+from ...log import Log
+from .twin import GantryRun, GantryTwin
 
 ROPE_FORCE_N = 57.0
 """Rope-snap force of §4.5 [N]."""
@@ -326,8 +326,8 @@ def estimate_frf_2x2(log: Log, *, period_samples: int, block_periods: int, band_
     Frf
         Outputs ``y1, y2`` [m], inputs ``u1, u2`` [V], position, with coherence.
     """
-    from ..frf import Frf
-    from ..identify.frf_estimate import estimate_frf
+    from ...frf import Frf
+    from ...identify.frf_estimate import estimate_frf
 
     block = period_samples * block_periods
     if log.n < 2 * block:
@@ -379,7 +379,7 @@ def measure_gantry_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_
         ``log``: ``r1, r2, u1, u2, ux`` [V], ``y1, y2, x`` [m]; ``frf``: ``y_i / u_j`` [m/V] with coherence
         (:func:`estimate_frf_2x2`).
     """
-    from .experiments import multisine
+    from ..ballscrew.experiments import multisine
 
     x = _position(twin, x)
     rms = _positive(rms, "excitation rms", "V")
@@ -409,7 +409,7 @@ def measure_gantry_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_
         return GantryExperimentResult("frf", log, run, summary)
     frf = estimate_frf_2x2(log, period_samples=one.size, block_periods=periods, band_hz=(f_lo, f_hi))
     frf = replace(frf, meta={**frf.meta, "source": f"gantry twin FRF at x = {x:g} m", "x_m": f"{x:g}"})
-    from ..frf_sampling import mark_sampling_kept, remove_sampling
+    from ...frf_sampling import mark_sampling_kept, remove_sampling
 
     if remove_delay:
         frf = remove_sampling(frf, twin.fs, twin.params.delay_samples)
@@ -439,9 +439,9 @@ def measure_axis_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_lo
         ``kind = "axis_frf"``; ``log``: ``rx, u1, u2, ux`` [V], ``y1, y2, x`` [m]; ``frf``: channel ``x/ux``
         [m/V] with coherence.
     """
-    from ..frf_sampling import mark_sampling_kept, remove_sampling
-    from ..identify.frf_estimate import estimate_frf
-    from .experiments import multisine
+    from ...frf_sampling import mark_sampling_kept, remove_sampling
+    from ...identify.frf_estimate import estimate_frf
+    from ..ballscrew.experiments import multisine
 
     x = _position(twin, x)
     rms = _positive(rms, "excitation rms", "V")
@@ -484,7 +484,7 @@ def measure_axis_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_lo
 def back_and_forth(start: float, *, distance: float, v_max: float, a_max: float, j_max: float, fs: float,
                    cycles: int = 1, dwell: float = 0.1):
     """Trajectory ``start -> start + distance -> start`` repeated ``cycles`` times, ``dwell`` [s] at each end."""
-    from .trajectory import multi_segment
+    from ...sim.trajectory import multi_segment
 
     if isinstance(cycles, bool) or int(cycles) != cycles or cycles < 1:
         raise UsageError(f"cycles must be an integer >= 1, got {cycles!r}")
@@ -547,7 +547,7 @@ def run_axis_mass(twin: GantryTwin, *, x_start: float = -0.1, controller=None, a
 
 def _tracking_result(kind: str, run: GantryRun, ref: Log, gantry, axis, **extra) -> GantryExperimentResult:
     """Log of a y run (reference, machine signals, side errors) and its tracking metrics."""
-    from ..analysis.metrics import tracking_metrics
+    from ...analysis.metrics import tracking_metrics
 
     m = run.t.size
     sig, units = _machine_signals(run)
@@ -592,7 +592,7 @@ def mass_document(fit, m_x: float | None, input_unit: str = "V") -> dict:
         ``m`` [V/(m/s^2)], ``alpha1_0`` [-], ``dalpha1_dx`` [1/m], ``alpha1_rms_residual`` [-], ``m_x`` and the
         per-position fits, numbers as ``{value, unit}``.
     """
-    from ..io import quantity
+    from ...io import quantity
 
     u = input_unit
     doc = {
@@ -621,9 +621,9 @@ def read_mass_document(path):
     DataError
         Unreadable file, another schema or kind, a missing entry or a unit other than the one written.
     """
-    from ..errors import DataError
-    from ..identify.mass import MassFit
-    from ..io import read_document, require_schema, value_of
+    from ...errors import DataError
+    from ...identify.mass import MassFit
+    from ...io import read_document, require_schema, value_of
 
     where = str(path)
     doc = read_document(path)
@@ -681,7 +681,7 @@ def run_gantry_ropesnap(twin: GantryTwin, gantry, axis=None, *, force_n: float =
         ``log``: ``y_table`` (interferometer: table displacement) [m], ``y1, y2, x`` [m], ``u1, u2, ux`` [V],
         ``F_table`` [V]; ``metrics``: :class:`~feedtune.analysis.metrics.RopeSnapMetrics` of ``y_table``.
     """
-    from ..analysis.metrics import ropesnap_metrics
+    from ...analysis.metrics import ropesnap_metrics
 
     x = _position(twin, x)
     force_n = _positive(force_n, "rope force", "N")
@@ -717,7 +717,7 @@ def run_gantry_ropesnap(twin: GantryTwin, gantry, axis=None, *, force_n: float =
 # ------------------------------------------------------------------------------------------ tracking
 def tracking_trajectory(name_or_move, fs: float, *, dwell_before: float = 0.05, dwell_after: float = 0.2):
     """The y move of a tracking test: a :data:`THESIS_TRACKING` name or a dict of distance and limits."""
-    from .trajectory import point_to_point
+    from ...sim.trajectory import point_to_point
 
     if isinstance(name_or_move, str):
         if name_or_move not in THESIS_TRACKING:
@@ -764,7 +764,7 @@ def run_contour(twin: GantryTwin, gantry, axis, path, *, seed: int | None = 0,
         ``path.to_log()``), ``x``, ``y``, ``y1``, ``y2`` [m], ``u1, u2, ux`` [V], ``contour_error`` [m]; ``metrics``:
         :class:`~feedtune.analysis.metrics.ContourError`; ``summary``: its maximum and RMS [um].
     """
-    from .gantry_twin import table_weights
+    from .twin import table_weights
 
     if not math.isclose(path.fs, twin.fs, rel_tol=1e-9):
         raise UsageError(f"the contour is sampled at {path.fs:g} Hz; the twin runs at {twin.fs:g} Hz")

@@ -39,13 +39,13 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
-from ..errors import DataError, UsageError
-from ..models.ballscrew import THESIS_TABLE_3_1, BallScrewModel
+from ...errors import DataError, UsageError
+from ...lti import zoh
+from ...models.ballscrew import THESIS_TABLE_3_1, BallScrewModel
+from ...sim.engine import choose_engine, compiled, sample_vector
+from ...sim.params import non_negative_param, parse_override_value, positive_param
 
 LEAD = THESIS_TABLE_3_1.lead_m_per_rad
-ENGINES = ("auto", "numba", "python")
-
-
 # ------------------------------------------------------------------------------------------ parameters
 @dataclass(frozen=True)
 class TorsionalMode:
@@ -71,14 +71,14 @@ class TorsionalMode:
 
 
 def _default_motor_friction():
-    from ..models.friction import StribeckFriction
+    from ...models.friction import StribeckFriction
 
     return StribeckFriction(dc_pos=0.10, ds_pos=0.16, dc_neg=-0.09, ds_neg=-0.15, omega_pos=0.8, omega_neg=0.6,
                             command_unit="V", velocity_unit="rad/s")
 
 
 def _default_table_friction():
-    from ..models.friction import StribeckFriction
+    from ...models.friction import StribeckFriction
 
     return StribeckFriction(dc_pos=0.02, ds_pos=0.03, dc_neg=-0.018, ds_neg=-0.027, omega_pos=0.5,
                             command_unit="V", velocity_unit="rad/s")
@@ -148,16 +148,16 @@ class TwinParams:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "torsional", tuple(self.torsional))
-        _positive(self.fs, "fs", "Hz")
+        positive_param(self.fs, "fs", "Hz")
         for name in ("current_loop_hz", "pitch_hz", "u_max"):
             if getattr(self, name) is not None:
-                _positive(getattr(self, name), name, "")
+                positive_param(getattr(self, name), name, "")
         for name in ("pitch_zeta", "pitch_compliance", "quantization_m", "noise_m"):
-            _non_negative(getattr(self, name), name)
-        _positive(self.envelope_m, "envelope_m", "m")
-        _positive(self.overload_tau_s, "overload_tau_s", "s")
+            non_negative_param(getattr(self, name), name)
+        positive_param(self.envelope_m, "envelope_m", "m")
+        positive_param(self.overload_tau_s, "overload_tau_s", "s")
         if self.overload_rms is not None:
-            _positive(self.overload_rms, "overload_rms", "V")
+            positive_param(self.overload_rms, "overload_rms", "V")
         for name in ("delay_samples", "substeps"):
             v = getattr(self, name)
             if isinstance(v, bool) or int(v) != v or v < (1 if name == "substeps" else 0):
@@ -165,10 +165,10 @@ class TwinParams:
                                  f"got {v!r}")
             object.__setattr__(self, name, int(v))
         for m in self.torsional:
-            _positive(m.freq_hz, "torsional freq_hz", "Hz")
-            _non_negative(m.zeta_p, "torsional_zeta_p")
-            _non_negative(m.zeta_z, "torsional_zeta_z")
-            _positive(m.zero_ratio, "torsional_zero_ratio", "")
+            positive_param(m.freq_hz, "torsional freq_hz", "Hz")
+            non_negative_param(m.zeta_p, "torsional_zeta_p")
+            non_negative_param(m.zeta_z, "torsional_zeta_z")
+            positive_param(m.zero_ratio, "torsional_zero_ratio", "")
             if m.freq_hz >= self.fs / 2:
                 raise UsageError(f"torsional mode {m.freq_hz:g} Hz is above the Nyquist frequency {self.fs / 2:g} Hz")
         if self.model.lead_m_per_rad <= 0:
@@ -232,37 +232,6 @@ class TwinParams:
                       "fs": "Hz", "delay_samples": "samples", "substeps": "-", "envelope_m": "m",
                       "overload_rms": "V", "overload_tau_s": "s"},
         }
-
-
-def _positive(v, name: str, unit: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise UsageError(f"twin parameter {name} must be a finite number > 0 {unit}".rstrip() + f", got {v!r}")
-    return float(v)
-
-
-def _non_negative(v, name: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-        raise UsageError(f"twin parameter {name} must be a finite number >= 0, got {v!r}")
-    return float(v)
-
-
-def parse_override_value(raw, key: str):
-    """A ``--param NAME=VALUE`` value: a number (int when integral text), or None for none/off/null.
-
-    Raises
-    ------
-    UsageError
-        Neither a number nor none/off/null (names the parameter).
-    """
-    if raw is None or (isinstance(raw, (int, float)) and not isinstance(raw, bool)):
-        return raw
-    text = str(raw).strip()
-    if text.lower() in ("none", "off", "null"):
-        return None
-    try:
-        return int(text) if text.lstrip("+-").isdigit() else float(text)
-    except ValueError:
-        raise UsageError(f"twin parameter {key}: expected a number or 'none', got {raw!r}") from None
 
 
 def _override(p: TwinParams, key: str, raw) -> TwinParams:
@@ -396,18 +365,6 @@ def continuous_system(p: TwinParams) -> tuple[np.ndarray, np.ndarray]:
     return A, B
 
 
-def zoh(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact discretization for inputs held over ``h`` [s]: ``expm([[A, B], [0, 0]] h)``."""
-    from scipy.linalg import expm
-
-    n, m = B.shape
-    M = np.zeros((n + m, n + m))
-    M[:n, :n] = A
-    M[:n, n:] = B
-    E = expm(M * h)
-    return E[:n, :n], E[:n, n:]
-
-
 def pitch_sos(p: TwinParams) -> np.ndarray | None:
     """Second-order section from the held external table force [V] to the pitching reading [rad] at ``fs``."""
     if p.pitch_hz is None or p.pitch_compliance == 0:
@@ -539,26 +496,6 @@ def _closed_loop(Ad, Bd, Ac, Bc, h, stop_v, n, n_sub, z, znew, x1r, x2r, uff, r,
     return n_samples
 
 
-_COMPILED: dict = {}
-
-
-def numba_available() -> bool:
-    """True when numba can be imported (the compiled closed loop is then used)."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-def _compiled_loop():
-    if "loop" not in _COMPILED:
-        import numba
-
-        _COMPILED["loop"] = numba.njit(cache=True, nogil=True)(_closed_loop)
-    return _COMPILED["loop"]
-
-
 def _friction_vector(p: TwinParams) -> np.ndarray:
     out = np.zeros(14)
     for side, f in enumerate((p.friction_motor, p.friction_table)):
@@ -685,7 +622,7 @@ class BallScrewTwin:
 
     def frf(self, freq_hz, *, sampled: bool = True):
         """:meth:`frequency_response` as an :class:`~feedtune.frf.Frf` with channels ``x1/u``, ``x2/u``."""
-        from ..frf import Frf
+        from ...frf import Frf
 
         g = self.frequency_response(freq_hz, sampled=sampled)
         return Frf(np.asarray(freq_hz, float), np.stack([g["x1"], g["x2"]])[:, None, :], ("x1", "x2"), ("u",),
@@ -721,12 +658,12 @@ class BallScrewTwin:
         TwinRun
         """
         runtime.check_target(self.fs)
-        x_ref = _vector(x_ref, "x_ref")
+        x_ref = sample_vector(x_ref, "x_ref")
         n = x_ref.size if n_samples is None else int(n_samples)
         if not 2 <= n <= x_ref.size:
             raise UsageError(f"n_samples must be between 2 and len(x_ref) = {x_ref.size}, got {n_samples!r}")
-        d2 = np.zeros(n) if d2 is None else _vector(d2, "d2", n)
-        r = np.zeros(n) if excitation is None else _vector(excitation, "excitation", n)
+        d2 = np.zeros(n) if d2 is None else sample_vector(d2, "d2", n)
+        r = np.zeros(n) if excitation is None else sample_vector(excitation, "excitation", n)
         lead = runtime.preview_samples
         origin = float(x_ref[0])
         x_full = np.r_[np.zeros(lead), x_ref - origin]
@@ -790,32 +727,11 @@ class BallScrewTwin:
                 1.0 - math.exp(-1.0 / (p.fs * p.overload_tau_s)),
                 np.inf if p.overload_rms is None else p.overload_rms**2, np.zeros(1)]
         outs = [np.zeros(n) for _ in range(5)]
-        if _choose_engine(engine) == "numba":
-            k = _compiled_loop()(*args, *outs)
+        if choose_engine(engine) == "numba":
+            k = compiled(_closed_loop)(*args, *outs)
             return (int(k), int(args[-1][0]), *outs)
         py_args = [a.tolist() if isinstance(a, np.ndarray) else a for a in args]
         py_outs = [[0.0] * n for _ in range(5)]
         k = _closed_loop(*py_args, *py_outs)
         return (int(k), int(py_args[-1][0]), *(np.asarray(o) for o in py_outs))
 
-
-def _choose_engine(engine: str) -> str:
-    if engine not in ENGINES:
-        raise UsageError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
-    if engine == "auto":
-        return "numba" if numba_available() else "python"
-    if engine == "numba" and not numba_available():
-        raise UsageError("engine 'numba' requested but numba is not installed (pip install numba)")
-    return engine
-
-
-def _vector(x, name: str, n: int | None = None) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise UsageError(f"{name}: expected a sequence of numbers") from None
-    if a.size < 2 or (n is not None and a.size != n):
-        raise UsageError(f"{name}: expected {n if n is not None else 'at least 2'} samples, got {a.size}")
-    if not np.all(np.isfinite(a)):
-        raise UsageError(f"{name}: contains NaN or infinite values")
-    return a

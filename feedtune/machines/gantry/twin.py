@@ -60,12 +60,13 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from ..errors import DataError, UsageError
-from ..models.gantry import PARAM_NAMES as MODEL_PARAMS
-from ..models.gantry import THESIS_GANTRY, GantryModel
-from .twin import numba_available, parse_override_value, zoh
+from ...errors import DataError, UsageError
+from ...lti import zoh
+from ...models.gantry import PARAM_NAMES as MODEL_PARAMS
+from ...models.gantry import THESIS_GANTRY, GantryModel
+from ...sim.engine import choose_engine, kernel, sample_vector
+from ...sim.params import finite_param, non_negative_param, parse_override_value, positive_param
 
-ENGINES = ("auto", "numba", "python")
 STATE_NAMES = ("y1", "y2", "v1", "v2", "yb", "vb", "eta320", "eta320_dot", "eta382", "eta382_dot", "q", "q_dot",
                "eta940", "eta940_dot", "f1", "f1_dot", "f2", "f2_dot",
                "x", "vx", "xi186", "xi186_dot", "xi332", "xi332_dot", "xi404", "xi404_dot", "fx", "fx_dot")
@@ -89,24 +90,6 @@ TRAVEL_TOL_M = 1e-3
 
 
 # ------------------------------------------------------------------------------------------ parameters
-def _finite(v, name: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise UsageError(f"twin parameter {name} must be a finite number, got {v!r}")
-    return float(v)
-
-
-def _positive(v, name: str, unit: str) -> float:
-    if _finite(v, name) <= 0:
-        raise UsageError(f"twin parameter {name} must be > 0 {unit}".rstrip() + f", got {v!r}")
-    return float(v)
-
-
-def _non_negative(v, name: str) -> float:
-    if _finite(v, name) < 0:
-        raise UsageError(f"twin parameter {name} must be >= 0, got {v!r}")
-    return float(v)
-
-
 @dataclass(frozen=True)
 class StructuralMode:
     """A lightly damped mode in the motor-to-encoder paths, in modal form.
@@ -130,9 +113,9 @@ class StructuralMode:
     shape: tuple[float, float] = (1.0, 1.0)
 
     def __post_init__(self) -> None:
-        _positive(self.freq_hz, "mode freq_hz", "Hz")
-        _non_negative(self.zeta, "mode zeta")
-        _non_negative(self.gain, "mode gain")
+        positive_param(self.freq_hz, "mode freq_hz", "Hz")
+        non_negative_param(self.zeta, "mode zeta")
+        non_negative_param(self.gain, "mode gain")
         try:
             a, b = (float(v) for v in self.shape)
         except (TypeError, ValueError):
@@ -254,16 +237,16 @@ class GantryTwinParams:
             raise UsageError("twin parameter model must be a GantryModel")
         for name in ("force_constant_n_per_v", "x_grid_m", "fs", "envelope_m", "overload_tau_s",
                      "base_mass_ratio"):
-            _positive(getattr(self, name), name, "")
+            positive_param(getattr(self, name), name, "")
         for name in ("pitch_hz", "base_hz", "u_max", "overload_rms", "table_offset_m", "amp_hz",
                      "x_amp_hz"):
             if getattr(self, name) is not None:
-                _positive(getattr(self, name), name, "")
+                positive_param(getattr(self, name), name, "")
         for name in ("pitch_zeta", "table_compliance_m_per_n", "pitch_encoder_fraction", "base_zeta", "floor_m",
                      "pwm_noise_v", "quantization_m", "noise_m", "amp_zeta", "x_amp_zeta"):
-            _non_negative(getattr(self, name), name)
+            non_negative_param(getattr(self, name), name)
         for name in ("x_min_m", "x_max_m", "x_reaction_arm_m"):
-            _finite(getattr(self, name), name)
+            finite_param(getattr(self, name), name)
         if not self.x_min_m < self.x_max_m:
             raise UsageError(f"twin parameters need x_min_m < x_max_m, got {self.x_min_m:g} .. {self.x_max_m:g} m")
         if self.x_grid_m > (self.x_max_m - self.x_min_m) / 2:
@@ -655,31 +638,6 @@ def _step(k, u1, u2, ux, z, znew, buf, work, tabA, tabB, par, noise, ext, ref, r
     return 0
 
 
-_COMPILED: dict = {}
-
-
-def _kernels(engine: str):
-    """``(measure, step)``: numba-compiled, or the plain-Python functions."""
-    if _choose_engine(engine) == "python":
-        return _measure, _step
-    if "step" not in _COMPILED:
-        import numba
-
-        _COMPILED["measure"] = numba.njit(cache=True, nogil=True)(_measure)
-        _COMPILED["step"] = numba.njit(cache=True, nogil=True)(_step)
-    return _COMPILED["measure"], _COMPILED["step"]
-
-
-def _choose_engine(engine: str) -> str:
-    if engine not in ENGINES:
-        raise UsageError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
-    if engine == "auto":
-        return "numba" if numba_available() else "python"
-    if engine == "numba" and not numba_available():
-        raise UsageError("engine 'numba' requested but numba is not installed (pip install numba)")
-    return engine
-
-
 # ------------------------------------------------------------------------------------------ results
 @dataclass(frozen=True)
 class GantryRun:
@@ -841,7 +799,7 @@ class GantryTwin:
 
     def frf(self, freq_hz, x: float, *, sampled: bool = True):
         """:meth:`frequency_response` as an :class:`~feedtune.frf.Frf` (``y1, y2`` [m] over ``u1, u2`` [V])."""
-        from ..frf import Frf
+        from ...frf import Frf
 
         f = np.asarray(freq_hz, float)
         return Frf(f, self.frequency_response(f, x, sampled=sampled), ("y1", "y2"), ("u1", "u2"), "position",
@@ -881,7 +839,7 @@ class GantryTwin:
 
     def axis_frf(self, freq_hz, *, sampled: bool = True):
         """:meth:`axis_frequency_response` as an :class:`~feedtune.frf.Frf` (``x`` [m] over ``ux`` [V])."""
-        from ..frf import Frf
+        from ...frf import Frf
 
         f = np.asarray(freq_hz, float)
         h = self.axis_frequency_response(f, sampled=sampled)
@@ -926,14 +884,14 @@ class GantryTwin:
         for ctrl, name in ((gantry, "gantry controller"), (axis, "x-axis controller")):
             _check_controller(ctrl, name)
             ctrl.check_target(self.fs)
-        y_ref = _vector(y_ref, "y_ref")
+        y_ref = sample_vector(y_ref, "y_ref")
         n = y_ref.size if n_samples is None else int(n_samples)
         if not 2 <= n <= y_ref.size:
             raise UsageError(f"n_samples must be between 2 and len(y_ref) = {y_ref.size}, got {n_samples!r}")
-        x_ref = np.full(y_ref.size, float(x_ref)) if np.ndim(x_ref) == 0 else _vector(x_ref, "x_ref", y_ref.size)
+        x_ref = np.full(y_ref.size, float(x_ref)) if np.ndim(x_ref) == 0 else sample_vector(x_ref, "x_ref", y_ref.size)
         if not np.all((x_ref >= self.params.x_min_m) & (x_ref <= self.params.x_max_m)):
             raise UsageError(f"x_ref leaves the table travel {self.params.x_min_m:g} .. {self.params.x_max_m:g} m")
-        force = np.zeros(n) if table_force is None else _vector(table_force, "table_force", n)
+        force = np.zeros(n) if table_force is None else sample_vector(table_force, "table_force", n)
         exc = np.zeros((n, 3))
         if excitation is not None:
             e = np.asarray(excitation, float)
@@ -1009,14 +967,14 @@ class GantryTwin:
 
     def _run(self, gantry, axis, y_full, x_full, pg, pa, y0, x0, noise, ext, ref, total, engine):
         """The per-sample loop: controllers in Python, plant in the kernel. Returns (k_done, status, rec)."""
-        measure, step = _kernels(engine)
+        measure, step = kernel(_measure, engine), kernel(_step, engine)
         tb = self.tables()
         z0 = np.zeros(N_STATES)
         z0[I_X] = x0  # at rest, the table at x0
         arrays = [z0, np.zeros(N_STATES), np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(8), tb.Ad.ravel(),
                   tb.Bd.ravel(), self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(),
                   np.zeros(total * N_REC)]
-        if _choose_engine(engine) == "python":
+        if choose_engine(engine) == "python":
             arrays = [a.tolist() for a in arrays]
         z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec = arrays
         y1, y2, x = measure(0, z, par, nz, rec)
@@ -1060,18 +1018,6 @@ def _check_controller(ctrl, name: str) -> None:
     pv = ctrl.preview_samples
     if isinstance(pv, bool) or int(pv) != pv or pv < 0:
         raise UsageError(f"{name}: preview_samples must be an integer >= 0, got {pv!r}")
-
-
-def _vector(x, name: str, n: int | None = None) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise UsageError(f"{name}: expected a sequence of numbers") from None
-    if a.size < 2 or (n is not None and a.size != n):
-        raise UsageError(f"{name}: expected {n if n is not None else 'at least 2'} samples, got {a.size}")
-    if not np.all(np.isfinite(a)):
-        raise UsageError(f"{name}: contains NaN or infinite values")
-    return a
 
 
 __all__ = ["GantryRun", "GantryTwin", "GantryTwinParams", "StructuralMode", "axis_encoder_row", "continuous_system",

@@ -19,7 +19,7 @@ zero at start; each section is normalised by its ``a0`` when the file is read.
 Fast path: the reference paths (pre-filter and friction feedforward included) do not depend on the
 measurements, so :meth:`GainsRuntime.reference_signals`
 computes them for a whole trajectory at once (``sosfilt``), and the closed-loop simulation of
-:mod:`feedtune.sim.twin` runs only the feedback part per sample (:meth:`GainsRuntime.loop_constants`).
+:mod:`feedtune.machines.ballscrew.twin` runs only the feedback part per sample (:meth:`GainsRuntime.loop_constants`).
 :meth:`GainsRuntime.replay` evaluates the law for recorded measurements without any per-sample loop.
 
 Units: positions [rad] of screw rotation (table travel / ``lead_m_per_rad``), command in the drive's unit
@@ -34,11 +34,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..control.ballscrew_law import GAIN_NAMES as GAIN_ORDER
-from ..control.ballscrew_law import GAIN_UNITS
-from ..control.friction import FrictionFeedforward, reference_velocity
-from ..errors import DataError, UsageError
-from ..io.gains import check_gains_header, friction_from_section, read_sampling, value
+from ...control.ballscrew_law import GAIN_NAMES as GAIN_ORDER
+from ...control.ballscrew_law import GAIN_UNITS
+from ...control.friction import FrictionFeedforward, reference_velocity
+from ...control.sos import SosCascade
+from ...errors import DataError
+from ...io.gains import check_gains_header, friction_from_section, read_sampling, read_sos, value
+from ...sim.engine import sample_vector
 
 SOS_KEYS = {
     "filter_pack": ("filters", "filter_pack_sos"),
@@ -56,56 +58,6 @@ def _section(doc: dict, path: tuple[str, str], where: str):
     if path[1] not in sec:
         raise DataError(f"{where}: gains file has no {path[0]}.{path[1]}")
     return sec[path[1]]
-
-
-def normalized_sos(rows, where: str) -> np.ndarray:
-    """Second-order sections ``[b0, b1, b2, a0, a1, a2]`` divided by ``a0``; DataError when malformed.
-
-    Parameters
-    ----------
-    rows : list of list of float
-        Sections in powers of ``z^-1``.
-    where : str
-        Name used in error messages (file and key).
-
-    Returns
-    -------
-    ndarray, shape (n_sections, 6)
-        With ``a0 = 1`` in every row.
-    """
-    if not isinstance(rows, (list, tuple)) or len(rows) == 0:
-        raise DataError(f"{where}: expected a non-empty list of second-order sections [b0, b1, b2, a0, a1, a2]")
-    out = np.empty((len(rows), 6))
-    for i, row in enumerate(rows):
-        if not isinstance(row, (list, tuple)) or len(row) != 6:
-            raise DataError(f"{where}[{i}]: a section must have 6 coefficients [b0, b1, b2, a0, a1, a2]")
-        out[i] = [value(c, f"{where}[{i}]") for c in row]
-        if out[i, 3] == 0:
-            raise DataError(f"{where}[{i}]: a0 = 0 is not a valid section")
-        out[i] /= out[i, 3]
-    return out
-
-
-
-
-class _SosState:
-    """Cascaded second-order sections, transposed direct form II, executed one sample at a time."""
-
-    def __init__(self, sos: np.ndarray) -> None:
-        self.rows = [tuple(float(c) for c in r) for r in sos]
-        self.w = [[0.0, 0.0] for _ in self.rows]
-
-    def reset(self) -> None:
-        for w in self.w:
-            w[0] = w[1] = 0.0
-
-    def step(self, x: float) -> float:
-        for (b0, b1, b2, _a0, a1, a2), w in zip(self.rows, self.w, strict=True):
-            y = b0 * x + w[0]
-            w[0] = b1 * x - a1 * y + w[1]
-            w[1] = b2 * x - a2 * y
-            x = y
-        return x
 
 
 # --------------------------------------------------------------------------------------------- runtime
@@ -176,7 +128,7 @@ class GainsRuntime:
         self.controller = controller
         self.command_unit = command_unit
         self.source = source
-        self._filters = {k: _SosState(v) for k, v in self.sos.items()}
+        self._filters = {k: SosCascade(v) for k, v in self.sos.items()}
         self.reset()
 
     # ------------------------------------------------------------------ construction
@@ -199,12 +151,12 @@ class GainsRuntime:
             if n not in sec:
                 raise DataError(f"{where}: gains.{n} is missing")
             gains[n] = value(sec[n], f"{where}: gains.{n}", GAIN_UNITS[n])
-        sos = {name: normalized_sos(_section(doc, path, where), f"{where}: {'.'.join(path)}")
+        sos = {name: read_sos(_section(doc, path, where), f"{where}: {'.'.join(path)}")
                for name, path in SOS_KEYS.items()}
         unit = str(doc.get("units", {}).get("command", "V")) if isinstance(doc.get("units"), dict) else "V"
         info = None
         if doc.get("prefilter") is not None:
-            sos["prefilter"] = normalized_sos(_section(doc, ("prefilter", "prefilter_sos"), where),
+            sos["prefilter"] = read_sos(_section(doc, ("prefilter", "prefilter_sos"), where),
                                               f"{where}: prefilter.prefilter_sos")
             info = _prefilter_info(doc, where)
         friction = None
@@ -215,7 +167,7 @@ class GainsRuntime:
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> GainsRuntime:
         """Read a ``.toml`` or ``.json`` gains file."""
-        from ..io import read_document
+        from ...io import read_document
 
         return cls.from_document(read_document(path), str(path))
 
@@ -270,7 +222,7 @@ class GainsRuntime:
     # ------------------------------------------------------------------ vectorised helpers
     def previewed(self, x_ref) -> np.ndarray:
         """The sequence ``x_r[k + P]`` fed to :meth:`step`, holding the last value past the end [rad]."""
-        x = _as_vector(x_ref, "x_ref")
+        x = sample_vector(x_ref, "x_ref", min_size=1)
         P = self.preview_samples
         return x if P == 0 else np.r_[x[P:], np.full(min(P, x.size), x[-1])]
 
@@ -319,8 +271,8 @@ class GainsRuntime:
 
         x1r, x2r, uff = self.reference_signals(x_ref)
         n = x1r.size
-        e1 = x1r - _as_vector(x1, "x1", n)
-        e2 = x2r - _as_vector(x2, "x2", n)
+        e1 = x1r - sample_vector(x1, "x1", n, min_size=1)
+        e2 = x2r - sample_vector(x2, "x2", n, min_size=1)
         de1 = np.diff(e1, prepend=e1[0]) * self.fs
         de2 = np.diff(e2, prepend=e2[0]) * self.fs
         ie2 = np.cumsum(e2 / self.fs)
@@ -341,7 +293,7 @@ class GainsRuntime:
 
     def to_dict(self) -> dict:
         """JSON-ready description (gains with units, sampling, section counts, pre-filter, friction)."""
-        from ..control.ballscrew_prefilter import GAIN_UNITS as PREFILTER_UNITS
+        from ...control.ballscrew_prefilter import GAIN_UNITS as PREFILTER_UNITS
 
         pre = None
         if "prefilter" in self.sos:
@@ -363,7 +315,7 @@ class GainsRuntime:
 
 def _prefilter_info(doc: dict, where: str) -> dict | None:
     """Gains and low-pass of the ``[prefilter]`` (information), None when the section does not give them."""
-    from ..io.gains import read_prefilter_gains
+    from ...io.gains import read_prefilter_gains
 
     sec = doc["prefilter"]
     if not isinstance(sec, dict) or "gains" not in sec:
@@ -372,13 +324,3 @@ def _prefilter_info(doc: dict, where: str) -> dict | None:
     return {"gains": gains, "lpf_hz": lpf}
 
 
-def _as_vector(x, name: str, n: int | None = None) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise UsageError(f"{name}: expected a sequence of numbers") from None
-    if a.size == 0 or (n is not None and a.size != n):
-        raise UsageError(f"{name}: expected {n if n is not None else 'at least 1'} samples, got {a.size}")
-    if not np.all(np.isfinite(a)):
-        raise UsageError(f"{name}: contains NaN or infinite values")
-    return a

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import DataError, UsageError
-from ..log import Log
+from ...errors import DataError, UsageError
+from ...log import Log
 from .twin import BallScrewTwin, TwinRun
 
 EXCITATIONS = ("multisine", "chirp", "prbs")
@@ -162,8 +162,8 @@ def weak_controller(twin: BallScrewTwin, bandwidth_hz: float = 10.0):
     It only holds the axis in place during an FRF measurement, as the factory tuning of a real drive would;
     no filter pack, no feedforward that matters at standstill.
     """
-    from ..design.ppi import design_ppi
-    from ..io.gains import gains_document
+    from ...design.ppi import design_ppi
+    from ...io.gains import gains_document
     from .runtime import GainsRuntime
 
     w = 2 * np.pi * _positive(bandwidth_hz, "weak-controller bandwidth", "Hz")
@@ -226,8 +226,8 @@ def measure_frf(
     ExperimentResult
         ``log`` with ``r, u, x1, x2`` and ``frf`` with ``x1/u``, ``x2/u`` [rad/V] and coherence.
     """
-    from ..frf_sampling import mark_sampling_kept, remove_sampling
-    from ..identify.frf_estimate import estimate_frf
+    from ...frf_sampling import mark_sampling_kept, remove_sampling
+    from ...identify.frf_estimate import estimate_frf
 
     kind = str(excitation).strip().lower()
     if kind not in EXCITATIONS:
@@ -287,9 +287,9 @@ def trajectory_from_log(source, fs: float | None = None):
     fs : float, optional
         Required sample rate [Hz] (DataError when the log differs).
     """
-    from ..io import read_log
-    from ..log import log_signal_names
-    from .trajectory import Trajectory
+    from ...io import read_log
+    from ...log import log_signal_names
+    from ...sim.trajectory import Trajectory
 
     log = source if isinstance(source, Log) else read_log(source)
     names = log_signal_names("x_ref")
@@ -319,7 +319,7 @@ def run_tracking(twin: BallScrewTwin, runtime, trajectory, *, seed: int | None =
         ``x2_table`` [m] and the table tracking error ``e2 = x_ref - x2_table`` [m]; ``metrics``:
         :class:`~feedtune.analysis.metrics.TrackingMetrics` of ``e2``.
     """
-    from ..analysis.metrics import tracking_metrics
+    from ...analysis.metrics import tracking_metrics
 
     if not math.isclose(trajectory.fs, twin.fs, rel_tol=1e-9):
         raise UsageError(f"the trajectory is sampled at {trajectory.fs:g} Hz; the twin runs at {twin.fs:g} Hz "
@@ -376,7 +376,7 @@ def run_ropesnap(twin: BallScrewTwin, runtime, *, force: float = 0.5, t_release:
         ``log``: ``x2`` [rad], ``x2_table`` (displacement) [m], ``x1`` [rad], ``u`` [V], ``d2`` [V];
         ``metrics``: :class:`~feedtune.analysis.metrics.RopeSnapMetrics` (peak, 5 % settling time, ASD).
     """
-    from ..analysis.metrics import ropesnap_metrics
+    from ...analysis.metrics import ropesnap_metrics
 
     force = _positive(force, "rope force", "V")
     t_release = _positive(t_release, "t_release", "s")
