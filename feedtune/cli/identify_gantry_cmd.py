@@ -66,7 +66,7 @@ def gantry(
 
     xs = _check_positions(frf_files, x, "FRF file")
     b = parse_float_pair(band, "--band")
-    from ..machines.gantry.experiments import read_mass_document
+    from ..io.mass_file import read_mass_document
 
     mass_fit, mass_mx = read_mass_document(mass_file) if mass_file is not None else (None, None)
     frfs = [_gantry_frf(p, quantity) for p in frf_files]
@@ -115,7 +115,7 @@ def mass(
     """Total mass and distribution alpha1(x) (thesis Fig. 4.5) from tracking logs; m_x from an x-axis log."""
     from ..identify.mass import fit_axis_mass, fit_mass_distribution
     from ..io import read_log, write_document
-    from ..machines.gantry.experiments import mass_document
+    from ..io.mass_file import mass_document
 
     xs = _check_positions(logs, x, "log")
     fit = fit_mass_distribution([read_log(p) for p in logs], xs, u1=u1, u2=u2, acc_ref=acc_ref)

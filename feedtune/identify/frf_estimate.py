@@ -537,3 +537,65 @@ def _periodic(
     if kept == 1:
         meta["coherence_note"] = "one period averaged: coherence is 1 by construction"
     return line_idx / (period * dt), h, coh, meta
+
+
+# ------------------------------------------------------------------------------------------ FRF
+def estimate_frf_2x2(log: Log, *, period_samples: int, block_periods: int, band_hz: tuple[float, float],
+                     transient_periods: int = 1):
+    """Indirect closed-loop 2x2 FRF from a log whose first block excites ``r1`` and second ``r2``.
+
+    Each block holds ``block_periods`` periods of ``period_samples``; its first ``transient_periods`` are
+    dropped. Per excited line, ``T_y = [y/r1, y/r2]`` and ``T_u = [u/r1, u/r2]`` are the periodic estimates
+    of :func:`~feedtune.identify.frf_estimate.estimate_frf` and the plant is ``G = T_y T_u^-1`` (noise
+    uncorrelated with the excitation averages out of both). The coherence of ``y_i / u_j`` is that of
+    ``y_i`` with ``r_j`` in block ``j``.
+
+    Parameters
+    ----------
+    log : Log
+        Uniform log with ``r1, r2, u1, u2`` [V] and ``y1, y2`` [m].
+    period_samples : int
+        Excitation period [samples].
+    block_periods : int
+        Periods per block.
+    band_hz : (float, float)
+        Excited band [Hz].
+    transient_periods : int
+        Periods dropped at the start of each block.
+
+    Returns
+    -------
+    Frf
+        Outputs ``y1, y2`` [m], inputs ``u1, u2`` [V], position, with coherence.
+    """
+
+    block = period_samples * block_periods
+    if log.n < 2 * block:
+        raise DataError(f"{log.source}: {log.n} samples, fewer than two blocks of {block}")
+    Ty, Tu, coh = [], [], []
+    freq = None
+    for j in range(2):
+        part = Log(log.t[j * block:(j + 1) * block],
+                   {k: log.get(k)[j * block:(j + 1) * block] for k in (f"r{j + 1}", "u1", "u2", "y1", "y2")},
+                   log.units, {"source": f"{log.source} (block {j + 1})"})
+        half_line = 0.5 / (period_samples * log.dt)  # the band edges are lines: keep them despite rounding
+        kw = {"input": f"r{j + 1}", "method": "periodic", "period_samples": int(period_samples),
+              "transient_periods": int(transient_periods),
+              "freq_range": (max(0.0, band_hz[0] - half_line), band_hz[1] + half_line)}
+        ey = estimate_frf(part, outputs=["y1", "y2"], **kw)
+        eu = estimate_frf(part, outputs=["u1", "u2"], **kw)
+        if freq is not None and not (freq.size == ey.freq_hz.size and np.allclose(freq, ey.freq_hz, rtol=1e-9)):
+            raise DataError(f"{log.source}: the two blocks excite different lines; use the same multisine")
+        freq = ey.freq_hz if freq is None else freq
+        Ty.append(ey.response[:, 0])
+        Tu.append(eu.response[:, 0])
+        coh.append(ey.coherence[:, 0])
+    Ty_f = np.moveaxis(np.stack(Ty, axis=1), -1, 0)  # (n_freq, 2 outputs, 2 blocks)
+    Tu_f = np.moveaxis(np.stack(Tu, axis=1), -1, 0)
+    G = np.linalg.solve(np.swapaxes(Tu_f, 1, 2), np.swapaxes(Ty_f, 1, 2))  # G Tu = Ty  <=>  Tu^T G^T = Ty^T
+    G = np.moveaxis(np.swapaxes(G, 1, 2), 0, -1)
+    C = np.stack(coh, axis=1)
+    return Frf(freq, G, ("y1", "y2"), ("u1", "u2"), "position", C, input_unit=log.unit("u1"),
+               output_unit=log.unit("y1"),
+               meta={"source": log.source, "estimator": "indirect closed-loop G = T_yr T_ur^-1 (periodic)",
+                     "period_samples": str(period_samples), "block_periods": str(block_periods)})

@@ -45,3 +45,10 @@ def parse_override_value(raw, key: str):
         return int(text) if text.lstrip("+-").isdigit() else float(text)
     except ValueError:
         raise UsageError(f"twin parameter {key}: expected a number or 'none', got {raw!r}") from None
+
+
+def positive_setting(v, name: str, unit: str) -> float:
+    """An experiment setting ``v`` as a float > 0; UsageError naming the setting and its unit otherwise."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise UsageError(f"{name} must be a finite number > 0 {unit}, got {v!r}")
+    return float(v)

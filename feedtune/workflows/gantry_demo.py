@@ -151,7 +151,7 @@ def _identify(twin, xs, frfs, mass_logs, axis_log, texts):
     from ..identify.gantry import fit_gantry
     from ..identify.mass import fit_axis_mass, fit_mass_distribution
     from ..io import dumps_json, dumps_toml, model_document
-    from ..machines.gantry.experiments import mass_document
+    from ..io.mass_file import mass_document
 
     mass = fit_mass_distribution(mass_logs, xs, acc_ref="ay_ref")
     m_x = fit_axis_mass(axis_log, u="ux", acc_ref="a_ref")

@@ -25,47 +25,14 @@ import numpy as np
 
 from ...errors import DataError, UsageError
 from ...log import Log
+from ...sim.excitations import chirp_period, drift_reference, multisine, prbs_period, ropesnap_force
+from ...sim.experiment import ExperimentResult
+from ...sim.params import positive_setting
 from .twin import BallScrewTwin, TwinRun
 
 EXCITATIONS = ("multisine", "chirp", "prbs")
 
 
-# ------------------------------------------------------------------------------------------ results
-@dataclass(frozen=True)
-class ExperimentResult:
-    """What an experiment produced.
-
-    Attributes
-    ----------
-    kind : str
-        ``"frf"``, ``"track"``, ``"ropesnap"`` or ``"cut"``.
-    log : Log
-        The recorded signals (``meta["trip"]`` says why a run stopped early).
-    run : TwinRun
-        The raw closed-loop run.
-    summary : dict
-        JSON-ready figures with units in the keys (metrics, settings).
-    frf : Frf or None
-        The estimated FRF (``"frf"`` experiment).
-    metrics : object or None
-        :class:`~feedtune.analysis.metrics.TrackingMetrics` or ``RopeSnapMetrics`` (None after a trip).
-    """
-
-    kind: str
-    log: Log
-    run: TwinRun
-    summary: dict
-    frf: object = None
-    metrics: object = None
-
-    @property
-    def tripped(self) -> bool:
-        """True when the safety envelope stopped the run."""
-        return self.run.tripped
-
-    def to_dict(self) -> dict:
-        """``summary`` plus the run's duration and trip state."""
-        return {"experiment": self.kind, **self.summary, "run": self.run.to_dict()}
 
 
 @dataclass(frozen=True)
@@ -93,12 +60,6 @@ class ClosedLoopResponse:
 
 
 # ------------------------------------------------------------------------------------------ helpers
-def _positive(v, name: str, unit: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise UsageError(f"{name} must be a finite number > 0 {unit}, got {v!r}")
-    return float(v)
-
-
 def _trip_meta(run: TwinRun) -> dict:
     return {"trip": run.trip_message} if run.tripped else {}
 
@@ -109,51 +70,12 @@ def _base_signals(twin: BallScrewTwin, run: TwinRun) -> tuple[dict, dict]:
     return sig, units
 
 
-# ------------------------------------------------------------------------------------------ excitations
-def multisine(fs: float, period_s: float, f_lo: float, f_hi: float, rms: float, rng) -> np.ndarray:
-    """One period of a random-phase multisine with flat amplitude on the lines ``f_lo..f_hi`` [V]."""
-    n = round(period_s * fs)
-    df = fs / n
-    k = np.arange(n // 2 + 1)
-    lines = (k * df >= f_lo) & (k * df <= f_hi) & (k > 0)
-    if not lines.any():
-        raise UsageError(f"no excitation line between {f_lo:g} and {f_hi:g} Hz at {df:g} Hz spacing; "
-                         "lengthen the period or widen the band")
-    spec = np.zeros(k.size, complex)
-    spec[lines] = np.exp(2j * np.pi * rng.random(int(lines.sum())))
-    x = np.fft.irfft(spec, n)
-    return x * rms / np.sqrt(np.mean(x**2))
 
 
-def chirp_period(fs: float, period_s: float, f_lo: float, f_hi: float, rms: float) -> np.ndarray:
-    """One period of a logarithmic sweep ``f_lo -> f_hi`` with amplitude ``sqrt(2) rms`` [V]."""
-    from scipy.signal import chirp
-
-    n = round(period_s * fs)
-    t = np.arange(n) / fs
-    return np.sqrt(2) * rms * chirp(t, f_lo, t[-1], f_hi, method="logarithmic", phi=-90)
 
 
-def prbs_period(fs: float, period_s: float, f_hi: float, rms: float) -> np.ndarray:
-    """About ``period_s`` of a maximum-length binary sequence (+-rms) clocked at about ``2.5 f_hi`` [V]."""
-    from scipy.signal import max_len_seq
-
-    hold = max(1, int(fs / (2.5 * f_hi)))
-    nbits = int(np.clip(np.ceil(np.log2(period_s * fs / hold + 1)), 6, 20))
-    seq = max_len_seq(nbits)[0].astype(float) * 2 - 1
-    return rms * np.repeat(seq, hold)
 
 
-# ------------------------------------------------------------------------------------------ FRF
-def drift_reference(fs: float, n: int, speed: float, ramp_s: float) -> np.ndarray:
-    """Table reference [m] reaching ``speed`` [m/s] with a raised-cosine velocity over ``ramp_s`` [s]."""
-    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not math.isfinite(speed):
-        raise UsageError(f"drift speed must be a finite number in m/s, got {speed!r}")
-    t = np.arange(n) / fs
-    # integral of speed * (1 - cos(pi t / ramp)) / 2 during the ramp, then constant speed
-    during = speed * (t / 2 - ramp_s / (2 * np.pi) * np.sin(np.pi * t / ramp_s))
-    after = speed * (t - ramp_s / 2)
-    return np.where(t < ramp_s, during, after)
 
 
 def weak_controller(twin: BallScrewTwin, bandwidth_hz: float = 10.0):
@@ -166,7 +88,7 @@ def weak_controller(twin: BallScrewTwin, bandwidth_hz: float = 10.0):
     from ...io.gains import gains_document
     from .runtime import GainsRuntime
 
-    w = 2 * np.pi * _positive(bandwidth_hz, "weak-controller bandwidth", "Hz")
+    w = 2 * np.pi * positive_setting(bandwidth_hz, "weak-controller bandwidth", "Hz")
     m = twin.params.model
     kpv = m.total_inertia * w
     design = design_ppi(m, Kpx=w / 4, Kpv=kpv, Kiv=kpv * w / 4, fs=twin.fs, delay_samples=twin.params.delay_samples)
@@ -232,9 +154,9 @@ def measure_frf(
     kind = str(excitation).strip().lower()
     if kind not in EXCITATIONS:
         raise UsageError(f"excitation must be one of {', '.join(EXCITATIONS)}, got {excitation!r}")
-    rms = _positive(rms, "excitation rms", "V")
-    f_lo, f_hi, period_s = (_positive(f_lo, "f_lo", "Hz"), _positive(f_hi, "f_hi", "Hz"),
-                            _positive(period_s, "period", "s"))
+    rms = positive_setting(rms, "excitation rms", "V")
+    f_lo, f_hi, period_s = (positive_setting(f_lo, "f_lo", "Hz"), positive_setting(f_hi, "f_hi", "Hz"),
+                            positive_setting(period_s, "period", "s"))
     if not f_lo < f_hi < twin.fs / 2:
         raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
     if isinstance(periods, bool) or int(periods) != periods or periods < 2:
@@ -351,15 +273,6 @@ def run_tracking(twin: BallScrewTwin, runtime, trajectory, *, seed: int | None =
     return ExperimentResult(kind, log, run, summary, metrics=met)
 
 
-# ------------------------------------------------------------------------------------------ rope snap
-def ropesnap_force(fs: float, duration: float, force: float, t_release: float, preload_s: float = 0.1) -> np.ndarray:
-    """External table force [V]: ``-force`` ramped in over ``preload_s`` (raised cosine), 0 from ``t_release``."""
-    n = round(duration * fs) + 1
-    t = np.arange(n) / fs
-    ramp = np.clip(t / preload_s, 0.0, 1.0)
-    d2 = -force * 0.5 * (1 - np.cos(np.pi * ramp))
-    d2[t >= t_release - 0.5 / fs] = 0.0
-    return d2
 
 
 def run_ropesnap(twin: BallScrewTwin, runtime, *, force: float = 0.5, t_release: float = 0.6,
@@ -378,10 +291,10 @@ def run_ropesnap(twin: BallScrewTwin, runtime, *, force: float = 0.5, t_release:
     """
     from ...analysis.metrics import ropesnap_metrics
 
-    force = _positive(force, "rope force", "V")
-    t_release = _positive(t_release, "t_release", "s")
-    after_s = _positive(after_s, "time after the release", "s")
-    record_before_s = _positive(record_before_s, "time recorded before the release", "s")
+    force = positive_setting(force, "rope force", "V")
+    t_release = positive_setting(t_release, "t_release", "s")
+    after_s = positive_setting(after_s, "time after the release", "s")
+    record_before_s = positive_setting(record_before_s, "time recorded before the release", "s")
     if t_release < 0.1 + record_before_s:
         raise UsageError(f"t_release must leave the 0.1 s preload ramp and {record_before_s:g} s of record before "
                          f"it, i.e. be >= {0.1 + record_before_s:g} s, got {t_release:g}")

@@ -24,12 +24,16 @@ the twin's force constant), time s.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ...errors import DataError, UsageError
+from ...identify.frf_estimate import estimate_frf_2x2
 from ...log import Log
+from ...sim.excitations import multisine, ropesnap_force
+from ...sim.experiment import ExperimentResult
+from ...sim.params import positive_setting
 from .twin import GantryRun, GantryTwin
 
 ROPE_FORCE_N = 57.0
@@ -231,41 +235,7 @@ def _controllers(twin: GantryTwin, gantry, axis):
 
 
 # ------------------------------------------------------------------------------------------ results
-@dataclass(frozen=True)
-class GantryExperimentResult:
-    """What a gantry experiment produced.
-
-    Attributes
-    ----------
-    kind : str
-        ``"frf"``, ``"axis_frf"``, ``"mass"``, ``"axis_mass"``, ``"ropesnap"``, ``"track"`` or ``"contour"``.
-    log : Log
-        The recorded signals (``meta["trip"]`` says why a run stopped early).
-    run : GantryRun
-        The raw closed-loop run.
-    summary : dict
-        JSON-ready figures with units in the keys.
-    frf : Frf or None
-        The estimated 2x2 FRF (``"frf"``).
-    metrics : object or None
-        Tracking, rope-snap or contour metrics (None after a trip).
-    """
-
-    kind: str
-    log: Log
-    run: GantryRun
-    summary: dict
-    frf: object = None
-    metrics: object = None
-
-    @property
-    def tripped(self) -> bool:
-        """True when a safety limit stopped the run."""
-        return self.run.tripped
-
-    def to_dict(self) -> dict:
-        """``summary`` plus the run's duration and trip state."""
-        return {"experiment": self.kind, **self.summary, "run": self.run.to_dict()}
+GantryExperimentResult = ExperimentResult  # one result type for every machine
 
 
 def _meta(run: GantryRun, kind: str, gantry, axis, **extra) -> dict:
@@ -282,12 +252,6 @@ def _machine_signals(run: GantryRun) -> tuple[dict, dict]:
     return sig, dict.fromkeys(("y1", "y2", "x"), "m") | dict.fromkeys(("u1", "u2", "ux"), "V")
 
 
-def _positive(v, name: str, unit: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise UsageError(f"{name} must be a finite number > 0 {unit}, got {v!r}")
-    return float(v)
-
-
 def _position(twin: GantryTwin, x, name: str = "table position x") -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
         raise UsageError(f"{name} must be a finite number [m], got {x!r}")
@@ -297,68 +261,6 @@ def _position(twin: GantryTwin, x, name: str = "table position x") -> float:
     return float(x)
 
 
-# ------------------------------------------------------------------------------------------ FRF
-def estimate_frf_2x2(log: Log, *, period_samples: int, block_periods: int, band_hz: tuple[float, float],
-                     transient_periods: int = 1):
-    """Indirect closed-loop 2x2 FRF from a log whose first block excites ``r1`` and second ``r2``.
-
-    Each block holds ``block_periods`` periods of ``period_samples``; its first ``transient_periods`` are
-    dropped. Per excited line, ``T_y = [y/r1, y/r2]`` and ``T_u = [u/r1, u/r2]`` are the periodic estimates
-    of :func:`~feedtune.identify.frf_estimate.estimate_frf` and the plant is ``G = T_y T_u^-1`` (noise
-    uncorrelated with the excitation averages out of both). The coherence of ``y_i / u_j`` is that of
-    ``y_i`` with ``r_j`` in block ``j``.
-
-    Parameters
-    ----------
-    log : Log
-        Uniform log with ``r1, r2, u1, u2`` [V] and ``y1, y2`` [m].
-    period_samples : int
-        Excitation period [samples].
-    block_periods : int
-        Periods per block.
-    band_hz : (float, float)
-        Excited band [Hz].
-    transient_periods : int
-        Periods dropped at the start of each block.
-
-    Returns
-    -------
-    Frf
-        Outputs ``y1, y2`` [m], inputs ``u1, u2`` [V], position, with coherence.
-    """
-    from ...frf import Frf
-    from ...identify.frf_estimate import estimate_frf
-
-    block = period_samples * block_periods
-    if log.n < 2 * block:
-        raise DataError(f"{log.source}: {log.n} samples, fewer than two blocks of {block}")
-    Ty, Tu, coh = [], [], []
-    freq = None
-    for j in range(2):
-        part = Log(log.t[j * block:(j + 1) * block],
-                   {k: log.get(k)[j * block:(j + 1) * block] for k in (f"r{j + 1}", "u1", "u2", "y1", "y2")},
-                   log.units, {"source": f"{log.source} (block {j + 1})"})
-        half_line = 0.5 / (period_samples * log.dt)  # the band edges are lines: keep them despite rounding
-        kw = {"input": f"r{j + 1}", "method": "periodic", "period_samples": int(period_samples),
-              "transient_periods": int(transient_periods),
-              "freq_range": (max(0.0, band_hz[0] - half_line), band_hz[1] + half_line)}
-        ey = estimate_frf(part, outputs=["y1", "y2"], **kw)
-        eu = estimate_frf(part, outputs=["u1", "u2"], **kw)
-        if freq is not None and not (freq.size == ey.freq_hz.size and np.allclose(freq, ey.freq_hz, rtol=1e-9)):
-            raise DataError(f"{log.source}: the two blocks excite different lines; use the same multisine")
-        freq = ey.freq_hz if freq is None else freq
-        Ty.append(ey.response[:, 0])
-        Tu.append(eu.response[:, 0])
-        coh.append(ey.coherence[:, 0])
-    Ty_f = np.moveaxis(np.stack(Ty, axis=1), -1, 0)  # (n_freq, 2 outputs, 2 blocks)
-    Tu_f = np.moveaxis(np.stack(Tu, axis=1), -1, 0)
-    G = np.linalg.solve(np.swapaxes(Tu_f, 1, 2), np.swapaxes(Ty_f, 1, 2))  # G Tu = Ty  <=>  Tu^T G^T = Ty^T
-    G = np.moveaxis(np.swapaxes(G, 1, 2), 0, -1)
-    C = np.stack(coh, axis=1)
-    return Frf(freq, G, ("y1", "y2"), ("u1", "u2"), "position", C, input_unit=log.unit("u1"),
-               output_unit=log.unit("y1"),
-               meta={"source": log.source, "estimator": "indirect closed-loop G = T_yr T_ur^-1 (periodic)",
-                     "period_samples": str(period_samples), "block_periods": str(block_periods)})
 
 
 def measure_gantry_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_lo: float = 2.0,
@@ -379,12 +281,11 @@ def measure_gantry_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_
         ``log``: ``r1, r2, u1, u2, ux`` [V], ``y1, y2, x`` [m]; ``frf``: ``y_i / u_j`` [m/V] with coherence
         (:func:`estimate_frf_2x2`).
     """
-    from ..ballscrew.experiments import multisine
 
     x = _position(twin, x)
-    rms = _positive(rms, "excitation rms", "V")
-    f_lo, f_hi, period_s = (_positive(f_lo, "f_lo", "Hz"), _positive(f_hi, "f_hi", "Hz"),
-                            _positive(period_s, "period", "s"))
+    rms = positive_setting(rms, "excitation rms", "V")
+    f_lo, f_hi, period_s = (positive_setting(f_lo, "f_lo", "Hz"), positive_setting(f_hi, "f_hi", "Hz"),
+                            positive_setting(period_s, "period", "s"))
     if not f_lo < f_hi < twin.fs / 2:
         raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
     if isinstance(periods, bool) or int(periods) != periods or periods < 2:
@@ -441,12 +342,11 @@ def measure_axis_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_lo
     """
     from ...frf_sampling import mark_sampling_kept, remove_sampling
     from ...identify.frf_estimate import estimate_frf
-    from ..ballscrew.experiments import multisine
 
     x = _position(twin, x)
-    rms = _positive(rms, "excitation rms", "V")
-    f_lo, f_hi, period_s = (_positive(f_lo, "f_lo", "Hz"), _positive(f_hi, "f_hi", "Hz"),
-                            _positive(period_s, "period", "s"))
+    rms = positive_setting(rms, "excitation rms", "V")
+    f_lo, f_hi, period_s = (positive_setting(f_lo, "f_lo", "Hz"), positive_setting(f_hi, "f_hi", "Hz"),
+                            positive_setting(period_s, "period", "s"))
     if not f_lo < f_hi < twin.fs / 2:
         raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
     if isinstance(periods, bool) or int(periods) != periods or periods < 2:
@@ -569,77 +469,10 @@ def _tracking_result(kind: str, run: GantryRun, ref: Log, gantry, axis, **extra)
     return GantryExperimentResult(kind, log, run, summary, metrics=tuple(mets))
 
 
-# ------------------------------------------------------------------------------------------ mass document
-MASS_SCHEMA = "feedtune.mass"
-MASS_KIND = "gantry_mass"
 
 
-def mass_document(fit, m_x: float | None, input_unit: str = "V") -> dict:
-    """The mass document written by ``feedtune identify mass`` (``schema = "feedtune.mass/1"``).
-
-    Parameters
-    ----------
-    fit : MassFit
-        From :func:`~feedtune.identify.mass.fit_mass_distribution`.
-    m_x : float or None
-        Table mass [V/(m/s^2)] from :func:`~feedtune.identify.mass.fit_axis_mass`.
-    input_unit : str
-        Command unit.
-
-    Returns
-    -------
-    dict
-        ``m`` [V/(m/s^2)], ``alpha1_0`` [-], ``dalpha1_dx`` [1/m], ``alpha1_rms_residual`` [-], ``m_x`` and the
-        per-position fits, numbers as ``{value, unit}``.
-    """
-    from ...io import quantity
-
-    u = input_unit
-    doc = {
-        "schema": f"{MASS_SCHEMA}/1",
-        "kind": MASS_KIND,
-        "input_unit": u,
-        "m": quantity(fit.m, f"{u}/(m/s^2)"),
-        "alpha1_0": quantity(fit.alpha1_0, "-"),
-        "dalpha1_dx": quantity(fit.dalpha1_dx, "1/m"),
-        "alpha1_rms_residual": quantity(fit.alpha1_rms_residual, "-"),
-        "positions": [p.to_dict() for p in fit.positions],
-    }
-    if m_x is not None:
-        doc["m_x"] = quantity(m_x, f"{u}/(m/s^2)")
-    return doc
 
 
-def read_mass_document(path):
-    """``(MassFit, m_x or None)`` from a mass document (:func:`mass_document`) at ``path``.
-
-    The returned :class:`~feedtune.identify.mass.MassFit` carries the total mass and the ``alpha1(x)`` line
-    (its ``side_masses(x)`` is the constraint of eq. 4.13); the per-position fits are not read back.
-
-    Raises
-    ------
-    DataError
-        Unreadable file, another schema or kind, a missing entry or a unit other than the one written.
-    """
-    from ...errors import DataError
-    from ...identify.mass import MassFit
-    from ...io import read_document, require_schema, value_of
-
-    where = str(path)
-    doc = read_document(path)
-    require_schema(doc, MASS_SCHEMA, where)
-    if doc.get("kind") != MASS_KIND:
-        raise DataError(f"{where}: kind must be {MASS_KIND!r}, got {doc.get('kind')!r}")
-    u = doc.get("input_unit", "V")
-    for key in ("m", "alpha1_0", "dalpha1_dx"):
-        if key not in doc:
-            raise DataError(f"{where}: entry {key!r} is missing")
-    fit = MassFit(positions=(), m=value_of(doc["m"], f"{u}/(m/s^2)", f"{where}: m"),
-                  alpha1_0=value_of(doc["alpha1_0"], "-", f"{where}: alpha1_0"),
-                  dalpha1_dx=value_of(doc["dalpha1_dx"], "1/m", f"{where}: dalpha1_dx"),
-                  alpha1_rms_residual=value_of(doc.get("alpha1_rms_residual", 0.0), "-", where))
-    m_x = value_of(doc["m_x"], f"{u}/(m/s^2)", f"{where}: m_x") if "m_x" in doc else None
-    return fit, m_x
 
 
 def measure_mass(twin: GantryTwin, xs, *, axis_run: bool = True, controller=None, axis=None,
@@ -657,16 +490,6 @@ def measure_mass(twin: GantryTwin, xs, *, axis_run: bool = True, controller=None
 
 
 # ------------------------------------------------------------------------------------------ rope snap
-def rope_force(fs: float, duration: float, force: float, t_release: float, preload_s: float = 0.1) -> np.ndarray:
-    """Table force [V]: ``-force`` ramped in over ``preload_s`` (raised cosine), 0 from ``t_release``."""
-    n = round(duration * fs) + 1
-    t = np.arange(n) / fs
-    ramp = np.clip(t / preload_s, 0.0, 1.0)
-    f = -force * 0.5 * (1 - np.cos(np.pi * ramp))
-    f[t >= t_release - 0.5 / fs] = 0.0
-    return f
-
-
 def run_gantry_ropesnap(twin: GantryTwin, gantry, axis=None, *, force_n: float = ROPE_FORCE_N, x: float = 0.0,
                         t_release: float = 0.5, after_s: float = 0.5, record_before_s: float = 0.1,
                         seed: int | None = 0, engine: str = "auto") -> GantryExperimentResult:
@@ -684,16 +507,16 @@ def run_gantry_ropesnap(twin: GantryTwin, gantry, axis=None, *, force_n: float =
     from ...analysis.metrics import ropesnap_metrics
 
     x = _position(twin, x)
-    force_n = _positive(force_n, "rope force", "N")
-    t_release = _positive(t_release, "t_release", "s")
-    after_s = _positive(after_s, "time after the release", "s")
-    record_before_s = _positive(record_before_s, "time recorded before the release", "s")
+    force_n = positive_setting(force_n, "rope force", "N")
+    t_release = positive_setting(t_release, "t_release", "s")
+    after_s = positive_setting(after_s, "time after the release", "s")
+    record_before_s = positive_setting(record_before_s, "time recorded before the release", "s")
     if t_release < 0.1 + record_before_s:
         raise UsageError(f"t_release must leave the 0.1 s preload ramp and {record_before_s:g} s of record before "
                          f"it, i.e. be >= {0.1 + record_before_s:g} s, got {t_release:g}")
     force_v = force_n * twin.params.rope_v_per_n
     gantry, axis = _controllers(twin, gantry, axis)
-    f = rope_force(twin.fs, t_release + after_s, force_v, t_release)
+    f = ropesnap_force(twin.fs, t_release + after_s, force_v, t_release)
     run = twin.simulate(gantry, axis, np.zeros(f.size), x_ref=x, table_force=f, seed=seed, engine=engine).from_zero()
     sig, units = _machine_signals(run)
     sig = {"y_table": run.y_table, **sig, "F_table": f[: run.t.size]}
