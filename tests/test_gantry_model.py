@@ -9,12 +9,8 @@ import numpy as np
 import pytest
 
 from feedtune.errors import DataError, UsageError
-from feedtune.models.gantry import (
-    THESIS_GANTRY,
-    GantryModel,
-    gantry_model_from_doc,
-    gantry_model_to_doc,
-)
+from feedtune.io.gantry_model import gantry_model_from_doc, gantry_model_to_doc
+from feedtune.models.gantry import THESIS_GANTRY, GantryModel
 
 T = THESIS_GANTRY
 XS = (-0.15, 0.0, 0.15)

@@ -409,7 +409,8 @@ def axis_plant_cases(design, frf: Frf | None = None, *, channel: str | None = No
     measured SISO FRF (by default the design's own, if it was designed on one) [m/V]."""
     fs, delay = design.fs, design.delay_samples
     f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
-    m = design.plant.mass
+    plant = getattr(design, "plant", None)  # a LoopShapeDesign knows the FRF it was designed on; an AxisLaw not
+    m = design.mass if plant is None else plant.mass
 
     def rigid(fr):
         return 1.0 / (m * (2j * np.pi * np.asarray(fr, float)) ** 2)
@@ -417,11 +418,12 @@ def axis_plant_cases(design, frf: Frf | None = None, *, channel: str | None = No
     cases: dict[str, PlantCase | None] = dict(model_cases(
         f, fs, delay, model_plant=rigid, zoh_plant=lambda fr: zoh_double_integrator(m, fs, fr),
         features=np.empty((0, 2))))
-    meas = frf if frf is not None else design.plant.frf
+    own = None if plant is None else plant.frf
+    meas = frf if frf is not None else own
     if meas is None:
         cases["measured"] = cases["discrete"] = None
         return cases
-    ch = channel or (design.plant.channel if meas is design.plant.frf else None)
+    ch = channel or (plant.channel if meas is own else None)
     if ch is None:
         if len(meas.channels) != 1:
             raise DataError(f"{meas.source}: the FRF has channels {', '.join(meas.channels)}; choose one")
@@ -436,11 +438,11 @@ def axis_plant_cases(design, frf: Frf | None = None, *, channel: str | None = No
 
 
 def analyze_axis(design, frf: Frf | None = None, *, channel: str | None = None, freq_hz=None) -> AxisAnalysis:
-    """Analyse a :class:`~feedtune.design.loopshape.LoopShapeDesign` in all cases.
+    """Analyse an x-axis law (:class:`~feedtune.control.axis.AxisLaw` or a ``LoopShapeDesign``) in all cases.
 
     Parameters
     ----------
-    design : LoopShapeDesign
+    design : AxisLaw or LoopShapeDesign
     frf : Frf, optional
         Measured SISO position FRF [m/V]; by default the design's own FRF (if it was designed on one).
     channel : str, optional

@@ -46,9 +46,9 @@ def gantry_document_result(doc: dict, where: str, frf_path=None, quantity=None) 
     gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in doc.get("gains", {}).items()}
     if kind == AXIS_KIND:
         from ..analysis.gantry import analyze_axis
-        from ..io.gantry_gains import axis_design_from_document
+        from ..io.gantry_gains import axis_law_from_document
 
-        design = axis_design_from_document(doc, where)
+        design = axis_law_from_document(doc, where)
         full = analyze_axis(design, frf)
         return {"kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _units(doc),
                 "lead_stages": [s.to_dict() for s in design.lead_stages], "analysis": full.to_dict()}, full

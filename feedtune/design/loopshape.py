@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..control.axis import AxisLaw
 from ..control.discretize import check_sampling, matched
 from ..control.filters import (
     TWO_PI,
@@ -39,7 +40,6 @@ from ..control.filters import (
 )
 from ..control.prefilter import (
     PrefilterGains,
-    preview_samples,
 )
 from ..errors import DataError, DesignError, UsageError
 from ..frf import Frf
@@ -211,33 +211,36 @@ class LoopShapeDesign:
     kind = "loopshape"
 
     @property
+    def law(self) -> AxisLaw:
+        """The control law alone (what runtimes, analyses and gains files need)."""
+        return AxisLaw(self.plant.mass, self.gain, self.ti_s, tuple(self.lead_stages), self.filters, self.fs,
+                       self.delay_samples, self.prefilter, self.prefilter_hz)
+
+    @property
     def lead_deg(self) -> float:
         """Total phase lead of the stages at the crossover [deg]."""
-        return float(sum(s.phase_deg for s in self.lead_stages))
+        return self.law.lead_deg
 
     def pi_zpk(self) -> Zpk:
         """``(Ti s + 1)/s``."""
-        return Zpk([-1.0 / self.ti_s], [0.0], self.ti_s)
+        return self.law.pi_zpk()
 
     def controller(self) -> Zpk:
         """Continuous ``C(s)`` [V/m] of eq. 4.18 including the filter pack."""
-        c = self.pi_zpk() * self.filters.zpk() * self.gain
-        for stage in self.lead_stages:
-            c = c * stage.zpk()
-        return c
+        return self.law.controller()
 
     def controller_discrete(self) -> Zpk:
         """Pole-zero-matched ``C(z)`` at ``fs``."""
-        return matched(self.controller(), self.fs).tf
+        return self.law.controller_discrete()
 
     def feedforward(self) -> Zpk:
         """``m_x s^2`` [V/m] (eq. 4.19)."""
-        return Zpk([0.0, 0.0], [], self.plant.mass)
+        return self.law.feedforward()
 
     @property
     def preview_samples(self) -> int:
         """Reference look-ahead of the discrete feedforward [samples]."""
-        return preview_samples(self.fs)
+        return self.law.preview_samples
 
     def design_dict(self) -> dict:
         """Design parameters and results with units in the keys."""

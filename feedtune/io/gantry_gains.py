@@ -209,7 +209,7 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
     analysis : dict, optional
         ``GantryAnalysis.to_dict()`` to store for information.
     """
-    from ..models.gantry import gantry_model_to_doc
+    from .gantry_model import gantry_model_to_doc
 
     law = design.law
     unit = design.model.input_unit
@@ -312,7 +312,7 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
     from ..control.filters import LoopFilters
     from ..control.gantry import GantryReference, MimoLaw, PidLaw
     from ..control.prefilter import PrefilterGains
-    from ..models.gantry import gantry_model_from_doc
+    from .gantry_model import gantry_model_from_doc
 
     check_header(doc, where, (GANTRY_KIND,))
     controller = doc.get("controller")
@@ -344,11 +344,11 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
     return law, model, x, reference
 
 
-def axis_design_from_document(doc: dict, where: str = "gains file"):
-    """Rebuild the :class:`~feedtune.design.loopshape.LoopShapeDesign` of an axis gains document."""
+def axis_law_from_document(doc: dict, where: str = "gains file"):
+    """Rebuild the :class:`~feedtune.control.axis.AxisLaw` of an axis gains document (DataError naming the key)."""
+    from ..control.axis import AxisLaw
     from ..control.filters import LoopFilters
     from ..control.prefilter import PrefilterGains
-    from ..design.loopshape import AxisPlant, LoopShapeDesign
 
     check_header(doc, where, (AXIS_KIND,))
     fs, delay = _sampling_values(doc, where)
@@ -368,11 +368,4 @@ def axis_design_from_document(doc: dict, where: str = "gains file"):
              for t in PREFILTER_TERMS]
     ref_sec = section(doc, "reference", where)
     pre_hz = value(entry(ref_sec, "reference", "prefilter_hz", where), f"{where}: reference.prefilter_hz", "Hz")
-    design = doc.get("design") if isinstance(doc.get("design"), dict) else {}
-    model = doc.get("model") if isinstance(doc.get("model"), dict) else {}
-    plant = AxisPlant(mass, source=str(model.get("source", "gains file")),
-                      mass_method=str(model.get("mass_method", "given")))
-    return LoopShapeDesign(
-        plant, float(design.get("crossover_hz", float("nan"))), float(design.get("pm_deg", float("nan"))),
-        float(design.get("pi_lag_deg", float("nan"))), g["K"], g["Ti"], stages, pack, fs, delay,
-        PrefilterGains(*gains), pre_hz, int(design.get("iterations", 0)), float(design.get("max_stage_deg", 70.0)))
+    return AxisLaw(mass, g["K"], g["Ti"], tuple(stages), pack, fs, delay, PrefilterGains(*gains), pre_hz)

@@ -34,8 +34,14 @@ from typing import Any
 
 from ..errors import DataError
 from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel
+from ..models.friction import StribeckFriction
+from ..models.gantry import GantryModel
+from ..models.rigid import RigidBodyModel
 from ..quantity import quantity, value_of
 from .document import read_document, require_schema, write_document
+from .friction_model import stribeck_from_doc, stribeck_to_doc
+from .gantry_model import gantry_model_from_doc, gantry_model_to_doc
+from .rigid_model import rigid_from_doc, rigid_to_doc
 
 MODEL_SCHEMA = "feedtune.model"
 MODEL_SCHEMA_MAJOR = 1
@@ -68,7 +74,7 @@ def register_model_kind(kind: str, loader: ModelLoader, saver: ModelSaver,
 
 def model_kinds() -> list[str]:
     """The registered model kinds (including those registered on first use)."""
-    return sorted(set(_REGISTRY) | set(_LAZY_KINDS))
+    return sorted(_REGISTRY)
 
 
 # ------------------------------------------------------------------------------------------- ball screw
@@ -119,34 +125,14 @@ def ballscrew_from_doc(doc: Mapping[str, object], where: str) -> BallScrewModel:
 
 register_model_kind("ballscrew", ballscrew_from_doc, ballscrew_to_doc, BallScrewModel)
 
-# Model kinds defined in modules that are imported only when needed (keeps ``import feedtune.io`` light):
-# kind -> (module, loader, saver, model class).
-_LAZY_KINDS = {
-    "gantry": ("feedtune.models.gantry", "gantry_model_from_doc", "gantry_model_to_doc", "GantryModel"),
-    "friction": ("feedtune.models.friction", "stribeck_from_doc", "stribeck_to_doc", "StribeckFriction"),
-    "rigid": ("feedtune.models.rigid", "rigid_from_doc", "rigid_to_doc", "RigidBodyModel"),
-}
-
-
-def _register_lazy_kinds() -> None:
-    """Import and register the lazily defined model kinds that are not registered yet."""
-    import importlib
-
-    for kind, (module, loader, saver, cls) in _LAZY_KINDS.items():
-        if kind in _REGISTRY:
-            continue
-        try:
-            mod = importlib.import_module(module)
-            register_model_kind(kind, getattr(mod, loader), getattr(mod, saver), getattr(mod, cls))
-        except (ImportError, AttributeError):
-            continue
+register_model_kind("gantry", gantry_model_from_doc, gantry_model_to_doc, GantryModel)
+register_model_kind("friction", stribeck_from_doc, stribeck_to_doc, StribeckFriction)
+register_model_kind("rigid", rigid_from_doc, rigid_to_doc, RigidBodyModel)
 
 
 # ------------------------------------------------------------------------------------------- public API
 def model_document(model: object, *, fit: Mapping[str, object] | None = None) -> dict:
     """The full document of a model: schema, kind, the kind's body, and ``fit`` as given."""
-    if not any(t is not None and isinstance(model, t) for _, _, t in _REGISTRY.values()):
-        _register_lazy_kinds()
     for kind, (_, saver, model_type) in _REGISTRY.items():
         if model_type is not None and isinstance(model, model_type):
             body = {k: v for k, v in saver(model).items() if k not in ("schema", "kind", "fit")}
@@ -198,8 +184,6 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     doc = read_document(path)
     require_schema(doc, MODEL_SCHEMA, where, MODEL_SCHEMA_MAJOR)
     kind = doc.get("kind")
-    if kind not in _REGISTRY:
-        _register_lazy_kinds()
     if kind not in _REGISTRY:
         known = ", ".join(model_kinds())
         raise DataError(f"{where}: kind = {kind!r} is not a known model kind; known: {known}")

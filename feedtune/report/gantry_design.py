@@ -3,7 +3,7 @@
 The analysis is the one ``feedtune analyze GAINS [--frf F] --json`` prints for these kinds
 (``feedtune.cli.analyze_gantry_cmd``): :func:`feedtune.io.gantry_gains.gantry_law_from_document` +
 :func:`feedtune.analysis.gantry.analyze_gantry` for a gantry, :func:`~feedtune.io.gantry_gains.
-axis_design_from_document` + :func:`~feedtune.analysis.gantry.analyze_axis` for an axis. The measured FRF is
+axis_law_from_document` + :func:`~feedtune.analysis.gantry.analyze_axis` for an axis. The measured FRF is
 the first input FRF with the four channels ``y1/u1, y1/u2, y2/u1, y2/u2`` (gantry) or with a single channel
 (axis). Figures: singular values of L, S and SG against G, the MIMO Nyquist plot of det(I + L) and the CoM
 tracking (Figs. 4.13-4.15); for the axis the SISO loop, Nyquist, sensitivity (Fig. 4.9), disturbance and
@@ -92,9 +92,9 @@ def analyze_machine_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[ob
     gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc.get("gains", {}).items()}
     if kind == AXIS_KIND:
         from ..analysis.gantry import analyze_axis
-        from ..io.gantry_gains import axis_design_from_document
+        from ..io.gantry_gains import axis_law_from_document
 
-        design = axis_design_from_document(gi.doc, where)
+        design = axis_law_from_document(gi.doc, where)
         analysis = analyze_axis(design, frf)
         return analysis, {"kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _units(gi.doc),
                           "lead_stages": [s.to_dict() for s in design.lead_stages],
