@@ -28,7 +28,7 @@ import warnings
 
 import numpy as np
 
-from feedtune.control.ballscrew_prefilter import ORDERS, correction_sos, prefilter_response
+from feedtune.control.prefilter import ORDERS, correction_sos, prefilter_response
 from feedtune.design.prefilter import fit_prefilter
 from feedtune.sim.trajectory import multi_segment
 
@@ -68,7 +68,7 @@ def discretization_errors(fs: float, lpf_hz: float = 80.0, f_max: float = 200.0)
     from feedtune.lti import Zpk
 
     f = np.geomspace(1.0, f_max, 400)
-    cont = prefilter_response(f, TWIN_GAINS, lpf_hz)
+    cont = prefilter_response(TWIN_GAINS, lpf_hz, f)
     w = 2 * np.pi * lpf_hz
     K = [TWIN_GAINS[f"K_{o}"] for o in ORDERS]
     num = np.zeros(6)

@@ -11,9 +11,9 @@ import pytest
 from scipy.signal import bilinear, lfilter, lsim
 
 from feedtune.cli.main import main
-from feedtune.control.ballscrew_prefilter import ORDERS, correction_sos, prefilter_response
 from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.control.friction import friction_feedforward
+from feedtune.control.prefilter import ORDERS, correction_sos, prefilter_response
 from feedtune.design.mcppc import design_mcppc
 from feedtune.design.prefilter import filtered_derivatives, fit_prefilter, fit_prefilter_arrays
 from feedtune.errors import DataError, IllConditionedError, UsageError
@@ -188,8 +188,8 @@ def test_prefilter_closed_form_on_a_parabola_and_low_frequency_response():
     c1, c2 = GAINS["K_vel"], GAINS["K_acc"] - 2 * GAINS["K_vel"] / w
     assert np.allclose(y[tail] - x[tail], c1 * acc * t[tail] + c2 * acc, rtol=1e-7, atol=0)
     f = np.array([1.0, 10.0, 50.0, 100.0])
-    cont = prefilter_response(f, GAINS, 80.0)
-    disc = prefilter_response(f, GAINS, 80.0, FS)
+    cont = prefilter_response(GAINS, 80.0, f)
+    disc = prefilter_response(GAINS, 80.0, f, FS, method="tustin")
     bound = (2 * np.pi * f / FS) ** 2 / 4 * np.abs(cont - 1) + 1e-12  # bilinear warping, O((wT)^2)
     assert np.all(np.abs(disc - cont) <= bound)
 
@@ -319,3 +319,34 @@ def test_cli_design_with_friction(tmp_path, capsys, monkeypatch):
     code, _, err = run(["design", "ppc", model, "--friction", model], capsys, monkeypatch)
     assert code == 1 and "--friction expects a friction model file" in err
     assert math.isfinite(rt.friction.v_band)
+
+
+def test_one_prefilter_two_realisations_and_two_spellings_agree():
+    """The ball-screw (K_vel, Tustin cascade) and gantry (k_vel, matched terms) pre-filters are the same F(s)."""
+    from feedtune.control.prefilter import PrefilterGains, reference_filters
+
+    f = np.geomspace(1.0, 200.0, 50)
+    typed = PrefilterGains(*(GAINS[f"K_{o}"] for o in ORDERS))
+    cont = prefilter_response(GAINS, 80.0, f)
+    # closed form of the continuous pre-filter, written out here (not through the module)
+    s, w = 2j * np.pi * f, 2 * np.pi * 80.0
+    G = w / (s + w)
+    closed = 1 + sum(GAINS[f"K_{o}"] * s ** n * G ** (n + 1) for n, o in enumerate(ORDERS, start=1))
+    assert np.allclose(cont, closed, rtol=1e-12)
+    assert np.allclose(prefilter_response(typed, 80.0, f), closed, rtol=1e-12)
+    tustin = prefilter_response(GAINS, 80.0, f, FS, method="tustin")
+    matched = prefilter_response(typed, 80.0, f, FS, method="matched")
+    # both discretizations approximate F - 1 to O((w T)^2) and O(w T) at most: 1e-3 of |F - 1| below 200 Hz
+    for disc in (tustin, matched):
+        assert np.all(np.abs(disc - closed) <= 1e-3 * np.abs(closed - 1))
+    # the matched realisation is the sum of the per-term filters the gantry laws run
+    from scipy.signal import freqz_zpk
+
+    filters = reference_filters(80.0, FS)
+    summed = 1 + sum(getattr(typed, f"k_{o}") * freqz_zpk(filters[f"prefilter_{o}"].zeros,
+                                                          filters[f"prefilter_{o}"].poles,
+                                                          filters[f"prefilter_{o}"].gain, worN=f, fs=FS)[1]
+                     for o in ORDERS)
+    assert np.allclose(summed, matched, rtol=1e-9)
+    with pytest.raises(UsageError, match="matched"):
+        prefilter_response(GAINS, 80.0, f, FS, method="zoh")

@@ -49,9 +49,9 @@ GANTRY_FRF_OPTION = typer.Option(None, "--frf", help="Measured 2x2 position FRF 
 
 # ------------------------------------------------------------------------------------------ helpers
 def _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead):
-    from ..control.filters import LeadStage, LoopFilters, Notch
+    from ..control.filters import FilterPack, LeadStage, Notch
 
-    return LoopFilters([Notch.parse(n) for n in notch or []], lpf, lpf_order, lpf_zeta,
+    return FilterPack([Notch.parse(n) for n in notch or []], lpf, lpf_order, lpf_zeta,
                        [LeadStage.parse(s) for s in lead or []])
 
 
@@ -288,7 +288,7 @@ def _pair(text: str | None, name: str):
 def _matched(match: Path, frf):
     """Ms of a gantry gains file in the case the PID is checked in, and its filters without the leads."""
     from ..analysis.gantry import analyze_gantry
-    from ..control.filters import LoopFilters
+    from ..control.filters import FilterPack
     from ..io import read_document
     from ..io.gantry_gains import gantry_law_from_document
 
@@ -296,7 +296,7 @@ def _matched(match: Path, frf):
     a = analyze_gantry(law, model, x=x, frf=frf, reference=ref)
     h = law.filters
     return a.cases["discrete" if frf is not None else "ideal_discrete"].metrics.ms, \
-        LoopFilters(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta)
+        FilterPack(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta)
 
 
 FILTERS_CHOICE_OPTION = typer.Option(

@@ -110,7 +110,7 @@ def _updated(doc: dict, fit, where: str, refine: bool) -> tuple[dict, str]:
 
 
 def _summary(result: dict, fit) -> None:
-    from ..control.ballscrew_prefilter import GAIN_UNITS
+    from ..control.prefilter import GAIN_UNITS
 
     length = fit.length_unit or ""
     factor, shown = (1e6, "um") if length == "m" else (1.0, length)

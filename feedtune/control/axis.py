@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from ..lti import Zpk
 from .discretize import matched
-from .filters import LoopFilters
+from .filters import FilterPack
 from .prefilter import PrefilterGains, preview_samples
 
 
@@ -29,7 +29,7 @@ class AxisLaw:
         Integral time ``Ti`` [s].
     lead_stages : tuple of LeadStage
         Lead stages centred at the crossover.
-    filters : LoopFilters
+    filters : FilterPack
         Notches and low-pass filters.
     fs : float
         Sample rate [Hz].
@@ -45,7 +45,7 @@ class AxisLaw:
     gain: float
     ti_s: float
     lead_stages: tuple
-    filters: LoopFilters
+    filters: FilterPack
     fs: float
     delay_samples: int
     prefilter: PrefilterGains

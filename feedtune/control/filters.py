@@ -120,64 +120,6 @@ def differentiator(gain: float = 1.0) -> Zpk:
     return Zpk([0.0], [], gain)
 
 
-@dataclass(frozen=True)
-class FilterPack:
-    """Notches in series with an optional first-order low-pass (eq. 3.10).
-
-    Parameters
-    ----------
-    notches : sequence of Notch
-    lpf_hz : float or None
-        Pole frequency of the first-order low-pass [Hz]; None for no low-pass.
-    """
-
-    notches: Sequence[Notch] = field(default_factory=tuple)
-    lpf_hz: float | None = None
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "notches", tuple(self.notches))
-        if self.lpf_hz is not None:
-            _positive(self.lpf_hz, "low-pass frequency [Hz]")
-
-    def zpk(self) -> Zpk:
-        """The combined continuous transfer function ``G_fp(s)``."""
-        g = Zpk.constant(1.0)
-        for n in self.notches:
-            g = g * n.zpk()
-        if self.lpf_hz is not None:
-            g = g * lowpass1(self.lpf_hz)
-        return g
-
-    def check_nyquist(self, fs: float) -> None:
-        """Raise UsageError when a filter frequency is at or above the Nyquist frequency ``fs / 2``."""
-        for n in self.notches:
-            if n.freq_hz >= fs / 2:
-                raise UsageError(f"--notch {n.freq_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz")
-        if self.lpf_hz is not None and self.lpf_hz >= fs / 2:
-            raise UsageError(f"--lpf {self.lpf_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz")
-
-    def to_dict(self) -> dict:
-        """Plain description with units."""
-        return {
-            "notches": [{"freq_hz": n.freq_hz, "zeta_z": n.zeta_z, "zeta_p": n.zeta_p} for n in self.notches],
-            "lpf_hz": self.lpf_hz,
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict) -> FilterPack:
-        """Inverse of :meth:`to_dict`."""
-        notches = [Notch(float(n["freq_hz"]), float(n["zeta_z"]), float(n["zeta_p"])) for n in d.get("notches", [])]
-        lpf = d.get("lpf_hz")
-        return cls(notches, None if lpf in (None, 0, "none") else float(lpf))
-
-
-
-
-
-TWO_PI = 2 * np.pi
-
-
-# ------------------------------------------------------------------------------------------ lead stages
 def thesis_gamma(phase_deg: float) -> float:
     """Thesis lead ratio ``gamma = a / wc = sqrt((1 + sin phi)/(1 - sin phi))`` [-] of one stage.
 
@@ -280,8 +222,9 @@ def _positive(v, name: str) -> float:
 
 # --------------------------------------------------------------------------------------- filter pack
 @dataclass(frozen=True)
-class LoopFilters:
-    """Filter pack of a loop-shaped controller: notches, a 1st- or 2nd-order low-pass and extra leads.
+class FilterPack:
+    """The filter pack of every controller: notches, a 1st- or 2nd-order low-pass and extra lead stages (eq. 3.10,
+    4.18).
 
     Parameters
     ----------
@@ -312,11 +255,6 @@ class LoopFilters:
             raise UsageError(f"low-pass order must be 1 or 2, got {self.lpf_order!r}")
         if not (math.isfinite(self.lpf_zeta) and self.lpf_zeta > 0):
             raise UsageError(f"low-pass damping must be > 0, got {self.lpf_zeta!r}")
-
-    @classmethod
-    def from_filter_pack(cls, pack: FilterPack) -> LoopFilters:
-        """The ball-screw :class:`~feedtune.control.filters.FilterPack` (notches, 1st-order low-pass)."""
-        return cls(pack.notches, pack.lpf_hz, 1)
 
     def zpk(self) -> Zpk:
         """The combined continuous transfer function (unit gain at 0 Hz); computed once per pack."""
@@ -359,7 +297,7 @@ class LoopFilters:
         }
 
     @classmethod
-    def from_dict(cls, d, where: str = "filters") -> LoopFilters:
+    def from_dict(cls, d, where: str = "filters") -> FilterPack:
         """Inverse of :meth:`to_dict`; DataError names the bad entry."""
         if not isinstance(d, dict):
             raise DataError(f"{where}: expected a table with notches, lpf_hz, lpf_order, leads")
@@ -373,6 +311,9 @@ class LoopFilters:
         except (KeyError, TypeError, ValueError, UsageError) as exc:
             raise DataError(f"{where}: invalid filter description ({exc})") from None
 
+
+LoopFilters = FilterPack
+"""Former name of :class:`FilterPack` (the gantry and axis designs used it); kept for existing scripts."""
 
 THESIS_FILTER_PACK = FilterPack([Notch(420.0, 0.55, 0.7), Notch(1080.0, 0.05, 0.7)], 2000.0)
 """The ball-screw filter pack of thesis §3.2.2: notches at 420 and 1080 Hz, low-pass at 2000 Hz."""

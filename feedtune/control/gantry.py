@@ -10,7 +10,7 @@ import numpy as np
 
 from ..lti import Zpk
 from .discretize import backward_difference, backward_euler_integrator, matched
-from .filters import TWO_PI, LoopFilters
+from .filters import TWO_PI, FilterPack
 from .prefilter import PrefilterGains, prefilter_response
 
 
@@ -35,7 +35,7 @@ class MimoLaw:
         Active damping gain [V/(m/s)].
     ki : float
         Actuator-level integral gain [V/(m s)].
-    filters : LoopFilters
+    filters : FilterPack
         ``h(s)``.
     fs : float
         Sample rate [Hz].
@@ -48,7 +48,7 @@ class MimoLaw:
     lead_stages: tuple
     beta: float
     ki: float
-    filters: LoopFilters
+    filters: FilterPack
     fs: float
     delay_samples: int = 1
 
@@ -176,7 +176,7 @@ class PidLaw:
     ----------
     kp, kd, ki : (float, float)
         Per-side gains [V/m, V/(m/s), V/(m s)].
-    filters : LoopFilters
+    filters : FilterPack
     fs : float
         Sample rate [Hz].
     delay_samples : int
@@ -185,7 +185,7 @@ class PidLaw:
     kp: tuple
     kd: tuple
     ki: tuple
-    filters: LoopFilters
+    filters: FilterPack
     fs: float
     delay_samples: int = 1
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..control.discretize import backward_euler_integrator, check_sampling, matched
-from ..control.filters import TWO_PI, LeadStage, LoopFilters, split_lead
+from ..control.filters import TWO_PI, FilterPack, LeadStage, split_lead
 from ..control.gantry import GantrySchedule, MimoLaw
 from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import DesignError, UsageError
@@ -200,7 +200,7 @@ def design_gantry_mimo(
     damping_increase: float = 5.9,
     ki: float | None = None,
     integral_lag_deg: float = 10.0,
-    filters: LoopFilters | None = None,
+    filters: FilterPack | None = None,
     fs: float = 15000.0,
     delay_samples: int = 1,
     x: float = 0.0,
@@ -227,7 +227,7 @@ def design_gantry_mimo(
         (the x-axis rule of eq. 4.17); 0 disables the integral.
     integral_lag_deg : float
         See ``ki`` [deg].
-    filters : LoopFilters, optional
+    filters : FilterPack, optional
         ``h(s)``: notches, low-pass, second lead.
     fs : float
         Sample rate [Hz] (thesis: 15 kHz).
@@ -259,7 +259,7 @@ def design_gantry_mimo(
         raise UsageError(f"--ki must be a gain >= 0 [V/(m s)], got {ki}")
     if ki is None and not 0 < integral_lag_deg < 45:
         raise UsageError(f"integral lag must lie in (0, 45) deg, got {integral_lag_deg}")
-    pack = filters or LoopFilters()
+    pack = filters or FilterPack()
     pack.check_nyquist(fs)
     alpha = model.alpha(x)
     beta = damping_gain(model, damping_increase, x)

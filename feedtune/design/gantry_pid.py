@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..control.discretize import check_sampling
-from ..control.filters import TWO_PI, LoopFilters
+from ..control.filters import TWO_PI, FilterPack
 from ..control.gantry import GantrySchedule, PidLaw
 from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import UsageError
@@ -92,7 +92,7 @@ def design_gantry_pid(
     kp,
     kd,
     ki,
-    filters: LoopFilters | None = None,
+    filters: FilterPack | None = None,
     fs: float = 15000.0,
     delay_samples: int = 1,
     x: float = 0.0,
@@ -104,7 +104,7 @@ def design_gantry_pid(
 ) -> GantryPidDesign:
     """PID baseline with the given per-side gains ``(side1, side2)`` [V/m, V/(m/s), V/(m s)]."""
     check_sampling(fs, delay_samples)
-    pack = filters or LoopFilters()
+    pack = filters or FilterPack()
     pack.check_nyquist(fs)
     gains = {}
     for name, v in (("kp", kp), ("kd", kd), ("ki", ki)):

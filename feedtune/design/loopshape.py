@@ -10,7 +10,7 @@ controller of eq. 4.18 is::
   it is split into ``ceil(phi / max_stage_deg)`` equal stages centred at ``wc`` (a single stage gives less
   than 90 deg). Each stage has the thesis' lead ratio ``gamma = sqrt((1 + sin phi_i)/(1 - sin phi_i))``:
   zero at ``wc / gamma``, pole at ``a = gamma wc`` (126 deg -> two stages of 63 deg, gamma = 4.2).
-* ``F(s)`` is the filter pack (notches, low-pass, extra leads: :class:`LoopFilters`).
+* ``F(s)`` is the filter pack (notches, low-pass, extra leads: :class:`FilterPack`).
 * ``K`` makes ``|L(j wc)| = 1``.
 
 The phase of the filters, of the zero-order hold and of the computational delay, and the distortion of the
@@ -34,7 +34,6 @@ from ..control.filters import (
     TWO_PI,
     FilterPack,
     LeadStage,
-    LoopFilters,
     _positive,
     split_lead,
 )
@@ -176,7 +175,7 @@ class LoopShapeDesign:
         Integral time ``Ti`` [s].
     lead_stages : tuple of LeadStage
         The lead stages centred at the crossover.
-    filters : LoopFilters
+    filters : FilterPack
     fs : float
         Sample rate [Hz].
     delay_samples : int
@@ -199,7 +198,7 @@ class LoopShapeDesign:
     gain: float
     ti_s: float
     lead_stages: tuple
-    filters: LoopFilters
+    filters: FilterPack
     fs: float
     delay_samples: int
     prefilter: PrefilterGains
@@ -285,7 +284,7 @@ def design_loopshape(
     crossover_hz: float,
     pm_deg: float,
     pi_lag_deg: float = 10.0,
-    filters: LoopFilters | FilterPack | None = None,
+    filters: FilterPack | None = None,
     fs: float = 15000.0,
     delay_samples: int = 1,
     max_stage_deg: float = 70.0,
@@ -307,7 +306,7 @@ def design_loopshape(
         Phase margin at the crossover [deg].
     pi_lag_deg : float
         Phase lag of ``(Ti s + 1)/(Ti s)`` at the crossover [deg]; 0 for no integral action is not allowed.
-    filters : LoopFilters or FilterPack, optional
+    filters : FilterPack, optional
         Filter pack (notches, low-pass, extra leads).
     fs : float
         Sample rate [Hz].
@@ -347,8 +346,7 @@ def design_loopshape(
         raise UsageError(f"--pi-lag-deg must lie in (0, 45) deg, got {pi_lag_deg}")
     if stages is not None and (isinstance(stages, bool) or int(stages) != stages or stages < 1):
         raise UsageError(f"the number of lead stages must be an integer >= 1, got {stages!r}")
-    pack = filters if isinstance(filters, LoopFilters) else (
-        LoopFilters.from_filter_pack(filters) if isinstance(filters, FilterPack) else LoopFilters())
+    pack = filters if filters is not None else FilterPack()
     pack.check_nyquist(fs)
     ap = axis_plant(plant, mass=mass, channel=channel, crossover_hz=wc_hz)
     wc = TWO_PI * wc_hz

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..control.ballscrew_prefilter import (
+from ..control.prefilter import (
     DEFAULT_LPF_HZ,
     GAIN_NAMES,
     GAIN_UNITS,

@@ -16,12 +16,12 @@ import numpy as np
 
 from .. import __version__
 from ..control.ballscrew_law import GAIN_NAMES, GAIN_UNITS, PPI_UNITS, BallScrewLaw
-from ..control.ballscrew_prefilter import GAIN_NAMES as PREFILTER_GAIN_NAMES
-from ..control.ballscrew_prefilter import GAIN_UNITS as PREFILTER_UNITS
-from ..control.ballscrew_prefilter import ORDERS as PREFILTER_ORDERS
-from ..control.ballscrew_prefilter import correction_sos, gain_vector
 from ..control.filters import FilterPack
 from ..control.friction import LEVELS, VELOCITY, FrictionFeedforward, friction_feedforward
+from ..control.prefilter import GAIN_NAMES as PREFILTER_GAIN_NAMES
+from ..control.prefilter import GAIN_UNITS as PREFILTER_UNITS
+from ..control.prefilter import ORDERS as PREFILTER_ORDERS
+from ..control.prefilter import correction_sos, gain_vector
 from ..errors import DataError, UsageError
 from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel
 from ..models.friction import StribeckFriction

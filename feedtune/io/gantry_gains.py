@@ -309,7 +309,7 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
     The law is the continuous/discrete description (filters, lead, gains) at the design position ``x``
     [m] with ``alpha`` taken from the schedule there; ``reference`` holds the feedforward and pre-filters.
     """
-    from ..control.filters import LoopFilters
+    from ..control.filters import FilterPack
     from ..control.gantry import GantryReference, MimoLaw, PidLaw
     from ..control.prefilter import PrefilterGains
     from .gantry_model import gantry_model_from_doc
@@ -322,7 +322,7 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
     unit = command_unit(doc)
     model = gantry_model_from_doc(section(doc, "model", where), f"{where}: [model]")
     fsec = section(doc, "filters", where)
-    pack = LoopFilters.from_dict(entry(fsec, "filters", "continuous", where), f"{where}: filters.continuous")
+    pack = FilterPack.from_dict(entry(fsec, "filters", "continuous", where), f"{where}: filters.continuous")
     x = _design_x(doc, where)
     xs, table = read_schedule(doc, where)
     row = np.array([np.interp(x, xs, col) for col in table.T])
@@ -347,7 +347,7 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
 def axis_law_from_document(doc: dict, where: str = "gains file"):
     """Rebuild the :class:`~feedtune.control.axis.AxisLaw` of an axis gains document (DataError naming the key)."""
     from ..control.axis import AxisLaw
-    from ..control.filters import LoopFilters
+    from ..control.filters import FilterPack
     from ..control.prefilter import PrefilterGains
 
     check_header(doc, where, (AXIS_KIND,))
@@ -357,7 +357,7 @@ def axis_law_from_document(doc: dict, where: str = "gains file"):
     if g["Ti"] <= 0:
         raise DataError(f"{where}: gains.Ti must be > 0 s")
     fsec = section(doc, "filters", where)
-    pack = LoopFilters.from_dict(entry(fsec, "filters", "continuous", where), f"{where}: filters.continuous")
+    pack = FilterPack.from_dict(entry(fsec, "filters", "continuous", where), f"{where}: filters.continuous")
     stages = _stages(entry(fsec, "filters", "lead_stages", where), f"{where}: filters.lead_stages")
     ff = section(doc, "feedforward", where)
     mass = value(entry(ff, "feedforward", "mass", where), f"{where}: feedforward.mass", f"{unit}/(m/s^2)")

@@ -244,7 +244,7 @@ def _disturbance(designs) -> FigureBlock:
 
 
 def _prefiltered(designs) -> list[Curve]:
-    from ..control.ballscrew_prefilter import prefilter_response
+    from ..control.prefilter import prefilter_response
 
     out = []
     for d in designs:
@@ -252,7 +252,7 @@ def _prefiltered(designs) -> list[Curve]:
         if d.prefilter is None or case is None:
             continue
         gains, lpf_hz = d.prefilter
-        F = prefilter_response(case.freq_hz, gains, lpf_hz, d.law.fs)
+        F = prefilter_response(gains, lpf_hz, case.freq_hz, d.law.fs, method="tustin")
         out.append(Curve(case.freq_hz, case.tracking * F, f"{d.label}, feedforward and pre-filter", d.color,
                          "-.", 1.6))
     return out

@@ -14,7 +14,7 @@ from dataclasses import replace
 from ..analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, check_analysis
 from ..control.discretize import check_sampling
-from ..control.filters import LoopFilters
+from ..control.filters import FilterPack
 from ..design.gantry_mimo import GantryMimoDesign, design_gantry_mimo
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
@@ -29,7 +29,7 @@ CROSSOVER_RANGE_HZ = (5.0, 250.0)
 """Search bounds of the CoM crossover target [Hz]."""
 
 
-def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: LoopFilters | None = None, fs: float = 15000.0,
+def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | None = None, fs: float = 15000.0,
                      delay_samples: int = 1, x: float = 0.0, frf: Frf | None = None, pm_targets=PM_TARGETS_DEG,
                      damping_increases=DAMPING_INCREASES, crossover_range_hz=CROSSOVER_RANGE_HZ,
                      **design_options) -> GantryMimoDesign:
@@ -40,7 +40,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: LoopFilters | 
     model : GantryModel
     limits : Limits, optional
         The policy (default: ``textbook``).
-    filters : LoopFilters, optional
+    filters : FilterPack, optional
         The filter pack h(s) (kept fixed).
     fs : float
         Sample rate [Hz].
@@ -64,7 +64,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: LoopFilters | 
     """
     policy = limits or DEFAULT_LIMITS
     check_sampling(fs, delay_samples)
-    (filters or LoopFilters()).check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
+    (filters or FilterPack()).check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
     case = "discrete" if frf is not None else "ideal_discrete"
     pc = gantry_plant_cases(model, x, fs, delay_samples, frf)[case]
     weights = model.alpha(x)

@@ -37,7 +37,7 @@ import numpy as np
 from ..analysis.gantry import analyze_axis_case, axis_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
 from ..control.discretize import check_sampling
-from ..control.filters import FilterPack, LoopFilters
+from ..control.filters import FilterPack
 from ..control.prefilter import PrefilterGains
 from ..design.loopshape import LoopShapeDesign, axis_plant, design_loopshape
 from ..errors import DesignError, UsageError
@@ -147,7 +147,7 @@ def tune_loopshape(
     *,
     limits: Limits | None = None,
     ms_max: float | None = None,
-    filters: LoopFilters | FilterPack | None = None,
+    filters: FilterPack | None = None,
     fs: float = 15000.0,
     delay_samples: int = 1,
     frf: Frf | None = None,
@@ -172,7 +172,7 @@ def tune_loopshape(
         The limits policy (default :data:`feedtune.analysis.limits.DEFAULT_LIMITS`).
     ms_max : float, optional
         Overrides the policy's peak sensitivity limit [-].
-    filters : LoopFilters or FilterPack, optional
+    filters : FilterPack, optional
         Filter pack of the controller (as given).
     fs : float
         Sample rate [Hz].
@@ -204,8 +204,7 @@ def tune_loopshape(
     t0 = time.perf_counter()
     policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
     check_sampling(fs, delay_samples)
-    pack = filters if isinstance(filters, LoopFilters) else (
-        LoopFilters.from_filter_pack(filters) if isinstance(filters, FilterPack) else LoopFilters())
+    pack = filters if filters is not None else FilterPack()
     pack.check_nyquist(fs)
     ap = axis_plant(plant, mass=mass, channel=channel)
     pmb = _bounds(pm_bounds, PM_BOUNDS, "pm_bounds", 0.0, 90.0)

@@ -51,7 +51,7 @@ from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
 from ..analysis.margins import crossings
 from ..analysis.mimo import com_loop, matmul, sensitivity, singular_values
 from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
-from ..control.filters import TWO_PI, LoopFilters
+from ..control.filters import TWO_PI, FilterPack
 from ..control.gantry import PidLaw
 from ..control.prefilter import PrefilterGains
 from ..design.gantry_pid import GantryPidDesign, design_gantry_pid, pid_gains
@@ -111,7 +111,7 @@ def _case(model, x, fs, delay_samples, frf, grid, policy) -> _Case:
 class _Search:
     """The search for one filter pack: the cheap bound, the real check, the edge and the shape search."""
 
-    def __init__(self, case: _Case, pack: LoopFilters, zeta_bounds, rho_bounds, scan: np.ndarray):
+    def __init__(self, case: _Case, pack: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
         self.case = case
         self.pack = pack
         self.h = matched(pack.zpk(), case.fs).tf.freqresp(case.pc.freq_hz)
@@ -225,7 +225,7 @@ def _bounds(value, default, name: str) -> tuple[float, float]:
     return b
 
 
-def _resolve_choice(filter_choice: str | None, filters: LoopFilters | None) -> str:
+def _resolve_choice(filter_choice: str | None, filters: FilterPack | None) -> str:
     choice = ("identical" if filters is not None else "own") if filter_choice is None else str(filter_choice)
     if choice not in FILTER_CHOICES:
         raise UsageError(f"filter_choice must be 'own' or 'identical', got {filter_choice!r}")
@@ -237,7 +237,7 @@ def tune_gantry_pid(
     *,
     limits: Limits | None = None,
     ms_max: float | None = None,
-    filters: LoopFilters | None = None,
+    filters: FilterPack | None = None,
     filter_choice: str | None = None,
     fs: float = 15000.0,
     delay_samples: int = 1,
@@ -263,7 +263,7 @@ def tune_gantry_pid(
         The limits policy (default :data:`feedtune.analysis.limits.DEFAULT_LIMITS`).
     ms_max : float, optional
         Overrides the policy's ``max sigma_max(S)`` [-] (e.g. the MIMO design's ``Ms``, ``design pid --match``).
-    filters : LoopFilters, optional
+    filters : FilterPack, optional
         Filter pack ``h(s)`` in front of both PIDs: used as given (``identical``), or as candidates the tuner
         may keep or drop (``own``; its leads are kept).
     filter_choice : {"identical", "own"}, optional
@@ -299,7 +299,7 @@ def tune_gantry_pid(
     policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
     check_sampling(fs, delay_samples)
     choice = _resolve_choice(filter_choice, filters)
-    given = filters or LoopFilters()
+    given = filters or FilterPack()
     given.check_nyquist(fs)
     zb = _bounds(zeta_bounds, ZETA_BOUNDS, "zeta_bounds")
     rb = _bounds(rho_bounds, RHO_BOUNDS, "rho_bounds")
@@ -419,7 +419,7 @@ def _describe(item) -> str:
     return f"notch {item.freq_hz:.4g} Hz (zeta_z {item.zeta_z:.3g}, zeta_p {item.zeta_p:.3g})"
 
 
-def _with(pack: LoopFilters, item) -> LoopFilters:
+def _with(pack: FilterPack, item) -> FilterPack:
     from dataclasses import replace
 
     if isinstance(item, tuple):
@@ -427,7 +427,7 @@ def _with(pack: LoopFilters, item) -> LoopFilters:
     return replace(pack, notches=(*pack.notches, item))
 
 
-def _candidates(case: _Case, pack: LoopFilters, given: LoopFilters, law: PidLaw, xo: float,
+def _candidates(case: _Case, pack: FilterPack, given: FilterPack, law: PidLaw, xo: float,
                 resonances: list) -> list[tuple[object, str]]:
     """Filters to try next: ``[(Notch or (lpf_hz, order), why)]``."""
     from ..control.filters import Notch
@@ -455,7 +455,7 @@ def _candidates(case: _Case, pack: LoopFilters, given: LoopFilters, law: PidLaw,
     return out
 
 
-def choose_filters(case: _Case, given: LoopFilters, zeta_bounds, rho_bounds, scan: np.ndarray):
+def choose_filters(case: _Case, given: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
     """The tuner's own filter pack (module docstring): ``(pack, SearchResult or None, record)``.
 
     From the best design without notches or low-pass (the leads of ``given`` are kept), each round screens the

@@ -164,11 +164,11 @@ def _identify(twin, xs, frfs, mass_logs, axis_log, texts):
 
 
 def _filters(spec: dict):
-    from ..control.filters import LeadStage, LoopFilters, Notch
+    from ..control.filters import FilterPack, LeadStage, Notch
 
     leads = [LeadStage(*spec["lead"])] if spec.get("lead") else []
     order = 2 if spec.get("lead") else 1
-    return LoopFilters([Notch(*n) for n in spec["notches"]], spec["lpf_hz"], order, 0.7, leads)
+    return FilterPack([Notch(*n) for n in spec["notches"]], spec["lpf_hz"], order, 0.7, leads)
 
 
 def _figures(label: str, design, check, checked: str, analysis: dict) -> dict:

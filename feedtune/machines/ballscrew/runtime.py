@@ -293,7 +293,7 @@ class GainsRuntime:
 
     def to_dict(self) -> dict:
         """JSON-ready description (gains with units, sampling, section counts, pre-filter, friction)."""
-        from ...control.ballscrew_prefilter import GAIN_UNITS as PREFILTER_UNITS
+        from ...control.prefilter import GAIN_UNITS as PREFILTER_UNITS
 
         pre = None
         if "prefilter" in self.sos:
