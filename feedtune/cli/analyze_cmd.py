@@ -1,8 +1,8 @@
 """``feedtune analyze``: frequency-domain analysis of a gains file, and time-domain metrics of logs.
 
 * ``feedtune analyze GAINS.toml [--frf F]`` (or ``feedtune analyze gains GAINS.toml``): loop, margins, Ms,
-  Nyquist stability, disturbance and tracking of a design (ball screw here; other machine kinds go to
-  ``feedtune.cli.analyze_gantry_cmd``).
+  Nyquist stability, disturbance and tracking of a design, by the machine of its ``kind``
+  (:func:`feedtune.machines.analyze_gains`).
 * ``feedtune analyze track LOG``: maximum and RMS tracking error (whole run, constant-velocity and
   acceleration parts) and the error spectrum peaks.
 * ``feedtune analyze ropesnap LOG``: peak displacement, 5 % settling time and the amplitude spectral density
@@ -77,40 +77,14 @@ def analyze(
     """Loop, every crossover and margin, Ms, disk margin, |S|<1 bands, Nyquist stability, disturbance and tracking
     of a design, and its verdict under the limits."""
     from ..io import read_document
-    from .analyze_gantry_cmd import analyze_gantry_document
-
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
-    doc = read_document(gains_file)
-    if doc.get("kind") != "ballscrew":  # the gantry/x-axis analysis refuses unknown kinds
-        analyze_gantry_document(doc, gains_file, frf, quantity, as_json, policy, strict)
-        return
-    _analyze_ballscrew(doc, gains_file, frf, quantity, as_json, policy, strict)
-
-
-def _analyze_ballscrew(doc: dict, gains_file: Path, frf: Path | None, quantity: str | None, as_json: bool,
-                       policy, strict: bool) -> None:
-    from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
-    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
-    from ..io.gains import law_from_document
+    from ..machines import analyze_gains
     from .frf_options import read_optional_frf
     from .limits_options import finish_analysis
 
-    law, model, kind = law_from_document(doc, str(gains_file))
-    measured = read_optional_frf(frf, quantity)
-    full = analyze_ballscrew(law, model, measured)
-    gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in doc["gains"].items()}
-    if "ppi_gains" in doc:
-        gains.update({k: (v["value"] if isinstance(v, dict) else v) for k, v in doc["ppi_gains"].items()})
-    poles = closed_loop_poles(law, model)
-    result = {
-        "kind": kind,
-        "controller": kind,
-        "gains": gains,
-        "gain_units": {**GAIN_UNITS, **PPI_UNITS},
-        "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles],
-        "analysis": full.to_dict(),
-    }
-    finish_analysis(result, full, policy, as_json, strict)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    doc = read_document(gains_file)
+    done = analyze_gains(doc, str(gains_file), read_optional_frf(frf, quantity))
+    finish_analysis(dict(done.result), done.analysis, policy, as_json, strict)
 
 
 # ------------------------------------------------------------------------------------------ logs

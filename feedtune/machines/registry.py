@@ -43,6 +43,34 @@ class Machine(Protocol):
     def runtime(self, doc: Mapping, where: str) -> Runtime:
         """The runtime executing a gains document of one of :attr:`gains_kinds`."""
 
+    def analyze(self, doc: Mapping, where: str, frf=None) -> GainsAnalysis:
+        """Every analysis case of a gains document of one of :attr:`gains_kinds`, with a measured FRF or not."""
+
+
+@dataclass(frozen=True)
+class GainsAnalysis:
+    """The analysis of a gains document and its ``feedtune analyze --json`` dictionary (without the check).
+
+    Attributes
+    ----------
+    analysis : object
+        The library analysis (ball screw: ``BallScrewAnalysis``; gantry/axis: ``GantryAnalysis``/``AxisAnalysis``).
+    result : dict
+        ``kind``, ``controller``, ``gains`` with ``gain_units``, machine-specific keys and ``analysis``.
+    law, model : object
+        The control law and the plant model read from the document (``model`` is None for an axis).
+    """
+
+    analysis: Any
+    result: dict
+    law: Any
+    model: Any
+
+
+def plain_gains(section: Mapping | None) -> dict:
+    """``{name: value}`` of a gains-file section whose entries are numbers or ``{value, unit}`` tables."""
+    return {k: (v["value"] if isinstance(v, Mapping) else v) for k, v in (section or {}).items()}
+
 
 @dataclass(frozen=True)
 class MachineEntry:
@@ -53,12 +81,16 @@ class MachineEntry:
     gains_kinds: tuple[str, ...]
     make_twin: Callable[..., Any]
     make_runtime: Callable[[Mapping, str], Runtime]
+    make_analysis: Callable[[Mapping, str, Any], GainsAnalysis]
 
     def twin(self, overrides: Mapping[str, object] | None = None, *, ideal: bool = False) -> Any:
         return self.make_twin(dict(overrides or {}), ideal)
 
     def runtime(self, doc: Mapping, where: str) -> Runtime:
         return self.make_runtime(doc, where)
+
+    def analyze(self, doc: Mapping, where: str, frf=None) -> GainsAnalysis:
+        return self.make_analysis(doc, where, frf)
 
 
 def _machines() -> dict[str, Machine]:
@@ -118,3 +150,23 @@ def load_runtime(path_or_doc, where: str | None = None) -> Runtime:
 
         doc, name = read_document(os.fspath(path_or_doc)), where or str(path_or_doc)
     return machine_of_gains(doc, name).runtime(doc, name)
+
+
+def analyze_gains(doc: Mapping, where: str, frf=None) -> GainsAnalysis:
+    """The analysis of a gains document by the machine of its ``kind`` (what ``feedtune analyze GAINS`` prints).
+
+    Parameters
+    ----------
+    doc : Mapping
+        The gains document.
+    where : str
+        Its name in error messages.
+    frf : Frf, optional
+        Measured FRF of the machine, for the measured and discrete cases.
+
+    Raises
+    ------
+    DataError
+        A ``kind`` no registered machine executes, or a document its machine refuses.
+    """
+    return machine_of_gains(doc, where).analyze(doc, where, frf)

@@ -66,21 +66,10 @@ def analysis_frf(inputs: Inputs) -> FrfInput | None:
 
 def analyze_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, object, object, dict]:
     """``(law, model, analysis, result)`` exactly as ``feedtune analyze`` computes them (result = its JSON)."""
-    from ..analysis.ballscrew import analyze_ballscrew, closed_loop_poles
-    from ..io.gains import law_from_document
+    from ..machines import analyze_gains as analyze_document
 
-    law, model, kind = law_from_document(gi.doc, str(gi.path))
-    analysis = analyze_ballscrew(law, model, frf)
-    gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc["gains"].items()}
-    if "ppi_gains" in gi.doc:
-        gains.update({k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc["ppi_gains"].items()})
-    poles = closed_loop_poles(law, model)
-    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
-
-    result = {"kind": kind, "controller": kind, "gains": gains, "gain_units": {**GAIN_UNITS, **PPI_UNITS},
-              "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles], "analysis": analysis.to_dict(),
-              "check": check_result(analysis, limits)}
-    return law, model, analysis, result
+    done = analyze_document(gi.doc, str(gi.path), frf)
+    return done.law, done.model, done.analysis, {**done.result, "check": check_result(done.analysis, limits)}
 
 
 def design_label(gi: GainsInput, prefilter) -> str:

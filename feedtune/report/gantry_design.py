@@ -1,9 +1,7 @@
 """Design subsections for gantry (2x2 MIMO or independent PID) and loop-shaped x-axis gains files (thesis §4.4).
 
 The analysis is the one ``feedtune analyze GAINS [--frf F] --json`` prints for these kinds
-(``feedtune.cli.analyze_gantry_cmd``): :func:`feedtune.io.gantry_gains.gantry_law_from_document` +
-:func:`feedtune.analysis.gantry.analyze_gantry` for a gantry, :func:`~feedtune.io.gantry_gains.
-axis_law_from_document` + :func:`~feedtune.analysis.gantry.analyze_axis` for an axis. The measured FRF is
+(:func:`feedtune.machines.analyze_gains`, by :mod:`feedtune.machines.gantry.gains_analysis`). The measured FRF is
 the first input FRF with the four channels ``y1/u1, y1/u2, y2/u1, y2/u2`` (gantry) or with a single channel
 (axis). Figures: singular values of L, S and SG against G, the MIMO Nyquist plot of det(I + L) and the CoM
 tracking (Figs. 4.13-4.15); for the axis the SISO loop, Nyquist, sensitivity (Fig. 4.9), disturbance and
@@ -79,34 +77,12 @@ def axis_frf(inputs: Inputs) -> FrfInput | None:
     return next((f for f in inputs.frfs if len(f.frf.channels) == 1), None)
 
 
-def _units(doc: Mapping) -> dict:
-    return {k: v["unit"] for k, v in doc.get("gains", {}).items() if isinstance(v, dict) and "unit" in v}
-
-
 def analyze_machine_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, dict]:
     """``(analysis, result)`` of a gantry or axis gains file, ``result`` as ``feedtune analyze --json``."""
-    from ..io.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
+    from ..machines import analyze_gains
 
-    where = str(gi.path)
-    kind = check_header(gi.doc, where, (GANTRY_KIND, AXIS_KIND))
-    gains = {k: (v["value"] if isinstance(v, dict) else v) for k, v in gi.doc.get("gains", {}).items()}
-    if kind == AXIS_KIND:
-        from ..analysis.gantry import analyze_axis
-        from ..io.gantry_gains import axis_law_from_document
-
-        design = axis_law_from_document(gi.doc, where)
-        analysis = analyze_axis(design, frf)
-        return analysis, {"kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _units(gi.doc),
-                          "lead_stages": [s.to_dict() for s in design.lead_stages],
-                          "analysis": analysis.to_dict(), "check": check_result(analysis, limits)}
-    from ..analysis.gantry import analyze_gantry
-    from ..io.gantry_gains import gantry_law_from_document
-
-    law, model, x, reference = gantry_law_from_document(gi.doc, where)
-    analysis = analyze_gantry(law, model, x=x, frf=frf, reference=reference)
-    return analysis, {"kind": kind, "controller": law.controller, "x_m": x, "gains": gains,
-                      "gain_units": _units(gi.doc), "analysis": analysis.to_dict(),
-                      "check": check_result(analysis, limits)}
+    done = analyze_gains(gi.doc, str(gi.path), frf)
+    return done.analysis, {**done.result, "check": check_result(done.analysis, limits)}
 
 
 def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits: ReportLimits) -> list[MachineDesign]:

@@ -18,5 +18,11 @@ def _runtime(doc, where: str):
     return GainsRuntime.from_document(dict(doc), where)
 
 
+def _analysis(doc, where: str, frf):
+    from .gains_analysis import analyze_document
+
+    return analyze_document(doc, where, frf)
+
+
 MACHINE = MachineEntry(name="ballscrew", title="ball-screw drive", gains_kinds=("ballscrew",), make_twin=_twin,
-                       make_runtime=_runtime)
+                       make_runtime=_runtime, make_analysis=_analysis)

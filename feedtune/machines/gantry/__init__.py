@@ -19,5 +19,11 @@ def _runtime(doc, where: str):
     return cls.from_document(dict(doc), where)
 
 
+def _analysis(doc, where: str, frf):
+    from .gains_analysis import analyze_document
+
+    return analyze_document(doc, where, frf)
+
+
 MACHINE = MachineEntry(name="gantry", title="linear-motor T-gantry", gains_kinds=("gantry", "axis"),
-                       make_twin=_twin, make_runtime=_runtime)
+                       make_twin=_twin, make_runtime=_runtime, make_analysis=_analysis)

@@ -1,0 +1,54 @@
+"""Analysis of gantry (``kind = "gantry"``) and x-axis (``kind = "axis"``) gains documents: what
+``feedtune analyze`` prints and the report shows, computed in one place."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from ..registry import GainsAnalysis, plain_gains
+
+
+def _gain_units(doc: Mapping) -> dict:
+    return {k: v["unit"] for k, v in (doc.get("gains") or {}).items() if isinstance(v, Mapping) and "unit" in v}
+
+
+def analyze_document(doc: Mapping, where: str, frf=None) -> GainsAnalysis:
+    """Every case of the gantry MIMO/PID analysis (or the x-axis analysis) of a gains file.
+
+    Parameters
+    ----------
+    doc : Mapping
+        The gains document (``kind = "gantry"`` or ``"axis"``).
+    where : str
+        Its name in error messages.
+    frf : Frf, optional
+        Measured FRF: 2x2 ``y1/u1, y1/u2, y2/u1, y2/u2`` [m/V] for a gantry, SISO for an axis.
+
+    Returns
+    -------
+    GainsAnalysis
+        The analysis and ``result``: ``kind``, ``controller``, ``x_m`` (gantry: the design position [m]), ``gains``
+        (values in ``gain_units``), ``lead_stages`` (axis) and ``analysis`` (as ``feedtune analyze --json``,
+        without the check).
+    """
+    from ...io.gantry_gains import AXIS_KIND, GANTRY_KIND, check_header
+
+    kind = check_header(doc, where, (GANTRY_KIND, AXIS_KIND))
+    gains = plain_gains(doc.get("gains"))
+    if kind == AXIS_KIND:
+        from ...analysis.gantry import analyze_axis
+        from ...io.gantry_gains import axis_law_from_document
+
+        law = axis_law_from_document(doc, where)
+        analysis = analyze_axis(law, frf)
+        return GainsAnalysis(analysis=analysis, law=law, model=None, result={
+            "kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _gain_units(doc),
+            "lead_stages": [s.to_dict() for s in law.lead_stages], "analysis": analysis.to_dict()})
+    from ...analysis.gantry import analyze_gantry
+    from ...io.gantry_gains import gantry_law_from_document
+
+    law, model, x, reference = gantry_law_from_document(doc, where)
+    analysis = analyze_gantry(law, model, x=x, frf=frf, reference=reference)
+    return GainsAnalysis(analysis=analysis, law=law, model=model, result={
+        "kind": kind, "controller": law.controller, "x_m": x, "gains": gains, "gain_units": _gain_units(doc),
+        "analysis": analysis.to_dict()})
