@@ -26,6 +26,7 @@ from . import (
     simulate_cmd,
     simulate_gantry_cmd,
     trajectory_cmd,
+    tune_cmd,
 )
 
 app = typer.Typer(
@@ -48,6 +49,7 @@ simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
 app.add_typer(identify_cmd.app, name="identify")
 app.command("frf")(frf_cmd.frf)
 app.add_typer(design_cmd.app, name="design")
+app.add_typer(tune_cmd.app, name="tune")
 app.command("prefilter")(prefilter_cmd.prefilter)
 app.add_typer(analyze_cmd.app, name="analyze")
 app.add_typer(export_cmd.app, name="export")

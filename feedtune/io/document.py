@@ -38,6 +38,15 @@ _SCHEMA_RE = re.compile(r"^(?P<prefix>[A-Za-z0-9_.-]+)/(?P<major>\d+)(?:\.(?P<mi
 
 
 
+def strip_none(d: object) -> object:
+    """``d`` without the None entries of its dicts and lists, recursively (TOML has no null)."""
+    if isinstance(d, dict):
+        return {k: strip_none(v) for k, v in d.items() if v is not None}
+    if isinstance(d, list):
+        return [strip_none(v) for v in d if v is not None]
+    return d
+
+
 def require_schema(doc: Mapping[str, object], schema_prefix: str, where: str,
                    supported_major: int = 1) -> tuple[int, int]:
     """Check ``doc["schema"]`` is ``"<schema_prefix>/<major>[.<minor>]"`` with a major version we read.

@@ -25,6 +25,7 @@ from ..control.prefilter import correction_sos, gain_vector
 from ..errors import DataError, UsageError
 from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel
 from ..models.friction import StribeckFriction
+from .document import strip_none
 
 SCHEMA = "feedtune.gains/1"
 
@@ -148,7 +149,7 @@ def gains_document(design, analysis: dict | None = None) -> dict:
     else:
         doc["design"]["closed_loop_poles_rad_s"] = [[float(p.real), float(p.imag)] for p in design.poles]
     if analysis is not None:
-        doc["analysis"] = _strip_none(analysis)
+        doc["analysis"] = strip_none(analysis)
     return refresh_law_text(doc)
 
 
@@ -171,14 +172,6 @@ def _tf_from_dict(sec, where: str):
     if not den or not np.all(np.isfinite(num + den)):
         raise DataError(f"{where}: num and den must be finite, den not empty")
     return Zpk.from_tf(num, den)
-
-
-def _strip_none(d):
-    if isinstance(d, dict):
-        return {k: _strip_none(v) for k, v in d.items() if v is not None}
-    if isinstance(d, list):
-        return [_strip_none(v) for v in d if v is not None]
-    return d
 
 
 def check_gains_header(doc, where: str) -> None:

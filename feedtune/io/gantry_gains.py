@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DataError
+from .document import strip_none
 from .gains import SCHEMA, q, read_sampling, value
 
 GANTRY_KIND = "gantry"
@@ -167,14 +168,6 @@ def _sos(z) -> list:
     return [[float(c) for c in row] for row in z.to_sos()]
 
 
-def _strip_none(d):
-    if isinstance(d, dict):
-        return {k: _strip_none(v) for k, v in d.items() if v is not None}
-    if isinstance(d, list):
-        return [_strip_none(v) for v in d if v is not None]
-    return d
-
-
 def _law_section(text: str) -> dict:
     return {
         "execution": text,
@@ -243,10 +236,10 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
         "schedule": {"x": [float(v) for v in sched.x], **{k: [float(v) for v in col] for k, col in columns.items()},
                      "units": schedule_units(unit)},
         "model": gantry_model_to_doc(design.model),
-        "design": _strip_none(design.design_dict()),
+        "design": strip_none(design.design_dict()),
     }
     if analysis is not None:
-        doc["analysis"] = _strip_none(analysis)
+        doc["analysis"] = strip_none(analysis)
     return doc
 
 
@@ -254,7 +247,7 @@ def axis_gains_document(design, analysis: dict | None = None) -> dict:
     """The gains document of a loop-shaped axis (:class:`~feedtune.design.loopshape.LoopShapeDesign`)."""
     unit = "V"
     pre = design.prefilter
-    return _strip_none({
+    return strip_none({
         "schema": SCHEMA,
         "kind": AXIS_KIND,
         "controller": "loopshape",

@@ -5,11 +5,15 @@ search and under the same limits as the baseline).
 Shapes: ``beta`` in :data:`BETAS` (the thesis's drive allowed up to 4, section 3.2.3) and ``zeta`` in :data:`ZETAS`;
 bandwidth parameter: the pole frequency ``pole_hz`` (eq. 3.8), searched by :func:`feedtune.tune.search.
 highest_feasible` on the checked case (``discrete`` with an FRF, else ``ideal_discrete``), with the filter pack given
-(default none). The winner is re-checked in every case (:func:`feedtune.analysis.check.check_design`).
+(default none). With several FRFs (the drive measured at several table positions or loads) a candidate passes only
+when it meets the limits on every one, and its objective is its lowest first crossover over them (the bandwidth
+it guarantees on all). The winner is re-checked in every case on every FRF
+(:func:`feedtune.analysis.check.check_design`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 from ..analysis.ballscrew import analyze_case, plant_cases
@@ -21,7 +25,7 @@ from ..design.mcppc import McppcDesign, design_mcppc
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .search import CROSSOVER_TIE, Candidate, SearchRecord, highest_feasible
+from .search import CROSSOVER_TIE, Candidate, SearchRecord, highest_feasible, robust_frfs
 
 BETAS = (1.0, 2.0, 3.0, 4.0)
 """Multipliers of the axial mode's decay rate searched [-] (thesis: up to 4)."""
@@ -32,7 +36,7 @@ POLE_RANGE_HZ = (5.0, 500.0)
 
 
 def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None = None, fs: float = 20000.0,
-               delay_samples: int = 1, frf: Frf | None = None, betas=BETAS, zetas=ZETAS,
+               delay_samples: int = 1, frf: Frf | Sequence[Frf] | None = None, betas=BETAS, zetas=ZETAS,
                pole_range_hz: tuple[float, float] = POLE_RANGE_HZ) -> McppcDesign:
     """The MC-PPC with the highest first crossover that meets ``limits`` (module docstring).
 
@@ -47,8 +51,8 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         Sample rate [Hz].
     delay_samples : int
         Computational delay [samples].
-    frf : Frf, optional
-        Measured FRF: the ``discrete`` case on it is the checked case.
+    frf : Frf or sequence of Frf, optional
+        Measured FRF(s): the ``discrete`` case on each is checked (all must pass).
     betas, zetas : sequence of float
         Shapes searched.
     pole_range_hz : (float, float)
@@ -63,8 +67,9 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     filters = filters or FilterPack()
     check_sampling(fs, delay_samples)
     filters.check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
-    case = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
-    pc = plant_cases(model, fs, delay_samples, frf)[case]
+    frfs = robust_frfs(frf)
+    case = CHECKED_WITH_FRF if frfs else CHECKED_WITHOUT_FRF
+    pcs = [plant_cases(model, fs, delay_samples, f)[case] for f in (frfs or [None])]
 
     def check(shape: dict, pole_hz: float) -> Candidate | None:
         try:
@@ -72,10 +77,15 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
                                   fs=fs, delay_samples=delay_samples)
         except FeedtuneError:
             return None
-        m = analyze_case(design.law(), pc, responses=False).metrics
-        if not all(i.ok for i in policy.check(m, case)) or not m.crossovers_hz:
-            return None
-        return Candidate(shape, pole_hz, design, m, m.crossovers_hz[0])
+        law = design.law()
+        worst = None
+        for pc in pcs:
+            m = analyze_case(law, pc, responses=False).metrics
+            if not all(i.ok for i in policy.check(m, case)) or not m.crossovers_hz:
+                return None
+            if worst is None or m.crossovers_hz[0] < worst.crossovers_hz[0]:
+                worst = m
+        return Candidate(shape, pole_hz, design, worst, worst.crossovers_hz[0])
 
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
@@ -85,10 +95,14 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
                           f"{', '.join(f'{z:g}' for z in zetas)}; pole {pole_range_hz[0]:g}-{pole_range_hz[1]:g} Hz) "
                           f"meets the limits ({policy.describe()}) in the {case} case")
-    final = check_design(best.design, frf=frf, limits=policy)
-    if not final.ok:
-        raise DesignError(f"the best MC-PPC in the {case} case fails the full check: {'; '.join(final.violations)}")
-    active = final.limit_check.active()
+    finals = [check_design(best.design, frf=f, limits=policy) for f in (frfs or [None])]
+    for i, final in enumerate(finals):
+        if not final.ok:
+            on = f" on FRF {i + 1} of {len(frfs)}" if len(frfs) > 1 else ""
+            raise DesignError(f"the best MC-PPC in the {case} case fails the full check{on}: "
+                              f"{'; '.join(final.violations)}")
+    actives = [a for a in (f.limit_check.active() for f in finals) if a is not None]
+    active = min(actives, key=lambda a: a.slack) if actives else None
     tuning = {
         "method": "highest first crossover over beta, zeta and the pole frequency (bisected to the edge) with the "
                   "limits in the checked case and stability in every case; shapes within "
@@ -97,6 +111,7 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         "rule": f"MC-PPC tuned by feedtune.tune.mcppc under {policy.describe()}",
         "limits": policy.to_dict(),
         "checked_case": case,
+        "frfs": len(frfs),
         "first_crossover_hz": best.objective,
         "active_limit": None if active is None else active.to_dict(),
         "evaluations": record.evaluations,

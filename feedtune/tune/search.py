@@ -36,6 +36,16 @@ CHEAP_MARGIN = 5e-3
 """Relative margin [-] by which a crossover estimated on the base grid must lie below ``beat`` to prune."""
 
 
+def robust_frfs(frf) -> list:
+    """The FRFs a tuner checks: ``[]`` for None, ``[frf]`` for one, the list for a sequence (several positions or
+    loads of one drive)."""
+    if frf is None:
+        return []
+    if isinstance(frf, (list, tuple)):
+        return list(frf)
+    return [frf]
+
+
 def unreliable(warnings) -> str | None:
     """The analysis' warning that its Nyquist count is unreliable (winding not close to an integer), or None."""
     return next((w for w in warnings or [] if "not close to an integer" in w), None)

@@ -1,0 +1,114 @@
+"""``feedtune tune``: the highest-bandwidth controller that meets the limits on every measured FRF, with a certificate.
+
+``feedtune tune mcppc MODEL --frf F1 --frf F2 ...``: MC-PPC (beta, pole frequency, zeta) tuned for the highest
+first crossover guaranteed on every FRF (:func:`feedtune.tune.mcppc.tune_mcppc`), then certified on each FRF by the
+analysis ``feedtune analyze`` runs (:func:`feedtune.workflows.certificate.certify`). The certificate is printed, in
+``--json`` and in the gains file (``[certificate]``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .design_cmd import DELAY_OPTION, FS_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _filters, _load_model
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_MIN_OPTION,
+    LIMITS_OPTION,
+    MS_MAX_OPTION,
+    PM_MIN_OPTION,
+    limits_from_options,
+)
+
+app = typer.Typer(
+    rich_markup_mode=None,
+    help="Tune a controller for the highest bandwidth that meets the limits on every measured FRF, and certify it.",
+    no_args_is_help=True,
+)
+
+FRFS_OPTION = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u), repeatable: one per table position or "
+                                               "load. The limits must hold on every one.")
+OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml or .json), with the certificate.")
+
+
+def _frfs(paths: list[Path] | None, quantity: str | None) -> list[tuple[str, object]]:
+    from .frf_options import read_optional_frf
+
+    return [(str(p), read_optional_frf(p, quantity)) for p in paths or []]
+
+
+def print_certificate(cert: dict) -> None:
+    """One line per FRF and the worst case, with the active limit."""
+    typer.echo(f"certificate ({cert['limits']['profile']} limits; discrete case, every FRF):")
+    for c in cert["frfs"]:
+        first = c["crossovers_hz"][0] if c["crossovers_hz"] else None
+        verdict = "ok" if c["ok"] else "FAILS: " + "; ".join(c["violations"])
+        typer.echo(f"  {c['frf']}: first crossover {fmt(first, 'Hz')}, Ms {c['ms']:.3g} at {fmt(c['ms_freq_hz'], 'Hz')}"
+                   f", PM {fmt(c['pm_deg'], 'deg')}, GM {fmt(c['gm_db'], 'dB')}, DM {c['disk_margin']:.3g}, "
+                   f"{'stable' if c['stable'] else 'UNSTABLE'}: {verdict}")
+    w = cert["worst"]
+    act = w["active_limit"]
+    active = "none" if act is None else f"{act['name']} = {act['value']:.4g} (limit {act['limit']:g}) on {act['frf']}"
+    typer.echo(f"  worst: first crossover {fmt(w['first_crossover_hz'], 'Hz')} ({w['first_crossover_hz_frf']}), "
+               f"Ms {w['ms']:.3g} ({w['ms_frf']}); active limit: {active}")
+
+
+@app.command("mcppc")
+def mcppc(
+    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
+    frf: list[Path] = FRFS_OPTION,
+    notch: list[str] = NOTCH_OPTION,
+    lpf: float = LPF_OPTION,
+    fs: float = FS_OPTION,
+    delay_samples: int = DELAY_OPTION,
+    quantity: str = QUANTITY_OPTION,
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
+    out: Path = OUT_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """MC-PPC for the highest first crossover that meets the limits on every FRF.
+
+    Tunes beta, the pole frequency and zeta of eq. 3.5-3.13 with the given filter pack; without --frf, on the model
+    in the ideal discrete case."""
+    from ..errors import DesignError
+    from ..io import write_document
+    from ..io.atomic import ensure_writable
+    from ..io.document import strip_none
+    from ..io.gains import gains_document
+    from ..tune.mcppc import tune_mcppc
+    from ..workflows.certificate import certify
+
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    if out is not None:
+        ensure_writable(out, force)  # refused before the search, not after it
+    model = _load_model(model_file)
+    frfs = _frfs(frf, quantity)
+    design = tune_mcppc(model, limits=policy, filters=_filters(notch, lpf), fs=fs, delay_samples=delay_samples,
+                        frf=[f for _, f in frfs] or None)
+    doc = gains_document(design)
+    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
+    doc["certificate"] = strip_none(cert.to_dict())
+    result = {"kind": "ballscrew", "controller": "mcppc", "gains": dict(design.gains),
+              "design": design.design_dict(), "certificate": cert.to_dict()}
+    if not cert.ok:  # the tuner re-checks its winner on every FRF; this is the gains file as written
+        raise DesignError("the tuned MC-PPC fails its certificate: "
+                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
+    if out is not None:
+        write_document(out, doc, force=force)
+        result["out"] = str(out)
+    if as_json:
+        print_json(result)
+        return
+    d = design.design_dict()
+    typer.echo(f"MC-PPC tuned: beta {d['beta']:g}, pole {fmt(d['pole_hz'], 'Hz')}, zeta {d['zeta']:g}")
+    print_certificate(result["certificate"])
+    if out is not None:
+        typer.echo(f"wrote {out}")

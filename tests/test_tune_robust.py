@@ -1,0 +1,118 @@
+"""Tuning over several FRFs (issue 12): a ball-screw family whose axial mode moves with the table mass.
+
+The family is built from Table 3.1 with the table mass m2 at 0.7, 1.0 and 1.3 times its value. The verdicts are
+recomputed independently with python-control: each member's state space discretized with a zero-order hold
+(``control.c2d``), the controller's discrete transfer functions and one sample of delay assembled as a state-space
+loop, stability from the closed-loop eigenvalues and the peak sensitivity and phase margins on a dense grid.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from feedtune.cli.main import main
+from feedtune.io import save_model, write_frf
+from feedtune.models import THESIS_TABLE_3_1 as MODEL
+from feedtune.tune.mcppc import tune_mcppc
+
+control = pytest.importorskip("control")
+
+SCALES = (0.7, 1.0, 1.3)
+MEMBERS = [replace(MODEL, m2=MODEL.m2 * s) for s in SCALES]
+F = np.logspace(0, np.log10(9000.0), 2000)
+FAMILY = [m.frf(F) for m in MEMBERS]
+MS_MAX, PM_MIN = 2.5, 30.0  # the textbook profile the tuner uses by default
+
+
+def _loop(law, model):
+    """The sampled loop broken at the plant input as a python-control state space (ZOH plant, law, delay)."""
+    T = 1 / law.fs
+    A, B, C = model.state_space()
+    plant = control.c2d(control.ss(A, B[:, :1], C, np.zeros((2, 1))), T, "zoh")
+    parts = [control.ss(control.tf(*k.to_tf(), T)) for k in (law.K1d(), law.K2d())]
+    add = control.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), np.array([[1.0, 1.0]]), T)
+    loop = control.series(plant, control.append(*parts), add)
+    for _ in range(int(law.delay_samples)):
+        loop = control.series(loop, control.ss([[0.0]], [[1.0]], [[1.0]], [[0.0]], T))
+    return loop
+
+
+def _independent(law, model) -> tuple[bool, float, float]:
+    """(stable by the closed-loop eigenvalues, max |S| and the smallest |PM| [deg] on 60,000 log-spaced points)."""
+    loop = _loop(law, model)
+    stable = bool(np.all(np.abs(control.feedback(loop, 1).poles()) < 1))
+    f = np.logspace(-1, np.log10(0.9999 * law.fs / 2), 60_000)
+    L = np.asarray(loop.frequency_response(2 * np.pi * f).complex).ravel()
+    ms = float(np.max(1 / np.abs(1 + L)))
+    cross = np.flatnonzero(np.diff(np.sign(np.abs(L) - 1)))
+    pm = 180.0 - np.abs(np.degrees(np.angle(L[cross])))  # distance of the phase from -180 deg
+    return stable, ms, float(pm.min())
+
+
+@pytest.fixture(scope="module")
+def designs():
+    return tune_mcppc(MODEL, frf=FAMILY[1]), tune_mcppc(MODEL, frf=FAMILY)
+
+
+def test_the_design_tuned_on_every_frf_meets_the_limits_on_each_by_an_independent_computation(designs):
+    _, robust = designs
+    for model in MEMBERS:
+        stable, ms, pm = _independent(robust.law(), model)
+        assert stable, model.m2
+        assert ms <= MS_MAX * 1.002, model.m2
+        assert pm >= PM_MIN - 0.05, model.m2
+    assert robust.tuning["frfs"] == 3
+
+
+def test_the_design_tuned_on_the_middle_frf_alone_violates_the_limits_on_another(designs):
+    middle, robust = designs
+    verdicts = [_independent(middle.law(), m) for m in MEMBERS]
+    assert verdicts[1][0] and verdicts[1][1] <= MS_MAX * 1.002 and verdicts[1][2] >= PM_MIN - 0.05
+    broken = [not s or ms > MS_MAX * 1.002 or pm < PM_MIN - 0.05 for s, ms, pm in verdicts]
+    assert broken[0] or broken[2]
+    # the price of robustness: a lower guaranteed crossover than the nominal design's
+    assert robust.tuning["first_crossover_hz"] < middle.tuning["first_crossover_hz"]
+
+
+def run(args, capsys, monkeypatch):
+    """Run ``feedtune ARGS`` in-process; return (exit code, stdout, stderr)."""
+    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
+    code = 0
+    try:
+        main()
+    except SystemExit as e:
+        code = int(e.code or 0)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_tune_cli_certifies_every_frf_and_analyze_agrees(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    save_model("model.toml", MODEL)
+    names = []
+    for s, frf in zip(SCALES, FAMILY, strict=True):
+        names.append(f"m2x{s}.csv")
+        write_frf(frf, names[-1])
+    args = ["tune", "mcppc", "model.toml", *[a for n in names for a in ("--frf", n)], "--out", "g.toml"]
+    code, out, err = run([*args, "--json"], capsys, monkeypatch)
+    assert code == 0, err
+    cert = json.loads(out)["certificate"]
+    assert [c["frf"] for c in cert["frfs"]] == names and all(c["ok"] for c in cert["frfs"])
+    worst = cert["worst"]
+    assert worst["first_crossover_hz"] == min(c["crossovers_hz"][0] for c in cert["frfs"])
+    assert worst["ms"] == max(c["ms"] for c in cert["frfs"]) <= MS_MAX
+    assert worst["active_limit"]["frf"] in names
+    for name, c in zip(names, cert["frfs"], strict=True):
+        code, out, err = run(["analyze", "g.toml", "--frf", name, "--json", "--check"], capsys, monkeypatch)
+        assert code == 0, err
+        d = json.loads(out)["analysis"]["discrete"]
+        assert d["ms"] == pytest.approx(c["ms"], rel=1e-9) and d["crossovers_hz"][0] == pytest.approx(
+            c["crossovers_hz"][0], rel=1e-9)
+    assert "[certificate]" in (tmp_path / "g.toml").read_text()
+    code, _, err = run(args, capsys, monkeypatch)  # no overwrite without --force (a usage error)
+    assert code == 2 and "--force" in err and err.count("\n") == 1
