@@ -91,17 +91,20 @@ def run(args, capsys, monkeypatch):
     return code, out.out, out.err
 
 
-def test_tune_cli_certifies_every_frf_and_analyze_agrees(tmp_path, capsys, monkeypatch):
+@pytest.mark.parametrize("structure", ["mcppc", "ppi"])
+def test_tune_cli_certifies_every_frf_and_analyze_agrees(structure, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     save_model("model.toml", MODEL)
     names = []
     for s, frf in zip(SCALES, FAMILY, strict=True):
         names.append(f"m2x{s}.csv")
         write_frf(frf, names[-1])
-    args = ["tune", "mcppc", "model.toml", *[a for n in names for a in ("--frf", n)], "--out", "g.toml"]
+    args = ["tune", structure, "model.toml", *[a for n in names for a in ("--frf", n)], "--out", "g.toml"]
     code, out, err = run([*args, "--json"], capsys, monkeypatch)
     assert code == 0, err
-    cert = json.loads(out)["certificate"]
+    res = json.loads(out)
+    assert res["controller"] == structure
+    cert = res["certificate"]
     assert [c["frf"] for c in cert["frfs"]] == names and all(c["ok"] for c in cert["frfs"])
     worst = cert["worst"]
     assert worst["first_crossover_hz"] == min(c["crossovers_hz"][0] for c in cert["frfs"])

@@ -1,9 +1,10 @@
 """``feedtune tune``: the highest-bandwidth controller that meets the limits on every measured FRF, with a certificate.
 
-``feedtune tune mcppc MODEL --frf F1 --frf F2 ...``: MC-PPC (beta, pole frequency, zeta) tuned for the highest
-first crossover guaranteed on every FRF (:func:`feedtune.tune.mcppc.tune_mcppc`), then certified on each FRF by the
-analysis ``feedtune analyze`` runs (:func:`feedtune.workflows.certificate.certify`). The certificate is printed, in
-``--json`` and in the gains file (``[certificate]``).
+``feedtune tune mcppc|ppi MODEL --frf F1 --frf F2 ...``: MC-PPC (beta, pole frequency, zeta) or P-PI (Kpx, Kpv,
+Kiv) tuned for the highest first crossover guaranteed on every FRF (:func:`feedtune.tune.mcppc.tune_mcppc`,
+:func:`feedtune.tune.ppi.tune_ppi`), then certified on each FRF by the analysis ``feedtune analyze`` runs
+(:func:`feedtune.workflows.certificate.certify`). The certificate is printed, in ``--json`` and in the gains file
+(``[certificate]``).
 """
 
 from __future__ import annotations
@@ -56,6 +57,53 @@ def print_certificate(cert: dict) -> None:
                f"Ms {w['ms']:.3g} ({w['ms_frf']}); active limit: {active}")
 
 
+def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, notch, lpf, fs: float,
+                    delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool,
+                    as_json: bool) -> None:
+    """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
+    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
+    from ..errors import DesignError
+    from ..io import write_document
+    from ..io.atomic import ensure_writable
+    from ..io.document import strip_none
+    from ..io.gains import gains_document
+    from ..tune.mcppc import tune_mcppc
+    from ..tune.ppi import tune_ppi
+    from ..workflows.certificate import certify
+
+    if out is not None:
+        ensure_writable(out, force)  # refused before the search, not after it
+    model = _load_model(model_file)
+    frfs = _frfs(frf, quantity)
+    tuner = {"mcppc": tune_mcppc, "ppi": tune_ppi}[structure]
+    design = tuner(model, limits=policy, filters=_filters(notch, lpf), fs=fs, delay_samples=delay_samples,
+                   frf=[f for _, f in frfs] or None)
+    doc = gains_document(design)
+    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
+    doc["certificate"] = strip_none(cert.to_dict())
+    gains = {**design.gains, **getattr(design, "ppi_gains", {})}
+    units = {**GAIN_UNITS, **PPI_UNITS}
+    result = {"kind": "ballscrew", "controller": design.kind, "gains": gains, "gain_units": units,
+              "design": design.design_dict(), "certificate": cert.to_dict()}
+    if not cert.ok:  # the tuner re-checks its winner on every FRF; this is the gains file as written
+        raise DesignError(f"the tuned {TITLES[structure]} fails its certificate: "
+                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
+    if out is not None:
+        write_document(out, doc, force=force)
+        result["out"] = str(out)
+    if as_json:
+        print_json(result)
+        return
+    typer.echo(f"{TITLES[structure]} tuned: " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}"
+                                                          for k, v in gains.items()))
+    print_certificate(result["certificate"])
+    if out is not None:
+        typer.echo(f"wrote {out}")
+
+
+TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI"}
+
+
 @app.command("mcppc")
 def mcppc(
     model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
@@ -78,37 +126,31 @@ def mcppc(
 
     Tunes beta, the pole frequency and zeta of eq. 3.5-3.13 with the given filter pack; without --frf, on the model
     in the ideal discrete case."""
-    from ..errors import DesignError
-    from ..io import write_document
-    from ..io.atomic import ensure_writable
-    from ..io.document import strip_none
-    from ..io.gains import gains_document
-    from ..tune.mcppc import tune_mcppc
-    from ..workflows.certificate import certify
+    _tune_ballscrew("mcppc", model_file, frf, notch, lpf, fs, delay_samples, quantity,
+                    limits_from_options(limits, ms_max, pm_min, gm_min, dm_min), out, force, as_json)
 
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
-    if out is not None:
-        ensure_writable(out, force)  # refused before the search, not after it
-    model = _load_model(model_file)
-    frfs = _frfs(frf, quantity)
-    design = tune_mcppc(model, limits=policy, filters=_filters(notch, lpf), fs=fs, delay_samples=delay_samples,
-                        frf=[f for _, f in frfs] or None)
-    doc = gains_document(design)
-    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
-    doc["certificate"] = strip_none(cert.to_dict())
-    result = {"kind": "ballscrew", "controller": "mcppc", "gains": dict(design.gains),
-              "design": design.design_dict(), "certificate": cert.to_dict()}
-    if not cert.ok:  # the tuner re-checks its winner on every FRF; this is the gains file as written
-        raise DesignError("the tuned MC-PPC fails its certificate: "
-                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
-    if out is not None:
-        write_document(out, doc, force=force)
-        result["out"] = str(out)
-    if as_json:
-        print_json(result)
-        return
-    d = design.design_dict()
-    typer.echo(f"MC-PPC tuned: beta {d['beta']:g}, pole {fmt(d['pole_hz'], 'Hz')}, zeta {d['zeta']:g}")
-    print_certificate(result["certificate"])
-    if out is not None:
-        typer.echo(f"wrote {out}")
+
+@app.command("ppi")
+def ppi(
+    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
+    frf: list[Path] = FRFS_OPTION,
+    notch: list[str] = NOTCH_OPTION,
+    lpf: float = LPF_OPTION,
+    fs: float = FS_OPTION,
+    delay_samples: int = DELAY_OPTION,
+    quantity: str = QUANTITY_OPTION,
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
+    out: Path = OUT_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """P-PI cascade for the highest first crossover that meets the limits on every FRF.
+
+    Tunes Kpx, Kpv and Kiv (Figure 3.9) by the rule of 'feedtune design ppi' with the given filter pack; without
+    --frf, on the model in the ideal discrete case."""
+    _tune_ballscrew("ppi", model_file, frf, notch, lpf, fs, delay_samples, quantity,
+                    limits_from_options(limits, ms_max, pm_min, gm_min, dm_min), out, force, as_json)

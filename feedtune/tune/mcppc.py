@@ -25,7 +25,7 @@ from ..design.mcppc import McppcDesign, design_mcppc
 from ..errors import DesignError, FeedtuneError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .search import CROSSOVER_TIE, Candidate, SearchRecord, highest_feasible, robust_frfs
+from .search import CROSSOVER_TIE, Candidate, SearchRecord, guaranteed, highest_feasible, robust_frfs
 
 BETAS = (1.0, 2.0, 3.0, 4.0)
 """Multipliers of the axial mode's decay rate searched [-] (thesis: up to 4)."""
@@ -78,14 +78,8 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         except FeedtuneError:
             return None
         law = design.law()
-        worst = None
-        for pc in pcs:
-            m = analyze_case(law, pc, responses=False).metrics
-            if not all(i.ok for i in policy.check(m, case)) or not m.crossovers_hz:
-                return None
-            if worst is None or m.crossovers_hz[0] < worst.crossovers_hz[0]:
-                worst = m
-        return Candidate(shape, pole_hz, design, worst, worst.crossovers_hz[0])
+        m = guaranteed([analyze_case(law, pc, responses=False).metrics for pc in pcs], policy, case)
+        return None if m is None else Candidate(shape, pole_hz, design, m, m.crossovers_hz[0])
 
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]

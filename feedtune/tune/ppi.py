@@ -57,6 +57,7 @@ reported in ``tuning["warnings"]``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,6 +74,7 @@ from ..design.ppi import PpiDesign, design_ppi
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
+from .search import guaranteed, robust_frfs
 
 CROSSOVER_TIE = 0.02
 """Designs whose first crossover is within this fraction of the highest found count as equal [-]."""
@@ -198,14 +200,7 @@ class Surrogate:
 
     def gaps(self, l: np.ndarray) -> np.ndarray:
         """Admissible ``Kpv`` intervals (rows ``[lo, hi]``, increasing) inside the box, ignoring stability."""
-        klo, khi = self.kpv_box
-        iv = self.forbidden(l)
-        iv = iv[(iv[:, 1] >= klo) & (iv[:, 0] <= khi)]
-        iv = iv[np.argsort(iv[:, 0], kind="stable")]
-        starts = np.r_[klo, np.maximum(np.maximum.accumulate(iv[:, 1]), klo)] if iv.size else np.array([klo])
-        ends = np.r_[iv[:, 0], khi]
-        keep = ends > starts
-        return np.c_[starts[keep], np.minimum(ends[keep], khi)]
+        return _gaps(self.forbidden(l), self.kpv_box)
 
     def stable(self, kl: np.ndarray) -> bool:
         """Nyquist stability of the loop ``kl`` on the contour (no open-loop right-half-plane poles)."""
@@ -226,17 +221,59 @@ class Surrogate:
     def edge(self, wi: float, kpx: float) -> Edge | None:
         """The top of the highest stable admissible ``Kpv`` interval of a shape and its first crossover (or None)."""
         self.evaluations += 1
-        l = self.loops(wi, kpx)[0]
-        khi = self.kpv_box[1]
-        for lo, hi in self.gaps(l)[::-1]:
-            k = hi if hi >= khi else hi * (1 - 1e-9)
-            if k <= lo:
-                continue
-            if self.stable(k * l):
-                fc = self.first_crossover(k * l)
-                low = self.first_crossover((1 - TIE_GAIN_MARGIN) * k * l)
-                return None if fc is None else Edge(float(k), fc, 0.0 if low is None else low)
-        return None
+        return _common_edge([self], wi, kpx)
+
+
+class SurrogateSet:
+    """The surrogates of several plant cases (one per measured FRF): a ``Kpv`` is admissible when it is on every
+    one (the union of their forbidden intervals), stable when the loop is stable on every one, and the first
+    crossover of a shape is the lowest over them (the bandwidth guaranteed on all).
+
+    Parameters
+    ----------
+    surrogates : sequence of Surrogate
+        With the same limits and ``Kpv`` box.
+    """
+
+    def __init__(self, surrogates):
+        self.members = list(surrogates)
+        self.evaluations = 0
+
+    def edge(self, wi: float, kpx: float) -> Edge | None:
+        """:meth:`Surrogate.edge` over every member."""
+        self.evaluations += 1
+        return _common_edge(self.members, wi, kpx)
+
+
+def _gaps(forbidden: np.ndarray, box: tuple[float, float]) -> np.ndarray:
+    """Admissible ``Kpv`` intervals (rows ``[lo, hi]``, increasing) inside ``box`` outside the ``forbidden`` rows."""
+    klo, khi = box
+    iv = forbidden[(forbidden[:, 1] >= klo) & (forbidden[:, 0] <= khi)]
+    iv = iv[np.argsort(iv[:, 0], kind="stable")]
+    starts = np.r_[klo, np.maximum(np.maximum.accumulate(iv[:, 1]), klo)] if iv.size else np.array([klo])
+    ends = np.r_[iv[:, 0], khi]
+    keep = ends > starts
+    return np.c_[starts[keep], np.minimum(ends[keep], khi)]
+
+
+def _common_edge(members: list[Surrogate], wi: float, kpx: float) -> Edge | None:
+    """The top of the highest ``Kpv`` interval admissible and stable on every member, with the lowest first
+    crossover over them there and with :data:`TIE_GAIN_MARGIN` less gain (or None)."""
+    loops = [s.loops(wi, kpx)[0] for s in members]
+    box = members[0].kpv_box
+    khi = box[1]
+    for lo, hi in _gaps(np.vstack([s.forbidden(l) for s, l in zip(members, loops, strict=True)]), box)[::-1]:
+        k = hi if hi >= khi else hi * (1 - 1e-9)
+        if k <= lo:
+            continue
+        if all(s.stable(k * l) for s, l in zip(members, loops, strict=True)):
+            fcs = [s.first_crossover(k * l) for s, l in zip(members, loops, strict=True)]
+            if any(fc is None for fc in fcs):
+                return None
+            lows = [s.first_crossover((1 - TIE_GAIN_MARGIN) * k * l) for s, l in zip(members, loops, strict=True)]
+            low = 0.0 if any(x is None for x in lows) else min(lows)
+            return Edge(float(k), min(fcs), low)
+    return None
 
 
 def _quadratic_band(a: np.ndarray, b: np.ndarray, c: float) -> np.ndarray:
@@ -365,7 +402,7 @@ def tune_ppi(
     filters: FilterPack | None = None,
     fs: float = 20000.0,
     delay_samples: int = 1,
-    frf: Frf | None = None,
+    frf: Frf | Sequence[Frf] | None = None,
     crossover_tie: float = CROSSOVER_TIE,
 ) -> PpiDesign:
     """The P-PI with the highest first crossover meeting the limits (module docstring).
@@ -384,8 +421,10 @@ def tune_ppi(
         Controller sample rate [Hz].
     delay_samples : int
         Computational delay [samples].
-    frf : Frf, optional
+    frf : Frf or sequence of Frf, optional
         Measured ``x1/u``, ``x2/u``: the limits are checked in the ``discrete`` case on it (else ``ideal_discrete``).
+        With several (table positions, loads), on every one, and the objective is the lowest first crossover over
+        them.
     crossover_tie : float
         Designs whose first crossover is within this fraction of the highest count as equal; the highest
         low-frequency gain ``Kiv Kpx`` among them wins [-] (0: the highest first crossover alone).
@@ -410,12 +449,13 @@ def tune_ppi(
         raise UsageError(f"crossover_tie must be in [0, 1), got {crossover_tie!r}")
     filters = filters or FilterPack()
     filters.check_nyquist(fs)
-    case = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
-    pc = plant_cases(model, fs, delay_samples, frf)[case]
+    frfs = robust_frfs(frf)
+    case = CHECKED_WITH_FRF if frfs else CHECKED_WITHOUT_FRF
+    pcs = [plant_cases(model, fs, delay_samples, f)[case] for f in (frfs or [None])]
     M = model.total_inertia
-    z_box = (TWO_PI * SHAPE_LOW_HZ, TWO_PI * SHAPE_HIGH_FRACTION * float(pc.freq_hz[-1]))
+    z_box = (TWO_PI * SHAPE_LOW_HZ, TWO_PI * SHAPE_HIGH_FRACTION * min(float(pc.freq_hz[-1]) for pc in pcs))
     kpv_box = (M * TWO_PI * SHAPE_LOW_HZ, M * TWO_PI * fs / 2)
-    sur = Surrogate(pc, filters, fs, policy, kpv_box)
+    sur = SurrogateSet([Surrogate(pc, filters, fs, policy, kpv_box) for pc in pcs])
     search = _ShapeSearch(sur, (float(np.log(z_box[0])), float(np.log(z_box[1]))))
 
     # step 2: shapes on the surrogate
@@ -448,13 +488,18 @@ def tune_ppi(
         law = design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kpv * wi, filters=filters, fs=fs,
                          delay_samples=delay_samples).law()
         try:
-            return analyze_case(law, pc, responses=False).metrics
+            return [analyze_case(law, pc, responses=False).metrics for pc in pcs]
         except ResolutionError:  # the loop passes through -1
             return None
 
+    def lowest(ms):
+        """The metrics with the lowest first crossover (the guaranteed one); None when one has no crossover."""
+        if ms is None or not all(m.crossovers_hz for m in ms):
+            return None
+        return min(ms, key=lambda m: m.crossovers_hz[0])
+
     def judge(wi: float, kpx: float, kpv: float):
-        m = analyze(wi, kpx, kpv)
-        return m if m is not None and m.crossovers_hz and all(i.ok for i in policy.check(m, case)) else None
+        return guaranteed(analyze(wi, kpx, kpv), policy, case)
 
     checked: list[_Checked] = []
     seen = set()
@@ -465,8 +510,8 @@ def tune_ppi(
         wi, kpx = float(np.exp(sh.x[0])), float(np.exp(sh.x[1]))
         found = _edge(lambda k, wi=wi, kpx=kpx: judge(wi, kpx, k), sh.edge.kpv, kpv_box)
         if found is not None:
-            low = analyze(wi, kpx, (1 - TIE_GAIN_MARGIN) * found[0])
-            low_fc1 = float(low.crossovers_hz[0]) if low is not None and low.crossovers_hz else 0.0
+            low = lowest(analyze(wi, kpx, (1 - TIE_GAIN_MARGIN) * found[0]))
+            low_fc1 = float(low.crossovers_hz[0]) if low is not None else 0.0
             checked.append(_Checked(wi, kpx, found[0], found[1], stage, low_fc1))
     if not checked:
         raise DesignError(f"no P-PI gains proposed by the search meet the limits ({policy.describe()}) in the "
@@ -479,13 +524,13 @@ def tune_ppi(
     for c in order:
         design = design_ppi(model, Kpx=c.kpx, Kpv=c.kpv, Kiv=c.kpv * c.wi, filters=filters, fs=fs,
                             delay_samples=delay_samples)
-        verdict = check_design(design, frf=frf, limits=policy)
-        if verdict.ok:
+        verdicts = [check_design(design, frf=f, limits=policy) for f in (frfs or [None])]
+        if all(v.ok for v in verdicts):
             break
-        refused.append("; ".join(verdict.violations))
+        refused.append("; ".join(x for v in verdicts for x in v.violations))
     else:
         raise DesignError("the best P-PI candidates fail the design check: " + " | ".join(refused))
-    tuning = _record(c, verdict, policy, case, crossover_tie, best_fc1, z_box, kpv_box, M, sur.evaluations,
+    tuning = _record(c, verdicts, policy, case, crossover_tie, best_fc1, z_box, kpv_box, M, sur.evaluations,
                      checks["n"], refused)
     return PpiDesign(model, dict(design.ppi_gains), filters, float(fs), int(delay_samples), tuning)
 
@@ -524,11 +569,14 @@ def _edge(judge, k0: float, box: tuple[float, float]):
     return ok
 
 
-def _record(c: _Checked, verdict, policy: Limits, case: str, tie: float, best_fc1: float, z_box, kpv_box, M: float,
-            n_surrogate: int, n_checks: int, refused: list[str]) -> dict:
-    """The ``tuning`` record of the winner (the rule, the limits, the figures, the box and its warnings)."""
-    m = verdict.analysis.cases[case].metrics
-    act = verdict.limit_check.active()
+def _record(c: _Checked, verdicts: list, policy: Limits, case: str, tie: float, best_fc1: float, z_box, kpv_box,
+            M: float, n_surrogate: int, n_checks: int, refused: list[str]) -> dict:
+    """The ``tuning`` record of the winner (the rule, the limits, the figures, the box and its warnings); with
+    several FRFs the figures are those of the FRF with the lowest first crossover, the active limit the one with
+    the smallest slack over all."""
+    m = min((v.analysis.cases[case].metrics for v in verdicts), key=lambda x: x.crossovers_hz[0])
+    actives = [a for a in (v.limit_check.active() for v in verdicts) if a is not None]
+    act = min(actives, key=lambda a: a.slack) if actives else None
     warnings = []
     for name, v, (lo, hi), unit, scale in (("Kiv/Kpv", c.wi, z_box, "Hz", TWO_PI), ("Kpx", c.kpx, z_box, "Hz", TWO_PI),
                                            ("Kpv/(m1+m2)", c.kpv / M, (kpv_box[0] / M, kpv_box[1] / M), "Hz",
@@ -552,6 +600,7 @@ def _record(c: _Checked, verdict, policy: Limits, case: str, tie: float, best_fc
         "ms_max": policy.ms_max,
         "pm_min_deg": policy.pm_min_deg,
         "checked_case": case,
+        "frfs": len(verdicts) if verdicts[0].analysis.cases.get("discrete") is not None else 0,
         "active_limit": None if act is None else {"name": act.name, "value": act.value, "limit": act.limit,
                                                    "freq_hz": act.freq_hz},
         "first_crossover_hz": float(m.crossovers_hz[0]),

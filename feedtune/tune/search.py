@@ -46,6 +46,16 @@ def robust_frfs(frf) -> list:
     return [frf]
 
 
+def guaranteed(metrics, policy, case: str):
+    """Of the figures of one candidate on several plant cases (one per FRF): the ones with the lowest first
+    crossover (the bandwidth guaranteed on all) when every case meets the limits and has a crossover, else None."""
+    if metrics is None or not metrics:
+        return None
+    if not all(m.crossovers_hz and all(i.ok for i in policy.check(m, case)) for m in metrics):
+        return None
+    return min(metrics, key=lambda m: m.crossovers_hz[0])
+
+
 def unreliable(warnings) -> str | None:
     """The analysis' warning that its Nyquist count is unreliable (winding not close to an integer), or None."""
     return next((w for w in warnings or [] if "not close to an integer" in w), None)
