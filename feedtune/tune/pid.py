@@ -58,6 +58,8 @@ from ..design.gantry_pid import GantryPidDesign, design_gantry_pid, pid_gains
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
+from .filter_choice import KEEP_GAIN, merge_resonances, resonance_peaks, sensitivity_peaks
+from .filter_choice import choose_filters as own_filters
 from .search import EdgeResult, Probe, SearchResult, band_top_doubt, feasibility_edge, pattern_search, unreliable
 
 ZETA_BOUNDS = (0.3, 1.0)
@@ -359,157 +361,53 @@ def tune_gantry_pid(
 
 
 # ------------------------------------------------------------------------------------------ own filters
-MAX_OWN_FILTERS = 3
-"""Most filters the tuner adds (notches and one low-pass)."""
-KEEP_GAIN = 0.02
-"""Relative rise of the first crossover [-] a filter must bring (screened at the current shape) to be kept."""
 SCREEN_RTOL = 1e-2
 """Bracket [-] of the bandwidth edge when screening a filter."""
-NOTCH_POLE_DAMPING = (0.3, 0.6)
-"""Damping of the notch poles tried [-]; the zeros get the resonance's damping (0.05 at a sensitivity peak)."""
 
 
 def plant_resonances(case: _Case, n: int = 3, prominence_db: float = 6.0) -> list[tuple[float, float]]:
     """The ``n`` most prominent resonances ``(Hz, damping)`` of the checked plant.
 
     Without an FRF, the model's lightly damped poles; with one, the peaks of ``sigma_max(G) (2 pi f)^2`` (flat for
-    the rigid body) that stand ``prominence_db`` [dB] above their surroundings, with the damping from the
-    half-power width (0.05 when the lines do not resolve it).
+    the rigid body) that stand ``prominence_db`` [dB] above their surroundings
+    (:func:`feedtune.tune.filter_choice.resonance_peaks`).
     """
-    from scipy.signal import find_peaks
-
     pc = case.pc
     if not pc.measured:
         feats = [(float(f), float(z)) for f, z in np.asarray(pc.features).reshape(-1, 2) if 0 < f < 0.45 * case.fs]
         return sorted(feats, key=lambda fz: fz[1])[:n]
     f = pc.freq_hz
-    acc = singular_values(pc.plant(f))[0] * (TWO_PI * f) ** 2
-    db = 20 * np.log10(acc)
-    idx, props = find_peaks(db, prominence=prominence_db)
-    out = []
-    for i in idx[np.argsort(props["prominences"])[::-1]][:n]:
-        half = acc[i] / math.sqrt(2)
-        lo = i
-        while lo > 0 and acc[lo] > half:
-            lo -= 1
-        hi = i
-        while hi < f.size - 1 and acc[hi] > half:
-            hi += 1
-        ok = acc[lo] <= half and acc[hi] <= half and hi - lo >= 3
-        out.append((float(f[i]), float((f[hi] - f[lo]) / (2 * f[i])) if ok else 0.05))
-    return out
+    return resonance_peaks(f, singular_values(pc.plant(f))[0] * (TWO_PI * f) ** 2, n, prominence_db)
 
 
-def sensitivity_peaks(case: _Case, law: PidLaw, above_hz: float, n: int = 2) -> list[float]:
-    """Frequencies [Hz] of the ``n`` highest local maxima of ``sigma_max(S)`` above ``above_hz`` on the base grid."""
-    from scipy.signal import find_peaks
-
+def _sensitivity_peaks(case: _Case, law: PidLaw, above_hz: float) -> list[float]:
     f = case.pc.freq_hz
     K = law.response_discrete(f) if case.pc.discrete else law.response(f)
-    smax = singular_values(sensitivity(matmul(case.Ge, K)))[0]
-    idx, _ = find_peaks(np.r_[0.0, smax, 0.0])
-    idx = idx - 1
-    idx = idx[(f[idx] > above_hz) & (smax[idx] > 1.0)]
-    return [float(f[i]) for i in idx[np.argsort(smax[idx])[::-1]][:n]]
-
-
-def _describe(item) -> str:
-    if isinstance(item, tuple):
-        return f"low-pass {item[0]:.4g} Hz, order {item[1]}"
-    return f"notch {item.freq_hz:.4g} Hz (zeta_z {item.zeta_z:.3g}, zeta_p {item.zeta_p:.3g})"
-
-
-def _with(pack: FilterPack, item) -> FilterPack:
-    from dataclasses import replace
-
-    if isinstance(item, tuple):
-        return replace(pack, lpf_hz=item[0], lpf_order=item[1])
-    return replace(pack, notches=(*pack.notches, item))
-
-
-def _candidates(case: _Case, pack: FilterPack, given: FilterPack, law: PidLaw, xo: float,
-                resonances: list) -> list[tuple[object, str]]:
-    """Filters to try next: ``[(Notch or (lpf_hz, order), why)]``."""
-    from ..control.filters import Notch
-
-    out: list = []
-    top = 0.45 * case.fs
-    seeds = [(f, z, "plant resonance") for f, z in resonances if 0.5 * xo < f < top]
-    peaks = sensitivity_peaks(case, law, xo)
-    for f in peaks:
-        if f < top and all(abs(f / s[0] - 1) > 0.1 for s in seeds):
-            seeds.append((f, None, "sensitivity peak"))
-    for f, z, why in seeds:
-        if any(abs(n.freq_hz / f - 1) < 0.05 for n in pack.notches):
-            continue
-        zz = 0.05 if z is None else min(max(z, 0.005), 0.25)
-        out += [(Notch(f, zz, zp), f"{why} at {f:.4g} Hz") for zp in NOTCH_POLE_DAMPING if zz < zp]
-    out += [(n, "given") for n in given.notches if all(abs(m.freq_hz / n.freq_hz - 1) > 1e-6 for m in pack.notches)]
-    if pack.lpf_hz is None:
-        if peaks and peaks[0] > 2 * xo:
-            fp = peaks[0]
-            out += [((fc, order), f"below the sensitivity peak at {fp:.4g} Hz") for fc in (math.sqrt(xo * fp), fp / 2)
-                    for order in (1, 2) if fc < top]
-        if given.lpf_hz is not None:
-            out.append(((given.lpf_hz, given.lpf_order), "given"))
-    return out
+    return sensitivity_peaks(f, singular_values(sensitivity(matmul(case.Ge, K)))[0], above_hz)
 
 
 def choose_filters(case: _Case, given: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
-    """The tuner's own filter pack (module docstring): ``(pack, SearchResult or None, record)``.
+    """The tuner's own filter pack (:func:`feedtune.tune.filter_choice.choose_filters`): ``(pack, SearchResult or
+    None, record)``. Candidates are screened at the winner's shape (the bandwidth edge to ``SCREEN_RTOL``, pruned
+    when the first check cannot beat the crossover) and the kept one is refined by a local shape search."""
 
-    From the best design without notches or low-pass (the leads of ``given`` are kept), each round screens the
-    candidates of :func:`_candidates` at the winner's shape (the bandwidth edge to ``SCREEN_RTOL``), keeps the
-    one that raises the first crossover most if by more than ``KEEP_GAIN``, and re-runs the shape search locally;
-    it stops when no candidate helps or after ``MAX_OWN_FILTERS`` filters.
-    """
-    from dataclasses import replace
+    def screen(pack: FilterPack, result: SearchResult, beat: float):
+        ref = (tuple(result.point), result.edge.best)
+        e = _Search(case, pack, zeta_bounds, rho_bounds, scan).edge(tuple(result.point), ref, beat, SCREEN_RTOL)
+        note = None
+        if e.pruned:
+            note = (f"fails at w = {e.fail_scale:.4g} Hz, where the crossover is still below {beat:.4g} Hz "
+                    f"(+{100 * KEEP_GAIN:g} %): it cannot raise it")
+        return (None if e.best is None else e.best.crossover_hz), e.best, note
 
-    pack = replace(given, notches=(), lpf_hz=None)
-    result = _Search(case, pack, zeta_bounds, rho_bounds, scan).run()
-    if result is None:
-        return pack, None, {"choice": "own", "chosen": [], "rounds": [],
-                            "why": "no design without filters met the limits; none was searched with filters"}
-    resonances = plant_resonances(case)
-    rounds = []
-    chosen = []
-    for _ in range(MAX_OWN_FILTERS):
-        law = result.edge.best.result[0]
-        x0 = result.edge.best.crossover_hz
-        zeta, rho = result.point
-        tried = []
-        ref = ((zeta, rho), result.edge.best)
-        for item, why in _candidates(case, pack, given, law, x0, resonances):
-            search = _Search(case, _with(pack, item), zeta_bounds, rho_bounds, scan)
-            e = search.edge((zeta, rho), ref, x0 * (1 + KEEP_GAIN), SCREEN_RTOL)
-            t = {"filter": _describe(item), "why": why, "item": item, "probe": e.best,
-                 "crossover_hz": None if e.best is None else e.best.crossover_hz}
-            if e.pruned:
-                t["screen"] = (f"fails at w = {e.fail_scale:.4g} Hz, where the crossover is still below "
-                               f"{x0 * (1 + KEEP_GAIN):.4g} Hz (+{100 * KEEP_GAIN:g} %): it cannot raise it")
-            tried.append(t)
-        rec = {"crossover_before_hz": x0, "shape": [zeta, rho],
-               "candidates": [{k: v for k, v in t.items() if k in ("filter", "why", "crossover_hz", "screen")}
-                              for t in tried]}
-        rounds.append(rec)
-        good = [t for t in tried if t["crossover_hz"] is not None and t["crossover_hz"] > x0 * (1 + KEEP_GAIN)]
-        if not good:
-            rec["kept"] = None
-            break
-        top = max(good, key=lambda t: t["crossover_hz"])
-        trial = _with(pack, top["item"])
-        local = _Search(case, trial, zeta_bounds, rho_bounds, scan).run_from((zeta, rho), top["probe"])
-        if local is None or local.edge.best.crossover_hz <= x0 * (1 + KEEP_GAIN):
-            rec["kept"] = None
-            break
-        rec["kept"] = top["filter"]
-        chosen.append(f"{top['filter']} ({top['why']}): first crossover {x0:.4g} -> "
-                      f"{local.edge.best.crossover_hz:.4g} Hz")
-        pack, result = trial, local
-    why = ("no notch or low-pass raised the first crossover by more than "
-           f"{100 * KEEP_GAIN:g} %" if not chosen else "each kept filter raised the first crossover by more than "
-           f"{100 * KEEP_GAIN:g} % at the winner's shape")
-    return pack, result, {"choice": "own", "chosen": chosen, "why": why, "rounds": rounds}
+    def refine(pack: FilterPack, result: SearchResult, probe: Probe):
+        return _Search(case, pack, zeta_bounds, rho_bounds, scan).run_from(tuple(result.point), probe)
+
+    return own_filters(given, run=lambda pack: _Search(case, pack, zeta_bounds, rho_bounds, scan).run(),
+                       objective=lambda r: r.edge.best.crossover_hz, screen=screen, refine=refine,
+                       resonances=merge_resonances([plant_resonances(case)]),
+                       peaks=lambda r: _sensitivity_peaks(case, r.edge.best.result[0], r.edge.best.crossover_hz),
+                       fs=case.fs)
 
 
 def _stable_everywhere(law: PidLaw, case: _Case) -> dict:
