@@ -29,11 +29,15 @@ FAMILY = [m.frf(F) for m in MEMBERS]
 MS_MAX, PM_MIN = 2.5, 30.0  # the textbook profile the tuner uses by default
 
 
-def _loop(law, model):
-    """The sampled loop broken at the plant input as a python-control state space (ZOH plant, law, delay)."""
+def _loop(law, model, extra=None):
+    """The sampled loop broken at the plant input as a python-control state space (ZOH plant, law, delay);
+    ``extra`` is a continuous transfer function in front of the plant (an unmodelled mode)."""
     T = 1 / law.fs
     A, B, C = model.state_space()
-    plant = control.c2d(control.ss(A, B[:, :1], C, np.zeros((2, 1))), T, "zoh")
+    plant = control.ss(A, B[:, :1], C, np.zeros((2, 1)))
+    if extra is not None:
+        plant = control.series(control.ss(extra), plant)
+    plant = control.c2d(plant, T, "zoh")
     parts = [control.ss(control.tf(*k.to_tf(), T)) for k in (law.K1d(), law.K2d())]
     add = control.ss(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), np.array([[1.0, 1.0]]), T)
     loop = control.series(plant, control.append(*parts), add)
@@ -42,9 +46,9 @@ def _loop(law, model):
     return loop
 
 
-def _independent(law, model) -> tuple[bool, float, float]:
+def _independent(law, model, extra=None) -> tuple[bool, float, float]:
     """(stable by the closed-loop eigenvalues, max |S| and the smallest |PM| [deg] on 60,000 log-spaced points)."""
-    loop = _loop(law, model)
+    loop = _loop(law, model, extra)
     stable = bool(np.all(np.abs(control.feedback(loop, 1).poles()) < 1))
     f = np.logspace(-1, np.log10(0.9999 * law.fs / 2), 60_000)
     L = np.asarray(loop.frequency_response(2 * np.pi * f).complex).ravel()
@@ -77,6 +81,38 @@ def test_the_design_tuned_on_the_middle_frf_alone_violates_the_limits_on_another
     assert broken[0] or broken[2]
     # the price of robustness: a lower guaranteed crossover than the nominal design's
     assert robust.tuning["first_crossover_hz"] < middle.tuning["first_crossover_hz"]
+
+
+# ------------------------------------------------------------------ filter placement
+MODE_HZ, MODE_ZETA, MODE_GAIN = 703.3, 0.005, 0.5  # between two lines of F; the resonance lifts |G| 1.5x below it
+
+
+def _mode_tf():
+    w = 2 * np.pi * MODE_HZ
+    return control.tf([1, 2 * MODE_ZETA * w, (1 + MODE_GAIN) * w * w], [1, 2 * MODE_ZETA * w, w * w])
+
+
+def _with_mode(frf):
+    from feedtune.frf import Frf
+
+    m = np.asarray(_mode_tf()(2j * np.pi * F)).ravel()
+    return Frf(F, frf.response * m, frf.outputs, frf.inputs, "position", None, "V", "rad", {"source": "mode"})
+
+
+def test_a_lightly_damped_mode_between_lines_gets_a_notch_there_and_the_design_meets_the_limits():
+    assert not np.any(np.isclose(F, MODE_HZ, rtol=1e-3))
+    d = tune_mcppc(MODEL, frf=_with_mode(FAMILY[1]), filter_choice="own")
+    notches = [n.freq_hz for n in d.filters.notches]
+    assert any(abs(f / MODE_HZ - 1) < 0.05 for f in notches), notches
+    stable, ms, pm = _independent(d.law(), MODEL, _mode_tf())
+    assert stable and ms <= MS_MAX * 1.01 and pm >= PM_MIN - 0.3
+    assert d.tuning["filters"]["chosen"] and d.tuning["filters"]["choice"] == "own"
+
+
+def test_without_the_mode_no_notch_is_added():
+    d = tune_mcppc(MODEL, frf=FAMILY[1], filter_choice="own")
+    assert d.filters.notches == () and d.filters.lpf_hz is None
+    assert d.tuning["filters"]["chosen"] == [] and "no notch" in d.tuning["filters"]["why"]
 
 
 def run(args, capsys, monkeypatch):

@@ -33,12 +33,40 @@ app = typer.Typer(
 FRFS_OPTION = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u), repeatable: one per table position or "
                                                "load. The limits must hold on every one.")
 OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml or .json), with the certificate.")
+FILTERS_OPTION = typer.Option(
+    None, "--filters", metavar="own|identical",
+    help="own: the tuner places notches and a low-pass where they raise the guaranteed crossover (--notch/--lpf "
+         "are candidates); identical: the --notch/--lpf pack as given. Default: identical with --notch or --lpf, "
+         "else own.")
+
+
+def _filter_choice(choice: str | None, notch, lpf) -> str:
+    from ..errors import UsageError
+
+    if choice is None:
+        return "identical" if notch or lpf is not None else "own"
+    if choice not in ("own", "identical"):
+        raise UsageError(f"--filters must be own or identical, got {choice!r}")
+    return choice
 
 
 def _frfs(paths: list[Path] | None, quantity: str | None) -> list[tuple[str, object]]:
     from .frf_options import read_optional_frf
 
     return [(str(p), read_optional_frf(p, quantity)) for p in paths or []]
+
+
+def print_filters(pack: dict, record: dict) -> None:
+    """The filter pack and, for the tuner's own choice, what each kept filter addresses."""
+    parts = [f"notch {fmt(n['freq_hz'], 'Hz')} (zeta_z {n['zeta_z']:.3g}, zeta_p {n['zeta_p']:.3g})"
+             for n in pack["notches"]]
+    if pack.get("lpf_hz") is not None:
+        parts.append(f"low-pass {fmt(pack['lpf_hz'], 'Hz')} (order {pack['lpf_order']})")
+    typer.echo(f"filters ({record.get('choice', 'identical')}): {', '.join(parts) or 'none'}")
+    for line in record.get("chosen", []):
+        typer.echo(f"  {line}")
+    if record.get("choice") == "own" and not record.get("chosen"):
+        typer.echo(f"  {record.get('why', '')}")
 
 
 def print_certificate(cert: dict) -> None:
@@ -57,8 +85,8 @@ def print_certificate(cert: dict) -> None:
                f"Ms {w['ms']:.3g} ({w['ms_frf']}); active limit: {active}")
 
 
-def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, notch, lpf, fs: float,
-                    delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool,
+def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, notch, lpf, filters: str | None,
+                    fs: float, delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool,
                     as_json: bool) -> None:
     """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
     from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
@@ -71,19 +99,21 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, no
     from ..tune.ppi import tune_ppi
     from ..workflows.certificate import certify
 
+    choice = _filter_choice(filters, notch, lpf)
     if out is not None:
         ensure_writable(out, force)  # refused before the search, not after it
     model = _load_model(model_file)
     frfs = _frfs(frf, quantity)
     tuner = {"mcppc": tune_mcppc, "ppi": tune_ppi}[structure]
     design = tuner(model, limits=policy, filters=_filters(notch, lpf), fs=fs, delay_samples=delay_samples,
-                   frf=[f for _, f in frfs] or None)
+                   frf=[f for _, f in frfs] or None, filter_choice=choice)
     doc = gains_document(design)
     cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
     doc["certificate"] = strip_none(cert.to_dict())
     gains = {**design.gains, **getattr(design, "ppi_gains", {})}
     units = {**GAIN_UNITS, **PPI_UNITS}
     result = {"kind": "ballscrew", "controller": design.kind, "gains": gains, "gain_units": units,
+              "filters": design.filters.to_dict(), "filter_choice": design.tuning.get("filters", {"choice": choice}),
               "design": design.design_dict(), "certificate": cert.to_dict()}
     if not cert.ok:  # the tuner re-checks its winner on every FRF; this is the gains file as written
         raise DesignError(f"the tuned {TITLES[structure]} fails its certificate: "
@@ -96,6 +126,7 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, no
         return
     typer.echo(f"{TITLES[structure]} tuned: " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}"
                                                           for k, v in gains.items()))
+    print_filters(result["filters"], result["filter_choice"])
     print_certificate(result["certificate"])
     if out is not None:
         typer.echo(f"wrote {out}")
@@ -110,6 +141,7 @@ def mcppc(
     frf: list[Path] = FRFS_OPTION,
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
+    filters: str = FILTERS_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     quantity: str = QUANTITY_OPTION,
@@ -124,9 +156,9 @@ def mcppc(
 ) -> None:
     """MC-PPC for the highest first crossover that meets the limits on every FRF.
 
-    Tunes beta, the pole frequency and zeta of eq. 3.5-3.13 with the given filter pack; without --frf, on the model
-    in the ideal discrete case."""
-    _tune_ballscrew("mcppc", model_file, frf, notch, lpf, fs, delay_samples, quantity,
+    Tunes beta, the pole frequency and zeta of eq. 3.5-3.13 and (--filters own) the notches and low-pass; without
+    --frf, on the model in the ideal discrete case."""
+    _tune_ballscrew("mcppc", model_file, frf, notch, lpf, filters, fs, delay_samples, quantity,
                     limits_from_options(limits, ms_max, pm_min, gm_min, dm_min), out, force, as_json)
 
 
@@ -136,6 +168,7 @@ def ppi(
     frf: list[Path] = FRFS_OPTION,
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
+    filters: str = FILTERS_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     quantity: str = QUANTITY_OPTION,
@@ -150,7 +183,7 @@ def ppi(
 ) -> None:
     """P-PI cascade for the highest first crossover that meets the limits on every FRF.
 
-    Tunes Kpx, Kpv and Kiv (Figure 3.9) by the rule of 'feedtune design ppi' with the given filter pack; without
-    --frf, on the model in the ideal discrete case."""
-    _tune_ballscrew("ppi", model_file, frf, notch, lpf, fs, delay_samples, quantity,
+    Tunes Kpx, Kpv and Kiv (Figure 3.9) by the rule of 'feedtune design ppi' and (--filters own) the notches and
+    low-pass; without --frf, on the model in the ideal discrete case."""
+    _tune_ballscrew("ppi", model_file, frf, notch, lpf, filters, fs, delay_samples, quantity,
                     limits_from_options(limits, ms_max, pm_min, gm_min, dm_min), out, force, as_json)

@@ -14,6 +14,9 @@ notches or low-pass (the leads of the given pack are kept), each round
    objective most, if by more than :data:`KEEP_GAIN`, after the tuner's local search from it (``refine``);
 3. stops when no candidate helps or after :data:`MAX_OWN_FILTERS` filters.
 
+When no design meets the limits without filters, the first round runs the whole search with each resonance's notch
+(and each given filter) and keeps the best that meets them.
+
 So a resonance is notched only when the notch raises the bandwidth under the limits, a moving resonance gets one
 wide notch or narrow ones or none, by the same objective, and a plant without resonances gets no notch.
 """
@@ -215,12 +218,27 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
     """
     pack = replace(given, notches=(), lpf_hz=None)
     result = run(pack)
-    if result is None:
-        return pack, None, {"choice": "own", "chosen": [], "rounds": [],
-                            "why": "no design without filters met the limits; none was searched with filters"}
     rounds = []
     chosen = []
-    for _ in range(MAX_OWN_FILTERS):
+    if result is None:  # the resonances' notches (and the given filters), each with the whole search
+        tried = []
+        for item, why in filter_candidates(pack, given, resonances, [], 0.0, fs):
+            r = run(with_filter(pack, item))
+            tried.append({"filter": describe(item), "why": why, "item": item, "result": r,
+                          "crossover_hz": None if r is None else objective(r)})
+        rounds.append({"crossover_before_hz": None, "candidates": [
+            {k: v for k, v in t.items() if k in ("filter", "why", "crossover_hz")} for t in tried]})
+        good = [t for t in tried if t["result"] is not None]
+        if not good:
+            rounds[-1]["kept"] = None
+            return pack, None, {"choice": "own", "chosen": [], "rounds": rounds,
+                                "why": "no design met the limits without filters or with one notch at a resonance"}
+        top = max(good, key=lambda t: t["crossover_hz"])
+        rounds[-1]["kept"] = top["filter"]
+        chosen.append(f"{top['filter']} ({top['why']}): no design without it; first crossover "
+                      f"{top['crossover_hz']:.4g} Hz with it")
+        pack, result = with_filter(pack, top["item"]), top["result"]
+    for _ in range(MAX_OWN_FILTERS - len(chosen)):
         x0 = objective(result)
         beat = x0 * (1 + KEEP_GAIN)
         tried = []

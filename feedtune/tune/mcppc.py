@@ -22,10 +22,11 @@ from ..analysis.check import check_design, resolve_limits
 from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
 from ..design.mcppc import McppcDesign, design_mcppc
-from ..errors import DesignError, FeedtuneError
+from ..errors import DesignError, FeedtuneError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .search import CROSSOVER_TIE, Candidate, SearchRecord, guaranteed, highest_feasible, robust_frfs
+from .ballscrew_filters import tune_with_own_filters
+from .search import CROSSOVER_TIE, Candidate, CheckedCases, SearchRecord, highest_feasible, robust_frfs
 
 BETAS = (1.0, 2.0, 3.0, 4.0)
 """Multipliers of the axial mode's decay rate searched [-] (thesis: up to 4)."""
@@ -37,7 +38,7 @@ POLE_RANGE_HZ = (5.0, 500.0)
 
 def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None = None, fs: float = 20000.0,
                delay_samples: int = 1, frf: Frf | Sequence[Frf] | None = None, betas=BETAS, zetas=ZETAS,
-               pole_range_hz: tuple[float, float] = POLE_RANGE_HZ) -> McppcDesign:
+               pole_range_hz: tuple[float, float] = POLE_RANGE_HZ, filter_choice: str = "identical") -> McppcDesign:
     """The MC-PPC with the highest first crossover that meets ``limits`` (module docstring).
 
     Parameters
@@ -57,6 +58,9 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         Shapes searched.
     pole_range_hz : (float, float)
         Bounds of the pole frequency [Hz].
+    filter_choice : {"identical", "own"}
+        ``identical``: the filter pack as given; ``own``: the tuner chooses notches and a low-pass
+        (:mod:`feedtune.tune.filter_choice`; the given filters are candidates), recorded in ``tuning["filters"]``.
 
     Raises
     ------
@@ -70,6 +74,21 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     frfs = robust_frfs(frf)
     case = CHECKED_WITH_FRF if frfs else CHECKED_WITHOUT_FRF
     pcs = [plant_cases(model, fs, delay_samples, f)[case] for f in (frfs or [None])]
+    if filter_choice == "own":
+        def tune(filters: FilterPack, **shapes) -> McppcDesign:
+            return tune_mcppc(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
+                              frf=frfs or None, pole_range_hz=pole_range_hz,
+                              **({"betas": betas, "zetas": zetas} | shapes))
+
+        design, record = tune_with_own_filters(tune, lambda d: {"betas": (d.beta,), "zetas": (d.zeta,)}, filters,
+                                               pcs, fs)
+        if design is None:
+            raise DesignError(f"no MC-PPC meets the limits ({policy.describe()}) in the {case} case with or without "
+                              "the filters tried")
+        return replace(design, tuning={**design.tuning, "filters": record,
+                                       "rule": design.tuning["rule"] + " (own filters)"})
+    if filter_choice != "identical":
+        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
 
     def check(shape: dict, pole_hz: float) -> Candidate | None:
         try:
@@ -78,9 +97,10 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         except FeedtuneError:
             return None
         law = design.law()
-        m = guaranteed([analyze_case(law, pc, responses=False).metrics for pc in pcs], policy, case)
+        m = checked.guaranteed(lambda pc: analyze_case(law, pc, responses=False).metrics, policy, case)
         return None if m is None else Candidate(shape, pole_hz, design, m, m.crossovers_hz[0])
 
+    checked = CheckedCases(pcs)
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
     best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz",

@@ -58,7 +58,7 @@ reported in ``tuning["warnings"]``.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -74,7 +74,8 @@ from ..design.ppi import PpiDesign, design_ppi
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .search import guaranteed, robust_frfs
+from .ballscrew_filters import tune_with_own_filters
+from .search import CheckedCases, robust_frfs
 
 CROSSOVER_TIE = 0.02
 """Designs whose first crossover is within this fraction of the highest found count as equal [-]."""
@@ -404,6 +405,7 @@ def tune_ppi(
     delay_samples: int = 1,
     frf: Frf | Sequence[Frf] | None = None,
     crossover_tie: float = CROSSOVER_TIE,
+    filter_choice: str = "identical",
 ) -> PpiDesign:
     """The P-PI with the highest first crossover meeting the limits (module docstring).
 
@@ -428,6 +430,9 @@ def tune_ppi(
     crossover_tie : float
         Designs whose first crossover is within this fraction of the highest count as equal; the highest
         low-frequency gain ``Kiv Kpx`` among them wins [-] (0: the highest first crossover alone).
+    filter_choice : {"identical", "own"}
+        ``identical``: the filter pack as given; ``own``: the tuner chooses notches and a low-pass
+        (:mod:`feedtune.tune.filter_choice`; the given filters are candidates), recorded in ``tuning["filters"]``.
 
     Returns
     -------
@@ -452,6 +457,19 @@ def tune_ppi(
     frfs = robust_frfs(frf)
     case = CHECKED_WITH_FRF if frfs else CHECKED_WITHOUT_FRF
     pcs = [plant_cases(model, fs, delay_samples, f)[case] for f in (frfs or [None])]
+    if filter_choice == "own":
+        def tune(filters: FilterPack) -> PpiDesign:
+            return tune_ppi(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
+                            frf=frfs or None, crossover_tie=crossover_tie)
+
+        design, record = tune_with_own_filters(tune, lambda d: {}, filters, pcs, fs)
+        if design is None:
+            raise DesignError(f"no P-PI meets the limits ({policy.describe()}) in the {case} case with or without "
+                              "the filters tried")
+        return replace(design, tuning={**design.tuning, "filters": record,
+                                       "rule": design.tuning["rule"] + " (own filters)"})
+    if filter_choice != "identical":
+        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
     M = model.total_inertia
     z_box = (TWO_PI * SHAPE_LOW_HZ, TWO_PI * SHAPE_HIGH_FRACTION * min(float(pc.freq_hz[-1]) for pc in pcs))
     kpv_box = (M * TWO_PI * SHAPE_LOW_HZ, M * TWO_PI * fs / 2)
@@ -498,8 +516,20 @@ def tune_ppi(
             return None
         return min(ms, key=lambda m: m.crossovers_hz[0])
 
+    in_turn = CheckedCases(pcs)
+
     def judge(wi: float, kpx: float, kpv: float):
-        return guaranteed(analyze(wi, kpx, kpv), policy, case)
+        checks["n"] += 1
+        law = design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kpv * wi, filters=filters, fs=fs,
+                         delay_samples=delay_samples).law()
+
+        def metrics_of(pc):
+            try:
+                return analyze_case(law, pc, responses=False).metrics
+            except ResolutionError:  # the loop passes through -1
+                return None
+
+        return in_turn.guaranteed(metrics_of, policy, case)
 
     checked: list[_Checked] = []
     seen = set()
