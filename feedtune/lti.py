@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .blas import blas_single_threaded
 from .errors import UsageError
 
 
@@ -200,6 +201,7 @@ def zoh_double_integrator(mass: float, fs: float, freq_hz) -> np.ndarray:
     return T * T * (z + 1) / (2 * mass * (z - 1) ** 2)
 
 
+@blas_single_threaded
 def zoh(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Exact discretization for inputs held over ``h`` [s]: ``expm([[A, B], [0, 0]] h)``."""
     from scipy.linalg import expm

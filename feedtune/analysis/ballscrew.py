@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..blas import blas_single_threaded
 from ..control.ballscrew_law import BallScrewLaw
 from ..errors import DataError
 from ..frf import Frf
@@ -139,6 +140,7 @@ def zoh_plant(model: BallScrewModel, fs: float, freq_hz: np.ndarray) -> dict[str
     return _zoh_tf(model, fs)(freq_hz)
 
 
+@blas_single_threaded
 def _zoh_tf(model: BallScrewModel, fs: float):
     """A function evaluating :func:`zoh_plant` on any grid (the discretization computed once)."""
     from scipy.signal import cont2discrete, ss2tf

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..blas import blas_single_threaded
 from ..control.gantry import GantryReference
 from ..errors import DataError
 from ..frf import Frf
@@ -140,6 +141,7 @@ def zoh_gantry(model: GantryModel, x: float, fs: float, freq_hz) -> np.ndarray:
     return _zoh_gantry_fn(model, x, fs)(freq_hz)
 
 
+@blas_single_threaded
 def _zoh_gantry_fn(model: GantryModel, x: float, fs: float):
     """A function evaluating :func:`zoh_gantry` on any grid (the discretization computed once)."""
     from scipy.signal import cont2discrete

@@ -59,9 +59,16 @@ app.command("trajectory")(trajectory_cmd.trajectory)
 app.command("demo")(demo_cmd.demo)
 
 
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
+"""Set to 1 before numpy loads unless the user set them: feedtune's matrices are tiny (:mod:`feedtune.blas`)."""
+
+
 def main() -> None:
     """Entry point of the ``feedtune`` console script."""
     from ..errors import FeedtuneError
+
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
 
     try:
         app()

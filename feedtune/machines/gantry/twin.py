@@ -738,15 +738,18 @@ class GantryTwin:
         return self.params.model
 
     def tables(self) -> _Tables:
-        """Exact ZOH matrices on the grid :meth:`GantryTwinParams.x_grid` (computed once)."""
+        """Exact ZOH matrices on the grid :meth:`GantryTwinParams.x_grid` (computed once, one BLAS thread)."""
         if self._tables is None:
             from scipy.linalg import expm
+
+            from ...blas import single_threaded_blas
 
             xs = self.params.x_grid()
             aug = np.zeros((xs.size, N_STATES + N_INPUTS, N_STATES + N_INPUTS))
             for i, x in enumerate(xs):
                 aug[i, :N_STATES, :N_STATES], aug[i, :N_STATES, N_STATES:] = continuous_system(self.params, x)
-            E = expm(aug / self.fs)  # batched: exact ZOH at every grid point
+            with single_threaded_blas():
+                E = expm(aug / self.fs)  # batched: exact ZOH at every grid point
             self._tables = _Tables(xs, np.ascontiguousarray(E[:, :N_STATES, :N_STATES]),
                                    np.ascontiguousarray(E[:, :N_STATES, N_STATES:]))
         return self._tables
