@@ -366,3 +366,24 @@ def test_friction_model_file_round_trip_and_errors(tmp_path):
         bad.write_text(text.replace(old, new, 1))
         with pytest.raises(DataError, match=message):
             load_model(bad)
+
+
+def test_compiled_steady_state_pass_equals_scipy_dlsim_of_the_same_filter():
+    """The time-invariant filter run sample by sample equals scipy's state-space simulation of
+    ``s[k+1] = Phi s[k] + G e[k], x[k] = Phi s[k] + G e[k]`` (``e = [u[k-1], y[k]]``)."""
+    from scipy.signal import dlsim
+
+    from feedtune.identify.kalman import _run_steady_state
+
+    m, dt = 2.0, 1e-4
+    F, B, Q = discrete_model(m, 5.0, dt, 1e3)
+    K, _ = steady_state_gain(F, Q, 1e-12, m, dt)
+    rng = np.random.default_rng(5)
+    u = rng.normal(size=4000)
+    y = np.cumsum(rng.normal(size=4000)) * 1e-6
+    got = _run_steady_state(F, B, K, u, y)
+    IKH = np.eye(3) - np.outer(K, [1.0, 0.0, 0.0])
+    Phi, G = IKH @ F, np.column_stack([IKH @ B, K])
+    _, ref, _ = dlsim((Phi, G, Phi, G, 1.0), np.column_stack([u, y]))
+    scale = np.max(np.abs(ref), axis=0)
+    assert np.max(np.abs(got.T - ref) / scale) < 1e-10

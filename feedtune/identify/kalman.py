@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..blas import blas_single_threaded
 from ..errors import UsageError
 from ..log import Log
 from .rigid import default_force_unit, position_si, uniform_sample_time
@@ -138,6 +139,7 @@ class DisturbanceEstimate:
 
 
 # ------------------------------------------------------------------------------------------ the model
+@blas_single_threaded
 def discrete_model(mass: float, viscous: float, dt: float, q_disturbance: float
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ZOH discretisation ``(F, B, Q)`` of the ``[x, v, d]`` model (see module doc).
@@ -181,6 +183,7 @@ def discrete_model(mass: float, viscous: float, dt: float, q_disturbance: float
     return F, B, (Q + Q.T) / 2.0
 
 
+@blas_single_threaded
 def steady_state_gain(F: np.ndarray, Q: np.ndarray, r_position: float, mass: float, dt: float
                       ) -> tuple[np.ndarray, np.ndarray]:
     """Steady-state Kalman gain ``K`` (shape (3,)) and a-priori covariance ``P`` for ``y = x + n``.
@@ -212,27 +215,42 @@ def observer_poles_hz(F: np.ndarray, K: np.ndarray, dt: float) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------ filtering
 def _run_steady_state(F, B, K, u_prev: np.ndarray, y_rel: np.ndarray) -> np.ndarray:
-    """``x[k] = Phi x[k-1] + G [u[k-1], y[k]]`` from zero initial state, as compiled filters (shape (3, n)).
+    """``x[k] = Phi x[k-1] + G [u[k-1], y[k]]`` from zero initial state (shape (3, n)), one compiled pass.
 
-    Every state shares the denominator ``det(I - Phi z^-1)``: each state's input combination is formed by
-    short FIR numerators (``np.convolve``) and all three are then run through one all-pole ``sosfilt``.
+    ``Phi = (I - K H) F`` and ``G = [(I - K H) B, K]``: the predict/update of the time-invariant filter folded into one
+    state recursion, run sample by sample in a numba loop (:func:`_filter_pass`).
     """
-    from scipy import signal
-
     H = np.array([[1.0, 0.0, 0.0]])
     IKH = np.eye(3) - np.outer(K, H)
-    Phi = IKH @ F
-    G = np.column_stack([IKH @ B, K])
-    # s[k] = x[k-1]: s[k+1] = Phi s[k] + G e[k], x[k] = Phi s[k] + G e[k]
-    num_u, _ = signal.ss2tf(Phi, G[:, :1], Phi, G[:, :1])
-    num_y, _ = signal.ss2tf(Phi, G[:, 1:], Phi, G[:, 1:])
-    n = y_rel.size
-    mixed = np.empty((3, n))
-    for i in range(3):
-        mixed[i] = np.convolve(u_prev, num_u[i])[:n]
-        mixed[i] += np.convolve(y_rel, num_y[i])[:n]
-    all_pole = signal.zpk2sos([], np.linalg.eigvals(Phi), 1.0)
-    return signal.sosfilt(all_pole, mixed, axis=-1)
+    Phi = np.ascontiguousarray(IKH @ F)
+    G = np.ascontiguousarray(np.column_stack([IKH @ B, K]))
+    out = np.empty((3, y_rel.size))
+    _filter_pass()(Phi, G, np.ascontiguousarray(u_prev, dtype=float), np.ascontiguousarray(y_rel, dtype=float), out)
+    return out
+
+
+_KERNEL: list = []
+
+
+def _filter_pass():
+    """The compiled state recursion ``out[:, k] = Phi out[:, k-1] + G [u[k], y[k]]`` (compiled once, cached on
+    disk)."""
+    if not _KERNEL:
+        import numba
+
+        @numba.njit(cache=True, nogil=True)
+        def run(Phi, G, u, y, out):
+            x0 = x1 = x2 = 0.0
+            for k in range(y.size):
+                a, b = u[k], y[k]
+                n0 = Phi[0, 0] * x0 + Phi[0, 1] * x1 + Phi[0, 2] * x2 + G[0, 0] * a + G[0, 1] * b
+                n1 = Phi[1, 0] * x0 + Phi[1, 1] * x1 + Phi[1, 2] * x2 + G[1, 0] * a + G[1, 1] * b
+                n2 = Phi[2, 0] * x0 + Phi[2, 1] * x1 + Phi[2, 2] * x2 + G[2, 0] * a + G[2, 1] * b
+                x0, x1, x2 = n0, n1, n2
+                out[0, k], out[1, k], out[2, k] = n0, n1, n2
+
+        _KERNEL.append(run)
+    return _KERNEL[0]
 
 
 def _run_filterpy(F, B, Q, r, u_prev: np.ndarray, y_rel: np.ndarray, P0: np.ndarray) -> np.ndarray:
