@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..frf import Frf, normalize_quantity
-from ._table import TextTable, parse_table, read_text
+from ._table import TextTable, csv_rows, parse_table, read_table_data
 from .atomic import atomic_write_text
 
 SUFFIXES = ("re", "im", "mag", "mag_db", "phase_deg", "phase_rad", "coh")
@@ -154,7 +154,7 @@ def read_frf_csv(source: str | os.PathLike[str] | IO[str], *, quantity: str | No
     DataError
         The file is missing, unreadable or malformed (the message names the file, line and column).
     """
-    text, name = read_text(source, "CSV")
+    text, name = read_table_data(source, "CSV")
     table = parse_table(text, name, require_header=True)
     return frf_from_table(table, quantity)
 
@@ -165,8 +165,6 @@ def _single_line(value: object) -> str:
 
 def frf_to_csv_text(frf: Frf) -> str:
     """The CSV text of an FRF: metadata lines, header, re/im (+ coh) columns with full float precision."""
-    import pandas as pd
-
     lines = ["# feedtune FRF", f"# quantity: {frf.quantity}"]
     lines += [f"# input: {i} [{frf.input_unit}]" for i in frf.inputs]
     lines += [f"# output: {o} [{frf.output_unit}]" for o in frf.outputs]
@@ -185,7 +183,7 @@ def frf_to_csv_text(frf: Frf) -> str:
     for key in cols:
         if "," in key or '"' in key:
             raise DataError(f"{frf.source}: channel name in {key!r} contains a comma or quote; rename it")
-    body = pd.DataFrame(cols).to_csv(index=False, header=False, lineterminator="\n")
+    body = csv_rows(list(cols.values()))
     return "\n".join([*lines, ",".join(cols)]) + "\n" + body
 
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..log import Log
-from ._table import parse_table, read_text
+from ._table import csv_rows, parse_table, read_table_data
 from .atomic import atomic_write_text
 from .log_read import RawLog
 
@@ -40,7 +40,7 @@ def _split_header(name: str) -> tuple[str, str | None]:
 
 def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int = 0) -> RawLog:
     """Parse a log CSV into a :class:`RawLog` (columns by header name, units from headers/metadata)."""
-    text, name = read_text(source, "CSV")
+    text, name = read_table_data(source, "CSV")
     table = parse_table(text, name, skip_rows=skip_rows, require_header=False)
     columns: dict[str, np.ndarray] = {}
     units: dict[str, str] = {}
@@ -75,8 +75,6 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
 
 def log_to_csv_text(log: Log) -> str:
     """CSV text of a log: ``# source:`` metadata, header ``t [s],NAME [UNIT],...``, full float precision."""
-    import pandas as pd
-
     for key in log.signals:
         if any(c in key for c in ',"[]#') or key != key.strip() or not key:
             raise DataError(f"{log.source}: signal name {key!r} cannot be a CSV column name "
@@ -92,7 +90,7 @@ def log_to_csv_text(log: Log) -> str:
             lines.append(f"# {key}: {' '.join(str(value).split())}")
     header = ["t [s]"] + [f"{k} [{log.units.get(k, '')}]" if log.units.get(k) else k for k in log.signals]
     cols = {"t": log.t, **log.signals}
-    body = pd.DataFrame(cols).to_csv(index=False, header=False, lineterminator="\n")
+    body = csv_rows(list(cols.values()))
     return "\n".join([*lines, ",".join(header)]) + "\n" + body
 
 
