@@ -36,3 +36,20 @@ def test_a_log_reads_back_to_the_bit(tmp_path):
     assert np.array_equal(back.t, t)
     for k, v in sig.items():
         assert np.array_equal(back.signals[k], v, equal_nan=True), k
+
+
+def test_reader_takes_bytes_with_bom_crlf_and_latin_1(tmp_path):
+    """Files are parsed from their bytes: a UTF-8 BOM, Windows line ends and a Latin-1 unit (beyond the sample the
+    encoding is guessed from) read the same as the plain file."""
+    n = 30000
+    rows = "".join(f"{k / 1000!r},{float(np.sin(k))!r}\n" for k in range(n))
+    plain = "t [s],x [mm]\n" + rows
+    (tmp_path / "plain.csv").write_bytes(plain.encode())
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbf" + plain.replace("\n", "\r\n").encode())
+    late = "t [s],x [mm]\n" + rows + "# tail comment \xb5m\n"
+    (tmp_path / "latin.csv").write_bytes(late.encode("latin-1"))
+    ref = read_log(tmp_path / "plain.csv")
+    for name in ("bom.csv", "latin.csv"):
+        got = read_log(tmp_path / name)
+        assert np.array_equal(got.t, ref.t) and np.array_equal(got.signals["x"], ref.signals["x"]), name
+        assert got.units == ref.units, name
