@@ -170,6 +170,7 @@ def twin_designs():
     }
 
 
+@pytest.mark.slow
 def test_gantry_discrete_verdicts_on_twin_frfs_match_the_twin(twin, measured_frf, twin_designs):
     analytic = twin.frf(np.arange(1.0, 1001.0), 0.0, sampled=False)  # the reported 1 Hz grid
     analytic_low = twin.frf(np.logspace(np.log10(0.5), 3, 1500), 0.0, sampled=False)
@@ -245,6 +246,7 @@ def test_pid_tuner_reaches_the_requested_ms_on_a_measured_twin_frf(ms, measured_
     assert not _trips_on_twin(twin, pid, 0.2)
 
 
+@pytest.mark.slow
 def test_pid_tuner_does_not_depend_on_the_lowest_line_or_the_grid(measured_frf):
     bws = [tune_gantry_pid(MODEL, ms_max=1.86, filters=NOTCH_LPF, frf=_band(measured_frf, lo)).tuning["bandwidth_hz"]
            for lo in (2.0, 5.0, 10.0)]

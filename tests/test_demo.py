@@ -45,6 +45,7 @@ def _row(demo, test):
 
 
 # ------------------------------------------------------------------------------------ acceptance
+@pytest.mark.slow
 def test_mcppc_beats_ppi_on_the_full_twin(demo):
     rope = _row(demo, "0.5 V")
     assert rope["mcppc"]["peak_um"] < rope["ppi"]["peak_um"]
@@ -55,6 +56,7 @@ def test_mcppc_beats_ppi_on_the_full_twin(demo):
         assert row["mcppc"]["rms_um"] < 0.7 * row["ppi"]["rms_um"], speed
 
 
+@pytest.mark.slow
 def test_demo_identifies_the_twin_and_tunes_both_controllers_under_the_same_limits(demo, tmp_path):
     got = demo.identified["params"]
     for name in ("m1", "m2", "k", "c"):
@@ -99,6 +101,7 @@ def test_verdict_names_what_the_baseline_wins():
     assert "P-PI is better in: track 200 mm/s RMS, 0.5 V settling time." in text
 
 
+@pytest.mark.slow
 def test_demo_files_hold_what_the_table_says(demo, tmp_path):
     paths = write_texts(demo.texts, out_dir=tmp_path / "out")
     names = {p.name for p in paths}
@@ -117,6 +120,7 @@ def test_demo_files_hold_what_the_table_says(demo, tmp_path):
     assert summary["comparison"][0]["mcppc"]["peak_um"] == pytest.approx(_row(demo, "0.5 V")["mcppc"]["peak_um"])
 
 
+@pytest.mark.slow
 def test_writing_is_all_or_nothing(demo, tmp_path):
     out = tmp_path / "out"
     out.mkdir()
@@ -134,6 +138,7 @@ def test_demo_command_refuses_a_non_empty_folder(cli, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
 
 
+@pytest.mark.slow
 def test_trajectory_command_writes_a_log_the_twin_can_track(cli, tmp_path, demo):
     traj = tmp_path / "traj.csv"
     res = cli("trajectory", "--distance", 0.02, "--v-max", 0.2, "--a-max", 4, "--j-max", 400,
@@ -174,6 +179,7 @@ def test_bad_options_are_clear_errors_without_files(cli, tmp_path, args, error, 
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_gains_for_another_sample_rate_is_refused(cli, tmp_path, demo):
     doc = read_document_text(demo.texts["ppi_gains.toml"])
     doc["sampling"]["fs_hz"]["value"] = 10000.0
@@ -183,6 +189,7 @@ def test_gains_for_another_sample_rate_is_refused(cli, tmp_path, demo):
     assert not (tmp_path / "r.csv").exists()
 
 
+@pytest.mark.slow
 def test_unstable_controller_stops_with_a_clear_error_and_a_log_that_says_so(cli, tmp_path, demo):
     doc = read_document_text(demo.texts["mcppc_gains.toml"])
     for g in doc["gains"].values():
@@ -209,12 +216,14 @@ def read_document_text(text: str) -> dict:
     return loads_document(text, "toml", "gains")
 
 
+@pytest.mark.slow
 def test_read_document_round_trip_of_demo_gains(tmp_path, demo):
     (tmp_path / "g.toml").write_text(demo.texts["ppi_gains.toml"])
     assert read_document(tmp_path / "g.toml")["controller"] == "ppi"
 
 
 # ------------------------------------------------------------------------------------ pre-filter
+@pytest.mark.slow
 def test_demo_prefilter_from_one_run_improves_every_speed(demo, tmp_path):
     for speed in (200, 500, 1000):
         row = _row(demo, f"track {speed} mm/s")

@@ -128,6 +128,7 @@ def _mode(f, g=-0.12, fn=1200.0, zeta=0.002):
 LAW = design_mcppc(MODEL, beta=4, pole_hz=50, zeta=0.7, filters=FilterPack([], 2000.0)).law()
 
 
+@pytest.mark.slow
 def test_close_crossovers_of_a_lightly_damped_mode_match_a_brute_force_evaluation():
     # the discrete case with the Table 3.1 model times a mode at 1200 Hz (damping 0.002), known exactly
     base = plant_cases(MODEL, LAW.fs, LAW.delay_samples)["ideal"]

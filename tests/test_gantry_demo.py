@@ -22,12 +22,14 @@ def _row(demo, test):
     return next(r for r in demo.rows if r["test"].startswith(test))
 
 
+@pytest.mark.slow
 def test_identification_recovers_the_twin(demo):
     errors = identified_errors(demo)
     assert set(errors) >= {"m", "J0", "d", "m_x", "c", "k"}
     assert all(abs(e) < 0.05 for e in errors.values()), errors
 
 
+@pytest.mark.slow
 def test_every_controller_is_tuned_under_the_same_limits_and_says_by_which_rule(demo):
     from feedtune.analysis.limits import DEFAULT_LIMITS
 
@@ -41,6 +43,7 @@ def test_every_controller_is_tuned_under_the_same_limits_and_says_by_which_rule(
     assert demo.designs["mimo"]["crossover_hz"] > 2 * demo.designs["pid"]["crossover_hz"]
 
 
+@pytest.mark.slow
 def test_mimo_beats_the_independent_pids_on_the_twin(demo):
     rope = _row(demo, "rope snap")
     assert rope["mimo"]["peak_um"] < 0.5 * rope["pid"]["peak_um"]
@@ -51,6 +54,7 @@ def test_mimo_beats_the_independent_pids_on_the_twin(demo):
         assert row["mimo"]["rms_um"] < 0.5 * row["pid"]["rms_um"], test
 
 
+@pytest.mark.slow
 def test_the_table_names_every_figure_a_baseline_wins(demo):
     text = demo.table()
     for c, label in (("pid", "PID (same filters)"), ("pid_own", "PID (own filters)")):
@@ -60,6 +64,7 @@ def test_the_table_names_every_figure_a_baseline_wins(demo):
         assert all(w in line for w in wins)
 
 
+@pytest.mark.slow
 def test_demo_files_are_complete_and_lean(demo):
     names = set(demo.texts)
     assert {"model.toml", "mass.toml", "mimo_gains.toml", "pid_gains.toml", "pid_own_gains.toml", "axis_gains.toml",

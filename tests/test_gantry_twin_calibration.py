@@ -297,6 +297,7 @@ def test_pid_state_space_is_the_discrete_pid():
     assert np.allclose(got, 300.0 + 2.0 * fs * (1 - 1 / z) + 5e4 / fs / (1 - 1 / z), rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_independent_pids_with_the_thesis_filters_stay_near_16_hz(measured):
     twin, frfs, model, _ = measured
     best = _pid_search(twin, frfs[1], model.alpha(0.0), MS_PID)
@@ -320,6 +321,7 @@ def test_unequal_pid_gains_on_the_two_sides_do_not_raise_the_ceiling(measured):
     assert uneven is None or uneven[0] <= even[0] * 1.05, (even, uneven)
 
 
+@pytest.mark.slow
 def test_without_the_filters_the_same_search_finds_pids_far_above_16_hz(measured):
     # the README path: `design gantry` without the filter pack, then `design pid --match`, which copies the
     # (absent) filters: nothing in the twin's y axis stops a high-gain PID then (the thesis does not quantify the

@@ -138,6 +138,7 @@ def test_never_below_the_thesis_design():
     assert xo >= _judged(thesis) == pytest.approx(130.0, abs=0.5)
 
 
+@pytest.mark.slow
 def test_measured_frf_with_a_mode_is_checked_on_the_discrete_case():
     frf = mode_frf()
     d, xo = _tuned(frf, AXIS_FILTERS)

@@ -174,6 +174,7 @@ def test_dense_brute_force_on_the_twin_frf(x, filters):
     assert xo >= (1 - BRUTE_TOL) * bf["crossover_hz"], (xo, bf)
 
 
+@pytest.mark.slow
 def test_never_below_hand_set_designs(twin_frf):
     # the old tuner's shape (zeta 1, rho 4) and the textbook one (0.7, 2), set a little inside the limits
     for frf in (None, twin_frf):
@@ -192,6 +193,7 @@ def mode_plant():
     return frf, own, x_own, x_none
 
 
+@pytest.mark.slow
 def test_own_notch_at_a_lightly_damped_mode_raises_the_crossover(mode_plant):
     frf, own, x_own, x_none = mode_plant
     notches = own.law.filters.notches
@@ -218,6 +220,7 @@ def test_dense_brute_force_with_the_own_filters(mode_plant):
     assert x_own >= (1 - BRUTE_TOL) * bf["crossover_hz"], (x_own, bf)
 
 
+@pytest.mark.slow
 def test_own_filters_drop_given_filters_that_lower_the_crossover():
     # on the model, the thesis' notches and low-pass only cost bandwidth: 'own' may drop them
     identical, x_identical = _tuned(filters=NOTCH_LPF)

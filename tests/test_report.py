@@ -88,6 +88,7 @@ def section_keys(rep) -> set[str]:
 
 
 # ------------------------------------------------------------------------------------------ full report
+@pytest.mark.slow
 def test_demo_report_has_every_section_with_content(report):
     keys = section_keys(report)
     assert [s.key for s in report.sections] == ["summary", "identification", "design", "time", "inputs"]

@@ -43,6 +43,7 @@ def _brute_mcppc(model, frf, betas, zetas, poles):
     return best
 
 
+@pytest.mark.slow
 def test_tuned_mcppc_reaches_the_best_of_a_dense_brute_force_search(example_frf):
     tuned = tune_mcppc(THESIS_TABLE_3_1, limits=LIMITS, filters=THESIS_FILTER_PACK, frf=example_frf,
                        betas=(1.0, 4.0), zetas=(0.7,))

@@ -127,7 +127,7 @@ def run(args, capsys, monkeypatch):
     return code, out.out, out.err
 
 
-@pytest.mark.parametrize("structure", ["mcppc", "ppi"])
+@pytest.mark.parametrize("structure", ["mcppc", pytest.param("ppi", marks=pytest.mark.slow)])
 def test_tune_cli_certifies_every_frf_and_analyze_agrees(structure, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     save_model("model.toml", MODEL)
