@@ -4,8 +4,9 @@ Run by hand: ``python benchmarks/bench_blas.py``. Each workload is timed in fres
 is per process), first alone, then with ``--busy`` extra processes keeping the cores loaded (as on a shared
 machine or a CI runner: the pool's threads then wait for cores). Workloads: ``scipy.linalg.expm`` of a 7 x 7
 matrix, the gantry twin's ZOH tables (a batched ``expm`` over the position grid) and the Kalman model of the friction
-identification. The anchor is the same ``expm`` with one BLAS thread in an idle process: every figure is printed as
-a ratio to it.
+identification. "default" turns the library's own limits off (:mod:`feedtune.blas`), "1 thread" runs the workload
+inside ``single_threaded_blas()``. The anchor is the same ``expm`` with one BLAS thread in an idle process: every
+figure is printed as a ratio to it.
 """
 
 from __future__ import annotations
@@ -44,8 +45,13 @@ def _workload(name: str):
 
 
 def _time(name: str, single: bool, out) -> None:
-    from feedtune.blas import single_threaded_blas
+    import contextlib
 
+    import feedtune.blas
+
+    single_threaded_blas = feedtune.blas.single_threaded_blas
+    if not single:  # the library's own limits off: the default thread pool everywhere
+        feedtune.blas.single_threaded_blas = contextlib.nullcontext
     fn, n = _workload(name)
     fn()
     best = np.inf

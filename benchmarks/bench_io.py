@@ -42,19 +42,25 @@ def _best(fn, n: int = 3) -> float:
 
 
 READER = r"""
-import resource, sys, time
+import sys, time
 import numpy as np, pandas as pd
 from feedtune.io import read_log
+
+def hwm():
+    # peak resident set of this process [bytes] (VmHWM starts afresh at exec, unlike ru_maxrss)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024
+
 path, how = sys.argv[1], sys.argv[2]
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+base = hwm()
 t0 = time.perf_counter()
 if how == "feedtune":
     log = read_log(path)
 else:
     df = pd.read_csv(path, comment="#", engine="c")
 dt = time.perf_counter() - t0
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(dt, (peak - base) * 1024)
+print(dt, hwm() - base)
 """
 
 

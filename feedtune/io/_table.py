@@ -145,7 +145,7 @@ def read_table_data(source: str | os.PathLike[str] | IO[str], what: str = "text"
         return read_text(source, what)
     name = source_name(source)
     raw = read_bytes(source)
-    if b"\x00" in raw:
+    if b"\x00" in raw[:1 << 16]:  # a binary file shows it at once; later NULs fail in the number parser
         raise DataError(f"{name}: binary data, not a {what} text file")
     return raw, name
 
@@ -348,7 +348,7 @@ def _parse_numbers(body: _Body, text: str | bytes, first: int, columns: list[str
             df = comma  # semicolon-separated file with decimal commas
     if len(df) == 0:
         raise DataError(f"{name}: no data rows below the header")
-    values = np.empty(df.shape, dtype=float)
+    values = np.empty(df.shape, dtype=float, order="F")  # columns contiguous: filled and used by column
     for j in range(df.shape[1]):
         col = df.iloc[:, j]
         if col.dtype.kind in "biuf":
@@ -359,7 +359,7 @@ def _parse_numbers(body: _Body, text: str | bytes, first: int, columns: list[str
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             line = _data_line_numbers(lines.get(), first)[i]
-            cell = str(col.iloc[i])
+            cell = str(col.iloc[i]).strip()
             hint = "; pass skip_rows to skip extra header lines" if i == 0 else ""
             raise DataError(f"{name}: line {line}, column {columns[j]!r}: {cell!r} is not a number{hint}")
         values[:, j] = num.to_numpy(dtype=float)
@@ -393,12 +393,10 @@ def _read_frame(body: _Body, sep: str, n_columns: int, decimal: str, lines: _Laz
     try:
         try:
             return pd.read_csv(body.handle(), sep=sep, header=None, names=range(n_columns), comment="#",
-                               skip_blank_lines=True, skipinitialspace=True, index_col=False, engine="c",
-                               low_memory=False, decimal=decimal, encoding=enc)
+                               skip_blank_lines=True, index_col=False, engine="c", decimal=decimal, encoding=enc)
         except UnicodeDecodeError:  # a Latin-1 character beyond the sample that chose UTF-8
             return pd.read_csv(body.handle(), sep=sep, header=None, names=range(n_columns), comment="#",
-                               skip_blank_lines=True, skipinitialspace=True, index_col=False, engine="c",
-                               low_memory=False, decimal=decimal, encoding="latin-1")
+                               skip_blank_lines=True, index_col=False, engine="c", decimal=decimal, encoding="latin-1")
     except pd.errors.EmptyDataError:
         raise DataError(f"{name}: no data rows below the header") from None
     except (pd.errors.ParserError, ValueError):
