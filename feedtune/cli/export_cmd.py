@@ -7,27 +7,70 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_MIN_OPTION,
+    LIMITS_OPTION,
+    MS_MAX_OPTION,
+    OPTION_NAMES,
+    PM_MIN_OPTION,
+    limits_from_options,
+)
 
 app = typer.Typer(rich_markup_mode=None, help="Export gains files for real-time targets.", no_args_is_help=True)
 
 
 @app.command("c")
 def export_c(
-    gains_file: Path = typer.Argument(..., help="Gains file (.toml or .json) from 'feedtune design'."),
+    gains_file: Path = typer.Argument(..., help="Gains file (.toml or .json) from 'feedtune design' or 'tune': "
+                                                "ball screw, gantry (MIMO or PID) or x axis."),
     out: Path = typer.Option(None, "--out", "-o", help="Header to write (default: GAINS with suffix .h)."),
     prefix: str = typer.Option("ft", "--prefix", help="Prefix of the C identifiers."),
+    u_max: float = typer.Option(None, "--u-max", help="Output limit in the command unit of the file: every command "
+                                                      "is clamped to +-U_MAX. Default: no limit (said in the "
+                                                      "header)."),
+    anti_windup: str = typer.Option("none", "--anti-windup", metavar="none|clamp",
+                                    help="clamp: an integrator stops integrating while its command sits at --u-max "
+                                         "and the error drives it further (conditional integration)."),
+    limits: str = LIMITS_OPTION,
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
+    allow_unstable: bool = typer.Option(False, "--allow-unstable", help="Export a design that fails the limits "
+                                                                        "check (the header then says so)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Write a self-contained C header that runs the controller sample by sample."""
+    """Write a self-contained C header that runs the controller sample by sample.
+
+    The design is checked first, as 'feedtune analyze GAINS --check' does (stable in every case, the limits in the
+    checked case); a design that fails is not exported unless --allow-unstable."""
+    from ..analysis.limits import check_analysis
+    from ..errors import DesignError
     from ..export.c_header import c_header
     from ..io import atomic_write_text, read_document
+    from ..io.atomic import ensure_writable
+    from ..machines import analyze_gains
 
-    doc = read_document(gains_file)
-    text = c_header(doc, prefix=prefix, where=str(gains_file))
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     target = out or gains_file.with_suffix(".h")
+    ensure_writable(target, force)
+    doc = read_document(gains_file)
+    c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup)  # options, document
+    check, case = check_analysis(analyze_gains(doc, str(gains_file)).analysis, policy)
+    warning = None
+    if not check.ok:
+        msg = "; ".join(check.violations_named(OPTION_NAMES))
+        if not allow_unstable:
+            raise DesignError(f"{gains_file}: {msg}; not exported (use --allow-unstable to export it anyway)")
+        warning = f"this design fails the limits check ({policy.describe()}): {msg}"
+        typer.echo(f"feedtune: warning: {msg} (exported because of --allow-unstable)", err=True)
+    text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning)
     atomic_write_text(target, text, force=force)
     if as_json:
-        print_json({"kind": "c_header", "out": str(target), "prefix": prefix, "bytes": len(text.encode())})
+        print_json({"kind": "c_header", "gains_kind": doc.get("kind"), "out": str(target), "prefix": prefix,
+                    "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup,
+                    "check": {"checked_case": case, **check.to_dict()}})
     else:
         typer.echo(f"wrote {target}")

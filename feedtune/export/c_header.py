@@ -1,186 +1,72 @@
-"""A self-contained C header that executes a ball-screw gains document on a real-time target.
+"""``feedtune export c``: a self-contained C header that executes a gains file on a real-time target.
 
-The header holds the gains, every filter as second-order sections (transposed direct form II, as
-``scipy.signal.sosfilt``), the sample rate, delay and preview assumptions, and ``ft_step()``, which runs the
-law documented in ``docs/gains.md`` once per sample, including the trajectory pre-filter (``[prefilter]``)
-and the Stribeck friction feedforward (``[friction_feedforward]``) when the file has them. It needs only
-``<string.h>``, plus ``<math.h>`` (``exp``, ``fabs``; link with ``-lm``) for the friction feedforward.
+One entry point for every gains kind (:func:`c_header`): the document is first read by the runtime that executes it
+(:func:`feedtune.machines.load_runtime`), so the header refuses exactly what the runtime refuses, with the same
+one-line error; then the emitter of its kind (:data:`EMITTERS`) renders it. Headers need only ``<string.h>`` (and
+``<math.h>`` for the ball screw's friction feedforward) and compile with ``gcc -Wall -Wextra -Werror -std=c99``.
+Options (:class:`~feedtune.export.c_common.COptions`): the prefix of the identifiers, an output limit and
+conditional-integration anti-windup, and a warning line.
 """
 
 from __future__ import annotations
 
-import re
+from collections.abc import Callable
 
-from ..control.ballscrew_law import GAIN_NAMES
-from ..errors import DataError
-from ..io.gains import check_ballscrew_gains, value
-
-PREFILTER_KEY = "PF"
+from .c_ballscrew import ballscrew_header
+from .c_common import COptions
+from .c_gantry import axis_header, check_axis, gantry_header
 
 
-def _c_double(x: float) -> str:
-    return repr(float(x)) if "e" in repr(float(x)) or "." in repr(float(x)) else repr(float(x)) + ".0"
+def _ballscrew(doc: dict, rt, opts: COptions, where: str) -> str:
+    return ballscrew_header(doc, rt, opts, where)
 
 
-def _sos_array(name: str, sos, where: str) -> str:
-    rows = []
-    for r in sos:
-        if len(r) != 6:
-            raise DataError(f"{where}: {name} has a section with {len(r)} coefficients, expected 6")
-        a0 = float(r[3])
-        if a0 == 0:
-            raise DataError(f"{where}: {name} has a section with a0 = 0")
-        rows.append("    {" + ", ".join(_c_double(float(c) / a0) for c in r) + "}")
-    return f"static const double {name}[{len(rows)}][6] = {{\n" + ",\n".join(rows) + "\n};\n"
+def _gantry(doc: dict, rt, opts: COptions, where: str) -> str:
+    return gantry_header(doc, rt, opts)
 
 
-def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file") -> str:
+def _axis(doc: dict, rt, opts: COptions, where: str) -> str:
+    check_axis(opts)
+    return axis_header(doc, rt, opts)
+
+
+EMITTERS: dict[str, Callable[[dict, object, COptions, str], str]] = {
+    "ballscrew": _ballscrew,
+    "gantry": _gantry,
+    "axis": _axis,
+}
+"""The header emitter of each gains-file ``kind``."""
+
+
+def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max: float | None = None,
+             anti_windup: str = "none", warning: str | None = None) -> str:
     """Render a gains document as a C header.
 
     Parameters
     ----------
     doc : dict
-        Ball-screw gains document (:func:`feedtune.io.gains.gains_document`).
+        A gains document of any kind (ball screw, gantry MIMO or PID, x axis).
     prefix : str
         Prefix of every C identifier (letters, digits, underscore).
     where : str
         Name of the source for error messages.
+    u_max : float, optional
+        Output limit [command unit]: every command is clamped to ``[-u_max, u_max]``.
+    anti_windup : {"none", "clamp"}
+        ``clamp``: an integrator does not integrate while its command sits at the limit and the error drives it
+        further (needs ``u_max``; not for an axis, whose integral action is inside its sections).
+    warning : str, optional
+        A line at the top of the header (e.g. that the design is outside its limits).
+
+    Raises
+    ------
+    DataError
+        A document the runtime refuses (named in the message).
+    UsageError
+        Bad options.
     """
-    check_ballscrew_gains(doc, where)
-    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
-        raise DataError(f"C prefix {prefix!r} is not a valid C identifier")
-    P = prefix.upper()
-    fs = value(doc["sampling"]["fs_hz"], f"{where}: sampling.fs_hz", "Hz")
-    gains = {n: value(doc["gains"][n], f"{where}: gains.{n}") for n in GAIN_NAMES}
-    filters = {
-        "FP": doc["filters"]["filter_pack_sos"],
-        "ROT": doc["reference"]["rotary_sos"],
-        "TAB": doc["reference"]["table_sos"],
-        "FF": doc["reference"]["feedforward_sos"],
-    }
-    if doc.get("prefilter") is not None:
-        sec = doc["prefilter"]
-        if not isinstance(sec, dict) or "prefilter_sos" not in sec:
-            raise DataError(f"{where}: [prefilter] has no prefilter_sos")
-        filters[PREFILTER_KEY] = sec["prefilter_sos"]
-    friction = _friction(doc, where)
-    units = doc["gains"]
-    out = [
-        f"/* Generated by {doc.get('created_by', 'feedtune')} -- do not edit.",
-        f" * Ball-screw controller '{doc.get('controller')}' at fs = {fs:g} Hz, computational delay "
-        f"{doc['sampling'].get('delay_samples', 1)} sample(s), reference preview "
-        f"{doc['sampling'].get('preview_samples', 0)} sample(s).",
-        " * Positions in rad of screw rotation, command in the drive's unit "
-        f"({doc.get('units', {}).get('command', 'V')}).",
-        f" * Call {prefix}_init() once, then {prefix}_step() every sample with the reference "
-        f"x_r[k + {P}_PREVIEW_SAMPLES] and the measured x1[k], x2[k];",
-        " * apply the returned command with the computational delay the design assumed. */",
-        f"#ifndef {P}_GAINS_H",
-        f"#define {P}_GAINS_H",
-        "#include <string.h>",
-        *(["#include <math.h>"] if friction else []),
-        "",
-        f"#define {P}_FS_HZ {_c_double(fs)}",
-        f"#define {P}_DELAY_SAMPLES {int(doc['sampling'].get('delay_samples', 1))}",
-        f"#define {P}_PREVIEW_SAMPLES {int(doc['sampling'].get('preview_samples', 0))}",
-        "",
-    ]
-    for n in GAIN_NAMES:
-        unit = units[n].get("unit", "") if isinstance(units[n], dict) else ""
-        out.append(f"static const double {P}_{n.upper()} = {_c_double(gains[n])}; /* {unit} */")
-    out.append("")
-    for key, sos in filters.items():
-        out.append(f"#define {P}_{key}_NSEC {len(sos)}")
-        out.append(_sos_array(f"{P}_{key}_SOS", sos, where))
-    out += _friction_constants(friction, P)
-    out += [
-        "typedef struct {",
-        *[f"    double {k.lower()}[{P}_{k}_NSEC][2];" for k in filters],
-        "    double e1_prev, e2_prev, ie2, xp_prev;",
-        "    int started;",
-        f"}} {prefix}_state;",
-        "",
-        f"static inline void {prefix}_init({prefix}_state *s) {{ memset(s, 0, sizeof(*s)); }}",
-        "",
-        "/* one sample through cascaded second-order sections, transposed direct form II */",
-        f"static inline double {prefix}_sos_step(const double (*sos)[6], double (*w)[2], int n, double x) {{",
-        "    for (int i = 0; i < n; ++i) {",
-        "        double y = sos[i][0] * x + w[i][0];",
-        "        w[i][0] = sos[i][1] * x - sos[i][4] * y + w[i][1];",
-        "        w[i][1] = sos[i][2] * x - sos[i][5] * y;",
-        "        x = y;",
-        "    }",
-        "    return x;",
-        "}",
-        "",
-        *_friction_function(friction, prefix, P),
-        f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [rad]; x1, x2 = measured positions at k [rad];",
-        "   returns u [command unit] */",
-        f"static inline double {prefix}_step({prefix}_state *s, double x_r_preview, double x1, double x2) {{",
-        "    double xp = x_r_preview;",
-        *([f"    xp += {prefix}_sos_step({P}_PF_SOS, s->pf, {P}_PF_NSEC, x_r_preview);  /* pre-filter */"]
-          if PREFILTER_KEY in filters else []),
-        f"    double x1r = {prefix}_sos_step({P}_ROT_SOS, s->rot, {P}_ROT_NSEC, xp);",
-        f"    double x2r = {prefix}_sos_step({P}_TAB_SOS, s->tab, {P}_TAB_NSEC, xp);",
-        f"    double uff = {prefix}_sos_step({P}_FF_SOS, s->ff, {P}_FF_NSEC, xp);",
-        *([f"    uff += {prefix}_friction(s->started ? (xp - s->xp_prev) * {P}_FS_HZ : 0.0);"] if friction else []),
-        "    s->xp_prev = xp;",
-        "    double e1 = x1r - x1, e2 = x2r - x2;",
-        "    if (!s->started) { s->e1_prev = e1; s->e2_prev = e2; s->started = 1; }",
-        f"    double de1 = (e1 - s->e1_prev) * {P}_FS_HZ, de2 = (e2 - s->e2_prev) * {P}_FS_HZ;",
-        f"    s->ie2 += e2 / {P}_FS_HZ;",
-        "    s->e1_prev = e1; s->e2_prev = e2;",
-        f"    double ufb = {P}_KX1 * e1 + {P}_KX2 * e2 + {P}_KV1 * de1 + {P}_KV2 * de2 + {P}_KI2 * s->ie2;",
-        f"    return {prefix}_sos_step({P}_FP_SOS, s->fp, {P}_FP_NSEC, ufb) + uff;",
-        "}",
-        "",
-        f"#endif /* {P}_GAINS_H */",
-        "",
-    ]
-    return "\n".join(out)
+    from ..machines import load_runtime
 
-
-def _friction(doc: dict, where: str):
-    """The friction feedforward of the document (read as the runtime reads it), or None."""
-    if doc.get("friction_feedforward") is None:
-        return None
-    from ..io.gains import friction_from_section
-
-    unit = doc.get("units", {}).get("command", "V") if isinstance(doc.get("units"), dict) else "V"
-    return friction_from_section(doc["friction_feedforward"], str(unit), where)
-
-
-def _friction_constants(ff, P: str) -> list[str]:
-    if ff is None:
-        return []
-    f = ff.friction
-    edge_pos, edge_neg = ff.edges()
-    unit = ff.command_unit
-    return [
-        "/* Stribeck friction feedforward (eq. 2.1), reference velocity in rad/s, linear inside +-V_BAND */",
-        f"static const double {P}_FR_DC_POS = {_c_double(f.dc_pos)}; /* {unit} */",
-        f"static const double {P}_FR_DS_POS = {_c_double(f.ds_pos)}; /* {unit} */",
-        f"static const double {P}_FR_DC_NEG = {_c_double(f.dc_neg)}; /* {unit} */",
-        f"static const double {P}_FR_DS_NEG = {_c_double(f.ds_neg)}; /* {unit} */",
-        f"static const double {P}_FR_OMEGA_POS = {_c_double(f.omega_pos)}; /* rad/s */",
-        f"static const double {P}_FR_OMEGA_NEG = {_c_double(f.omega_negative)}; /* rad/s */",
-        f"static const double {P}_FR_V_BAND = {_c_double(ff.v_band)}; /* rad/s */",
-        f"static const double {P}_FR_EDGE_POS = {_c_double(edge_pos)}; /* {unit}, friction at +V_BAND */",
-        f"static const double {P}_FR_EDGE_NEG = {_c_double(edge_neg)}; /* {unit}, friction at -V_BAND */",
-        "",
-    ]
-
-
-def _friction_function(ff, prefix: str, P: str) -> list[str]:
-    if ff is None:
-        return []
-    return [
-        "/* friction feedforward d(v) [command unit] for the reference velocity v [rad/s] */",
-        f"static inline double {prefix}_friction(double v) {{",
-        "    double a = fabs(v);",
-        f"    if (a < {P}_FR_V_BAND) return (v >= 0.0 ? {P}_FR_EDGE_POS : {P}_FR_EDGE_NEG) * a / {P}_FR_V_BAND;",
-        f"    if (v > 0.0) return {P}_FR_DC_POS + ({P}_FR_DS_POS - {P}_FR_DC_POS) * exp(-a / {P}_FR_OMEGA_POS);",
-        f"    return {P}_FR_DC_NEG + ({P}_FR_DS_NEG - {P}_FR_DC_NEG) * exp(-a / {P}_FR_OMEGA_NEG);",
-        "}",
-        "",
-    ]
+    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning)
+    rt = load_runtime(doc, where)
+    return EMITTERS[doc["kind"]](doc, rt, opts, where)
