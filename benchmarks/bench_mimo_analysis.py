@@ -19,7 +19,7 @@ import numpy as np
 
 from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.mimo import analyze_mimo, matmul, sensitivity, singular_values
-from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.control.gantry import reference_from_schedule
 from feedtune.control.prefilter import PrefilterGains
 from feedtune.design.gantry_mimo import design_gantry_mimo
@@ -31,7 +31,7 @@ from feedtune.tune.pid import tune_gantry_pid
 
 N_FREQ = 20000
 N_STEPS = 15000
-H = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+H = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                 450.0, 2, 0.7, [LeadStage(154, 70)])
 
 
@@ -109,7 +109,7 @@ def bench_runtime(mimo, pid) -> None:
 def main() -> None:
     mimo = design_gantry_mimo(MODEL, crossover_hz=60, pm_deg=40, damping_increase=5.9, filters=H)
     ms = analyze_gantry(mimo.law, MODEL).cases["ideal_discrete"].metrics.ms
-    pid = tune_gantry_pid(MODEL, ms_max=ms, filters=LoopFilters(H.notches, H.lpf_hz, 2, 0.7))
+    pid = tune_gantry_pid(MODEL, ms_max=ms, filters=FilterPack(H.notches, H.lpf_hz, 2, 0.7))
     bench_analysis(mimo)
     bench_runtime(mimo, pid)
 

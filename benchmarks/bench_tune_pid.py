@@ -19,15 +19,15 @@ import time
 import numpy as np
 
 from feedtune.analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
-from feedtune.control.filters import LoopFilters, Notch
+from feedtune.control.filters import FilterPack, Notch
 from feedtune.frf import Frf
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.loopshape import tune_loopshape
 from feedtune.tune.pid import tune_gantry_pid
 
-NOTCH_LPF = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+NOTCH_LPF = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                         450.0, 2, 0.7)
-AXIS_FILTERS = LoopFilters([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
+AXIS_FILTERS = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
 
 
 def cpu_best(fn, n: int = 3) -> tuple[float, object]:
@@ -71,7 +71,7 @@ def main() -> None:
         n = d.tuning["search"]["checks"]
         print(f"{name:30s} {t:5.2f} s CPU = {t / anchor:5.0f} anchors; {n:4d} checks, {1e3 * t / n:4.1f} ms/check; "
               f"first crossover {d.tuning['com_crossover_hz']:.4g} Hz")
-    for name, filt in (("loop shaping, axis filters", AXIS_FILTERS), ("loop shaping, no filters", LoopFilters())):
+    for name, filt in (("loop shaping, axis filters", AXIS_FILTERS), ("loop shaping, no filters", FilterPack())):
         t, d = cpu_best(lambda filt=filt: tune_loopshape(MODEL.m_x, filters=filt))
         n = d.tuning["search"]["checks"]
         print(f"{name:30s} {t:5.2f} s CPU = {t / anchor:5.0f} anchors; {n:4d} checks, {1e3 * t / n:4.1f} ms/check; "

@@ -19,7 +19,7 @@ from feedtune.analysis.ballscrew import analyze_ballscrew, closed_loop_poles
 from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.loop import analyze_loop, extension_grid, junction_scale, model_extension
 from feedtune.analysis.mimo import mimo_nyquist
-from feedtune.control.filters import THESIS_FILTER_PACK, LoopFilters
+from feedtune.control.filters import THESIS_FILTER_PACK, FilterPack
 from feedtune.control.gantry import PidLaw
 from feedtune.design.gantry_pid import pid_gains
 from feedtune.design.mcppc import design_mcppc
@@ -31,7 +31,7 @@ from feedtune.tune.pid import tune_gantry_pid
 from feedtune.tune.ppi import tune_ppi
 
 LOWEST_LINES_HZ = (0.5, 2.0, 5.0, 10.0)
-NOTCH_LPF = LoopFilters(THESIS_H.notches, 450.0, 2, 0.7)  # the PIDs' filters (no lead)
+NOTCH_LPF = FilterPack(THESIS_H.notches, 450.0, 2, 0.7)  # the PIDs' filters (no lead)
 MODEL_GRID = np.logspace(np.log10(0.5), np.log10(7499.0), 1200)  # the model cases' grid (kept short: speed)
 # low-bandwidth PIDs cross over at or below the lowest lines: there det(I + L) - 1 is small and falls as
 # 1/s^1.2..1.9 (the counts that used to go wrong; the 8 Hz one of VARIANTS is another)

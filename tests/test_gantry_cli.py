@@ -47,7 +47,7 @@ def frf_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def gains_files(tmp_path_factory):
     """A MIMO, an unstable PID and an x-axis gains file written with the design library."""
-    from feedtune.control.filters import LeadStage, LoopFilters, Notch
+    from feedtune.control.filters import FilterPack, LeadStage, Notch
     from feedtune.design.gantry_mimo import design_gantry_mimo
     from feedtune.design.gantry_pid import design_gantry_pid
     from feedtune.design.loopshape import design_loopshape
@@ -55,13 +55,13 @@ def gains_files(tmp_path_factory):
     from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 
     d = tmp_path_factory.mktemp("gains")
-    h = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+    h = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                     450.0, 2, 0.7, [LeadStage(154.0, 70.0)])
     write_document(d / "mimo.toml", gantry_gains_document(design_gantry_mimo(MODEL, filters=h)))
     # P + I without D on a double integrator: unstable
     bad = design_gantry_pid(MODEL, kp=5e5, kd=0.0, ki=1e5)
     write_document(d / "bad.toml", gantry_gains_document(bad))
-    x_filters = LoopFilters([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
+    x_filters = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
     axis = design_loopshape(MODEL.m_x, crossover_hz=130.0, pm_deg=35.0, filters=x_filters)
     write_document(d / "axis.toml", axis_gains_document(axis))
     return d

@@ -11,7 +11,7 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_gantry
 from feedtune.cli.main import main
-from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.control.gantry import reference_from_schedule
 from feedtune.design.gantry_mimo import (
     averaged_plant,
@@ -23,11 +23,11 @@ from feedtune.errors import DesignError, UsageError
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.pid import tune_gantry_pid
 
-THESIS_H = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+THESIS_H = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                        450.0, 2, 0.7, [LeadStage(154, 70)])
 THESIS_H_ARGS = ["--notch", "110,0.5,0.7", "--notch", "320,0.2,0.9", "--notch", "400,0.15,1.0", "--notch",
                  "940,0.6,0.75", "--lpf", "450", "--lpf-order", "2", "--lead", "154,70"]
-NOTCH_LPF = LoopFilters(THESIS_H.notches, 450.0, 2, 0.7)  # the PIDs' "identical notch and low-pass filters"
+NOTCH_LPF = FilterPack(THESIS_H.notches, 450.0, 2, 0.7)  # the PIDs' "identical notch and low-pass filters"
 F = np.logspace(0, 3, 400)
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.signal import freqz_zpk, lfilter, sosfilt
 
-from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.control.prefilter import PrefilterGains
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.gantry_pid import design_gantry_pid
@@ -26,12 +26,12 @@ from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.pid import tune_gantry_pid
 
 FS = 15000.0
-H = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+H = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                 450.0, 2, 0.7, [LeadStage(154, 70)])
 PRE1, PRE2 = PrefilterGains(2e-3, 1e-5, 1e-8, 0.0), PrefilterGains(-1e-3, 2e-5, 0.0, 1e-10)
 MIMO = design_gantry_mimo(MODEL, filters=H, prefilter1=PRE1, prefilter2=PRE2)
 PID = tune_gantry_pid(MODEL, ms_max=1.8, filters=H)
-AXIS = design_loopshape(0.6977, crossover_hz=130, pm_deg=35, filters=LoopFilters([Notch(186, 0.6, 0.7)], 1200.0),
+AXIS = design_loopshape(0.6977, crossover_hz=130, pm_deg=35, filters=FilterPack([Notch(186, 0.6, 0.7)], 1200.0),
                         prefilter=PrefilterGains(1e-3, 1e-6, 0, 0))
 
 

@@ -348,16 +348,16 @@ def test_ropesnap_tracking_and_contour_logs():
 
 
 def test_real_gantry_runtime_runs_on_the_twin():
-    from feedtune.control.filters import LeadStage, LoopFilters, Notch
+    from feedtune.control.filters import FilterPack, LeadStage, Notch
     from feedtune.design.gantry_mimo import design_gantry_mimo
     from feedtune.design.loopshape import design_loopshape
     from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
     from feedtune.machines import load_runtime
 
-    h = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+    h = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                     450.0, 2, 0.7, [LeadStage(154.0, 70.0)])
     mimo = load_runtime(gantry_gains_document(design_gantry_mimo(MODEL, filters=h)))
-    x_filters = LoopFilters([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
+    x_filters = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
     ax = load_runtime(axis_gains_document(design_loopshape(MODEL.m_x, crossover_hz=130.0, pm_deg=35.0,
                                                            filters=x_filters)))
     twin = GantryTwin()

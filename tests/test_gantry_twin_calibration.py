@@ -27,7 +27,7 @@ from scipy.signal import zpk2ss
 
 from feedtune.analysis.gantry import analyze_axis, analyze_gantry
 from feedtune.control.discretize import matched
-from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.loopshape import design_loopshape
 from feedtune.identify.gantry import fit_gantry
@@ -36,10 +36,10 @@ from feedtune.machines.gantry.twin import I_X, GantryTwin, axis_encoder_row, con
 from feedtune.tune.pid import tune_gantry_pid
 
 XS = (-0.3, 0.0, 0.3)
-H_THESIS = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+H_THESIS = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                        450.0, 2, 0.7, [LeadStage(154.0, 70.0)])  # §4.4.2
-H_PID = LoopFilters(H_THESIS.notches, 450.0, 2, 0.7)  # "identical notch and low-pass filters", no second lead
-X_FILTERS = LoopFilters([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)  # §4.4.1
+H_PID = FilterPack(H_THESIS.notches, 450.0, 2, 0.7)  # "identical notch and low-pass filters", no second lead
+X_FILTERS = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)  # §4.4.1
 
 
 # ------------------------------------------------------------------------------------ own loop algebra
@@ -328,7 +328,7 @@ def test_without_the_filters_the_same_search_finds_pids_far_above_16_hz(measured
     # y dynamics that made its filters necessary; see docs/gantry_twin.md). This also shows the search reaches
     # high crossovers where they exist.
     twin, frfs, model, _ = measured
-    best = _pid_search(twin, frfs[1], model.alpha(0.0), MS_PID, filters=LoopFilters())
+    best = _pid_search(twin, frfs[1], model.alpha(0.0), MS_PID, filters=FilterPack())
     assert best is not None and best[0] > 100.0, best  # measured 312 Hz
     plain = tune_gantry_pid(model, ms_max=2.0, fs=twin.fs, frf=frfs[1])
     assert plain.tuning["com_crossover_hz"] > 100.0  # the README's 182-300 Hz

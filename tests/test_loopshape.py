@@ -13,7 +13,7 @@ from scipy.signal import cont2discrete, freqz_zpk, sosfilt, ss2tf
 from feedtune.analysis.gantry import analyze_axis
 from feedtune.analysis.loop import analyze_loop
 from feedtune.cli.main import main
-from feedtune.control.filters import LeadStage, LoopFilters, Notch, split_lead, thesis_gamma
+from feedtune.control.filters import FilterPack, LeadStage, Notch, split_lead, thesis_gamma
 from feedtune.control.prefilter import PrefilterGains, prefilter_terms, reference_filters
 from feedtune.design.loopshape import design_loopshape
 from feedtune.errors import DataError, UsageError
@@ -21,7 +21,7 @@ from feedtune.frf import Frf
 
 M_X = 0.6977  # thesis §4.3.1 [V/(m/s^2)]
 FS = 15000.0
-THESIS_X_FILTERS = LoopFilters([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
+THESIS_X_FILTERS = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
 
 
 def discrete_loop(design, f):
@@ -106,15 +106,15 @@ def test_prefilter_terms_and_reference_filters():
 
 
 def test_filters_round_trip_and_errors():
-    fp = LoopFilters([Notch(110, 0.5, 0.7)], 450.0, 2, 0.7, [LeadStage(154, 70)])
-    assert LoopFilters.from_dict(fp.to_dict()) == fp
+    fp = FilterPack([Notch(110, 0.5, 0.7)], 450.0, 2, 0.7, [LeadStage(154, 70)])
+    assert FilterPack.from_dict(fp.to_dict()) == fp
     assert abs(fp.zpk().dc_gain()) == pytest.approx(1.0)
     with pytest.raises(DataError):
-        LoopFilters.from_dict({"notches": [{"freq_hz": 100}]})
+        FilterPack.from_dict({"notches": [{"freq_hz": 100}]})
     with pytest.raises(UsageError):
-        LoopFilters(lpf_order=3)
+        FilterPack(lpf_order=3)
     with pytest.raises(UsageError):
-        LoopFilters(lpf_hz=9000.0).check_nyquist(FS)
+        FilterPack(lpf_hz=9000.0).check_nyquist(FS)
     with pytest.raises(UsageError):
         PrefilterGains.parse("1,2,3")
     assert PrefilterGains.parse("1e-3,0,0,0").k_vel == 1e-3

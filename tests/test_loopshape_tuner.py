@@ -24,7 +24,7 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_axis, analyze_axis_case, axis_plant_cases
 from feedtune.analysis.limits import DEFAULT_LIMITS, check_cases
-from feedtune.control.filters import LoopFilters, Notch
+from feedtune.control.filters import FilterPack, Notch
 from feedtune.design.loopshape import axis_plant, design_loopshape
 from feedtune.errors import DesignError, UsageError
 from feedtune.frf import Frf
@@ -32,7 +32,7 @@ from feedtune.tune.loopshape import PI_LAG_BOUNDS, PM_BOUNDS, STAGES, tune_loops
 
 FS = 15000.0
 M_X = 0.6977  # thesis x-axis mass [V/(m/s^2)]
-AXIS_FILTERS = LoopFilters([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
+AXIS_FILTERS = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
 BRUTE_TOL = 0.03
 POLICY = DEFAULT_LIMITS
 
@@ -125,7 +125,7 @@ def test_quick_brute_force_on_the_double_integrator():
 @pytest.mark.slow
 @pytest.mark.parametrize("plant", ["double integrator", "double integrator, no filters", "FRF with a mode"])
 def test_dense_brute_force(plant):
-    filters = LoopFilters() if "no filters" in plant else AXIS_FILTERS
+    filters = FilterPack() if "no filters" in plant else AXIS_FILTERS
     p = mode_frf() if "FRF" in plant else M_X
     _, xo = _tuned(p, filters)
     bf = brute_force(p, filters, POLICY)

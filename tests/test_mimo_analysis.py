@@ -18,7 +18,7 @@ from scipy.signal import cont2discrete, tf2ss
 from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.loop import analyze_loop
 from feedtune.analysis.mimo import analyze_mimo, mimo_nyquist, sensitivity, singular_values
-from feedtune.control.filters import LeadStage, LoopFilters, Notch
+from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.control.gantry import PidLaw
 from feedtune.design.gantry_mimo import design_gantry_mimo
 from feedtune.design.gantry_pid import pid_gains
@@ -27,7 +27,7 @@ from feedtune.lti import Zpk, delay_response, zoh_double_integrator
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.pid import tune_gantry_pid
 
-THESIS_H = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+THESIS_H = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                        450.0, 2, 0.7, [LeadStage(154, 70)])
 MIMO = design_gantry_mimo(MODEL, crossover_hz=60, pm_deg=40, damping_increase=5.9, filters=THESIS_H)
 PID = tune_gantry_pid(MODEL, ms_max=1.86, filters=THESIS_H)
@@ -152,7 +152,7 @@ VARIANTS = {
     # low bandwidth, no lead: at 0.5 Hz tr L ~ 1/s^3 still dominates det L ~ 1/s^4 (the analysis continues the
     # contour with the model down to 1e-5 Hz, where det L dominates)
     "PID 8 Hz, notches and low-pass only": PidLaw(**pid_gains(MODEL, 0.0, 8.0, 0.7, 2.0), fs=15000.0,
-                                                  filters=LoopFilters(THESIS_H.notches, 450.0, 2, 0.7)),
+                                                  filters=FilterPack(THESIS_H.notches, 450.0, 2, 0.7)),
     # 120 Hz: stable in continuous time, unstable with the discrete controller and delay; 180 Hz: unstable
     **{f"PID {bw} Hz": PidLaw(**pid_gains(MODEL, 0.0, bw, 0.5, 4.0), filters=THESIS_H, fs=15000.0)
        for bw in (120, 180)},
@@ -208,7 +208,7 @@ def test_singular_values_of_the_gantry_loop_and_sensitivity_equal_numpy_svd():
 
 # ---------------------------------------------------------------------------------- SISO special case
 def _siso_loop(gain: float = 1.0):
-    d = design_loopshape(0.6977, crossover_hz=130, pm_deg=35, filters=LoopFilters([Notch(186, 0.6, 0.7)], 1200.0))
+    d = design_loopshape(0.6977, crossover_hz=130, pm_deg=35, filters=FilterPack([Notch(186, 0.6, 0.7)], 1200.0))
     f = np.r_[np.logspace(np.log10(0.5), np.log10(7499.0), 4000), 7500.0]
     L = gain * zoh_double_integrator(0.6977, d.fs, f) * delay_response(f, 1, d.fs) * d.controller_discrete().freqresp(f)
     return f, L

@@ -23,7 +23,7 @@ import pytest
 
 from feedtune.analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
 from feedtune.analysis.limits import DEFAULT_LIMITS, check_cases
-from feedtune.control.filters import LoopFilters, Notch
+from feedtune.control.filters import FilterPack, Notch
 from feedtune.control.gantry import PidLaw
 from feedtune.design.gantry_pid import pid_gains
 from feedtune.errors import DesignError, UsageError
@@ -32,7 +32,7 @@ from feedtune.models.gantry import THESIS_GANTRY as MODEL
 from feedtune.tune.pid import RHO_BOUNDS, ZETA_BOUNDS, tune_gantry_pid
 
 FS = 15000.0
-NOTCH_LPF = LoopFilters([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
+NOTCH_LPF = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                         450.0, 2, 0.7)  # the thesis MIMO design's notches and low-pass (its lead left out)
 BRUTE_TOL = 0.03
 POLICY = DEFAULT_LIMITS  # textbook: Ms 2.5, PM 30 deg, GM 6 dB
@@ -167,7 +167,7 @@ def test_dense_brute_force_on_the_model(x):
 @pytest.mark.slow
 @pytest.mark.parametrize("x, filters", [(0.0, "notch_lpf"), (0.0, "none"), (0.3, "notch_lpf"), (-0.3, "none")])
 def test_dense_brute_force_on_the_twin_frf(x, filters):
-    pack = NOTCH_LPF if filters == "notch_lpf" else LoopFilters()
+    pack = NOTCH_LPF if filters == "notch_lpf" else FilterPack()
     frf = measured_twin_frf(x)
     _, xo = _tuned(filters=pack, frf=frf, x=x)
     bf = brute_force(MODEL, pack, POLICY, frf=frf, x=x)
@@ -189,7 +189,7 @@ def mode_plant():
     """The series-mode plant, tuned with its own filters and with none."""
     frf = series_mode_frf()
     own, x_own = _tuned(frf=frf, filter_choice="own")
-    _, x_none = _tuned(frf=frf, filters=LoopFilters())
+    _, x_none = _tuned(frf=frf, filters=FilterPack())
     return frf, own, x_own, x_none
 
 
@@ -225,7 +225,7 @@ def test_own_filters_drop_given_filters_that_lower_the_crossover():
     # on the model, the thesis' notches and low-pass only cost bandwidth: 'own' may drop them
     identical, x_identical = _tuned(filters=NOTCH_LPF)
     own, x_own = _tuned(filters=NOTCH_LPF, filter_choice="own")
-    _, x_bare = _tuned(filters=LoopFilters(), filter_choice="identical")
+    _, x_bare = _tuned(filters=FilterPack(), filter_choice="identical")
     assert x_own == pytest.approx(x_bare, rel=1e-9) and x_own > 10 * x_identical
     assert not own.law.filters.notches and own.law.filters.lpf_hz is None
     assert identical.tuning["filters"]["choice"] == "identical"  # the default when filters are given

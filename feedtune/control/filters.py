@@ -312,8 +312,5 @@ class FilterPack:
             raise DataError(f"{where}: invalid filter description ({exc})") from None
 
 
-LoopFilters = FilterPack
-"""Former name of :class:`FilterPack` (the gantry and axis designs used it); kept for existing scripts."""
-
 THESIS_FILTER_PACK = FilterPack([Notch(420.0, 0.55, 0.7), Notch(1080.0, 0.05, 0.7)], 2000.0)
 """The ball-screw filter pack of thesis §3.2.2: notches at 420 and 1080 Hz, low-pass at 2000 Hz."""
