@@ -4,12 +4,16 @@ Run by hand: ``python benchmarks/bench_gantry_sim.py``. The full twin (12 plant 
 x grid, structural, pitching and base modes, noise, quantization, saturation, one sample of delay) runs a
 200 mm/s back-and-forth y move while the table moves 0.1 m, under
 
-* the MIMO law of eq. 4.30 executed by ``GantryRuntime`` and the loop-shaped x axis by ``AxisRuntime``
-  (Python ``step()`` per sample, as a target runs the gains files);
+* the MIMO law of eq. 4.30 executed by ``GantryRuntime`` and the loop-shaped x axis by ``AxisRuntime`` (with the
+  numba engine plant and both laws in one compiled loop, :mod:`feedtune.machines.gantry.law`; with the python
+  engine the loop in Python, the runtimes' ``step()`` per sample);
 * the built-in holding controllers (a lighter Python ``step()``);
 * controllers that return 0 at once, everything at rest: the cost of the plant step and of the loop alone.
 
-Prints the best of a few runs: seconds, microseconds per sample and the real-time factor, per engine.
+Prints the best of a few runs: seconds, microseconds per sample and the real-time factor, per engine; then, for the
+compiled loop of the runtimes, the marginal cost per sample (the difference of a 5 s and a 1 s run, without the
+run's fixed costs: noise generation, tables) against the issue's target (>= 100x real time, < 0.66 us at 15 kHz) and
+as a ratio to the ball-screw twin's loop measured in the same run (``benchmarks/bench_sim.py``'s MC-PPC run).
 """
 
 from __future__ import annotations
@@ -102,5 +106,36 @@ def main() -> None:
                   f"{SECONDS / t:5.1f}x real time")
 
 
+def marginal() -> None:
+    """Marginal cost per sample of the compiled gantry loop, with the ball-screw loop as the anchor."""
+    from bench_sim import SECONDS as BS_SECONDS
+    from bench_sim import _reference
+
+    from feedtune.control.filters import THESIS_FILTER_PACK
+    from feedtune.design.mcppc import design_mcppc
+    from feedtune.io.gains import gains_document
+    from feedtune.machines.ballscrew.twin import BallScrewTwin
+    from feedtune.models import THESIS_TABLE_3_1
+
+    twin = GantryTwin()
+    mimo, axis = _runtimes()
+    times = {}
+    for sec in (1.0, 5.0):
+        n = int(sec * twin.fs)
+        y, x = _references(twin.fs, n)
+        twin.simulate(mimo, axis, y, x_ref=x)
+        times[sec] = _best(lambda y=y, x=x: twin.simulate(mimo, axis, y, x_ref=x), 5)
+    per = (times[5.0] - times[1.0]) / (4.0 * twin.fs)
+    bs = BallScrewTwin()
+    rt = load_runtime(gains_document(design_mcppc(THESIS_TABLE_3_1, filters=THESIS_FILTER_PACK)))
+    ref = _reference(bs)
+    bs.simulate(rt, ref[:100])
+    t_bs = _best(lambda: bs.simulate(rt, ref), 3) / ref.size
+    print(f"compiled gantry loop (MIMO + axis), marginal: {per * 1e6:.3f} us/sample, {1 / (per * twin.fs):.0f}x real "
+          f"time at {twin.fs:g} Hz (target >= 100x); ball-screw loop {t_bs * 1e6:.3f} us/sample "
+          f"({BS_SECONDS:g} s run): gantry/ball screw = {per / t_bs:.2f}")
+
+
 if __name__ == "__main__":
     main()
+    marginal()

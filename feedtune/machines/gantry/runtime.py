@@ -37,10 +37,11 @@ from bisect import bisect_right
 
 import numpy as np
 
-from ...control.sos import SosCascade, sos_filter
+from ...control.sos import sos_filter
 from ...errors import DataError, UsageError
 from ...io.gains import read_sampling, read_sos, value
 from ...sim.engine import sample_vector
+from .law import AxisLawData, GantryLawData, compiled_laws
 
 _PREFILTER_KEYS = ("prefilter_vel_sos", "prefilter_acc_sos", "prefilter_jerk_sos", "prefilter_snap_sos")
 
@@ -123,14 +124,11 @@ class GantryRuntime:
         self._segments = [(self._x[i], 1.0 / (self._x[i + 1] - self._x[i]), self._rows[i],
                            tuple(b - a for a, b in zip(self._rows[i], self._rows[i + 1], strict=True)))
                           for i in range(len(self._x) - 1)]
-        self._beta = self.gains.get("beta", 0.0)
-        self._ki = self.gains.get("ki", 0.0)
-        self._pid = tuple(self.gains.get(k, 0.0) for k in ("kp1", "kd1", "ki1", "kp2", "kd2", "ki2"))
-        self._h = (SosCascade(self.sos["filter_pack"]), SosCascade(self.sos["filter_pack"]))
-        self._pos = (SosCascade(self.sos["position"]), SosCascade(self.sos["position"]))
-        self._acc = (SosCascade(self.sos["acceleration"]), SosCascade(self.sos["acceleration"]))
-        self._pre = tuple(SosCascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
-        self._lead = SosCascade(self.sos["lead"]) if controller == "mimo" else None
+        self.law = GantryLawData(controller, self.gains, self.sos, self.schedule_x, self.schedule, self.fs,
+                                 self._prefilter_on)
+        self._step = compiled_laws()[0]
+        self._args = self.law.args()
+        self._out = self.law.out
         self.reset()
 
     # ------------------------------------------------------------------ construction
@@ -182,13 +180,7 @@ class GantryRuntime:
     # ------------------------------------------------------------------ per sample
     def reset(self) -> None:
         """Zero every filter state and integrator; the next sample is the first."""
-        for f in (*self._h, *self._pos, *self._acc, *self._pre):
-            f.reset()
-        if self._lead is not None:
-            self._lead.reset()
-        self._e1_prev = self._e2_prev = 0.0
-        self._ie1 = self._ie2 = 0.0
-        self._started = False
+        self.law.reset()
         self._last_x = None
         self._last_row = self._rows[0]
 
@@ -214,7 +206,7 @@ class GantryRuntime:
         return row
 
     def step(self, y_ref_preview: float, y1: float, y2: float, x: float) -> tuple[float, float]:
-        """One sample of the law (``docs/gantry_gains.md``).
+        """One sample of the law (``docs/gantry_gains.md``; :func:`feedtune.machines.gantry.law.gantry_law_step`).
 
         Parameters
         ----------
@@ -230,38 +222,9 @@ class GantryRuntime:
         (float, float)
             Commands ``u1, u2`` [V], to be applied ``delay_samples`` later.
         """
-        r = y_ref_preview
-        s = self.schedule_at(x)
-        if self._prefilter_on:
-            p = self._pre
-            d0, d1, d2, d3 = p[0].step(r), p[1].step(r), p[2].step(r), p[3].step(r)
-            ra1 = r + s[5] * d0 + s[6] * d1 + s[7] * d2 + s[8] * d3
-            ra2 = r + s[9] * d0 + s[10] * d1 + s[11] * d2 + s[12] * d3
-        else:
-            ra1 = ra2 = r
-        acc1 = self._acc[0].step(ra1)
-        acc2 = self._acc[1].step(ra2)
-        e1 = self._pos[0].step(ra1) - y1
-        e2 = self._pos[1].step(ra2) - y2
-        if not self._started:
-            self._e1_prev, self._e2_prev, self._started = e1, e2, True
-        fs = self.fs
-        ie1 = self._ie1 = self._ie1 + e1 / fs
-        ie2 = self._ie2 = self._ie2 + e2 / fs
-        if self._lead is not None:
-            a1, a2 = s[0], s[1]
-            v = self._lead.step(a1 * e1 + a2 * e2)
-            dd = self._beta * ((e1 - e2) - (self._e1_prev - self._e2_prev)) * fs
-            ki = self._ki
-            w1 = a1 * (v + dd + ki * ie1)
-            w2 = a2 * (v - dd + ki * ie2)
-        else:
-            kp1, kd1, ki1, kp2, kd2, ki2 = self._pid
-            w1 = kp1 * e1 + kd1 * (e1 - self._e1_prev) * fs + ki1 * ie1
-            w2 = kp2 * e2 + kd2 * (e2 - self._e2_prev) * fs + ki2 * ie2
-        self._e1_prev, self._e2_prev = e1, e2
-        return (self._h[0].step(w1) + s[2] * acc1 + s[3] * acc2,
-                self._h[1].step(w2) + s[3] * acc1 + s[4] * acc2)
+        out = self._out
+        self._step(*self._args, float(y_ref_preview), float(y1), float(y2), _finite_position(float(x)), out)
+        return float(out[0]), float(out[1])
 
     # ------------------------------------------------------------------ vectorised
     def previewed(self, y_ref) -> np.ndarray:
@@ -372,10 +335,9 @@ class AxisRuntime:
         self.command_unit = command_unit
         self.source = source
         self._prefilter_on = any(v != 0.0 for v in self.prefilter_gains)
-        self._c = SosCascade(self.sos["controller"])
-        self._pos = SosCascade(self.sos["position"])
-        self._acc = SosCascade(self.sos["acceleration"])
-        self._pre = tuple(SosCascade(self.sos[k[:-4]]) for k in _PREFILTER_KEYS)
+        self.law = AxisLawData(self.sos, self.mass, self.prefilter_gains, self._prefilter_on)
+        self._step = compiled_laws()[1]
+        self._args = self.law.args()
         self.reset()
 
     @classmethod
@@ -408,19 +370,12 @@ class AxisRuntime:
 
     def reset(self) -> None:
         """Zero every filter state; the next sample is the first."""
-        for f in (self._c, self._pos, self._acc, *self._pre):
-            f.reset()
+        self.law.reset()
 
     def step(self, x_ref_preview: float, x: float) -> float:
-        """One sample: reference ``x_r[k + preview_samples]`` [m] and encoder ``x[k]`` [m] -> ``u_x`` [V]."""
-        r = x_ref_preview
-        if self._prefilter_on:
-            k, p = self.prefilter_gains, self._pre
-            ra = r + k[0] * p[0].step(r) + k[1] * p[1].step(r) + k[2] * p[2].step(r) + k[3] * p[3].step(r)
-        else:
-            ra = r
-        uff = self.mass * self._acc.step(r)
-        return self._c.step(self._pos.step(ra) - x) + uff
+        """One sample: reference ``x_r[k + preview_samples]`` [m] and encoder ``x[k]`` [m] -> ``u_x`` [V]
+        (:func:`feedtune.machines.gantry.law.axis_law_step`)."""
+        return float(self._step(*self._args, float(x_ref_preview), float(x)))
 
     def previewed(self, x_ref) -> np.ndarray:
         """The sequence ``x_r[k + P]`` fed to :meth:`step`, holding the last value past the end [m]."""

@@ -64,7 +64,7 @@ from ...errors import DataError, UsageError
 from ...lti import zoh
 from ...models.gantry import PARAM_NAMES as MODEL_PARAMS
 from ...models.gantry import THESIS_GANTRY, GantryModel
-from ...sim.engine import choose_engine, kernel, sample_vector
+from ...sim.engine import choose_engine, compiled, kernel, sample_vector
 from ...sim.params import finite_param, non_negative_param, parse_override_value, positive_param
 
 STATE_NAMES = ("y1", "y2", "v1", "v2", "yb", "vb", "eta320", "eta320_dot", "eta382", "eta382_dot", "q", "q_dot",
@@ -549,7 +549,7 @@ def _measure(k, z, par, noise, rec):
     return y1, y2, xm
 
 
-def _step(k, u1, u2, ux, z, znew, buf, work, tabA, tabB, par, noise, ext, ref, rec):
+def _step(k, u1, u2, ux, z, znew, buf, work, tabA, tabB, par, noise, ext, ref, rec, rowA, colA, rowB, colB, nconst):
     """Apply the commands computed at sample ``k`` and advance the plant to sample ``k + 1``.
 
     Returns a status: 0 running, 1 following-error envelope, 2 I2t overload, 3 non-finite command, 4 the
@@ -614,27 +614,36 @@ def _step(k, u1, u2, ux, z, znew, buf, work, tabA, tabB, par, noise, ext, ref, r
         i = ng - 2
     w = min(max(sx - i, 0.0), 1.0)
     n = _NS
-    ni = _NI
-    oa0 = i * n * n
-    oa1 = oa0 + n * n
-    ob0 = i * n * ni
-    ob1 = ob0 + n * ni
+    na = len(colA)
+    nb = len(colB)
+    oa0 = i * na
+    oa1 = oa0 + na
+    ob0 = i * nb
+    ob1 = ob0 + nb
+    # A z + B u interpolated between grid points i and i + 1 over the non-zero entries (``znew``: 3 n scratch)
     for row in range(n):
-        s0 = 0.0
-        s1 = 0.0
-        ra = row * n
-        for c in range(n):
-            zc = z[c]
-            s0 += tabA[oa0 + ra + c] * zc
-            s1 += tabA[oa1 + ra + c] * zc
-        rb = row * ni
-        for c in range(ni):
-            uc = work[3 + c]
-            s0 += tabB[ob0 + rb + c] * uc
-            s1 += tabB[ob1 + rb + c] * uc
-        znew[row] = s0 + w * (s1 - s0)
+        znew[row] = 0.0
+        znew[n + row] = 0.0
+        znew[2 * n + row] = 0.0
+    ca = nconst[0]
+    cb = nconst[1]
+    for j in range(ca):  # the same at every grid point
+        znew[rowA[j]] += tabA[oa0 + j] * z[colA[j]]
+    for j in range(cb):
+        znew[rowB[j]] += tabB[ob0 + j] * work[3 + colB[j]]
+    for j in range(ca, na):
+        zc = z[colA[j]]
+        r0 = n + rowA[j]
+        znew[r0] += tabA[oa0 + j] * zc
+        znew[r0 + n] += tabA[oa1 + j] * zc
+    for j in range(cb, nb):
+        uc = work[3 + colB[j]]
+        r0 = n + rowB[j]
+        znew[r0] += tabB[ob0 + j] * uc
+        znew[r0 + n] += tabB[ob1 + j] * uc
     for row in range(n):
-        z[row] = znew[row]
+        s0 = znew[n + row]
+        z[row] = znew[row] + (s0 + w * (znew[2 * n + row] - s0))
     return 0
 
 
@@ -709,9 +718,41 @@ class GantryRun:
 # ------------------------------------------------------------------------------------------ the twin
 @dataclass(frozen=True)
 class _Tables:
+    """The exact ZOH matrices on the position grid, and their sparse form for the per-sample step.
+
+    The plant's blocks (rigid body, yaw, structural, pitching and base modes, x axis) are coupled only where the
+    physics couples them, so most entries of ``Ad``, ``Bd`` are exactly zero at every grid point (95 of 784 and 58
+    of 140 are not, on the default twin), and of those most do not depend on the position (63 and 36). The step
+    runs over the non-zero entries only, as flat lists ``(row, column)`` with the position-independent ones first
+    (``n_const_*`` of them) and the varying ones after, each sorted by row and column (so every row's sums are taken
+    in column order): the constant entries once, the varying ones at the two grid points around the table
+    (values ``val_*``, flat per grid point).
+    """
+
     xs: np.ndarray
-    Ad: np.ndarray  # (n_grid, 12, 12)
-    Bd: np.ndarray  # (n_grid, 12, 5)
+    Ad: np.ndarray  # (n_grid, n_states, n_states)
+    Bd: np.ndarray  # (n_grid, n_states, n_inputs)
+    row_a: np.ndarray
+    col_a: np.ndarray
+    val_a: np.ndarray
+    row_b: np.ndarray
+    col_b: np.ndarray
+    val_b: np.ndarray
+    n_const: np.ndarray  # [A, B]
+
+    @classmethod
+    def build(cls, xs: np.ndarray, Ad: np.ndarray, Bd: np.ndarray) -> _Tables:
+        """With the sparse form of the entries that are non-zero at some grid point."""
+        parts, counts = [], []
+        for M in (Ad, Bd):
+            nz = np.any(M != 0.0, axis=0)
+            varies = np.any(M != M[:1], axis=0)
+            rows, cols = np.nonzero(nz)
+            order = np.lexsort((cols, rows, varies[rows, cols]))  # constant entries first, each by row and column
+            rows, cols = rows[order], cols[order]
+            parts += [rows.astype(np.int64), cols.astype(np.int64), np.ascontiguousarray(M[:, rows, cols]).ravel()]
+            counts.append(int(np.sum(~varies[rows, cols])))
+        return cls(xs, Ad, Bd, *parts, np.array(counts, dtype=np.int64))
 
 
 class GantryTwin:
@@ -750,8 +791,8 @@ class GantryTwin:
                 aug[i, :N_STATES, :N_STATES], aug[i, :N_STATES, N_STATES:] = continuous_system(self.params, x)
             with single_threaded_blas():
                 E = expm(aug / self.fs)  # batched: exact ZOH at every grid point
-            self._tables = _Tables(xs, np.ascontiguousarray(E[:, :N_STATES, :N_STATES]),
-                                   np.ascontiguousarray(E[:, :N_STATES, N_STATES:]))
+            self._tables = _Tables.build(xs, np.ascontiguousarray(E[:, :N_STATES, :N_STATES]),
+                                         np.ascontiguousarray(E[:, :N_STATES, N_STATES:]))
         return self._tables
 
     def discrete_system(self, x: float) -> tuple[np.ndarray, np.ndarray]:
@@ -969,17 +1010,30 @@ class GantryTwin:
         return par
 
     def _run(self, gantry, axis, y_full, x_full, pg, pa, y0, x0, noise, ext, ref, total, engine):
-        """The per-sample loop: controllers in Python, plant in the kernel. Returns (k_done, status, rec)."""
-        measure, step = kernel(_measure, engine), kernel(_step, engine)
+        """The per-sample loop. Returns (k_done, status, rec).
+
+        With the numba engine and the runtimes of gains files (:class:`~feedtune.machines.gantry.runtime.
+        GantryRuntime`, :class:`~feedtune.machines.gantry.runtime.AxisRuntime`), plant and laws run in one compiled
+        loop (:func:`_closed_loop`, calling the laws of :mod:`feedtune.machines.gantry.law`); other controllers
+        (duck-typed objects with ``step``) are stepped from Python around the compiled plant step.
+        """
         tb = self.tables()
         z0 = np.zeros(N_STATES)
         z0[I_X] = x0  # at rest, the table at x0
-        arrays = [z0, np.zeros(N_STATES), np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(8), tb.Ad.ravel(),
-                  tb.Bd.ravel(), self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(),
-                  np.zeros(total * N_REC)]
+        arrays = [z0, np.zeros(3 * N_STATES), np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(8), tb.val_a,
+                  tb.val_b, self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(),
+                  np.zeros(total * N_REC), tb.row_a, tb.col_a, tb.row_b, tb.col_b, tb.n_const]
+        if choose_engine(engine) == "numba" and _compiled_laws(gantry, axis):
+            loop = _compiled_loop()
+            yr = np.ascontiguousarray(y_full - y0)
+            xr = np.ascontiguousarray(x_full - x0)
+            k, status = loop(total, pg, pa, y0, x0, yr, xr, *arrays, *gantry.law.args(), gantry.law.out,
+                             *axis.law.args())
+            return int(k), int(status), arrays[10].reshape(total, N_REC)
+        measure, step = kernel(_measure, engine), kernel(_step, engine)
         if choose_engine(engine) == "python":
             arrays = [a.tolist() for a in arrays]
-        z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec = arrays
+        z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec, rowA, colA, rowB, colB, nconst = arrays
         y1, y2, x = measure(0, z, par, nz, rec)
         g_step, a_step = gantry.step, axis.step
         yr = (y_full - y0).tolist()  # the controllers' filters start at zero: positions relative to the start
@@ -990,7 +1044,8 @@ class GantryTwin:
         for k in range(total):
             u1, u2 = g_step(yr[k + pg], y1 - y0, y2 - y0, x)
             ux = a_step(xr[k + pa], x - x0)
-            status = step(k, float(u1), float(u2), float(ux), z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec)
+            status = step(k, float(u1), float(u2), float(ux), z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec,
+                          rowA, colA, rowB, colB, nconst)
             if status:
                 break
             if k < last:
@@ -1012,6 +1067,47 @@ class GantryTwin:
         which = max(errs, key=lambda key: abs(errs[key]))
         return (f"following-error trip at t = {t:.6g} s: the {which} error {abs(errs[which]) * 1e3:.4g} mm left "
                 f"the safety envelope of {p.envelope_m * 1e3:.4g} mm (is a controller unstable on this machine?)")
+
+
+def _compiled_laws(gantry, axis) -> bool:
+    """Both controllers are runtimes of gains files, whose laws the compiled loop runs."""
+    from .runtime import AxisRuntime, GantryRuntime
+
+    return type(gantry) is GantryRuntime and type(axis) is AxisRuntime
+
+
+_m = _s = _g = _a = None  # the compiled callees of _closed_loop, set by _compiled_loop before it is compiled
+
+
+def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec, rowA, colA,
+                 rowB, colB, nconst, g_sos, g_seg, g_w, g_wofs, g_par, g_st, g_sx, g_sched, g_out, a_sos, a_seg,
+                 a_w, a_par):
+    """Plant and both control laws, one sample per iteration (the loop of :meth:`GantryTwin._run` with the laws of
+    :mod:`feedtune.machines.gantry.law`); returns ``(last sample, status)``."""
+    y1, y2, x = _m(0, z, par, nz, rec)
+    status = 0
+    k = 0
+    for k in range(total):
+        _g(g_sos, g_seg, g_w, g_wofs, g_par, g_st, g_sx, g_sched, yr[k + pg], y1 - y0, y2 - y0, x, g_out)
+        ux = _a(a_sos, a_seg, a_w, a_par, xr[k + pa], x - x0)
+        status = _s(k, g_out[0], g_out[1], ux, z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec, rowA, colA,
+                    rowB, colB, nconst)
+        if status != 0:
+            break
+        if k < total - 1:
+            y1, y2, x = _m(k + 1, z, par, nz, rec)
+    return k, status
+
+
+def _compiled_loop():
+    """:func:`_closed_loop` compiled with its callees (the plant's measure and step, both laws)."""
+    global _m, _s, _g, _a
+    if _g is None:
+        from .law import compiled_laws
+
+        _g, _a = compiled_laws()
+        _m, _s = compiled(_measure), compiled(_step)
+    return compiled(_closed_loop)
 
 
 def _check_controller(ctrl, name: str) -> None:

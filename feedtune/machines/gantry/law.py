@@ -1,0 +1,224 @@
+"""The gantry and x-axis control laws written once (docs/gantry_gains.md), for the runtime and the compiled twin loop.
+
+Each law is a plain function over arrays and scalars that numba compiles (:func:`compiled_laws`); the runtimes
+(:class:`~feedtune.machines.gantry.runtime.GantryRuntime`, :class:`~feedtune.machines.gantry.runtime.AxisRuntime`)
+call the compiled function once per ``step``, and the twin's closed loop calls the same functions inside its compiled
+kernel, so the law a target runs, the runtime and the simulation are one code. The C header
+(:mod:`feedtune.export.c_gantry`) writes the same operations in C and is checked against the runtime sample by
+sample.
+
+Data layout (built by :func:`gantry_law_data` / :func:`axis_law_data` from a runtime):
+
+* ``sos``: every filter's normalised sections ``[b0, b1, b2, 1, a1, a2]`` stacked, ``(n, 6)``;
+* ``seg``: ``(n_filters, 2)`` first row and number of rows of each filter in ``sos`` (:data:`G_FILTERS`,
+  :data:`A_FILTERS`);
+* ``w``: ``(n, 2)`` states of the filter instances (:data:`G_STATES`: the gantry runs the filter pack, position and
+  acceleration filters once per side);
+* ``par``: gains and flags (:data:`G_PAR`, :data:`A_PAR`); ``st``: the scalar states (:data:`G_ST`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+G_FILTERS = ("filter_pack", "position", "acceleration", "lead", "prefilter_vel", "prefilter_acc", "prefilter_jerk",
+             "prefilter_snap")
+"""Filters of the gantry law, in the order of ``seg``."""
+G_STATES = (0, 0, 1, 1, 2, 2, 3, 4, 5, 6, 7)
+"""Filter of each state instance: h1, h2, pos1, pos2, acc1, acc2, lead, the four pre-filter terms."""
+(GP_FS, GP_BETA, GP_KI, GP_KP1, GP_KD1, GP_KI1, GP_KP2, GP_KD2, GP_KI2, GP_MIMO, GP_PRE, GP_NCOL) = range(12)
+G_PAR = 12
+"""Length of the gantry ``par`` vector: fs [Hz], beta, ki (MIMO), kp1, kd1, ki1, kp2, kd2, ki2 (PID), MIMO flag,
+pre-filter flag, schedule columns used."""
+GS_STARTED, GS_E1, GS_E2, GS_IE1, GS_IE2 = range(5)
+G_ST = 5 + 13
+"""Length of the gantry ``st`` vector: started, previous errors, integrals, then the schedule row (13)."""
+A_FILTERS = ("controller", "position", "acceleration", "prefilter_vel", "prefilter_acc", "prefilter_jerk",
+             "prefilter_snap")
+"""Filters of the axis law, in the order of ``seg`` (one instance each)."""
+AP_MASS, AP_KVEL, AP_KACC, AP_KJERK, AP_KSNAP, AP_PRE = range(6)
+A_PAR = 6
+
+
+def sos_run(sos, first, count, w, wfirst, x):
+    """One sample through ``count`` sections from row ``first`` of ``sos`` with states from row ``wfirst`` of
+    ``w`` (transposed direct form II, as :class:`feedtune.control.sos.SosCascade`)."""
+    for i in range(count):
+        r = first + i
+        s = wfirst + i
+        y = sos[r, 0] * x + w[s, 0]
+        w[s, 0] = sos[r, 1] * x - sos[r, 4] * y + w[s, 1]
+        w[s, 1] = sos[r, 2] * x - sos[r, 5] * y
+        x = y
+    return x
+
+
+_sos = sos_run  # the callees the laws use: replaced by their compiled versions when the laws are compiled
+
+
+def schedule_row(sched_x, sched, ncol, x, row):
+    """The schedule row at table position ``x`` [m] into ``row``: linear interpolation, clamped at the ends (the
+    interval from the number of grid points ``<= x``; a NaN ``x`` uses the first row)."""
+    nx = sched_x.size
+    i = 0
+    while i < nx and sched_x[i] <= x:
+        i += 1
+    if i == 0 or i == nx:
+        j = 0 if i == 0 else nx - 1
+        for c in range(ncol):
+            row[c] = sched[j, c]
+        return
+    w = (x - sched_x[i - 1]) * (1.0 / (sched_x[i] - sched_x[i - 1]))
+    for c in range(ncol):
+        row[c] = sched[i - 1, c] + w * (sched[i, c] - sched[i - 1, c])
+
+
+_row = schedule_row
+
+
+def gantry_law_step(sos, seg, w, wofs, par, st, sched_x, sched, r, y1, y2, x, out):
+    """One sample of the gantry law: reference ``r = y_r[k+P]``, encoders ``y1, y2`` [m], table ``x`` [m] ->
+    ``out[0], out[1]`` = ``u1, u2`` [command unit].
+
+    ``wofs[i]``: first state row of instance ``i`` of :data:`G_STATES`.
+    """
+    row = st[5:]
+    _row(sched_x, sched, int(par[GP_NCOL]), x, row)
+    ra1 = r
+    ra2 = r
+    if par[GP_PRE] != 0.0:
+        d0 = _sos(sos, seg[4, 0], seg[4, 1], w, wofs[7], r)
+        d1 = _sos(sos, seg[5, 0], seg[5, 1], w, wofs[8], r)
+        d2 = _sos(sos, seg[6, 0], seg[6, 1], w, wofs[9], r)
+        d3 = _sos(sos, seg[7, 0], seg[7, 1], w, wofs[10], r)
+        ra1 = r + row[5] * d0 + row[6] * d1 + row[7] * d2 + row[8] * d3
+        ra2 = r + row[9] * d0 + row[10] * d1 + row[11] * d2 + row[12] * d3
+    acc1 = _sos(sos, seg[2, 0], seg[2, 1], w, wofs[4], ra1)
+    acc2 = _sos(sos, seg[2, 0], seg[2, 1], w, wofs[5], ra2)
+    e1 = _sos(sos, seg[1, 0], seg[1, 1], w, wofs[2], ra1) - y1
+    e2 = _sos(sos, seg[1, 0], seg[1, 1], w, wofs[3], ra2) - y2
+    if st[GS_STARTED] == 0.0:
+        st[GS_E1] = e1
+        st[GS_E2] = e2
+        st[GS_STARTED] = 1.0
+    fs = par[GP_FS]
+    st[GS_IE1] = st[GS_IE1] + e1 / fs
+    st[GS_IE2] = st[GS_IE2] + e2 / fs
+    if par[GP_MIMO] != 0.0:
+        a1 = row[0]
+        a2 = row[1]
+        v = _sos(sos, seg[3, 0], seg[3, 1], w, wofs[6], a1 * e1 + a2 * e2)
+        dd = par[GP_BETA] * ((e1 - e2) - (st[GS_E1] - st[GS_E2])) * fs
+        w1 = a1 * (v + dd + par[GP_KI] * st[GS_IE1])
+        w2 = a2 * (v - dd + par[GP_KI] * st[GS_IE2])
+    else:
+        w1 = par[GP_KP1] * e1 + par[GP_KD1] * (e1 - st[GS_E1]) * fs + par[GP_KI1] * st[GS_IE1]
+        w2 = par[GP_KP2] * e2 + par[GP_KD2] * (e2 - st[GS_E2]) * fs + par[GP_KI2] * st[GS_IE2]
+    st[GS_E1] = e1
+    st[GS_E2] = e2
+    out[0] = _sos(sos, seg[0, 0], seg[0, 1], w, wofs[0], w1) + row[2] * acc1 + row[3] * acc2
+    out[1] = _sos(sos, seg[0, 0], seg[0, 1], w, wofs[1], w2) + row[3] * acc1 + row[4] * acc2
+
+
+def axis_law_step(sos, seg, w, par, r, x):
+    """One sample of the x-axis law: reference ``r = x_r[k+P]`` and encoder ``x`` [m] -> ``u_x`` [command unit]
+    (one state instance per filter: the states of filter ``i`` start at ``seg[i, 0]``)."""
+    ra = r
+    if par[AP_PRE] != 0.0:
+        ra = (r + par[AP_KVEL] * _sos(sos, seg[3, 0], seg[3, 1], w, seg[3, 0], r)
+              + par[AP_KACC] * _sos(sos, seg[4, 0], seg[4, 1], w, seg[4, 0], r)
+              + par[AP_KJERK] * _sos(sos, seg[5, 0], seg[5, 1], w, seg[5, 0], r)
+              + par[AP_KSNAP] * _sos(sos, seg[6, 0], seg[6, 1], w, seg[6, 0], r))
+    uff = par[AP_MASS] * _sos(sos, seg[2, 0], seg[2, 1], w, seg[2, 0], r)
+    e = _sos(sos, seg[1, 0], seg[1, 1], w, seg[1, 0], ra) - x
+    return _sos(sos, seg[0, 0], seg[0, 1], w, seg[0, 0], e) + uff
+
+
+# ------------------------------------------------------------------------------------------ data
+def _stack(sos: dict, names) -> tuple[np.ndarray, np.ndarray]:
+    rows, seg, n = [], np.zeros((len(names), 2), dtype=np.int64), 0
+    for i, name in enumerate(names):
+        a = np.asarray(sos.get(name, np.zeros((0, 6))), float).reshape(-1, 6)
+        seg[i] = n, a.shape[0]
+        rows.append(a)
+        n += a.shape[0]
+    return np.ascontiguousarray(np.vstack(rows) if n else np.zeros((0, 6))), seg
+
+
+class GantryLawData:
+    """The arrays :func:`gantry_law_step` runs on, built from a gantry runtime's sections, gains and schedule.
+
+    Attributes
+    ----------
+    sos, seg, w, wofs, par, st, sched_x, sched : ndarray
+        See the module docstring.
+    """
+
+    def __init__(self, controller: str, gains: dict, sos: dict, schedule_x, schedule, fs: float,
+                 prefilter_on: bool) -> None:
+        self.sos, self.seg = _stack(sos, G_FILTERS)
+        counts = [int(self.seg[f, 1]) for f in G_STATES]
+        self.wofs = np.cumsum([0, *counts[:-1]]).astype(np.int64)
+        self.w = np.zeros((max(sum(counts), 1), 2))
+        par = np.zeros(G_PAR)
+        par[GP_FS] = fs
+        par[GP_BETA] = gains.get("beta", 0.0)
+        par[GP_KI] = gains.get("ki", 0.0)
+        for i, k in zip(range(GP_KP1, GP_KI2 + 1), ("kp1", "kd1", "ki1", "kp2", "kd2", "ki2"), strict=True):
+            par[i] = gains.get(k, 0.0)
+        par[GP_MIMO] = 1.0 if controller == "mimo" else 0.0
+        par[GP_PRE] = 1.0 if prefilter_on else 0.0
+        par[GP_NCOL] = 13 if prefilter_on else 5
+        self.par = par
+        self.st = np.zeros(G_ST)
+        self.sched_x = np.ascontiguousarray(schedule_x, float)
+        sched = np.zeros((self.sched_x.size, 13))
+        s = np.asarray(schedule, float)
+        sched[:, : s.shape[1]] = s
+        self.sched = sched
+        self.out = np.zeros(2)
+
+    def reset(self) -> None:
+        """Every state to rest."""
+        self.w[:] = 0.0
+        self.st[:] = 0.0
+
+    def args(self) -> tuple:
+        """The array arguments of :func:`gantry_law_step` before the signals."""
+        return self.sos, self.seg, self.w, self.wofs, self.par, self.st, self.sched_x, self.sched
+
+
+class AxisLawData:
+    """The arrays :func:`axis_law_step` runs on, built from an axis runtime."""
+
+    def __init__(self, sos: dict, mass: float, prefilter_gains, prefilter_on: bool) -> None:
+        self.sos, self.seg = _stack(sos, A_FILTERS)
+        self.w = np.zeros((max(self.sos.shape[0], 1), 2))
+        par = np.zeros(A_PAR)
+        par[AP_MASS] = mass
+        par[AP_KVEL:AP_KSNAP + 1] = prefilter_gains
+        par[AP_PRE] = 1.0 if prefilter_on else 0.0
+        self.par = par
+
+    def reset(self) -> None:
+        """Every state to rest."""
+        self.w[:] = 0.0
+
+    def args(self) -> tuple:
+        """The array arguments of :func:`axis_law_step` before the signals."""
+        return self.sos, self.seg, self.w, self.par
+
+
+_LAWS: list = []
+
+
+def compiled_laws() -> tuple:
+    """``(gantry_law_step, axis_law_step)`` compiled by numba (once per process, cached on disk)."""
+    if not _LAWS:
+        from ...sim.engine import compiled
+
+        global _sos, _row
+        _sos = compiled(sos_run)
+        _row = compiled(schedule_row)
+        _LAWS.extend([compiled(gantry_law_step), compiled(axis_law_step)])
+    return tuple(_LAWS)
