@@ -41,6 +41,7 @@ from ...control.sos import SosCascade
 from ...errors import DataError
 from ...io.gains import check_gains_header, friction_from_section, read_sampling, read_sos, value
 from ...sim.engine import sample_vector
+from .law import compiled_feedback, new_state
 
 SOS_KEYS = {
     "filter_pack": ("filters", "filter_pack_sos"),
@@ -128,7 +129,13 @@ class GainsRuntime:
         self.controller = controller
         self.command_unit = command_unit
         self.source = source
-        self._filters = {k: SosCascade(v) for k, v in self.sos.items()}
+        self._filters = {k: SosCascade(v) for k, v in self.sos.items() if k != "filter_pack"}
+        fp = self.sos["filter_pack"]
+        self._fp = np.ascontiguousarray(fp / fp[:, 3:4]).ravel() if fp.size else np.zeros(0)
+        self._nsec = int(fp.shape[0])
+        self._g = np.array([self.gains[k] for k in GAIN_ORDER])
+        self._st = new_state(self._nsec)
+        self._feedback = compiled_feedback()
         self.reset()
 
     # ------------------------------------------------------------------ construction
@@ -176,9 +183,8 @@ class GainsRuntime:
         """Zero every filter state and the integrator; the next sample is the first."""
         for f in self._filters.values():
             f.reset()
-        self._e1_prev = self._e2_prev = 0.0
+        self._st[:] = 0.0
         self._xp_prev = 0.0
-        self._ie2 = 0.0
         self._started = False
 
     def step(self, x_ref_preview: float, x1: float, x2: float) -> float:
@@ -207,17 +213,9 @@ class GainsRuntime:
             v_r = (xp - self._xp_prev) * self.fs if self._started else 0.0
             uff += float(self.friction.command(v_r))
         self._xp_prev = xp
-        e1 = x1r - x1
-        e2 = x2r - x2
-        if not self._started:
-            self._e1_prev, self._e2_prev, self._started = e1, e2, True
-        de1 = (e1 - self._e1_prev) * self.fs
-        de2 = (e2 - self._e2_prev) * self.fs
-        self._ie2 += e2 / self.fs
-        self._e1_prev, self._e2_prev = e1, e2
-        g = self.gains
-        ufb = g["Kx1"] * e1 + g["Kx2"] * e2 + g["Kv1"] * de1 + g["Kv2"] * de2 + g["Ki2"] * self._ie2
-        return f["filter_pack"].step(ufb) + uff
+        self._started = True
+        ufb = self._feedback(self._st, self._g, self._fp, self._nsec, self.fs, float(x1r - x1), float(x2r - x2))
+        return float(ufb) + uff
 
     # ------------------------------------------------------------------ vectorised helpers
     def previewed(self, x_ref) -> np.ndarray:

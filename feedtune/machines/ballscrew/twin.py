@@ -44,6 +44,7 @@ from ...lti import zoh
 from ...models.ballscrew import THESIS_TABLE_3_1, BallScrewModel
 from ...sim.engine import choose_engine, compiled, sample_vector
 from ...sim.params import non_negative_param, parse_override_value, positive_param
+from .law import compiled_feedback, feedback_step, new_state
 
 LEAD = THESIS_TABLE_3_1.lead_m_per_rad
 # ------------------------------------------------------------------------------------------ parameters
@@ -382,7 +383,7 @@ def pitch_sos(p: TwinParams) -> np.ndarray | None:
 
 # ------------------------------------------------------------------------------------------ the loop
 def _closed_loop(Ad, Bd, Ac, Bc, h, stop_v, n, n_sub, z, znew, x1r, x2r, uff, r, d2, pitch, n1, n2, gains, fs,
-                 fp, fpw, nsec, delay, fr, q1, q2, u_max, env1, env2, i2t_alpha, i2t_limit, status, y1_out, y2_out,
+                 fp, st, nsec, delay, fr, q1, q2, u_max, env1, env2, i2t_alpha, i2t_limit, status, y1_out, y2_out,
                  u_out, p1_out, p2_out):
     """Closed loop, one sample per iteration (compiled by numba when available; lists work in plain Python).
 
@@ -394,14 +395,6 @@ def _closed_loop(Ad, Bd, Ac, Bc, h, stop_v, n, n_sub, z, znew, x1r, x2r, uff, r,
     the following-error envelope, 2 for the I2t overload, 3 for a non-finite command).
     """
     n_samples = len(x1r)
-    kx1 = gains[0]
-    kx2 = gains[1]
-    kv1 = gains[2]
-    kv2 = gains[3]
-    ki2 = gains[4]
-    e1p = 0.0
-    e2p = 0.0
-    ie2 = 0.0
     ms = 0.0
     for k in range(n_samples):
         x1 = z[0]
@@ -416,25 +409,10 @@ def _closed_loop(Ad, Bd, Ac, Bc, h, stop_v, n, n_sub, z, znew, x1r, x2r, uff, r,
             y2 = math.floor(y2 / q2 + 0.5) * q2
         y1_out[k] = y1
         y2_out[k] = y2
-        # ---- the law of docs/gains.md (same operations as GainsRuntime.step)
+        # ---- the law of docs/gains.md (the function GainsRuntime.step calls)
         e1 = x1r[k] - y1
         e2 = x2r[k] - y2
-        if k == 0:
-            e1p = e1
-            e2p = e2
-        de1 = (e1 - e1p) * fs
-        de2 = (e2 - e2p) * fs
-        ie2 += e2 / fs
-        e1p = e1
-        e2p = e2
-        x = kx1 * e1 + kx2 * e2 + kv1 * de1 + kv2 * de2 + ki2 * ie2
-        for s in range(nsec):
-            o = 6 * s
-            y = fp[o] * x + fpw[2 * s]
-            fpw[2 * s] = fp[o + 1] * x - fp[o + 4] * y + fpw[2 * s + 1]
-            fpw[2 * s + 1] = fp[o + 2] * x - fp[o + 5] * y
-            x = y
-        uc = x + uff[k] + r[k]
+        uc = _feedback(st, gains, fp, nsec, fs, e1, e2) + uff[k] + r[k]
         if uc > u_max:
             uc = u_max
         elif uc < -u_max:
@@ -494,6 +472,16 @@ def _closed_loop(Ad, Bd, Ac, Bc, h, stop_v, n, n_sub, z, znew, x1r, x2r, uff, r,
             for i in range(n):
                 z[i] = znew[i]
     return n_samples
+
+
+_feedback = feedback_step  # replaced by its compiled version before the loop is compiled
+
+
+def _compiled_loop():
+    """:func:`_closed_loop` compiled with the compiled feedback law."""
+    global _feedback
+    _feedback = compiled_feedback()
+    return compiled(_closed_loop)
 
 
 def _friction_vector(p: TwinParams) -> np.ndarray:
@@ -722,13 +710,13 @@ class BallScrewTwin:
         ns = self.n_states
         vectors = (self.Ad_sub.ravel(), self.Bd_sub.ravel(), self.A[2:4].ravel(), self.B[2:4].ravel())
         args = [*vectors, h, stop_v, ns, p.substeps, np.zeros(ns), np.zeros(ns), x1r, x2r, uff, r, d2, pitch,
-                noise[0], noise[1], lc.gains, runtime.fs, lc.filter_pack.ravel(), np.zeros(2 * lc.filter_pack.shape[0]),
+                noise[0], noise[1], lc.gains, runtime.fs, lc.filter_pack.ravel(), new_state(lc.filter_pack.shape[0]),
                 lc.filter_pack.shape[0], p.delay_samples, fr, q, q, u_max, env, env,
                 1.0 - math.exp(-1.0 / (p.fs * p.overload_tau_s)),
                 np.inf if p.overload_rms is None else p.overload_rms**2, np.zeros(1)]
         outs = [np.zeros(n) for _ in range(5)]
         if choose_engine(engine) == "numba":
-            k = compiled(_closed_loop)(*args, *outs)
+            k = _compiled_loop()(*args, *outs)
             return (int(k), int(args[-1][0]), *outs)
         py_args = [a.tolist() if isinstance(a, np.ndarray) else a for a in args]
         py_outs = [[0.0] * n for _ in range(5)]
