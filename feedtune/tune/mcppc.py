@@ -16,9 +16,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import replace
 
-import numpy as np
-
-from ..analysis.ballscrew import analyze_case, feedback_paths, loop_function, plant_cases
+from ..analysis.ballscrew import analyze_case, plant_cases
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..analysis.check import check_design, resolve_limits
 from ..control.discretize import check_sampling
@@ -103,28 +101,10 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         return None if m is None else Candidate(shape, pole_hz, design, m, m.crossovers_hz[0])
 
     checked = CheckedCases(pcs)
-
-    def admissible(shape: dict, scales: np.ndarray) -> np.ndarray:
-        """The peak sensitivity on every case's base grid within the limit (a lower bound of the refined one)."""
-        out = np.ones(len(scales), dtype=bool)
-        if policy.ms_max is None:
-            return out
-        for i, s in enumerate(scales):
-            try:
-                law = design_mcppc(model, beta=shape["beta"], pole_hz=float(s), zeta=shape["zeta"], filters=filters,
-                                   fs=fs, delay_samples=delay_samples).law()
-            except FeedtuneError:
-                continue  # the real check decides
-            paths = feedback_paths(law, pcs[0].discrete)
-            with np.errstate(all="ignore"):
-                out[i] = all(np.nanmax(1.0 / np.abs(1.0 + loop_function(paths, pc)(pc.freq_hz))) <= policy.ms_max
-                             for pc in pcs)
-        return out
-
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
     best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz",
-                            secondary=lambda c: c.design.gains["Ki2"], admissible=admissible)
+                            secondary=lambda c: c.design.gains["Ki2"])
     if best is None:
         raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
                           f"{', '.join(f'{z:g}' for z in zetas)}; pole {pole_range_hz[0]:g}-{pole_range_hz[1]:g} Hz) "

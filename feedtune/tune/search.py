@@ -539,8 +539,7 @@ class SearchRecord:
 def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, lo: float, hi: float,
                      record: SearchRecord | None = None, *, bound_name: str = "bandwidth", unit: str = "Hz",
                      secondary: Callable[[Candidate], float] | None = None,
-                     tie: float = CROSSOVER_TIE,
-                     admissible: Callable[[dict, np.ndarray], np.ndarray] | None = None) -> Candidate | None:
+                     tie: float = CROSSOVER_TIE) -> Candidate | None:
     """The best candidate over a fixed list of shapes: each shape's :func:`feasibility_edge` in the scale (a top-down
     scan of :data:`COARSE_POINTS` log-spaced scales in ``[lo, hi]``, then bisection to 0.2 %), the highest first
     crossover over the shapes; among the shapes within ``tie`` of it, the highest ``secondary`` (e.g. the integral
@@ -562,9 +561,6 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
         Tie-breaker (see above).
     tie : float
         Relative tie of the first crossover [-].
-    admissible : callable, optional
-        ``admissible(shape, scales) -> bool array``: a necessary condition (False: certainly failing) that spares
-        the real check (:func:`feasibility_edge`).
     """
     rec = record if record is not None else SearchRecord()
     scan = np.geomspace(lo, hi, COARSE_POINTS)
@@ -577,8 +573,7 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
                 c = None
             return Probe(scale, c is not None, math.nan if c is None else c.objective, None, c)
 
-        cheap = None if admissible is None else (lambda scales, shape=shape: admissible(shape, scales))
-        edge = feasibility_edge(probe, scan, admissible=cheap)
+        edge = feasibility_edge(probe, scan)
         rec.evaluations += edge.checks
         if edge.best is None:
             continue
