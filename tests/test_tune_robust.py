@@ -153,5 +153,15 @@ def test_tune_cli_certifies_every_frf_and_analyze_agrees(structure, tmp_path, ca
         assert d["ms"] == pytest.approx(c["ms"], rel=1e-9) and d["crossovers_hz"][0] == pytest.approx(
             c["crossovers_hz"][0], rel=1e-9)
     assert "[certificate]" in (tmp_path / "g.toml").read_text()
+    # the report recomputes the certificate from the files: one row per FRF, the same figures
+    code, _, err = run(["report", "model.toml", "g.toml", *names, "--out", "r.html"], capsys, monkeypatch)
+    assert code == 0, err
+    from test_report import embedded_data
+
+    html = (tmp_path / "r.html").read_text()
+    again = embedded_data(html)["design"]["g.toml"]["certificate"]
+    assert "Certificate of" in html
+    assert [c["frf"] for c in again["frfs"]] == names
+    assert [c["ms"] for c in again["frfs"]] == pytest.approx([c["ms"] for c in cert["frfs"]], rel=1e-9)
     code, _, err = run(args, capsys, monkeypatch)  # no overwrite without --force (a usage error)
     assert code == 2 and "--force" in err and err.count("\n") == 1

@@ -3,7 +3,7 @@
 ``feedtune tune mcppc|ppi MODEL --frf F1 --frf F2 ...``: MC-PPC (beta, pole frequency, zeta) or P-PI (Kpx, Kpv,
 Kiv) tuned for the highest first crossover guaranteed on every FRF (:func:`feedtune.tune.mcppc.tune_mcppc`,
 :func:`feedtune.tune.ppi.tune_ppi`), then certified on each FRF by the analysis ``feedtune analyze`` runs
-(:func:`feedtune.workflows.certificate.certify`). The certificate is printed, in ``--json`` and in the gains file
+(:func:`feedtune.machines.certificate.certify`). The certificate is printed, in ``--json`` and in the gains file
 (``[certificate]``).
 """
 
@@ -95,9 +95,9 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, no
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
     from ..io.gains import gains_document
+    from ..machines.certificate import certify
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
-    from ..workflows.certificate import certify
 
     choice = _filter_choice(filters, notch, lpf)
     if out is not None:

@@ -31,12 +31,15 @@ class FrfCertificate:
         Every limit in the checked case and stability in every case.
     metrics : object
         The checked case's :class:`~feedtune.analysis.loop.LoopMetrics` (or MIMO metrics).
+    analysis : object
+        The whole analysis on this FRF (for figures; not in :meth:`to_dict`).
     """
 
     name: str
     checked_case: str
     check: LimitCheck
     metrics: object
+    analysis: object = None
 
     @property
     def ok(self) -> bool:
@@ -128,12 +131,12 @@ def certify(doc: Mapping, where: str, frfs: Sequence[tuple[str, object]], limits
     limits : Limits, optional
         The policy (default: ``textbook``).
     """
-    from ..machines import analyze_gains
+    from .registry import analyze_gains
 
     policy = limits or DEFAULT_LIMITS
     out = []
     for name, frf in frfs:
         done = analyze_gains(doc, where, frf)
         check, case = check_analysis(done.analysis, policy)
-        out.append(FrfCertificate(name, case, check, done.analysis.cases[case].metrics))
+        out.append(FrfCertificate(name, case, check, done.analysis.cases[case].metrics, done.analysis))
     return Certificate(policy, tuple(out))
