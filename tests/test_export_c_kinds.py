@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import shutil
 import subprocess
-import sys
 
 import numpy as np
 import pytest
+from test_cli import run
 
-from feedtune.cli.main import main
 from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.control.prefilter import PrefilterGains
 from feedtune.design.gantry_mimo import design_gantry_mimo
@@ -184,17 +183,6 @@ def test_export_refuses_what_the_runtime_refuses():
 
 
 # ------------------------------------------------------------------ the command
-def run(args, capsys, monkeypatch):
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as e:
-        code = int(e.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
 def test_cli_exports_every_kind_and_refuses_a_design_outside_the_limits(tmp_path, capsys, monkeypatch):
     for name, doc in (("mimo", MIMO), ("axis", AXIS)):
         write_document(tmp_path / f"{name}.toml", doc)

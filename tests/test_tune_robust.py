@@ -9,13 +9,12 @@ loop, stability from the closed-loop eigenvalues and the peak sensitivity and ph
 from __future__ import annotations
 
 import json
-import sys
 from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_cli import run
 
-from feedtune.cli.main import main
 from feedtune.io import save_model, write_frf
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 from feedtune.tune.mcppc import tune_mcppc
@@ -113,18 +112,6 @@ def test_without_the_mode_no_notch_is_added():
     d = tune_mcppc(MODEL, frf=FAMILY[1], filter_choice="own")
     assert d.filters.notches == () and d.filters.lpf_hz is None
     assert d.tuning["filters"]["chosen"] == [] and "no notch" in d.tuning["filters"]["why"]
-
-
-def run(args, capsys, monkeypatch):
-    """Run ``feedtune ARGS`` in-process; return (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as e:
-        code = int(e.code or 0)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.mark.parametrize("structure", ["mcppc", pytest.param("ppi", marks=pytest.mark.slow)])

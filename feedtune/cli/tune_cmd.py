@@ -24,12 +24,6 @@ from .limits_options import (
     limits_from_options,
 )
 
-app = typer.Typer(
-    rich_markup_mode=None,
-    help="Tune a controller for the highest bandwidth that meets the limits on every measured FRF, and certify it.",
-    no_args_is_help=True,
-)
-
 FRFS_OPTION = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u), repeatable: one per table position or "
                                                "load. The limits must hold on every one.")
 OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml or .json), with the certificate.")
@@ -133,10 +127,12 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, no
 
 
 TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI"}
+"""The structures ``feedtune tune`` tunes and their names."""
 
 
-@app.command("mcppc")
-def mcppc(
+def tune(
+    structure: str = typer.Argument(..., metavar="STRUCTURE", help="mcppc (MC-PPC: beta, pole frequency, zeta) or ppi "
+                                                                   "(P-PI cascade: Kpx, Kpv, Kiv)."),
     model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
     frf: list[Path] = FRFS_OPTION,
     notch: list[str] = NOTCH_OPTION,
@@ -154,36 +150,14 @@ def mcppc(
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """MC-PPC for the highest first crossover that meets the limits on every FRF.
+    """Tune a controller for the highest first crossover that meets the limits on every measured FRF, and certify it.
 
-    Tunes beta, the pole frequency and zeta of eq. 3.5-3.13 and (--filters own) the notches and low-pass; without
-    --frf, on the model in the ideal discrete case."""
-    _tune_ballscrew("mcppc", model_file, frf, notch, lpf, filters, fs, delay_samples, quantity,
-                    limits_from_options(limits, ms_max, pm_min, gm_min, dm_min), out, force, as_json)
+    mcppc tunes beta, the pole frequency and zeta of eq. 3.5-3.13; ppi tunes Kpx, Kpv and Kiv (Figure 3.9) by the
+    rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. Without --frf, on the model in
+    the ideal discrete case."""
+    from ..errors import UsageError
 
-
-@app.command("ppi")
-def ppi(
-    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
-    frf: list[Path] = FRFS_OPTION,
-    notch: list[str] = NOTCH_OPTION,
-    lpf: float = LPF_OPTION,
-    filters: str = FILTERS_OPTION,
-    fs: float = FS_OPTION,
-    delay_samples: int = DELAY_OPTION,
-    quantity: str = QUANTITY_OPTION,
-    limits: str = LIMITS_OPTION,
-    ms_max: float = MS_MAX_OPTION,
-    pm_min: float = PM_MIN_OPTION,
-    gm_min: float = GM_MIN_OPTION,
-    dm_min: float = DM_MIN_OPTION,
-    out: Path = OUT_OPTION,
-    force: bool = FORCE_OPTION,
-    as_json: bool = JSON_OPTION,
-) -> None:
-    """P-PI cascade for the highest first crossover that meets the limits on every FRF.
-
-    Tunes Kpx, Kpv and Kiv (Figure 3.9) by the rule of 'feedtune design ppi' and (--filters own) the notches and
-    low-pass; without --frf, on the model in the ideal discrete case."""
-    _tune_ballscrew("ppi", model_file, frf, notch, lpf, filters, fs, delay_samples, quantity,
+    if structure not in TITLES:
+        raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
+    _tune_ballscrew(structure, model_file, frf, notch, lpf, filters, fs, delay_samples, quantity,
                     limits_from_options(limits, ms_max, pm_min, gm_min, dm_min), out, force, as_json)
