@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 import os
-from bisect import bisect_right
 
 import numpy as np
 
@@ -41,7 +40,7 @@ from ...control.sos import sos_filter
 from ...errors import DataError, UsageError
 from ...io.gains import read_sampling, read_sos, value
 from ...sim.engine import sample_vector
-from .law import AxisLawData, GantryLawData, compiled_laws
+from .law import GP_NCOL, AxisLawData, GantryLawData, compiled_laws, schedule_row
 
 _PREFILTER_KEYS = ("prefilter_vel_sos", "prefilter_acc_sos", "prefilter_jerk_sos", "prefilter_snap_sos")
 
@@ -116,14 +115,7 @@ class GantryRuntime:
         self.preview_samples = int(preview_samples)
         self.command_unit = command_unit
         self.source = source
-        # per-sample data as plain Python floats and lists (faster than numpy for scalars)
         self._prefilter_on = bool(np.any(self.schedule[:, 5:] != 0.0))
-        ncol = self.schedule.shape[1] if self._prefilter_on else 5
-        self._x = [float(v) for v in self.schedule_x]
-        self._rows = [tuple(float(v) for v in row[:ncol]) for row in self.schedule]
-        self._segments = [(self._x[i], 1.0 / (self._x[i + 1] - self._x[i]), self._rows[i],
-                           tuple(b - a for a, b in zip(self._rows[i], self._rows[i + 1], strict=True)))
-                          for i in range(len(self._x) - 1)]
         self.law = GantryLawData(controller, self.gains, self.sos, self.schedule_x, self.schedule, self.fs,
                                  self._prefilter_on)
         self._step = compiled_laws()[0]
@@ -181,29 +173,19 @@ class GantryRuntime:
     def reset(self) -> None:
         """Zero every filter state and integrator; the next sample is the first."""
         self.law.reset()
-        self._last_x = None
-        self._last_row = self._rows[0]
 
     def schedule_at(self, x: float) -> tuple:
-        """The schedule row at table position ``x`` [m] (linear interpolation, clamped at the ends).
+        """The schedule row at table position ``x`` [m] (linear interpolation, clamped at the ends), as the law
+        uses it (:func:`feedtune.machines.gantry.law.schedule_row`).
 
         Without an active pre-filter only the first five columns (alpha1, alpha2, m11, m12, m22) are
         interpolated.
         """
-        if x == self._last_x:
-            return self._last_row
-        xs = self._x
-        i = bisect_right(xs, _finite_position(x))
-        if i == 0:
-            row = self._rows[0]
-        elif i == len(xs):
-            row = self._rows[-1]
-        else:
-            x0, inv_dx, r0, dr = self._segments[i - 1]
-            w = (x - x0) * inv_dx
-            row = tuple([a + w * b for a, b in zip(r0, dr)])  # noqa: B905 - equal lengths by construction
-        self._last_x, self._last_row = x, row
-        return row
+        law = self.law
+        ncol = int(law.par[GP_NCOL])
+        row = np.zeros(law.sched.shape[1])
+        schedule_row(law.sched_x, law.sched, ncol, _finite_position(float(x)), row)
+        return tuple(float(v) for v in row[:ncol])
 
     def step(self, y_ref_preview: float, y1: float, y2: float, x: float) -> tuple[float, float]:
         """One sample of the law (``docs/gantry_gains.md``; :func:`feedtune.machines.gantry.law.gantry_law_step`).
