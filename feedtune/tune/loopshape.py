@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -42,7 +43,15 @@ from ..control.prefilter import PrefilterGains
 from ..design.loopshape import LoopShapeDesign, axis_plant, design_loopshape
 from ..errors import DesignError, UsageError
 from ..frf import Frf
-from .search import Probe, SearchResult, band_top_doubt, feasibility_edge, pattern_search, unreliable
+from .search import (
+    Probe,
+    SearchResult,
+    band_top_doubt,
+    feasibility_edge,
+    pattern_search,
+    robust_frfs,
+    unreliable,
+)
 
 PM_BOUNDS = (30.0, 75.0)
 """Phase-margin targets searched [deg]; the low bound is raised to just above the policy's ``pm_min_deg``."""
@@ -76,8 +85,8 @@ class _AxisCase:
 class _AxisSearch:
     """Designs for a number of lead stages: the real check, the edge and the shape search."""
 
-    def __init__(self, case: _AxisCase, make, stages: int, bounds, scan: np.ndarray):
-        self.case = case
+    def __init__(self, cases: list[_AxisCase], make, stages: int, bounds, scan: np.ndarray):
+        self.cases = list(cases)
         self.make = make  # make(crossover_hz, pm_deg, pi_lag_deg, stages) -> LoopShapeDesign (or DesignError)
         self.stages = stages
         self.bounds = bounds
@@ -94,11 +103,26 @@ class _AxisSearch:
         return self._designs[key]
 
     def check(self, xo: float, pm: float, lag: float) -> Probe:
-        """The analysis' own check of the design for ``(xo, pm, lag)`` in the checked case."""
-        c = self.case
+        """The analysis' own check of the design for ``(xo, pm, lag)`` in the checked case of every FRF: passes when
+        it passes on each; the figures are those of the case with the lowest first crossover, the slack the
+        smallest (the case that failed is checked first next time)."""
         d = self.design(xo, pm, lag)
         if d is None:
             return Probe(float(xo), False, math.nan, None, None)
+        probes = []
+        for k, c in enumerate(self.cases):
+            p = self._check_case(c, d, xo)
+            probes.append(p)
+            if not p.ok:
+                if k:
+                    self.cases.insert(0, self.cases.pop(k))
+                return p
+        best = min(probes, key=lambda p: p.crossover_hz)
+        slacks = [p.slack for p in probes if p.slack is not None]
+        return Probe(best.scale, True, best.crossover_hz, min(slacks) if slacks else None, best.result)
+
+    def _check_case(self, c: _AxisCase, d: LoopShapeDesign, xo: float) -> Probe:
+        """The check on one FRF's checked case (limits, the band's top, stability in its other cases)."""
         c.checks += 1
         m = analyze_axis_case(d, c.pc, responses=False).metrics
         items = c.policy.check(m, c.name)
@@ -150,7 +174,7 @@ def tune_loopshape(
     filters: FilterPack | None = None,
     fs: float = 15000.0,
     delay_samples: int = 1,
-    frf: Frf | None = None,
+    frf: Frf | Sequence[Frf] | None = None,
     mass: float | None = None,
     channel: str | None = None,
     prefilter: PrefilterGains | None = None,
@@ -178,8 +202,10 @@ def tune_loopshape(
         Sample rate [Hz].
     delay_samples : int
         Computational delay [samples].
-    frf : Frf, optional
-        Measured SISO position FRF [m/V] of the ``measured``/``discrete`` cases when the plant is not one.
+    frf : Frf or sequence of Frf, optional
+        Measured SISO position FRF [m/V] of the ``measured``/``discrete`` cases when the plant is not one; with
+        several (loads, positions) the limits must hold on every one and the objective is the lowest first
+        crossover over them.
     mass : float, optional
         Axis mass [V/(m/s^2)] overriding the model's or the FRF estimate.
     channel : str, optional
@@ -225,11 +251,16 @@ def tune_loopshape(
 
     trial = design_loopshape(ap, crossover_hz=min(10.0, fs / 20), pm_deg=45.0, filters=pack, fs=fs,
                              delay_samples=delay_samples)
-    cases = axis_plant_cases(trial, frf, channel=channel if frf is not None else None)
-    name = "discrete" if cases.get("discrete") is not None else "ideal_discrete"
-    pc = cases[name]
-    f = pc.freq_hz
-    case = _AxisCase(name, pc, cases, pc.plant(f) * pc.hold(f), policy, float(fs))
+    frfs = robust_frfs(frf)
+    all_cases = [axis_plant_cases(trial, fr, channel=channel if fr is not None else None) for fr in (frfs or [None])]
+    name = "discrete" if all_cases[0].get("discrete") is not None else "ideal_discrete"
+    axis_cases = []
+    for cases in all_cases:
+        pc = cases[name]
+        f = pc.freq_hz
+        axis_cases.append(_AxisCase(name, pc, cases, pc.plant(f) * pc.hold(f), policy, float(fs)))
+    case = axis_cases[0]
+    pc, f = case.pc, case.pc.freq_hz
     bottom, top = SCAN_HZ[0], fs / 8 if SCAN_HZ[1] is None else SCAN_HZ[1]
     if ap.frf is not None:  # a design on an FRF places its crossover inside the measured band
         lines = ap.frf.freq_hz[ap.frf.freq_hz > 0]
@@ -238,7 +269,7 @@ def tune_loopshape(
     results = {}
     ref = None
     for n in counts:
-        r = _AxisSearch(case, make, n, (pmb, lagb), scan).run(ref)
+        r = _AxisSearch(axis_cases, make, n, (pmb, lagb), scan).run(ref)
         results[n] = r
         if r is not None:
             ref = (r.point, r.edge.best)
@@ -249,8 +280,11 @@ def tune_loopshape(
     n_best = max(found, key=lambda n: (found[n].edge.best.crossover_hz, -n))
     best = found[n_best]
     design, metrics, _ = best.edge.best.result
-    stable = {k: True if k == name else _stable(analyze_axis_case(design, p, responses=False).metrics)
-              for k, p in cases.items() if p is not None}
+    stable = {}
+    for i, cases in enumerate(all_cases):
+        on = f" (FRF {i + 1})" if len(all_cases) > 1 else ""
+        stable.update({k + on: True if k == name else _stable(analyze_axis_case(design, p, responses=False).metrics)
+                       for k, p in cases.items() if p is not None})
     if not all(stable.values()):
         raise DesignError(f"the best loop-shaping design meets the limits in the {name} case but is unstable in "
                           f"the {', '.join(k for k, v in stable.items() if not v)} case")
@@ -269,6 +303,7 @@ def tune_loopshape(
         "limits": policy.to_dict(),
         "active_limit": None if act is None else act.to_dict(),
         "checked_case": name,
+        "frfs": len(frfs),
         "checked_from_hz": float(f[0]),
         "checked_to_hz": float(f[-1]),
         "stable_in_cases": stable,
@@ -282,7 +317,7 @@ def tune_loopshape(
                    "crossover_scan_hz": [float(scan[0]), float(scan[-1])], "crossover_rtol": RTOL,
                    "best_per_stages_hz": {str(n): (None if r is None else float(r.edge.best.crossover_hz))
                                           for n, r in results.items()},
-                   "checks": case.checks, "seconds": round(time.perf_counter() - t0, 3)},
+                   "checks": sum(c.checks for c in axis_cases), "seconds": round(time.perf_counter() - t0, 3)},
         "warnings": warnings,
     }
     return replace(design, tuning=tuning)
