@@ -204,3 +204,29 @@ def test_loopshape_tuned_on_every_frf_meets_the_limits_where_the_middle_one_does
     worst = [_axis_independent(middle, AXIS_MASS * s) for s in scales]
     assert any(not st or ms > MS_MAX * 1.2 or pm < PM_MIN - 5 for st, ms, pm in worst)  # 0.7x: Ms 4.9, PM 18 deg
     assert robust.tuning["first_crossover_hz"] < middle.tuning["first_crossover_hz"]
+
+
+@pytest.mark.slow
+def test_tune_loopshape_cli_certifies_every_frf_and_the_design_exports(tmp_path, capsys, monkeypatch):
+    from feedtune.models.gantry import THESIS_GANTRY
+
+    monkeypatch.chdir(tmp_path)
+    save_model("gantry.toml", THESIS_GANTRY)
+    names = []
+    for s in (0.7, 1.0, 1.3):
+        names.append(f"x{s}.csv")
+        write_frf(_axis_frf(AXIS_MASS * s), names[-1])
+    frf_args = [a for n in names for a in ("--frf", n)]
+    code, out, err = run(["tune", "loopshape", "gantry.toml", *frf_args, "--out", "axis.toml", "--json"], capsys,
+                         monkeypatch)
+    assert code == 0, err
+    cert = json.loads(out)["certificate"]
+    assert cert["worst"]["ok"] and [c["frf"] for c in cert["frfs"]] == names
+    for name, c in zip(names, cert["frfs"], strict=True):
+        code, out, err = run(["analyze", "axis.toml", "--frf", name, "--json", "--check"], capsys, monkeypatch)
+        assert code == 0, err
+        assert json.loads(out)["analysis"]["discrete"]["ms"] == pytest.approx(c["ms"], rel=1e-9)
+    code, _, err = run(["export", "c", "axis.toml", "--u-max", "10"], capsys, monkeypatch)
+    assert code == 0, err
+    code, _, err = run(["tune", "loopshape", "gantry.toml", "--filters", "own"], capsys, monkeypatch)
+    assert code == 2 and "--filters own" in err

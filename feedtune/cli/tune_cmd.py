@@ -14,7 +14,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
-from .design_cmd import DELAY_OPTION, FS_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _filters, _load_model
+from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _filters, _load_model
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -27,6 +27,9 @@ from .limits_options import (
 FRFS_OPTION = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u), repeatable: one per table position or "
                                                "load. The limits must hold on every one.")
 OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml or .json), with the certificate.")
+FS_OPTION = typer.Option(None, "--fs", help="Sample rate of the target [Hz] (default 20000 for mcppc and ppi, 15000 "
+                                             "for loopshape).")
+DEFAULT_FS = {"mcppc": 20000.0, "ppi": 20000.0, "loopshape": 15000.0}
 FILTERS_OPTION = typer.Option(
     None, "--filters", metavar="own|identical",
     help="own: the tuner places notches and a low-pass where they raise the guaranteed crossover (--notch/--lpf "
@@ -126,14 +129,65 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, no
         typer.echo(f"wrote {out}")
 
 
-TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI"}
+def _tune_axis(plant_file: Path, frf: list[Path] | None, notch, lpf, filters: str | None, fs: float,
+               delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool) -> None:
+    """Tune an x axis by loop shaping on every FRF (the given filter pack), certify, write, print."""
+    from ..errors import DesignError, UsageError
+    from ..io import load_model, write_document
+    from ..io.atomic import ensure_writable
+    from ..io.document import strip_none
+    from ..io.gantry_gains import axis_gains_document
+    from ..machines.certificate import certify
+    from ..tune.loopshape import tune_loopshape
+    from .frf_options import read_optional_frf
+
+    if filters == "own":
+        raise UsageError("--filters own: the loop-shaping tuner keeps the given filter pack (--notch, --lpf); "
+                         "use --filters identical or leave it out")
+    if out is not None:
+        ensure_writable(out, force)
+    if plant_file.suffix.lower() in (".toml", ".json"):
+        plant = load_model(plant_file)
+    else:
+        plant = read_optional_frf(plant_file, quantity)
+    frfs = _frfs(frf, quantity)
+    design = tune_loopshape(plant, limits=policy, filters=_filters(notch, lpf), fs=fs, delay_samples=delay_samples,
+                            frf=[f for _, f in frfs] or None)
+    doc = axis_gains_document(design)
+    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
+    doc["certificate"] = strip_none(cert.to_dict())
+    tuning = design.tuning
+    result = {"kind": "axis", "controller": "loopshape", "design": design.design_dict(),
+              "filters": design.filters.to_dict(), "certificate": cert.to_dict()}
+    if not cert.ok:
+        raise DesignError("the tuned loop-shaping design fails its certificate: "
+                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
+    if out is not None:
+        write_document(out, doc, force=force)
+        result["out"] = str(out)
+    if as_json:
+        print_json(result)
+        return
+    typer.echo(f"x-axis loop shaping tuned: crossover {fmt(tuning['crossover_hz'], 'Hz')}, PM target "
+               f"{fmt(tuning['pm_target_deg'], 'deg')}, integral lag {fmt(tuning['pi_lag_deg'], 'deg')}, "
+               f"{tuning['lead_stages']} lead stage(s)")
+    print_filters(result["filters"], {"choice": "identical"})
+    print_certificate(result["certificate"])
+    if out is not None:
+        typer.echo(f"wrote {out}")
+
+
+TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI", "loopshape": "x-axis loop shaping"}
 """The structures ``feedtune tune`` tunes and their names."""
 
 
 def tune(
-    structure: str = typer.Argument(..., metavar="STRUCTURE", help="mcppc (MC-PPC: beta, pole frequency, zeta) or ppi "
-                                                                   "(P-PI cascade: Kpx, Kpv, Kiv)."),
-    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
+    structure: str = typer.Argument(..., metavar="STRUCTURE", help="mcppc (MC-PPC: beta, pole frequency, zeta), ppi "
+                                                                   "(P-PI cascade: Kpx, Kpv, Kiv) or loopshape (x "
+                                                                   "axis: crossover, PM target, lag, lead stages)."),
+    model_file: Path = typer.Argument(..., help="mcppc, ppi: ball-screw model file ('feedtune identify ballscrew'); "
+                                                "loopshape: a model file (a gantry model's m_x, a rigid-body "
+                                                "model's mass) or a measured SISO FRF."),
     frf: list[Path] = FRFS_OPTION,
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
@@ -153,11 +207,16 @@ def tune(
     """Tune a controller for the highest first crossover that meets the limits on every measured FRF, and certify it.
 
     mcppc tunes beta, the pole frequency and zeta of eq. 3.5-3.13; ppi tunes Kpx, Kpv and Kiv (Figure 3.9) by the
-    rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. Without --frf, on the model in
-    the ideal discrete case."""
+    rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. loopshape tunes an x axis
+    (eq. 4.17-4.18) with the given filter pack. Without --frf, on the model in the ideal discrete case."""
     from ..errors import UsageError
 
     if structure not in TITLES:
         raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
-    _tune_ballscrew(structure, model_file, frf, notch, lpf, filters, fs, delay_samples, quantity,
-                    limits_from_options(limits, ms_max, pm_min, gm_min, dm_min), out, force, as_json)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    fs = DEFAULT_FS[structure] if fs is None else fs
+    if structure == "loopshape":
+        _tune_axis(model_file, frf, notch, lpf, filters, fs, delay_samples, quantity, policy, out, force, as_json)
+        return
+    _tune_ballscrew(structure, model_file, frf, notch, lpf, filters, fs, delay_samples, quantity, policy, out, force,
+                    as_json)
