@@ -46,7 +46,7 @@ def ballscrew_sensitivity_peaks(law, pcs: Sequence[PlantCase], above_hz: float, 
 
 
 def tune_with_own_filters(tune: Callable[..., object], screen_options: Callable[[object], dict], given: FilterPack,
-                          pcs: Sequence[PlantCase], fs: float):
+                          pcs: Sequence[PlantCase], fs: float, quick_options: dict | None = None):
     """``(design, filter record)``: the best design of ``tune`` over the filter packs :func:`choose_filters` tries.
 
     Parameters
@@ -63,6 +63,8 @@ def tune_with_own_filters(tune: Callable[..., object], screen_options: Callable[
         The checked plant cases (one per FRF).
     fs : float
         Sample rate [Hz].
+    quick_options : dict, optional
+        Options of ``tune`` for a cheaper search that ranks candidates when nothing is feasible without filters.
     """
 
     def attempt(pack: FilterPack, **options):
@@ -81,5 +83,6 @@ def tune_with_own_filters(tune: Callable[..., object], screen_options: Callable[
     _, design, record = choose_filters(
         given, run=attempt, objective=objective, screen=screen,
         refine=lambda pack, design, payload: attempt(pack), resonances=ballscrew_resonances(pcs, fs),
-        peaks=lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, objective(d)), fs=fs)
+        peaks=lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, objective(d)), fs=fs,
+        quick=None if quick_options is None else (lambda pack: attempt(pack, **quick_options)))
     return design, record

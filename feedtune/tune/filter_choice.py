@@ -15,7 +15,8 @@ notches or low-pass (the leads of the given pack are kept), each round
 3. stops when no candidate helps or after :data:`MAX_OWN_FILTERS` filters.
 
 When no design meets the limits without filters, the first round runs the whole search with each resonance's notch
-(and each given filter) and keeps the best that meets them.
+(and each given filter; with a quick search given, only for the two it ranks best) and keeps the best that meets
+them.
 
 So a resonance is notched only when the notch raises the bandwidth under the limits, a moving resonance gets one
 wide notch or narrow ones or none, by the same objective, and a plant without resonances gets no notch.
@@ -38,6 +39,8 @@ KEEP_GAIN = 0.02
 """Relative rise of the objective [-] a filter must bring (screened at the current shape) to be kept."""
 NOTCH_POLE_DAMPING = (0.3, 0.6)
 """Damping of the notch poles tried [-]; the zeros get the resonance's damping (0.05 at a sensitivity peak)."""
+QUICK_KEEP = 2
+"""Candidates run through the whole search after the quick ranking (when nothing is feasible without filters)."""
 SAME_RESONANCE = 0.25
 """Peaks of several FRFs closer than this relative distance are one resonance that moves [-]."""
 SEPARATE = 0.1
@@ -193,7 +196,8 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
                    screen: Callable[[FilterPack, Any, float], tuple[float | None, Any, str | None]],
                    refine: Callable[[FilterPack, Any, Any], Any],
                    resonances: Sequence[tuple[float, float, float, float]],
-                   peaks: Callable[[Any], list[float]], fs: float) -> tuple[FilterPack, Any, dict]:
+                   peaks: Callable[[Any], list[float]], fs: float,
+                   quick: Callable[[FilterPack], Any] | None = None) -> tuple[FilterPack, Any, dict]:
     """The tuner's own filter pack (module docstring): ``(pack, outcome or None, record)``.
 
     Parameters
@@ -215,6 +219,9 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
         ``peaks(outcome) -> [Hz]``: sensitivity peaks of an outcome's design above its crossover.
     fs : float
         Sample rate [Hz].
+    quick : callable, optional
+        ``quick(pack) -> outcome or None``: a cheaper search (fewer shapes). When nothing meets the limits without
+        filters, the candidates are ranked by it and the whole search runs for the best :data:`QUICK_KEEP` only.
     """
     pack = replace(given, notches=(), lpf_hz=None)
     result = run(pack)
@@ -222,7 +229,15 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
     chosen = []
     if result is None:  # the resonances' notches (and the given filters), each with the whole search
         tried = []
-        for item, why in filter_candidates(pack, given, resonances, [], 0.0, fs):
+        items = filter_candidates(pack, given, resonances, [], 0.0, fs)
+        if quick is not None and len(items) > QUICK_KEEP:
+            ranked = []
+            for item, why in items:
+                q = quick(with_filter(pack, item))
+                ranked.append((-1.0 if q is None else objective(q), item, why))
+            ranked.sort(key=lambda r: -r[0])
+            items = [(item, why) for value, item, why in ranked[:QUICK_KEEP] if value >= 0]
+        for item, why in items:
             r = run(with_filter(pack, item))
             tried.append({"filter": describe(item), "why": why, "item": item, "result": r,
                           "crossover_hz": None if r is None else objective(r)})

@@ -32,6 +32,8 @@ BETAS = (1.0, 2.0, 3.0, 4.0)
 """Multipliers of the axial mode's decay rate searched [-] (thesis: up to 4)."""
 ZETAS = (0.5, 0.7, 0.9)
 """Damping of the rigid-body pole pair searched [-] (thesis: 0.7)."""
+QUICK_BETAS, QUICK_ZETAS = (1.0, 4.0), (0.7,)
+"""The shapes of the quick search that ranks filter candidates when nothing is feasible without filters."""
 POLE_RANGE_HZ = (5.0, 500.0)
 """Search bounds of the rigid-body pole frequency [Hz]."""
 
@@ -81,7 +83,7 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
                               **({"betas": betas, "zetas": zetas} | shapes))
 
         design, record = tune_with_own_filters(tune, lambda d: {"betas": (d.beta,), "zetas": (d.zeta,)}, filters,
-                                               pcs, fs)
+                                               pcs, fs, {"betas": QUICK_BETAS, "zetas": QUICK_ZETAS})
         if design is None:
             raise DesignError(f"no MC-PPC meets the limits ({policy.describe()}) in the {case} case with or without "
                               "the filters tried")
