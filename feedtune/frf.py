@@ -11,6 +11,7 @@ Conventions
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -122,6 +123,17 @@ class Frf:
     def source(self) -> str:
         """Where the data came from (file name) or ``"FRF"``."""
         return str(self.meta.get("source", "FRF"))
+
+    @property
+    def position_m(self) -> float | None:
+        """Table position [m] the FRF was measured at (``meta["x_m"]``, written by the gantry twin and kept in FRF
+        files), or None when it is not recorded or not a finite number."""
+        raw = self.meta.get("x_m")
+        try:
+            x = float(raw)
+        except (TypeError, ValueError):
+            return None
+        return x if math.isfinite(x) else None
 
     @property
     def channels(self) -> list[str]:

@@ -120,9 +120,10 @@ def _pid_controller(law, discrete: bool):
     return _combine(blocks, Min, Mout)
 
 
-def closed_loop_eigenvalues(law, discrete: bool) -> np.ndarray:
-    """Eigenvalues of model (x = 0) in negative feedback with the controller (delay and ZOH when discrete)."""
-    Ap, Bp, Cp = MODEL.state_space(0.0)
+def closed_loop_eigenvalues(law, discrete: bool, x: float = 0.0, model=MODEL) -> np.ndarray:
+    """Eigenvalues of the model at table position ``x`` [m] in negative feedback with the controller (delay and ZOH
+    when discrete)."""
+    Ap, Bp, Cp = model.state_space(x)
     Ak, Bk, Ck, Dk = (_mimo_controller if law.controller == "mimo" else _pid_controller)(law, discrete)
     if discrete:
         Ad, Bd, Cd, _, _ = cont2discrete((Ap, Bp, Cp, np.zeros((2, 2))), 1.0 / law.fs, method="zoh")
@@ -135,8 +136,8 @@ def closed_loop_eigenvalues(law, discrete: bool) -> np.ndarray:
     return np.linalg.eigvals(A)
 
 
-def eig_stable(law, discrete: bool) -> bool:
-    lam = closed_loop_eigenvalues(law, discrete)
+def eig_stable(law, discrete: bool, x: float = 0.0, model=MODEL) -> bool:
+    lam = closed_loop_eigenvalues(law, discrete, x, model)
     return bool(np.all(np.abs(lam) < 1 - 1e-9)) if discrete else bool(np.all(lam.real < -1e-6))
 
 

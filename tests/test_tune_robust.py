@@ -45,8 +45,9 @@ def _loop(law, model, extra=None):
     return loop
 
 
-def _independent(law, model, extra=None) -> tuple[bool, float, float]:
-    """(stable by the closed-loop eigenvalues, max |S| and the smallest |PM| [deg] on 60,000 log-spaced points)."""
+def independent_figures(law, model, extra=None) -> tuple[bool, float, float, float]:
+    """(stable by the closed-loop eigenvalues, max |S|, the first crossover [Hz] and the smallest |PM| [deg]) on
+    60,000 log-spaced points."""
     loop = _loop(law, model, extra)
     stable = bool(np.all(np.abs(control.feedback(loop, 1).poles()) < 1))
     f = np.logspace(-1, np.log10(0.9999 * law.fs / 2), 60_000)
@@ -54,7 +55,13 @@ def _independent(law, model, extra=None) -> tuple[bool, float, float]:
     ms = float(np.max(1 / np.abs(1 + L)))
     cross = np.flatnonzero(np.diff(np.sign(np.abs(L) - 1)))
     pm = 180.0 - np.abs(np.degrees(np.angle(L[cross])))  # distance of the phase from -180 deg
-    return stable, ms, float(pm.min())
+    return stable, ms, float(f[cross[0]]), float(pm.min())
+
+
+def _independent(law, model, extra=None) -> tuple[bool, float, float]:
+    """(stable by the closed-loop eigenvalues, max |S| and the smallest |PM| [deg])."""
+    stable, ms, _, pm = independent_figures(law, model, extra)
+    return stable, ms, pm
 
 
 @pytest.fixture(scope="module")

@@ -2,9 +2,11 @@
 
 ``feedtune tune mcppc|ppi MODEL --frf F1 --frf F2 ...``: MC-PPC (beta, pole frequency, zeta) or P-PI (Kpx, Kpv,
 Kiv) tuned for the highest first crossover guaranteed on every FRF (:func:`feedtune.tune.mcppc.tune_mcppc`,
-:func:`feedtune.tune.ppi.tune_ppi`), then certified on each FRF by the analysis ``feedtune analyze`` runs
-(:func:`feedtune.machines.certificate.certify`). The certificate is printed, in ``--json`` and in the gains file
-(``[certificate]``).
+:func:`feedtune.tune.ppi.tune_ppi`); ``gantry|pid MODEL --frf F1 --frf F2 ...``: the gantry MIMO law or the
+independent PIDs, each FRF checked at its table position (:func:`feedtune.tune.gantry.tune_gantry_mimo`,
+:func:`feedtune.tune.pid.tune_gantry_pid`); ``loopshape``: an x axis. Each design is then certified on each FRF by
+the analysis ``feedtune analyze`` runs (:func:`feedtune.machines.certificate.certify`). The certificate is printed,
+in ``--json`` and in the gains file (``[certificate]``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
-from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _filters, _load_model
+from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _load_model
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -28,8 +30,16 @@ FRFS_OPTION = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u), repea
                                                "load. The limits must hold on every one.")
 OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml or .json), with the certificate.")
 FS_OPTION = typer.Option(None, "--fs", help="Sample rate of the target [Hz] (default 20000 for mcppc and ppi, 15000 "
-                                             "for loopshape).")
-DEFAULT_FS = {"mcppc": 20000.0, "ppi": 20000.0, "loopshape": 15000.0}
+                                             "for gantry, pid and loopshape).")
+DEFAULT_FS = {"mcppc": 20000.0, "ppi": 20000.0, "gantry": 15000.0, "pid": 15000.0, "loopshape": 15000.0}
+X_OPTION = typer.Option(None, "--x", help="gantry, pid: table position [m] of each --frf, in order (repeatable; "
+                                          "default: the position recorded in each FRF file, x_m).")
+DESIGN_X_OPTION = typer.Option(0.0, "--design-x", help="gantry, pid: table position [m] the design is made at "
+                                                       "(averaging, damping gain, the PIDs' mass scaling).")
+LPF_ORDER_OPTION = typer.Option(None, "--lpf-order", help="Low-pass order, 1 or 2 (default 2 for gantry and pid, "
+                                                          "else 1).")
+LEAD_OPTION = typer.Option(None, "--lead", help="gantry, pid, loopshape: extra lead stage HZ,DEG in the filter pack "
+                                                "(repeatable), e.g. --lead 154,70.")
 FILTERS_OPTION = typer.Option(
     None, "--filters", metavar="own|identical",
     help="own: the tuner places notches and a low-pass where they raise the guaranteed crossover (--notch/--lpf "
@@ -82,7 +92,7 @@ def print_certificate(cert: dict) -> None:
                f"Ms {w['ms']:.3g} ({w['ms_frf']}); active limit: {active}")
 
 
-def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, notch, lpf, filters: str | None,
+def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pack, filters: str | None,
                     fs: float, delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool,
                     as_json: bool) -> None:
     """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
@@ -96,13 +106,13 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, no
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
 
-    choice = _filter_choice(filters, notch, lpf)
+    choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
     if out is not None:
         ensure_writable(out, force)  # refused before the search, not after it
     model = _load_model(model_file)
     frfs = _frfs(frf, quantity)
     tuner = {"mcppc": tune_mcppc, "ppi": tune_ppi}[structure]
-    design = tuner(model, limits=policy, filters=_filters(notch, lpf), fs=fs, delay_samples=delay_samples,
+    design = tuner(model, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
                    frf=[f for _, f in frfs] or None, filter_choice=choice)
     doc = gains_document(design)
     cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
@@ -129,7 +139,7 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, no
         typer.echo(f"wrote {out}")
 
 
-def _tune_axis(plant_file: Path, frf: list[Path] | None, notch, lpf, filters: str | None, fs: float,
+def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | None, fs: float,
                delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool) -> None:
     """Tune an x axis by loop shaping on every FRF (the given filter pack), certify, write, print."""
     from ..errors import DesignError, UsageError
@@ -151,7 +161,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, notch, lpf, filters: st
     else:
         plant = read_optional_frf(plant_file, quantity)
     frfs = _frfs(frf, quantity)
-    design = tune_loopshape(plant, limits=policy, filters=_filters(notch, lpf), fs=fs, delay_samples=delay_samples,
+    design = tune_loopshape(plant, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
                             frf=[f for _, f in frfs] or None)
     doc = axis_gains_document(design)
     cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
@@ -177,20 +187,108 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, notch, lpf, filters: st
         typer.echo(f"wrote {out}")
 
 
-TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI", "loopshape": "x-axis loop shaping"}
+def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity: str | None):
+    """``[(name, Frf)]`` of gantry FRFs, each carrying its table position (``--x`` or its own ``x_m``)."""
+    from dataclasses import replace
+
+    from ..tune.gantry_cases import frf_positions
+
+    frfs = _frfs(paths, quantity)
+    if xs and not frfs:
+        from ..errors import UsageError
+
+        raise UsageError("--x gives the table position of each --frf; without --frf use --design-x")
+    positions = frf_positions([f for _, f in frfs], xs or None, 0.0)
+    return [(f"{name} (x = {x:g} m)", replace(f, meta={**f.meta, "x_m": repr(float(x))}))
+            for (name, f), x in zip(frfs, positions, strict=True)]
+
+
+def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: list[float] | None, design_x: float,
+                 filters_pack, filters: str | None, fs: float, delay_samples: int, quantity: str | None, policy,
+                 out: Path | None, force: bool, as_json: bool) -> None:
+    """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
+    from ..errors import DesignError, UsageError
+    from ..io import write_document
+    from ..io.atomic import ensure_writable
+    from ..io.document import strip_none
+    from ..io.gantry_gains import gantry_gains_document
+    from ..machines.certificate import certify
+    from ..tune.gantry import tune_gantry_mimo
+    from ..tune.pid import tune_gantry_pid
+    from .design_gantry_cmd import _gantry_model
+
+    if structure == "gantry" and filters == "own":
+        raise UsageError("--filters own: the gantry MIMO tuner keeps the given filter pack h(s) (--notch, --lpf, "
+                         "--lead); use --filters identical or leave it out")
+    if out is not None:
+        ensure_writable(out, force)
+    model = _gantry_model(model_file)
+    frfs = _positioned_frfs(frf, xs, quantity)
+    common = {"limits": policy, "filters": filters_pack, "fs": fs, "delay_samples": delay_samples, "x": design_x,
+              "frf": [f for _, f in frfs] or None}
+    if structure == "gantry":
+        design = tune_gantry_mimo(model, **common)
+        tuning, record = design.extra["tuning"], {"choice": "identical"}
+    else:
+        choice = _filter_choice(filters, filters_pack.notches, filters_pack.lpf_hz)
+        design = tune_gantry_pid(model, filter_choice=choice, **common)
+        tuning = design.tuning
+        record = tuning.get("filters", {"choice": choice})
+    doc = gantry_gains_document(design)
+    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
+    doc["certificate"] = strip_none(cert.to_dict())
+    gains = {k: v["value"] for k, v in doc["gains"].items()}
+    units = {k: v["unit"] for k, v in doc["gains"].items()}
+    if design.controller == "mimo":
+        gains["lead_gain"], units["lead_gain"] = design.law.lead_gain, f"{model.input_unit}/m"
+    result = {"kind": "gantry", "controller": design.controller, "design_x_m": design.x, "gains": gains,
+              "gain_units": units, "filters": design.law.filters.to_dict(), "filter_choice": record,
+              "design": design.design_dict(), "certificate": cert.to_dict()}
+    if not cert.ok:
+        raise DesignError(f"the tuned {TITLES[structure]} fails its certificate: "
+                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
+    if out is not None:
+        write_document(out, doc, force=force)
+        result["out"] = str(out)
+    if as_json:
+        print_json(result)
+        return
+    shape = (f"CoM crossover target {fmt(design.crossover_hz, 'Hz')}, PM target {fmt(design.pm_deg, 'deg')}, "
+             f"damping increase {design.damping_increase:g}" if structure == "gantry" else
+             f"bandwidth {fmt(tuning['bandwidth_hz'], 'Hz')}, zeta {tuning['zeta']:.3g}, rho {tuning['rho']:.3g}")
+    typer.echo(f"{TITLES[structure]} tuned ({shape}): "
+               + ", ".join(f"{k} {fmt(v, units.get(k, ''))}" for k, v in gains.items()))
+    print_filters(result["filters"], record)
+    print_certificate(result["certificate"])
+    for w in tuning.get("warnings", []):
+        typer.echo(f"  warning: {w}")
+    if out is not None:
+        typer.echo(f"wrote {out}")
+
+
+TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI", "gantry": "gantry MIMO", "pid": "gantry PID pair",
+          "loopshape": "x-axis loop shaping"}
 """The structures ``feedtune tune`` tunes and their names."""
 
 
 def tune(
     structure: str = typer.Argument(..., metavar="STRUCTURE", help="mcppc (MC-PPC: beta, pole frequency, zeta), ppi "
-                                                                   "(P-PI cascade: Kpx, Kpv, Kiv) or loopshape (x "
-                                                                   "axis: crossover, PM target, lag, lead stages)."),
+                                                                   "(P-PI cascade: Kpx, Kpv, Kiv), gantry (MIMO "
+                                                                   "law: CoM crossover, PM target, damping), pid "
+                                                                   "(independent PIDs: bandwidth, zeta, rho) or "
+                                                                   "loopshape (x axis: crossover, PM target, lag, "
+                                                                   "lead stages)."),
     model_file: Path = typer.Argument(..., help="mcppc, ppi: ball-screw model file ('feedtune identify ballscrew'); "
+                                                "gantry, pid: gantry model file ('feedtune identify gantry'); "
                                                 "loopshape: a model file (a gantry model's m_x, a rigid-body "
                                                 "model's mass) or a measured SISO FRF."),
     frf: list[Path] = FRFS_OPTION,
+    x: list[float] = X_OPTION,
+    design_x: float = DESIGN_X_OPTION,
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
+    lpf_order: int = LPF_ORDER_OPTION,
+    lead: list[str] = LEAD_OPTION,
     filters: str = FILTERS_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
@@ -207,16 +305,37 @@ def tune(
     """Tune a controller for the highest first crossover that meets the limits on every measured FRF, and certify it.
 
     mcppc tunes beta, the pole frequency and zeta of eq. 3.5-3.13; ppi tunes Kpx, Kpv and Kiv (Figure 3.9) by the
-    rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. loopshape tunes an x axis
-    (eq. 4.17-4.18) with the given filter pack. Without --frf, on the model in the ideal discrete case."""
+    rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. gantry tunes the MIMO law of
+    eq. 4.30 (CoM crossover, phase-margin target, active damping) with the given h(s); pid the independent PIDs
+    (with --filters own also their notches and low-pass); each gantry FRF is checked at its table position.
+    loopshape tunes an x axis (eq. 4.17-4.18) with the given filter pack. Without --frf, on the model in the ideal
+    discrete case.
+
+    Example: feedtune tune gantry gantry_model.toml --frf frf_x-0.3.csv --frf frf_x0.3.csv --notch 110,0.5,0.7
+    --lpf 450 --lead 154,70 -o mimo_gains.toml"""
     from ..errors import UsageError
+    from .design_gantry_cmd import _loop_filters
 
     if structure not in TITLES:
         raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     fs = DEFAULT_FS[structure] if fs is None else fs
-    if structure == "loopshape":
-        _tune_axis(model_file, frf, notch, lpf, filters, fs, delay_samples, quantity, policy, out, force, as_json)
+    gantry = structure in ("gantry", "pid")
+    if x and not gantry:
+        raise UsageError(f"--x gives gantry FRF positions; {structure} has none")
+    if lead and structure in ("mcppc", "ppi"):
+        raise UsageError(f"--lead: the {TITLES[structure]} filter pack holds notches and a low-pass only")
+    order = (2 if gantry else 1) if lpf_order is None else lpf_order
+    if order not in (1, 2):
+        raise UsageError(f"--lpf-order must be 1 or 2, got {order}")
+    if gantry:
+        pack = _loop_filters(notch, lpf, order, 0.7, lead)
+        _tune_gantry(structure, model_file, frf, x, design_x, pack, filters, fs, delay_samples, quantity, policy, out,
+                     force, as_json)
         return
-    _tune_ballscrew(structure, model_file, frf, notch, lpf, filters, fs, delay_samples, quantity, policy, out, force,
-                    as_json)
+    if structure == "loopshape":
+        _tune_axis(model_file, frf, _loop_filters(notch, lpf, order, 0.7, lead), filters, fs, delay_samples,
+                   quantity, policy, out, force, as_json)
+        return
+    _tune_ballscrew(structure, model_file, frf, _loop_filters(notch, lpf, order, 0.7, None), filters, fs,
+                    delay_samples, quantity, policy, out, force, as_json)

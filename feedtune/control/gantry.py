@@ -3,7 +3,7 @@ position and the reference path (feedforward, per-side pre-filters) at one posit
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -122,6 +122,14 @@ class MimoLaw:
                 "delay_samples": self.delay_samples}
 
 
+def law_at(law, schedule: GantrySchedule, x: float):
+    """The feedback law the target runs at table position ``x`` [m]: a MIMO law with the schedule's averaging
+    weights ``alpha(x)`` (eq. 4.33); a PID law as it is (its gains are not scheduled)."""
+    if getattr(law, "controller", None) == "mimo":
+        return replace(law, alpha=schedule.alpha(x))
+    return law
+
+
 # ---------------------------------------------------------------------------------------- schedule
 @dataclass(frozen=True)
 class GantrySchedule:
@@ -156,6 +164,10 @@ class GantrySchedule:
     def at(self, x: float) -> np.ndarray:
         """One interpolated row at ``x`` [m]."""
         return np.array([np.interp(x, self.x, col) for col in self.table().T])
+
+    def alpha(self, x: float) -> tuple[float, float]:
+        """Mass distribution ``(alpha1, alpha2)`` [-] interpolated at ``x`` [m] (clamped at the ends)."""
+        return float(np.interp(x, self.x, self.alpha1)), float(np.interp(x, self.x, self.alpha2))
 
     def mass_matrix(self, x: float) -> np.ndarray:
         """``M(x)`` [V/(m/s^2)] interpolated."""

@@ -278,7 +278,8 @@ def _sampling_values(doc: dict, where: str) -> tuple[float, int]:
     return fs, delay
 
 
-def _design_x(doc: dict, where: str) -> float:
+def design_position(doc: dict, where: str) -> float:
+    """The design table position ``design.x_m`` [m] of a gantry gains document (0 when absent)."""
     design = doc.get("design")
     if not isinstance(design, dict) or "x_m" not in design:
         return 0.0
@@ -296,11 +297,12 @@ def _stages(raw, where: str):
         raise DataError(f"{where}: invalid lead stage ({exc})") from None
 
 
-def gantry_law_from_document(doc: dict, where: str = "gains file"):
+def gantry_law_from_document(doc: dict, where: str = "gains file", x: float | None = None):
     """Rebuild ``(law, model, x, reference)`` of a gantry gains document for analysis.
 
-    The law is the continuous/discrete description (filters, lead, gains) at the design position ``x``
-    [m] with ``alpha`` taken from the schedule there; ``reference`` holds the feedforward and pre-filters.
+    The law is the continuous/discrete description (filters, lead, gains) at the table position ``x`` [m]
+    (default: the design position ``design.x_m``) with ``alpha`` taken from the schedule there, as the target
+    runs it; ``reference`` holds the feedforward and pre-filters there.
     """
     from ..control.filters import FilterPack
     from ..control.gantry import GantryReference, MimoLaw, PidLaw
@@ -316,7 +318,7 @@ def gantry_law_from_document(doc: dict, where: str = "gains file"):
     model = gantry_model_from_doc(section(doc, "model", where), f"{where}: [model]")
     fsec = section(doc, "filters", where)
     pack = FilterPack.from_dict(entry(fsec, "filters", "continuous", where), f"{where}: filters.continuous")
-    x = _design_x(doc, where)
+    x = design_position(doc, where) if x is None else float(x)
     xs, table = read_schedule(doc, where)
     row = np.array([np.interp(x, xs, col) for col in table.T])
     if controller == "mimo":

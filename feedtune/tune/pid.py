@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,7 +61,8 @@ from ..frf import Frf
 from ..models.gantry import GantryModel
 from .filter_choice import KEEP_GAIN, merge_resonances, resonance_peaks, sensitivity_peaks
 from .filter_choice import choose_filters as own_filters
-from .search import EdgeResult, Probe, SearchResult, band_top_doubt, feasibility_edge, pattern_search, unreliable
+from .gantry_cases import frf_positions, schedule_grid, top_line_doubt
+from .search import EdgeResult, Probe, SearchResult, feasibility_edge, pattern_search, robust_frfs
 
 ZETA_BOUNDS = (0.3, 1.0)
 """Damping of the rigid-body closed-loop pair searched [-]."""
@@ -80,93 +82,136 @@ FILTER_CHOICES = ("own", "identical")
 
 @dataclass
 class _Case:
-    """The checked plant case and the base-grid arrays of the cheap ``Ms`` bound."""
+    """One checked plant case (an FRF at its table position, or the model) and its base-grid arrays of the cheap
+    ``Ms`` bound."""
+
+    x: float
+    name: str
+    pc: object
+    cases: dict
+    weights: tuple
+    Ge: np.ndarray
+    D: np.ndarray
+    Iz: np.ndarray
+
+
+@dataclass
+class _Problem:
+    """What every candidate is checked against: the design (model, position whose side masses scale the gains,
+    sampling), the limits and one :class:`_Case` per FRF, checked in turn with the last to fail first."""
 
     model: GantryModel
     x: float
     fs: float
     delay_samples: int
-    name: str
-    pc: object
-    cases: dict
-    weights: tuple
     masses: np.ndarray
-    Ge: np.ndarray
-    D: np.ndarray
-    Iz: np.ndarray
     policy: Limits
+    cases: list
     checks: int = 0
 
+    @property
+    def name(self) -> str:
+        """The checked case (``discrete`` with FRFs, else ``ideal_discrete``)."""
+        return self.cases[0].name
 
-def _case(model, x, fs, delay_samples, frf, grid, policy) -> _Case:
+
+def _case(model, x, fs, delay_samples, frf, grid) -> _Case:
     name = CHECKED_WITH_FRF if frf is not None else CHECKED_WITHOUT_FRF
     cases = gantry_plant_cases(model, x, fs, delay_samples, frf, grid)
     pc = cases[name]
     f = pc.freq_hz
     with np.errstate(divide="ignore", invalid="ignore"):
         Iz = backward_euler_integrator(fs).freqresp(f)
-    return _Case(model, float(x), float(fs), int(delay_samples), name, pc, cases, model.alpha(x),
-                 np.array(model.side_masses(x)), pc.plant(f) * pc.hold(f), backward_difference(fs).freqresp(f), Iz,
-                 policy)
+    return _Case(float(x), name, pc, cases, model.alpha(x), pc.plant(f) * pc.hold(f),
+                 backward_difference(fs).freqresp(f), Iz)
+
+
+def _problem(model, x, fs, delay_samples, frfs, positions, grid, policy) -> _Problem:
+    xs = frf_positions(frfs, positions, x) if frfs else [float(x)]
+    cases = [_case(model, xi, fs, delay_samples, fi, grid) for xi, fi in zip(xs, frfs or [None], strict=True)]
+    return _Problem(model, float(x), float(fs), int(delay_samples), np.array(model.side_masses(x)), policy, cases)
 
 
 class _Search:
     """The search for one filter pack: the cheap bound, the real check, the edge and the shape search."""
 
-    def __init__(self, case: _Case, pack: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
-        self.case = case
+    def __init__(self, problem: _Problem, pack: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
+        self.problem = problem
         self.pack = pack
-        self.h = matched(pack.zpk(), case.fs).tf.freqresp(case.pc.freq_hz)
+        self.h = [matched(pack.zpk(), problem.fs).tf.freqresp(c.pc.freq_hz) for c in problem.cases]
+        self.order = list(range(len(problem.cases)))  # the case that failed last is checked first
         self.bounds = (tuple(zeta_bounds), tuple(rho_bounds))
         self.scan = scan
 
-    def grid_loops(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
-        """``L`` on the case's base grid for each bandwidth [Hz] of ``bw_hz``, shape ``(2, 2, n_bw, n_f)``."""
-        c = self.case
+    def grid_loops(self, i: int, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
+        """``L`` on case ``i``'s base grid for each bandwidth [Hz] of ``bw_hz``, shape ``(2, 2, n_bw, n_f)``."""
+        c = self.problem.cases[i]
         w = TWO_PI * np.asarray(bw_hz, float)[:, None]
         pid = w * w * (1 + 2 * zeta / rho) + w * (2 * zeta + 1 / rho) * c.D + w**3 / rho * c.Iz  # per unit mass
-        k = self.h * pid  # (n_bw, n_f)
-        return c.Ge[:, :, None, :] * (c.masses[None, :, None, None] * k[None, None, :, :])  # column j: m_j k
+        k = self.h[i] * pid  # (n_bw, n_f)
+        masses = self.problem.masses
+        return c.Ge[:, :, None, :] * (masses[None, :, None, None] * k[None, None, :, :])  # column j: m_j k
 
     def grid_ms(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
-        """``max sigma_max(S)`` on the case's base grid for each bandwidth [Hz] of ``bw_hz``."""
-        L = self.grid_loops(bw_hz, zeta, rho)
-        n_bw, n_f = L.shape[2:]
-        smax = singular_values(sensitivity(L.reshape(2, 2, n_bw * n_f)))[0]
-        return np.max(smax.reshape(n_bw, n_f), axis=1)
+        """``max sigma_max(S)`` over every case's base grid for each bandwidth [Hz] of ``bw_hz``."""
+        out = None
+        for i in range(len(self.problem.cases)):
+            L = self.grid_loops(i, bw_hz, zeta, rho)
+            n_bw, n_f = L.shape[2:]
+            smax = singular_values(sensitivity(L.reshape(2, 2, n_bw * n_f)))[0]
+            ms = np.max(smax.reshape(n_bw, n_f), axis=1)
+            out = ms if out is None else np.maximum(out, ms)
+        return out
 
     def grid_crossover(self, bw_hz: float, zeta: float, rho: float) -> float:
-        """First crossover [Hz] of the CoM loop on the base grid (nan when the loop starts below 1 on the grid)."""
-        lc = com_loop(self.grid_loops([bw_hz], zeta, rho)[:, :, 0, :], self.case.weights)
-        x = crossings(self.case.pc.freq_hz, np.log(np.abs(lc)), 0.0)
-        return float(x[0]) if x.size and abs(lc[0]) > 1 else math.nan
+        """Lowest first crossover [Hz] of the CoM loop over the cases' base grids (nan when a loop starts below 1
+        on its grid)."""
+        found = []
+        for i, c in enumerate(self.problem.cases):
+            lc = com_loop(self.grid_loops(i, [bw_hz], zeta, rho)[:, :, 0, :], c.weights)
+            x = crossings(c.pc.freq_hz, np.log(np.abs(lc)), 0.0)
+            found.append(float(x[0]) if x.size and abs(lc[0]) > 1 else math.nan)
+        return min(found)
 
     def admissible(self, zeta: float, rho: float):
-        ms_max = self.case.policy.ms_max
+        ms_max = self.problem.policy.ms_max
         if ms_max is None:
             return None
         return lambda bw: self.grid_ms(np.atleast_1d(bw), zeta, rho) <= ms_max
 
     def law(self, bw_hz: float, zeta: float, rho: float) -> PidLaw:
-        c = self.case
-        return PidLaw(**pid_gains(c.model, c.x, bw_hz, zeta, rho), filters=self.pack, fs=c.fs,
-                      delay_samples=c.delay_samples)
+        p = self.problem
+        return PidLaw(**pid_gains(p.model, p.x, bw_hz, zeta, rho), filters=self.pack, fs=p.fs,
+                      delay_samples=p.delay_samples)
 
     def check(self, bw_hz: float, zeta: float, rho: float) -> Probe:
-        """The analysis' own check of one candidate in the checked case."""
-        c = self.case
-        c.checks += 1
+        """The analysis' own check of one candidate on every case in turn (the last to fail first).
+
+        A pass carries the figures of the case with the lowest first crossover (the crossover guaranteed on all);
+        a failure the failing case's figures, whose crossover bounds the guaranteed one from above.
+        """
+        p = self.problem
+        p.checks += 1
         law = self.law(bw_hz, zeta, rho)
-        m = analyze_gantry_case(law, c.pc, c.weights).metrics
-        items = c.policy.check(m, c.name)
-        top = c.pc.freq_hz[-1:]
-        l_top = float(singular_values(matmul(c.Ge[:, :, -1:], law.response_discrete(top)))[0][0])
-        doubt = untrusted(m, c.pc.freq_hz, c.fs, l_top, c.policy.ms_max)
-        ok = all(i.ok for i in items) and doubt is None
-        slacks = [i.slack for i in items if i.slack is not None]
-        slack = None if not m.stable or doubt is not None else (min(slacks) if slacks else 1.0)
-        xo = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
-        return Probe(float(bw_hz), ok, xo, slack, (law, m, items))
+        found = []
+        for k, i in enumerate(self.order):
+            c = p.cases[i]
+            m = analyze_gantry_case(law, c.pc, c.weights).metrics
+            items = p.policy.check(m, c.name)
+            doubt = top_line_doubt(law, c.pc, m, p.policy, p.fs)
+            ok = all(i.ok for i in items) and doubt is None and bool(m.crossovers_hz)
+            xo = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
+            if not ok:
+                if k:
+                    self.order.insert(0, self.order.pop(k))
+                slacks = [i.slack for i in items if i.slack is not None]
+                slack = None if not m.stable or doubt is not None else (min(slacks) if slacks else 1.0)
+                bound = min([xo] + [f[0] for f in found])
+                return Probe(float(bw_hz), False, bound, slack, (law, m, items))
+            slacks = [i.slack for i in items if i.slack is not None]
+            found.append((xo, min(slacks) if slacks else 1.0, m, items))
+        xo, _, m, items = min(found, key=lambda f: f[0])
+        return Probe(float(bw_hz), True, xo, min(f[1] for f in found), (law, m, items))
 
     def edge(self, shape: tuple, ref: tuple | None = None, beat: float | None = None, rtol: float = RTOL) -> EdgeResult:
         """The largest bandwidth of one shape passing the check (:func:`feasibility_edge`).
@@ -208,18 +253,6 @@ def rigid_crossover(zeta: float, rho: float) -> float:
     return float(math.sqrt(max(r.real for r in roots if abs(r.imag) < 1e-9 * max(1.0, abs(r)))))
 
 
-def untrusted(metrics, freq_hz: np.ndarray, fs: float, sigma_l_top: float, ms_max: float | None) -> str | None:
-    """Why the analysis' verdict on a candidate cannot be relied on, or None.
-
-    The tuner accepts no candidate whose Nyquist count the analysis calls unreliable
-    (:func:`~feedtune.tune.search.unreliable`), nor on a band-limited FRF one whose loop is still large at the last
-    line (:func:`~feedtune.tune.search.band_top_doubt`). On the gantry twin's 2-1000 Hz FRF an unfiltered PID tuned
-    to Ms 2.5 without these rules crossed over at 336 Hz with a winding of -0.49 and ``sigma_max(S)`` still rising at
-    1000 Hz; on the twin's analytic FRF to 7.5 kHz its Ms is 3.0 (at 1.28 kHz).
-    """
-    return unreliable(metrics.warnings) or band_top_doubt(sigma_l_top, float(freq_hz[-1]), fs, ms_max)
-
-
 def _bounds(value, default, name: str) -> tuple[float, float]:
     b = default if value is None else tuple(float(v) for v in value)
     if len(b) != 2 or not (0 < b[0] <= b[1] and all(math.isfinite(v) for v in b)):
@@ -244,7 +277,8 @@ def tune_gantry_pid(
     fs: float = 15000.0,
     delay_samples: int = 1,
     x: float = 0.0,
-    frf: Frf | None = None,
+    frf: Frf | Sequence[Frf] | None = None,
+    positions: Sequence[float] | None = None,
     x_grid=None,
     prefilter1: PrefilterGains | None = None,
     prefilter2: PrefilterGains | None = None,
@@ -253,7 +287,7 @@ def tune_gantry_pid(
     zeta_bounds=None,
     rho_bounds=None,
 ) -> GantryPidDesign:
-    """The PID pair with the highest first CoM crossover that meets the limits in the checked case.
+    """The PID pair with the highest first CoM crossover that meets the limits in the checked case of every FRF.
 
     See the module docstring for the parametrisation, the search, the check and the filter choice.
 
@@ -275,9 +309,13 @@ def tune_gantry_pid(
     delay_samples : int
         Computational delay [samples].
     x : float
-        Table position [m] of the design.
-    frf : Frf, optional
-        Measured 2x2 position FRF [m/V] to check on (``discrete`` case); default the model (``ideal_discrete``).
+        Table position [m] of the design (its side masses scale the gains).
+    frf : Frf or sequence of Frf, optional
+        Measured 2x2 position FRF(s) [m/V] to check on (``discrete`` case, each at its table position: the limits
+        must hold on every one and the objective is the lowest first crossover over them); default the model
+        (``ideal_discrete``).
+    positions : sequence of float, optional
+        Table position [m] of each FRF (default :func:`feedtune.tune.gantry_cases.frf_positions`).
     x_grid, prefilter1, prefilter2, prefilter_hz
         Schedule grid [m], pre-filter gains and low-pass [Hz] of the design.
     grid_points : int, optional
@@ -306,19 +344,21 @@ def tune_gantry_pid(
     zb = _bounds(zeta_bounds, ZETA_BOUNDS, "zeta_bounds")
     rb = _bounds(rho_bounds, RHO_BOUNDS, "rho_bounds")
     grid = default_grid(fs) if grid_points is None else default_grid(fs, grid_points)
-    case = _case(model, x, fs, delay_samples, frf, grid, policy)
+    frfs = robust_frfs(frf)
+    problem = _problem(model, x, fs, delay_samples, frfs, positions, grid, policy)
+    x_grid = schedule_grid(model, [c.x for c in problem.cases], x_grid)
     top = fs / 40 if SCAN_HZ[1] is None else SCAN_HZ[1]
     scan = np.geomspace(SCAN_HZ[0], top, SCAN_POINTS)
 
     if choice == "identical":
-        pack, result = given, _Search(case, given, zb, rb, scan).run()
+        pack, result = given, _Search(problem, given, zb, rb, scan).run()
         filter_record = {"choice": "identical", "why": "the filters given are used as they are"}
     else:
-        pack, result, filter_record = choose_filters(case, given, zb, rb, scan)
+        pack, result, filter_record = choose_filters(problem, given, zb, rb, scan)
     if result is None:
         raise DesignError(f"no PID pair meets the limits ({policy.describe()}) with a stable loop in the "
-                          f"{case.name} case; relax the limits or change the filter pack")
-    winner, verify = _verified_winner(result, case)
+                          f"{problem.name} case; relax the limits or change the filter pack")
+    winner, verify, act = _verified_winner(result, problem)
     law, metrics, _ = winner.result
     zeta, rho = result.point if winner is result.edge.best else _shape_of(result, winner)
     bw = winner.scale
@@ -326,8 +366,8 @@ def tune_gantry_pid(
         ["the best candidate was unstable in another case; the next best stable in every case was taken"]
     if winner is result.edge.best and result.edge.at_top:
         warnings.append(f"the winner's bandwidth is the top of the scan ({bw:g} Hz = fs/40)")
-    act = check_cases(policy, {case.name: metrics}, [case.name]).active()
     xo = float(metrics.crossovers_hz[0])
+    case = problem.cases[0]
     tuning = {
         "method": "highest first CoM crossover under the limits; PID gains from (bandwidth w, shape zeta, rho) "
                   "scaled by the side masses, searched continuously: w by bisection to the feasibility edge, "
@@ -338,8 +378,10 @@ def tune_gantry_pid(
         "limits": policy.to_dict(),
         "active_limit": None if act is None else act.to_dict(),
         "checked_case": case.name,
-        "checked_from_hz": float(case.pc.freq_hz[0]),
-        "checked_to_hz": float(case.pc.freq_hz[-1]),
+        "frfs": len(frfs),
+        "positions_m": [c.x for c in problem.cases],
+        "checked_from_hz": float(min(c.pc.freq_hz[0] for c in problem.cases)),
+        "checked_to_hz": float(min(c.pc.freq_hz[-1] for c in problem.cases)),
         "stable_in_cases": verify,
         "ms_max": policy.ms_max,
         "ms_found": float(metrics.ms),
@@ -351,7 +393,7 @@ def tune_gantry_pid(
         "com_phase_margin_deg": float(abs(metrics.phase_margins_deg[0])),
         "search": {"zeta_bounds": list(zb), "rho_bounds": list(rb), "bandwidth_scan_hz": [float(scan[0]),
                    float(scan[-1])], "bandwidth_rtol": RTOL, "shapes_evaluated": len(result.evaluated),
-                   "checks": case.checks, "seconds": round(time.perf_counter() - t0, 3)},
+                   "checks": problem.checks, "seconds": round(time.perf_counter() - t0, 3)},
         "filters": filter_record,
         "warnings": warnings,
     }
@@ -365,7 +407,7 @@ SCREEN_RTOL = 1e-2
 """Bracket [-] of the bandwidth edge when screening a filter."""
 
 
-def plant_resonances(case: _Case, n: int = 3, prominence_db: float = 6.0) -> list[tuple[float, float]]:
+def plant_resonances(case: _Case, fs: float, n: int = 3, prominence_db: float = 6.0) -> list[tuple[float, float]]:
     """The ``n`` most prominent resonances ``(Hz, damping)`` of the checked plant.
 
     Without an FRF, the model's lightly damped poles; with one, the peaks of ``sigma_max(G) (2 pi f)^2`` (flat for
@@ -374,26 +416,31 @@ def plant_resonances(case: _Case, n: int = 3, prominence_db: float = 6.0) -> lis
     """
     pc = case.pc
     if not pc.measured:
-        feats = [(float(f), float(z)) for f, z in np.asarray(pc.features).reshape(-1, 2) if 0 < f < 0.45 * case.fs]
+        feats = [(float(f), float(z)) for f, z in np.asarray(pc.features).reshape(-1, 2) if 0 < f < 0.45 * fs]
         return sorted(feats, key=lambda fz: fz[1])[:n]
     f = pc.freq_hz
     return resonance_peaks(f, singular_values(pc.plant(f))[0] * (TWO_PI * f) ** 2, n, prominence_db)
 
 
-def _sensitivity_peaks(case: _Case, law: PidLaw, above_hz: float) -> list[float]:
-    f = case.pc.freq_hz
-    K = law.response_discrete(f) if case.pc.discrete else law.response(f)
-    return sensitivity_peaks(f, singular_values(sensitivity(matmul(case.Ge, K)))[0], above_hz)
+def _sensitivity_peaks(problem: _Problem, law: PidLaw, above_hz: float) -> list[float]:
+    """The peaks of ``sigma_max(S)`` above ``above_hz`` [Hz] on every case, in order of height over the cases."""
+    peaks = []
+    for case in problem.cases:
+        f = case.pc.freq_hz
+        K = law.response_discrete(f) if case.pc.discrete else law.response(f)
+        peaks.extend(sensitivity_peaks(f, singular_values(sensitivity(matmul(case.Ge, K)))[0], above_hz))
+    return list(dict.fromkeys(peaks))
 
 
-def choose_filters(case: _Case, given: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
+def choose_filters(problem: _Problem, given: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
     """The tuner's own filter pack (:func:`feedtune.tune.filter_choice.choose_filters`): ``(pack, SearchResult or
     None, record)``. Candidates are screened at the winner's shape (the bandwidth edge to ``SCREEN_RTOL``, pruned
     when the first check cannot beat the crossover) and the kept one is refined by a local shape search."""
 
     def screen(pack: FilterPack, result: SearchResult, beat: float):
         ref = (tuple(result.point), result.edge.best)
-        e = _Search(case, pack, zeta_bounds, rho_bounds, scan).edge(tuple(result.point), ref, beat, SCREEN_RTOL)
+        e = _Search(problem, pack, zeta_bounds, rho_bounds, scan).edge(tuple(result.point), ref, beat,
+                                                                       SCREEN_RTOL)
         note = None
         if e.pruned:
             note = (f"fails at w = {e.fail_scale:.4g} Hz, where the crossover is still below {beat:.4g} Hz "
@@ -401,35 +448,42 @@ def choose_filters(case: _Case, given: FilterPack, zeta_bounds, rho_bounds, scan
         return (None if e.best is None else e.best.crossover_hz), e.best, note
 
     def refine(pack: FilterPack, result: SearchResult, probe: Probe):
-        return _Search(case, pack, zeta_bounds, rho_bounds, scan).run_from(tuple(result.point), probe)
+        return _Search(problem, pack, zeta_bounds, rho_bounds, scan).run_from(tuple(result.point), probe)
 
-    return own_filters(given, run=lambda pack: _Search(case, pack, zeta_bounds, rho_bounds, scan).run(),
+    return own_filters(given, run=lambda pack: _Search(problem, pack, zeta_bounds, rho_bounds, scan).run(),
                        objective=lambda r: r.edge.best.crossover_hz, screen=screen, refine=refine,
-                       resonances=merge_resonances([plant_resonances(case)]),
-                       peaks=lambda r: _sensitivity_peaks(case, r.edge.best.result[0], r.edge.best.crossover_hz),
-                       fs=case.fs)
+                       resonances=merge_resonances([plant_resonances(c, problem.fs) for c in problem.cases]),
+                       peaks=lambda r: _sensitivity_peaks(problem, r.edge.best.result[0], r.edge.best.crossover_hz),
+                       fs=problem.fs)
 
 
-def _stable_everywhere(law: PidLaw, case: _Case) -> dict:
-    """``{case: stable}`` of a candidate in every case of the plant (the limits were met in the checked one)."""
-    def stable(m) -> bool:
-        return bool(m.stable and m.nyquist_reliable)
+def _full_check(law: PidLaw, problem: _Problem):
+    """``({case (and FRF): stable}, LimitCheck per FRF)`` of a candidate: the limits in each FRF's checked case and
+    stability in every case of every FRF."""
+    stable, checks = {}, []
+    for i, c in enumerate(problem.cases):
+        on = f" (FRF {i + 1})" if len(problem.cases) > 1 else ""
+        metrics = {name: None if pc is None else analyze_gantry_case(law, pc, c.weights).metrics
+                   for name, pc in c.cases.items()}
+        stable.update({name + on: bool(m.stable and m.nyquist_reliable) for name, m in metrics.items() if m})
+        checks.append(check_cases(problem.policy, metrics, [c.name]))
+    return stable, checks
 
-    return {name: True if name == case.name else stable(analyze_gantry_case(law, pc, case.weights).metrics)
-            for name, pc in case.cases.items() if pc is not None}
 
-
-def _verified_winner(result: SearchResult, case: _Case, tries: int = 5) -> tuple[Probe, dict]:
-    """The best evaluated candidate that is stable in every case (the search's winner unless it is not)."""
+def _verified_winner(result: SearchResult, problem: _Problem, tries: int = 5):
+    """``(probe, {case: stable}, active limit)`` of the best evaluated candidate that passes the full check (the
+    search's winner unless it does not)."""
     edges = sorted((e for e in result.evaluated.values() if e is not None and e.best is not None),
                    key=lambda e: -e.best.crossover_hz)
     order = [result.edge.best] + [e.best for e in edges if e.best is not result.edge.best]
     for probe in order[:tries]:
-        verdict = _stable_everywhere(probe.result[0], case)
-        if all(verdict.values()):
-            return probe, verdict
-    raise DesignError(f"the best PID candidates meet the limits in the {case.name} case but are unstable in another "
-                      f"case ({', '.join(k for k, v in verdict.items() if not v)})")
+        stable, checks = _full_check(probe.result[0], problem)
+        if all(stable.values()) and all(c.ok for c in checks):
+            actives = [a for a in (c.active() for c in checks) if a is not None]
+            return probe, stable, min(actives, key=lambda a: a.slack) if actives else None
+    why = ", ".join(k for k, v in stable.items() if not v) or "; ".join(v for c in checks for v in c.violations)
+    raise DesignError(f"the best PID candidates meet the limits in the {problem.name} case but fail the full check "
+                      f"({why})")
 
 
 def _shape_of(result: SearchResult, probe: Probe) -> tuple:

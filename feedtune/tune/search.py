@@ -539,7 +539,8 @@ class SearchRecord:
 def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, lo: float, hi: float,
                      record: SearchRecord | None = None, *, bound_name: str = "bandwidth", unit: str = "Hz",
                      secondary: Callable[[Candidate], float] | None = None,
-                     tie: float = CROSSOVER_TIE) -> Candidate | None:
+                     tie: float = CROSSOVER_TIE,
+                     accept: Callable[[Candidate], bool] | None = None) -> Candidate | None:
     """The best candidate over a fixed list of shapes: each shape's :func:`feasibility_edge` in the scale (a top-down
     scan of :data:`COARSE_POINTS` log-spaced scales in ``[lo, hi]``, then bisection to 0.2 %), the highest first
     crossover over the shapes; among the shapes within ``tie`` of it, the highest ``secondary`` (e.g. the integral
@@ -561,6 +562,9 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
         Tie-breaker (see above).
     tie : float
         Relative tie of the first crossover [-].
+    accept : callable, optional
+        ``accept(candidate)`` -> False when the full verification (e.g. stability in every case) refuses a shape's
+        best: the next one in the ranking is taken (at most five are tried), with a warning.
     """
     rec = record if record is not None else SearchRecord()
     scan = np.geomspace(lo, hi, COARSE_POINTS)
@@ -583,9 +587,18 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
     if not bests:
         return None
     top = max(c.objective for c in bests)
-    best = max(bests, key=lambda c: c.objective)
-    if secondary is not None:
-        best = max((c for c in bests if c.objective >= (1 - tie) * top), key=secondary)
+    tied = [c for c in bests if secondary is not None and c.objective >= (1 - tie) * top]
+    ranking = sorted(tied, key=lambda c: -secondary(c)) + sorted((c for c in bests if not any(c is t for t in tied)),
+                                                                   key=lambda c: -c.objective)
+    best = ranking[0]
+    if accept is not None:
+        best = next((c for c in ranking[:5] if accept(c)), None)
+        if best is None:
+            return None
+        if best is not ranking[0]:
+            refused = sum(1 for c in ranking[:ranking.index(best)])
+            rec.warnings.append(f"the {refused} best shape(s) failed the full verification; the next best was taken "
+                                f"({best.objective:.4g} Hz instead of {ranking[0].objective:.4g} Hz)")
     if best.bandwidth >= hi * (1 - 2e-3):
         rec.warnings.append(f"the best design sits on the upper search bound {bound_name} = {hi:.4g} {unit}; the "
                             "limits may allow more")

@@ -22,12 +22,15 @@ def analyze_document(doc: Mapping, where: str, frf=None) -> GainsAnalysis:
     where : str
         Its name in error messages.
     frf : Frf, optional
-        Measured FRF: 2x2 ``y1/u1, y1/u2, y2/u1, y2/u2`` [m/V] for a gantry, SISO for an axis.
+        Measured FRF: 2x2 ``y1/u1, y1/u2, y2/u1, y2/u2`` [m/V] for a gantry, SISO for an axis. A gantry FRF that
+        records its table position (:attr:`~feedtune.frf.Frf.position_m`) is analysed there: the model and the
+        scheduled law at that position; otherwise at the design position.
 
     Returns
     -------
     GainsAnalysis
-        The analysis and ``result``: ``kind``, ``controller``, ``x_m`` (gantry: the design position [m]), ``gains``
+        The analysis and ``result``: ``kind``, ``controller``, ``x_m`` (gantry: the position analysed [m]),
+        ``design_x_m`` (gantry: the design position [m]), ``gains``
         (values in ``gain_units``), ``lead_stages`` (axis) and ``analysis`` (as ``feedtune analyze --json``,
         without the check).
     """
@@ -45,10 +48,12 @@ def analyze_document(doc: Mapping, where: str, frf=None) -> GainsAnalysis:
             "kind": kind, "controller": "loopshape", "gains": gains, "gain_units": _gain_units(doc),
             "lead_stages": [s.to_dict() for s in law.lead_stages], "analysis": analysis.to_dict()})
     from ...analysis.gantry import analyze_gantry
-    from ...io.gantry_gains import gantry_law_from_document
+    from ...io.gantry_gains import design_position, gantry_law_from_document
 
-    law, model, x, reference = gantry_law_from_document(doc, where)
+    design_x = design_position(doc, where)
+    law, model, x, reference = gantry_law_from_document(doc, where, None if frf is None else frf.position_m)
     analysis = analyze_gantry(law, model, x=x, frf=frf, reference=reference)
     return GainsAnalysis(analysis=analysis, law=law, model=model, result={
-        "kind": kind, "controller": law.controller, "x_m": x, "gains": gains, "gain_units": _gain_units(doc),
+        "kind": kind, "controller": law.controller, "x_m": x, "design_x_m": design_x, "gains": gains,
+        "gain_units": _gain_units(doc),
         "analysis": analysis.to_dict()})
