@@ -172,11 +172,22 @@ def test_tune_gantry_cli_certifies_each_position_and_analyze_agrees(frfs, tmp_pa
     a = json.loads(out)
     assert a["x_m"] == pytest.approx(0.3) and a["design_x_m"] == 0.0
     assert a["analysis"]["discrete"]["ms"] == pytest.approx(cert["frfs"][2]["ms"], rel=1e-9)
+    # the report recomputes the certificate from the files, each FRF at its position: the same figures
+    code, _, err = run(["report", "model.toml", "mimo.toml", *names, "--out", "r.html"], capsys, monkeypatch)
+    assert code == 0, err
+    from test_report import embedded_data
+
+    html = (tmp_path / "r.html").read_text()
+    again = embedded_data(html)["design"]["mimo.toml"]["certificate"]
+    assert "Certificate of" in html
+    assert [c["frf"] for c in again["frfs"]] == [c["frf"] for c in cert["frfs"]]
+    assert [c["ms"] for c in again["frfs"]] == pytest.approx([c["ms"] for c in cert["frfs"]], rel=1e-9)
     # --x overrides the recorded positions, one per FRF; a count mismatch is a usage error
     code, out, err = run(["tune", "gantry", "model.toml", "--frf", names[0], "--frf", names[1], "--x", "0.1",
                           *filt, "--lpf", "450", "--lead", "154,70"], capsys, monkeypatch)
     assert code == 2 and "one table position per FRF" in err
-    code, out, err = run(["tune", "gantry", "model.toml", "--frf", names[0], "--filters", "own"], capsys, monkeypatch)
-    assert code == 2 and "--filters own" in err
+    code, out, err = run(["tune", "gantry", "model.toml", "--frf", names[0], "--filters", "mine"], capsys,
+                         monkeypatch)
+    assert code == 2 and "--filters" in err
     code, out, err = run(["tune", "mcppc", "model.toml", "--x", "0.1"], capsys, monkeypatch)
     assert code == 2 and "--x" in err

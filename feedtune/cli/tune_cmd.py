@@ -43,8 +43,8 @@ LEAD_OPTION = typer.Option(None, "--lead", help="gantry, pid, loopshape: extra l
 FILTERS_OPTION = typer.Option(
     None, "--filters", metavar="own|identical",
     help="own: the tuner places notches and a low-pass where they raise the guaranteed crossover (--notch/--lpf "
-         "are candidates); identical: the --notch/--lpf pack as given. Default: identical with --notch or --lpf, "
-         "else own.")
+         "are candidates, and the pack they form as a whole; --lead stages are kept); identical: the pack as "
+         "given. Default: identical with --notch or --lpf, else own. loopshape keeps the given pack.")
 
 
 def _filter_choice(choice: str | None, notch, lpf) -> str:
@@ -207,7 +207,7 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
                  filters_pack, filters: str | None, fs: float, delay_samples: int, quantity: str | None, policy,
                  out: Path | None, force: bool, as_json: bool) -> None:
     """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
-    from ..errors import DesignError, UsageError
+    from ..errors import DesignError
     from ..io import write_document
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
@@ -217,23 +217,17 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
     from ..tune.pid import tune_gantry_pid
     from .design_gantry_cmd import _gantry_model
 
-    if structure == "gantry" and filters == "own":
-        raise UsageError("--filters own: the gantry MIMO tuner keeps the given filter pack h(s) (--notch, --lpf, "
-                         "--lead); use --filters identical or leave it out")
     if out is not None:
         ensure_writable(out, force)
     model = _gantry_model(model_file)
     frfs = _positioned_frfs(frf, xs, quantity)
     common = {"limits": policy, "filters": filters_pack, "fs": fs, "delay_samples": delay_samples, "x": design_x,
               "frf": [f for _, f in frfs] or None}
-    if structure == "gantry":
-        design = tune_gantry_mimo(model, **common)
-        tuning, record = design.extra["tuning"], {"choice": "identical"}
-    else:
-        choice = _filter_choice(filters, filters_pack.notches, filters_pack.lpf_hz)
-        design = tune_gantry_pid(model, filter_choice=choice, **common)
-        tuning = design.tuning
-        record = tuning.get("filters", {"choice": choice})
+    choice = _filter_choice(filters, filters_pack.notches, filters_pack.lpf_hz)
+    tuner = tune_gantry_mimo if structure == "gantry" else tune_gantry_pid
+    design = tuner(model, filter_choice=choice, **common)
+    tuning = design.tuning
+    record = tuning.get("filters", {"choice": choice})
     doc = gantry_gains_document(design)
     cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
     doc["certificate"] = strip_none(cert.to_dict())
@@ -306,8 +300,8 @@ def tune(
 
     mcppc tunes beta, the pole frequency and zeta of eq. 3.5-3.13; ppi tunes Kpx, Kpv and Kiv (Figure 3.9) by the
     rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. gantry tunes the MIMO law of
-    eq. 4.30 (CoM crossover, phase-margin target, active damping) with the given h(s); pid the independent PIDs
-    (with --filters own also their notches and low-pass); each gantry FRF is checked at its table position.
+    eq. 4.30 (CoM crossover, phase-margin target, active damping, integral gain), pid the independent PIDs (with
+    --filters own, both also the notches and low-pass of h(s)); each gantry FRF is checked at its table position.
     loopshape tunes an x axis (eq. 4.17-4.18) with the given filter pack. Without --frf, on the model in the ideal
     discrete case.
 

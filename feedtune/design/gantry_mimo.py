@@ -158,6 +158,11 @@ class GantryMimoDesign:
         """Reference look-ahead [samples]."""
         return preview_samples(self.law.fs)
 
+    @property
+    def tuning(self) -> dict:
+        """How a tuner chose the design (``extra["tuning"]``; empty for a design by hand)."""
+        return dict(self.extra.get("tuning", {}))
+
     def design_dict(self) -> dict:
         """Design parameters and results, units in the keys."""
         a1, a2 = self.model.arms(self.x)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .certificate import certificate_blocks
 from .collect import FrfInput, GainsInput, Inputs
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
 from .figures import (
@@ -260,54 +261,6 @@ def _tracking(designs) -> FigureBlock:
                        " (thesis Fig. 3.13).", fig)
 
 
-# ------------------------------------------------------------------------------------------ certificate
-def certificate_blocks(designs: list[BallScrewDesign], inputs: Inputs, names: Mapping, limits: ReportLimits,
-                       store: dict) -> list:
-    """With two or more measured FRFs (positions, loads): each design's certificate on every one
-    (:func:`feedtune.machines.certificate.certify`, the analysis of ``feedtune analyze GAINS --frf F``), as a table
-    and the discrete |S| on each FRF with the Ms limit; ``store[name]["certificate"]`` gets its dictionary."""
-    frfs = [fi for fi in inputs.frfs if fi.frf.has("x1/u") and fi.frf.has("x2/u")]
-    if len(frfs) < 2:
-        return []
-    from ..machines.certificate import certify
-    from .figures import PALETTE, Curve
-
-    blocks: list = []
-    for i, d in enumerate(designs):
-        doc = next(g.doc for g in inputs.gains if names[g.path] == d.name)
-        cert = certify(doc, d.name, [(names[fi.path], fi.frf) for fi in frfs], limits.policy)
-        store[d.name]["certificate"] = cert.to_dict()
-        rows = []
-        for c, row in zip(cert.frfs, cert.to_dict()["frfs"], strict=True):
-            first = row["crossovers_hz"][0] if row["crossovers_hz"] else None
-            act = row["active_limit"]
-            rows.append([text_cell(c.name), text_cell("yes" if row["stable"] else "NO"), Cell(first, "Hz"),
-                         Cell(row["ms"], ""), Cell(row["ms_freq_hz"], "Hz"), Cell(row["pm_deg"], "deg"),
-                         Cell(row["gm_db"], "dB"), Cell(row["disk_margin"], ""),
-                         text_cell("-" if act is None else act["name"]),
-                         text_cell("ok" if row["ok"] else "; ".join(row["violations"]))])
-        w = cert.worst()
-        rows.append([text_cell("worst"), text_cell("yes" if w["stable"] else "NO"), Cell(w["first_crossover_hz"], "Hz"),
-                     Cell(w["ms"], ""), text_cell(str(w["ms_frf"])), Cell(w["pm_deg"], "deg"), Cell(w["gm_db"], "dB"),
-                     Cell(w["disk_margin"], ""),
-                     text_cell("-" if w["active_limit"] is None else
-                               f"{w['active_limit']['name']} on {w['active_limit']['frf']}"),
-                     text_cell("ok" if w["ok"] else "fails")])
-        blocks.append(Table(f"Certificate of {d.label} ({d.name}) on every measured FRF, discrete case, "
-                            f"{limits.policy.describe()}",
-                            ["FRF", "stable", "first crossover", "Ms", "Ms at", "PM", "GM", "disk margin",
-                             "active limit", "verdict"], rows,
-                            "Each row is feedtune analyze GAINS --frf FRF; the last row is the worst over the FRFs "
-                            "(lowest first crossover, highest Ms, smallest margins)."))
-        curves = [Curve(c.analysis.cases[c.checked_case].freq_hz, c.analysis.cases[c.checked_case].S, c.name,
-                        PALETTE[k % len(PALETTE)]) for k, c in enumerate(cert.frfs)]
-        peaks = {c.name: (float(c.metrics.ms_freq_hz), float(c.metrics.ms)) for c in cert.frfs}
-        blocks.append(FigureBlock(f"design-certificate-{i}", f"|S| of {d.label} ({d.name}) on every measured FRF "
-                                  "(discrete case) with the Ms limit.", sensitivity_figure(curves, peaks,
-                                                                                           limits.ms_max)))
-    return blocks
-
-
 # ------------------------------------------------------------------------------------------ warnings
 def design_warnings(d, limits: ReportLimits) -> list[str]:
     """The design's check under the policy (stability in every case, the limits in its main case), one line per
@@ -398,7 +351,8 @@ def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: d
         leaders = feedback_groups(designs)
         blocks += [_pole_map(leaders), _loop(leaders), _nyquist(leaders), _sensitivity(leaders, limits),
                    _disturbance(leaders), _tracking(designs)]
-        blocks += certificate_blocks(designs, inputs, names, limits, store)
+        frfs = [(names[fi.path], fi.frf) for fi in inputs.frfs if fi.frf.has("x1/u") and fi.frf.has("x2/u")]
+        blocks += certificate_blocks(designs, frfs, {names[g.path]: g.doc for g in inputs.gains}, limits, store)
         subs.append(Section("design-ballscrew", "Ball-screw controllers", blocks))
     subs += machines
     if other is not None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from .certificate import certificate_blocks
 from .collect import FrfInput, GainsInput, Inputs
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
 from .design import CASE_TITLES, check_result, design_warnings
@@ -62,6 +63,11 @@ def gantry_frf(inputs: Inputs, x_m: float | None = None) -> FrfInput | None:
             except ValueError:
                 continue
     return candidates[0] if candidates else None
+
+
+def _frf_name(name: str, frf) -> str:
+    """An FRF's name with the table position it records."""
+    return name if frf.position_m is None else f"{name} (x = {frf.position_m:g} m)"
 
 
 def design_position(gi: GainsInput) -> float:
@@ -199,7 +205,7 @@ def _axis_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[Fi
 
 # ------------------------------------------------------------------------------------------ section
 def _subsection(kind: str, designs: list[MachineDesign], store: dict, limits: ReportLimits,
-                warnings: list[str]) -> Section:
+                warnings: list[str], inputs: Inputs, names: Mapping) -> Section:
     gantry = kind == "gantry"
     frf = designs[0].frf
     where = f"the measured FRF {frf}" if frf else "the design model only (no measured FRF given)"
@@ -218,6 +224,12 @@ def _subsection(kind: str, designs: list[MachineDesign], store: dict, limits: Re
     blocks.append(tuning_table([(d.label, d.tuning) for d in designs]))
     blocks.append(_margins_table(designs, gantry))
     blocks += _gantry_figures(designs, limits) if gantry else _axis_figures(designs, limits)
+    if gantry:
+        frfs = [(_frf_name(names[fi.path], fi.frf), fi.frf) for fi in inputs.frfs
+                if all(fi.frf.has(ch) for ch in GANTRY_CHANNELS)]
+    else:
+        frfs = [(names[fi.path], fi.frf) for fi in inputs.frfs if len(fi.frf.channels) == 1]
+    blocks += certificate_blocks(designs, frfs, {names[g.path]: g.doc for g in inputs.gains}, limits, store)
     title = "Gantry controllers (y axis, two drives)" if gantry else "x-axis controller"
     return Section(f"design-{kind}", title, blocks)
 
@@ -231,7 +243,7 @@ def machine_subsections(inputs: Inputs, names: Mapping, limits: ReportLimits, da
     for kind in ("gantry", "axis"):
         group = [d for d in designs if d.kind == kind]
         if group:
-            subs.append(_subsection(kind, group, store, limits, warnings))
+            subs.append(_subsection(kind, group, store, limits, warnings, inputs, names))
     return subs, designs
 
 

@@ -12,7 +12,9 @@ notches or low-pass (the leads of the given pack are kept), each round
    peak; the given filters are candidates too;
 2. screens each candidate at the current winner's shape (the tuner's ``screen``), and keeps the one that raises the
    objective most, if by more than :data:`KEEP_GAIN`, after the tuner's local search from it (``refine``);
-3. stops when no candidate helps or after :data:`MAX_OWN_FILTERS` filters.
+3. stops when no candidate helps or after :data:`MAX_OWN_FILTERS` filters;
+4. compares the result with the given pack as a whole (an engineer's pack may hold more filters than the tuner adds,
+   working together) and keeps the better.
 
 When no design meets the limits without filters, the first round runs the whole search with each resonance's notch
 (and each given filter; with a quick search given, only for the two it ranks best) and keeps the best that meets
@@ -32,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..control.filters import FilterPack, Notch
+from ..errors import DesignError
 
 MAX_OWN_FILTERS = 3
 """Most filters the tuner adds (notches and one low-pass)."""
@@ -246,6 +249,12 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
         good = [t for t in tried if t["result"] is not None]
         if not good:
             rounds[-1]["kept"] = None
+            whole = run(given) if (given.notches or given.lpf_hz is not None) else None
+            if whole is not None:
+                return given, whole, {"choice": "own", "rounds": rounds, "chosen": [
+                    f"the given filter pack as a whole: first crossover {objective(whole):.4g} Hz (no design without "
+                    "filters or with one notch at a resonance)"],
+                    "why": "the given filters, kept together, are the only pack found that meets the limits"}
             return pack, None, {"choice": "own", "chosen": [], "rounds": rounds,
                                 "why": "no design met the limits without filters or with one notch at a resonance"}
         top = max(good, key=lambda t: t["crossover_hz"])
@@ -283,4 +292,60 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
     why = ("no notch or low-pass raised the first crossover by more than "
            f"{100 * KEEP_GAIN:g} %" if not chosen else "each kept filter raised the first crossover by more than "
            f"{100 * KEEP_GAIN:g} % at the winner's shape")
+    if (given.notches or given.lpf_hz is not None) and given != pack:  # the given pack as a whole, by the objective
+        whole = run(given)
+        if whole is not None and (result is None or objective(whole) > objective(result)):
+            mine = "no design" if result is None else f"{objective(result):.4g} Hz"
+            return given, whole, {"choice": "own", "chosen": [f"the given filter pack as a whole: first crossover "
+                                                              f"{objective(whole):.4g} Hz (own choice: {mine})"],
+                                  "why": "the given filters, kept together, beat the tuner's own choice",
+                                  "rounds": rounds}
+        rounds.append({"given_pack_crossover_hz": None if whole is None else objective(whole)})
     return pack, result, {"choice": "own", "chosen": chosen, "why": why, "rounds": rounds}
+
+
+def tune_with_own_filters(tune: Callable[..., object], screen_options: Callable[[object], dict], given: FilterPack,
+                          resonances: Sequence[tuple[float, float, float, float]],
+                          peaks: Callable[[object], list[float]], fs: float, quick_options: dict | None = None):
+    """``(design, filter record)``: the best design of ``tune`` over the filter packs :func:`choose_filters` tries.
+
+    Parameters
+    ----------
+    tune : callable
+        ``tune(filters=pack, **options) -> design`` (a tuner over a fixed list of shapes with its other arguments
+        bound; ``design.tuning["first_crossover_hz"]`` is its objective); raises DesignError when nothing meets
+        the limits.
+    screen_options : callable
+        ``screen_options(design) -> dict``: the options that restrict ``tune`` to the design's shape (the cheap
+        screen of a candidate filter).
+    given : FilterPack
+        The filters given (candidates; its leads are kept).
+    resonances : sequence of (float, float, float, float)
+        The plant's resonances (:func:`merge_resonances` over the FRFs).
+    peaks : callable
+        ``peaks(design) -> [Hz]``: sensitivity peaks of a design above its first crossover, over the FRFs.
+    fs : float
+        Sample rate [Hz].
+    quick_options : dict, optional
+        Options of ``tune`` for a cheaper search that ranks candidates when nothing is feasible without filters.
+    """
+
+    def attempt(pack: FilterPack, **options):
+        try:
+            return tune(filters=pack, **options)
+        except DesignError:
+            return None
+
+    def objective(design) -> float:
+        return float(design.tuning["first_crossover_hz"])
+
+
+    def screen(pack: FilterPack, design, beat: float):
+        d = attempt(pack, **screen_options(design))
+        return (None if d is None else objective(d)), d, None
+
+    _, design, record = choose_filters(
+        given, run=attempt, objective=objective, screen=screen,
+        refine=lambda pack, design, payload: attempt(pack), resonances=resonances, peaks=peaks, fs=fs,
+        quick=None if quick_options is None else (lambda pack: attempt(pack, **quick_options)))
+    return design, record

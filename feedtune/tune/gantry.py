@@ -2,7 +2,9 @@
 target and the active-damping increase that give the highest first CoM crossover meeting the limits policy.
 
 Shapes: the phase-margin target ``pm_deg`` in :data:`PM_TARGETS_DEG` and the damping increase in
-:data:`DAMPING_INCREASES` (thesis: 40 deg and +590 %); bandwidth parameter: the CoM crossover target (eq. 4.26),
+:data:`DAMPING_INCREASES` (thesis: 40 deg and +590 %), then at the best of them the integral gain through its phase lag
+at the crossover in :data:`INTEGRAL_LAGS_DEG` (thesis rule: 10 deg); bandwidth parameter: the CoM crossover target
+(eq. 4.26),
 searched by :func:`feedtune.tune.search.highest_feasible` on the checked case (``discrete`` with an FRF, else
 ``ideal_discrete``) with the filter pack given (the thesis' h(s) in the demos). A candidate passes under the PID
 baseline's rule (:func:`feedtune.tune.gantry_cases.untrusted`: no unreliable Nyquist count, and on a band-limited FRF
@@ -13,6 +15,10 @@ With several FRFs (the gantry measured at several table positions, or loads) eac
 with the law the target runs there (the schedule's ``alpha(x)``, :func:`feedtune.control.gantry.law_at`) and the
 model at that position below the FRF's band: a candidate passes only when it meets the limits on every one, and its
 objective is its lowest first CoM crossover over them.
+
+With ``filter_choice="own"`` the notches and low-pass of ``h(s)`` are the tuner's
+(:func:`feedtune.tune.filter_choice.tune_with_own_filters`: seeded at the resonances of every FRF and the sensitivity
+peaks of the best design, kept when they raise the guaranteed crossover); the lead stages given are kept.
 """
 
 from __future__ import annotations
@@ -26,16 +32,22 @@ from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
 from ..control.gantry import law_at
 from ..design.gantry_mimo import GantryMimoDesign, design_gantry_mimo
-from ..errors import DesignError, FeedtuneError
+from ..errors import DesignError, FeedtuneError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
-from .gantry_cases import frf_positions, schedule_grid, top_line_doubt
+from .filter_choice import merge_resonances, tune_with_own_filters
+from .gantry_cases import frf_positions, gantry_resonances, gantry_sensitivity_peaks, schedule_grid, top_line_doubt
 from .search import CROSSOVER_TIE, Candidate, CheckedCases, SearchRecord, highest_feasible, robust_frfs
 
 PM_TARGETS_DEG = (30.0, 40.0, 50.0)
 """CoM phase-margin targets searched [deg] (thesis: 40)."""
 DAMPING_INCREASES = (2.0, 4.0, 5.9, 8.0)
 """Increases of the torsional damping by active damping searched [-] (thesis: 5.9 = +590 %)."""
+INTEGRAL_LAGS_DEG = (5.0, 10.0, 20.0, 30.0)
+"""Phase lags of the actuator-level integral at the crossover searched at the best shape [deg] (thesis rule: 10;
+``ki = K_D wc tan(lag)``)."""
+QUICK_PM, QUICK_DAMPING = (40.0,), (5.9,)
+"""The shape of the quick search that ranks filter candidates when nothing is feasible without filters."""
 CROSSOVER_RANGE_HZ = (5.0, 250.0)
 """Search bounds of the CoM crossover target [Hz]."""
 
@@ -43,7 +55,8 @@ CROSSOVER_RANGE_HZ = (5.0, 250.0)
 def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | None = None, fs: float = 15000.0,
                      delay_samples: int = 1, x: float = 0.0, frf: Frf | Sequence[Frf] | None = None,
                      positions: Sequence[float] | None = None, pm_targets=PM_TARGETS_DEG,
-                     damping_increases=DAMPING_INCREASES, crossover_range_hz=CROSSOVER_RANGE_HZ,
+                     damping_increases=DAMPING_INCREASES, integral_lags=INTEGRAL_LAGS_DEG,
+                     crossover_range_hz=CROSSOVER_RANGE_HZ, filter_choice: str = "identical",
                      **design_options) -> GantryMimoDesign:
     """The MIMO design with the highest first CoM crossover that meets ``limits`` (module docstring).
 
@@ -53,7 +66,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     limits : Limits, optional
         The policy (default: ``textbook``).
     filters : FilterPack, optional
-        The filter pack h(s) (kept fixed).
+        The filter pack h(s): as given (``identical``), or candidates and kept leads (``own``).
     fs : float
         Sample rate [Hz].
     delay_samples : int
@@ -66,11 +79,15 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
         Table position [m] of each FRF (default: :func:`frf_positions`).
     pm_targets, damping_increases : sequence of float
         Shapes searched [deg, -].
+    integral_lags : sequence of float
+        Integral lags searched at the best shape [deg] (not searched when ``ki`` or ``integral_lag_deg`` is given).
     crossover_range_hz : (float, float)
         Bounds of the CoM crossover target [Hz].
+    filter_choice : {"identical", "own"}
+        Whether the tuner places the notches and low-pass itself.
     **design_options
-        Passed to :func:`~feedtune.design.gantry_mimo.design_gantry_mimo` (schedule grid, pre-filters); the
-        default schedule grid covers every FRF's position.
+        Passed to :func:`~feedtune.design.gantry_mimo.design_gantry_mimo` (schedule grid, pre-filters, ``ki``);
+        the default schedule grid covers every FRF's position.
 
     Raises
     ------
@@ -79,19 +96,47 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     """
     policy = limits or DEFAULT_LIMITS
     check_sampling(fs, delay_samples)
-    (filters or FilterPack()).check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
+    filters = filters or FilterPack()
+    filters.check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
     frfs = robust_frfs(frf)
     xs = frf_positions(frfs, positions, x) if frfs else [float(x)]
     design_options["x_grid"] = schedule_grid(model, xs, design_options.get("x_grid"))
     case = "discrete" if frfs else "ideal_discrete"
-    checked = CheckedCases((gantry_plant_cases(model, xi, fs, delay_samples, fi)[case], model.alpha(xi), xi)
-                           for xi, fi in zip(xs, frfs or [None], strict=True))
+    pcs = [gantry_plant_cases(model, xi, fs, delay_samples, fi)[case] for xi, fi in zip(xs, frfs or [None],
+                                                                                        strict=True)]
+    if filter_choice == "own":
+        def tune(filters: FilterPack, **shapes) -> GantryMimoDesign:
+            return tune_gantry_mimo(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples, x=x,
+                                    frf=frfs or None, positions=xs if frfs else None,
+                                    crossover_range_hz=crossover_range_hz,
+                                    **({"pm_targets": pm_targets, "damping_increases": damping_increases,
+                                        "integral_lags": integral_lags} | shapes), **design_options)
+
+        def peaks(d: GantryMimoDesign) -> list[float]:
+            return gantry_sensitivity_peaks([(law_at(d.law, d.schedule, xi), pc) for xi, pc in zip(xs, pcs,
+                                                                                                 strict=True)],
+                                            d.tuning["first_crossover_hz"])
+
+        design, record = tune_with_own_filters(
+            tune, lambda d: {"pm_targets": (d.pm_deg,), "damping_increases": (d.damping_increase,),
+                             "integral_lags": (d.tuning["integral_lag_deg"],)},
+            filters, merge_resonances([gantry_resonances(pc, fs) for pc in pcs]), peaks, fs,
+            {"pm_targets": QUICK_PM, "damping_increases": QUICK_DAMPING, "integral_lags": (10.0,)})
+        if design is None:
+            raise DesignError(f"no gantry MIMO design meets the limits ({policy.describe()}) in the {case} case with "
+                              "or without the filters tried")
+        tuning = {**design.tuning, "filters": record, "rule": design.tuning["rule"] + " (own filters)"}
+        return replace(design, extra={**design.extra, "tuning": tuning})
+    if filter_choice != "identical":
+        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
+    checked = CheckedCases((pc, model.alpha(xi), xi) for xi, pc in zip(xs, pcs, strict=True))
 
     def check(shape: dict, crossover_hz: float) -> Candidate | None:
+        lag = {} if "integral_lag_deg" not in shape else {"integral_lag_deg": shape["integral_lag_deg"]}
         try:
             design = design_gantry_mimo(model, crossover_hz=crossover_hz, pm_deg=shape["pm_deg"],
                                         damping_increase=shape["damping_increase"], filters=filters, fs=fs,
-                                        delay_samples=delay_samples, x=x, **design_options)
+                                        delay_samples=delay_samples, x=x, **(design_options | lag))
         except FeedtuneError:
             return None
 
@@ -112,13 +157,26 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     verdicts: dict = {}
 
     def accept(c: Candidate) -> bool:
-        verdicts[id(c)] = full_check(c)
+        if id(c) not in verdicts:
+            verdicts[id(c)] = full_check(c)
         return all(f.ok for f in verdicts[id(c)])
 
     record = SearchRecord()
-    shapes = [{"pm_deg": float(p), "damping_increase": float(d)} for p in pm_targets for d in damping_increases]
+    fixed_ki = "ki" in design_options or "integral_lag_deg" in design_options
+    lag0 = {} if fixed_ki else {"integral_lag_deg": 10.0 if 10.0 in integral_lags else float(integral_lags[0])}
+    shapes = [{"pm_deg": float(p), "damping_increase": float(d), **lag0} for p in pm_targets
+              for d in damping_increases]
     best = highest_feasible(check, shapes, *crossover_range_hz, record, bound_name="crossover_hz",
                             secondary=lambda c: c.design.law.ki, accept=accept)
+    if best is not None and not fixed_ki and len(integral_lags) > 1:  # the integral gain at the best shape
+        lags = [{**best.shape, "integral_lag_deg": float(v)} for v in integral_lags
+                if float(v) != best.shape["integral_lag_deg"]]
+        other = highest_feasible(check, lags, *crossover_range_hz, record, bound_name="crossover_hz",
+                                 secondary=lambda c: c.design.law.ki, accept=accept)
+        if other is not None and (other.objective > best.objective * (1 + CROSSOVER_TIE)
+                                  or (other.objective >= best.objective * (1 - CROSSOVER_TIE)
+                                      and other.design.law.ki > best.design.law.ki)):
+            best = other
     if best is None:
         if not verdicts:
             raise DesignError(f"no gantry MIMO design meets the limits ({policy.describe()}) in the {case} case")
@@ -132,8 +190,9 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     active = min(actives, key=lambda a: a.slack) if actives else None
     tuning = {
         "method": "highest first CoM crossover over the PM target, the damping increase and the crossover target "
-                  "(bisected to the edge) with the limits in the checked case and stability in every case; shapes "
-                  f"within {100 * CROSSOVER_TIE:g} % of the highest first crossover count as equal and the highest "
+                  "(bisected to the edge), then over the integral lag at the best shape, with the limits in the "
+                  "checked case of every FRF and stability in every case; shapes within "
+                  f"{100 * CROSSOVER_TIE:g} % of the highest first crossover count as equal and the highest "
                   "actuator-level integral gain ki wins",
         "rule": f"gantry MIMO tuned by feedtune.tune.gantry under {policy.describe()}",
         "limits": policy.to_dict(),
@@ -141,9 +200,13 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
         "frfs": len(frfs),
         "positions_m": xs,
         "first_crossover_hz": best.objective,
+        "pm_target_deg": best.shape["pm_deg"],
+        "damping_increase": best.shape["damping_increase"],
+        "integral_lag_deg": best.shape.get("integral_lag_deg"),
         "active_limit": None if active is None else active.to_dict(),
         "evaluations": record.evaluations,
         "per_shape": record.per_shape,
+        "filters": {"choice": "identical", "why": "the filters given are used as they are"},
         "warnings": record.warnings,
     }
     return replace(best.design, extra={**best.design.extra, "tuning": tuning})

@@ -1,5 +1,6 @@
-"""What the gantry tuners (MIMO, PID) share: the table position of each FRF, a schedule that covers them, and the
-rule by which a candidate's verdict on a band-limited FRF is not trusted."""
+"""What the gantry tuners (MIMO, PID) share: the table position of each FRF, a schedule that covers them, the rule by
+which a candidate's verdict on a band-limited FRF is not trusted, and the resonances and sensitivity peaks their own
+filters are placed at."""
 
 from __future__ import annotations
 
@@ -7,11 +8,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..analysis.mimo import matmul, singular_values
+from ..analysis.mimo import matmul, sensitivity, singular_values
+from ..control.filters import TWO_PI
 from ..design.gantry_mimo import default_x_grid
 from ..errors import UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
+from .filter_choice import resonance_peaks, sensitivity_peaks
 from .search import band_top_doubt, unreliable
 
 
@@ -63,3 +66,29 @@ def top_line_doubt(law, pc, metrics, policy, fs: float) -> str | None:
     g = pc.plant(top) * pc.hold(top)
     l_top = float(singular_values(matmul(g, law.response_discrete(top)))[0][0])
     return untrusted(metrics, pc.freq_hz, fs, l_top, policy.ms_max)
+
+
+def gantry_resonances(pc, fs: float, n: int = 3, prominence_db: float = 6.0) -> list[tuple[float, float]]:
+    """The ``n`` most prominent resonances ``(Hz, damping)`` of a gantry plant case.
+
+    Without an FRF, the model's lightly damped poles below ``0.45 fs``; with one, the peaks of
+    ``sigma_max(G) (2 pi f)^2`` (flat for the rigid body) that stand ``prominence_db`` [dB] above their surroundings
+    (:func:`feedtune.tune.filter_choice.resonance_peaks`).
+    """
+    if not pc.measured:
+        feats = [(float(f), float(z)) for f, z in np.asarray(pc.features).reshape(-1, 2) if 0 < f < 0.45 * fs]
+        return sorted(feats, key=lambda fz: fz[1])[:n]
+    f = pc.freq_hz
+    return resonance_peaks(f, singular_values(pc.plant(f))[0] * (TWO_PI * f) ** 2, n, prominence_db)
+
+
+def gantry_sensitivity_peaks(laws_and_cases, above_hz: float, n: int = 2) -> list[float]:
+    """The ``n`` highest peaks [Hz] of ``sigma_max(S)`` above ``above_hz`` over ``(law, plant case)`` pairs (the
+    law each position runs, on that position's case)."""
+    found = []
+    for law, pc in laws_and_cases:
+        f = pc.freq_hz
+        K = law.response_discrete(f) if pc.discrete else law.response(f)
+        s = singular_values(sensitivity(matmul(pc.plant(f) * pc.hold(f), K)))[0]
+        found.extend((float(np.interp(p, f, s)), p) for p in sensitivity_peaks(f, s, above_hz, n))
+    return [p for _, p in sorted(found, reverse=True)[:n]]

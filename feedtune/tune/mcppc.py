@@ -25,7 +25,8 @@ from ..design.mcppc import McppcDesign, design_mcppc
 from ..errors import DesignError, FeedtuneError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .ballscrew_filters import tune_with_own_filters
+from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
+from .filter_choice import tune_with_own_filters
 from .search import CROSSOVER_TIE, Candidate, CheckedCases, SearchRecord, highest_feasible, robust_frfs
 
 BETAS = (1.0, 2.0, 3.0, 4.0)
@@ -82,8 +83,10 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
                               frf=frfs or None, pole_range_hz=pole_range_hz,
                               **({"betas": betas, "zetas": zetas} | shapes))
 
-        design, record = tune_with_own_filters(tune, lambda d: {"betas": (d.beta,), "zetas": (d.zeta,)}, filters,
-                                               pcs, fs, {"betas": QUICK_BETAS, "zetas": QUICK_ZETAS})
+        design, record = tune_with_own_filters(
+            tune, lambda d: {"betas": (d.beta,), "zetas": (d.zeta,)}, filters, ballscrew_resonances(pcs, fs),
+            lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, d.tuning["first_crossover_hz"]), fs,
+            {"betas": QUICK_BETAS, "zetas": QUICK_ZETAS})
         if design is None:
             raise DesignError(f"no MC-PPC meets the limits ({policy.describe()}) in the {case} case with or without "
                               "the filters tried")

@@ -50,7 +50,7 @@ from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
 from ..analysis.margins import crossings
-from ..analysis.mimo import com_loop, matmul, sensitivity, singular_values
+from ..analysis.mimo import com_loop, sensitivity, singular_values
 from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
 from ..control.filters import TWO_PI, FilterPack
 from ..control.gantry import PidLaw
@@ -59,9 +59,9 @@ from ..design.gantry_pid import GantryPidDesign, design_gantry_pid, pid_gains
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
-from .filter_choice import KEEP_GAIN, merge_resonances, resonance_peaks, sensitivity_peaks
+from .filter_choice import KEEP_GAIN, merge_resonances
 from .filter_choice import choose_filters as own_filters
-from .gantry_cases import frf_positions, schedule_grid, top_line_doubt
+from .gantry_cases import frf_positions, gantry_resonances, gantry_sensitivity_peaks, schedule_grid, top_line_doubt
 from .search import EdgeResult, Probe, SearchResult, feasibility_edge, pattern_search, robust_frfs
 
 ZETA_BOUNDS = (0.3, 1.0)
@@ -407,31 +407,6 @@ SCREEN_RTOL = 1e-2
 """Bracket [-] of the bandwidth edge when screening a filter."""
 
 
-def plant_resonances(case: _Case, fs: float, n: int = 3, prominence_db: float = 6.0) -> list[tuple[float, float]]:
-    """The ``n`` most prominent resonances ``(Hz, damping)`` of the checked plant.
-
-    Without an FRF, the model's lightly damped poles; with one, the peaks of ``sigma_max(G) (2 pi f)^2`` (flat for
-    the rigid body) that stand ``prominence_db`` [dB] above their surroundings
-    (:func:`feedtune.tune.filter_choice.resonance_peaks`).
-    """
-    pc = case.pc
-    if not pc.measured:
-        feats = [(float(f), float(z)) for f, z in np.asarray(pc.features).reshape(-1, 2) if 0 < f < 0.45 * fs]
-        return sorted(feats, key=lambda fz: fz[1])[:n]
-    f = pc.freq_hz
-    return resonance_peaks(f, singular_values(pc.plant(f))[0] * (TWO_PI * f) ** 2, n, prominence_db)
-
-
-def _sensitivity_peaks(problem: _Problem, law: PidLaw, above_hz: float) -> list[float]:
-    """The peaks of ``sigma_max(S)`` above ``above_hz`` [Hz] on every case, in order of height over the cases."""
-    peaks = []
-    for case in problem.cases:
-        f = case.pc.freq_hz
-        K = law.response_discrete(f) if case.pc.discrete else law.response(f)
-        peaks.extend(sensitivity_peaks(f, singular_values(sensitivity(matmul(case.Ge, K)))[0], above_hz))
-    return list(dict.fromkeys(peaks))
-
-
 def choose_filters(problem: _Problem, given: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
     """The tuner's own filter pack (:func:`feedtune.tune.filter_choice.choose_filters`): ``(pack, SearchResult or
     None, record)``. Candidates are screened at the winner's shape (the bandwidth edge to ``SCREEN_RTOL``, pruned
@@ -452,8 +427,9 @@ def choose_filters(problem: _Problem, given: FilterPack, zeta_bounds, rho_bounds
 
     return own_filters(given, run=lambda pack: _Search(problem, pack, zeta_bounds, rho_bounds, scan).run(),
                        objective=lambda r: r.edge.best.crossover_hz, screen=screen, refine=refine,
-                       resonances=merge_resonances([plant_resonances(c, problem.fs) for c in problem.cases]),
-                       peaks=lambda r: _sensitivity_peaks(problem, r.edge.best.result[0], r.edge.best.crossover_hz),
+                       resonances=merge_resonances([gantry_resonances(c.pc, problem.fs) for c in problem.cases]),
+                       peaks=lambda r: gantry_sensitivity_peaks([(r.edge.best.result[0], c.pc) for c in problem.cases],
+                                                                r.edge.best.crossover_hz),
                        fs=problem.fs)
 
 

@@ -74,7 +74,8 @@ from ..design.ppi import PpiDesign, design_ppi
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .ballscrew_filters import tune_with_own_filters
+from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
+from .filter_choice import tune_with_own_filters
 from .search import CheckedCases, robust_frfs
 
 CROSSOVER_TIE = 0.02
@@ -462,7 +463,9 @@ def tune_ppi(
             return tune_ppi(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
                             frf=frfs or None, crossover_tie=crossover_tie)
 
-        design, record = tune_with_own_filters(tune, lambda d: {}, filters, pcs, fs)
+        design, record = tune_with_own_filters(
+            tune, lambda d: {}, filters, ballscrew_resonances(pcs, fs),
+            lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, d.tuning["first_crossover_hz"]), fs)
         if design is None:
             raise DesignError(f"no P-PI meets the limits ({policy.describe()}) in the {case} case with or without "
                               "the filters tried")
