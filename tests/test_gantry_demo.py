@@ -78,3 +78,19 @@ def test_demo_command_refuses_an_unknown_machine(tmp_path):
     assert isinstance(res.exception, UsageError) and "unknown machine 'lathe'" in str(res.exception)
     assert res.exception.exit_code == 2
     assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.slow
+def test_every_gantry_design_meets_the_limits_at_every_measured_position(demo, tmp_path):
+    """Tuned on the FRFs of all three positions, each design's certificate (the analysis of ``feedtune analyze
+    GAINS --frf F`` at F's position) passes on each; tuned at x = 0 alone, the MIMO law was unstable at 0.3 m."""
+    from feedtune.io import read_document, read_frf
+    from feedtune.machines.certificate import certify
+    from feedtune.workflows.files import write_texts
+
+    write_texts(demo.texts, out_dir=tmp_path)
+    frfs = [(n, read_frf(tmp_path / n)) for n in ("frf_x-0.3_frf.csv", "frf_x0_frf.csv", "frf_x0.3_frf.csv")]
+    assert [f.position_m for _, f in frfs] == [-0.3, 0.0, 0.3]
+    for name in ("mimo", "pid", "pid_own"):
+        cert = certify(read_document(tmp_path / f"{name}_gains.toml"), name, frfs)
+        assert cert.ok, (name, [c.check.violations for c in cert.frfs])

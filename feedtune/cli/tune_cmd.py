@@ -44,7 +44,7 @@ FILTERS_OPTION = typer.Option(
     None, "--filters", metavar="own|identical",
     help="own: the tuner places notches and a low-pass where they raise the guaranteed crossover (--notch/--lpf "
          "are candidates, and the pack they form as a whole; --lead stages are kept); identical: the pack as "
-         "given. Default: identical with --notch or --lpf, else own. loopshape keeps the given pack.")
+         "given. Default: identical with --notch or --lpf, else own.")
 
 
 def _filter_choice(choice: str | None, notch, lpf) -> str:
@@ -141,8 +141,8 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
 
 def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | None, fs: float,
                delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool) -> None:
-    """Tune an x axis by loop shaping on every FRF (the given filter pack), certify, write, print."""
-    from ..errors import DesignError, UsageError
+    """Tune an x axis by loop shaping on every FRF, certify, write, print."""
+    from ..errors import DesignError
     from ..io import load_model, write_document
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
@@ -151,9 +151,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     from ..tune.loopshape import tune_loopshape
     from .frf_options import read_optional_frf
 
-    if filters == "own":
-        raise UsageError("--filters own: the loop-shaping tuner keeps the given filter pack (--notch, --lpf); "
-                         "use --filters identical or leave it out")
+    choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
     if out is not None:
         ensure_writable(out, force)
     if plant_file.suffix.lower() in (".toml", ".json"):
@@ -162,7 +160,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
         plant = read_optional_frf(plant_file, quantity)
     frfs = _frfs(frf, quantity)
     design = tune_loopshape(plant, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
-                            frf=[f for _, f in frfs] or None)
+                            frf=[f for _, f in frfs] or None, filter_choice=choice)
     doc = axis_gains_document(design)
     cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
     doc["certificate"] = strip_none(cert.to_dict())
@@ -181,7 +179,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     typer.echo(f"x-axis loop shaping tuned: crossover {fmt(tuning['crossover_hz'], 'Hz')}, PM target "
                f"{fmt(tuning['pm_target_deg'], 'deg')}, integral lag {fmt(tuning['pi_lag_deg'], 'deg')}, "
                f"{tuning['lead_stages']} lead stage(s)")
-    print_filters(result["filters"], {"choice": "identical"})
+    print_filters(result["filters"], tuning.get("filters", {"choice": choice}))
     print_certificate(result["certificate"])
     if out is not None:
         typer.echo(f"wrote {out}")
@@ -302,8 +300,8 @@ def tune(
     rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. gantry tunes the MIMO law of
     eq. 4.30 (CoM crossover, phase-margin target, active damping, integral gain), pid the independent PIDs (with
     --filters own, both also the notches and low-pass of h(s)); each gantry FRF is checked at its table position.
-    loopshape tunes an x axis (eq. 4.17-4.18) with the given filter pack. Without --frf, on the model in the ideal
-    discrete case.
+    loopshape tunes an x axis (eq. 4.17-4.18), with --filters own also its notches and low-pass. Without --frf, on the
+    model in the ideal discrete case.
 
     Example: feedtune tune gantry gantry_model.toml --frf frf_x-0.3.csv --frf frf_x0.3.csv --notch 110,0.5,0.7
     --lpf 450 --lead 154,70 -o mimo_gains.toml"""

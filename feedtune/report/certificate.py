@@ -45,6 +45,7 @@ def certificate_blocks(designs: Sequence, frfs: Sequence[tuple[str, object]], do
 
     blocks: list = []
     for d in designs:
+        title = d.label if d.name in d.label else f"{d.label} ({d.name})"
         cert = certify(docs[d.name], d.name, frfs, limits.policy)
         store[d.name]["certificate"] = cert.to_dict()
         rows = []
@@ -63,7 +64,7 @@ def certificate_blocks(designs: Sequence, frfs: Sequence[tuple[str, object]], do
                      text_cell("-" if w["active_limit"] is None else
                                f"{w['active_limit']['name']} on {w['active_limit']['frf']}"),
                      text_cell("ok" if w["ok"] else "fails")])
-        blocks.append(Table(f"Certificate of {d.label} ({d.name}) on every measured FRF, discrete case, "
+        blocks.append(Table(f"Certificate of {title} on every measured FRF, discrete case, "
                             f"{limits.policy.describe()}",
                             ["FRF", "stable", "first crossover", "Ms", "Ms at", "PM", "GM", "disk margin",
                              "active limit", "verdict"], rows,
@@ -72,7 +73,7 @@ def certificate_blocks(designs: Sequence, frfs: Sequence[tuple[str, object]], do
         curves = [Curve(c.analysis.cases[c.checked_case].freq_hz, _s_magnitude(c.analysis.cases[c.checked_case].S),
                         c.name, PALETTE[k % len(PALETTE)]) for k, c in enumerate(cert.frfs)]
         peaks = {c.name: (float(c.metrics.ms_freq_hz), float(c.metrics.ms)) for c in cert.frfs}
-        blocks.append(FigureBlock(f"design-certificate-{d.name}", f"|S| of {d.label} ({d.name}) on every measured "
+        blocks.append(FigureBlock(f"design-certificate-{d.name}", f"|S| of {title} on every measured "
                                   "FRF (discrete case; sigma_max(S) for a gantry) with the Ms limit.",
                                   sensitivity_figure(curves, peaks, limits.ms_max)))
     return blocks

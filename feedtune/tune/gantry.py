@@ -43,7 +43,7 @@ PM_TARGETS_DEG = (30.0, 40.0, 50.0)
 """CoM phase-margin targets searched [deg] (thesis: 40)."""
 DAMPING_INCREASES = (2.0, 4.0, 5.9, 8.0)
 """Increases of the torsional damping by active damping searched [-] (thesis: 5.9 = +590 %)."""
-INTEGRAL_LAGS_DEG = (5.0, 10.0, 20.0, 30.0)
+INTEGRAL_LAGS_DEG = (5.0, 10.0, 20.0)
 """Phase lags of the actuator-level integral at the crossover searched at the best shape [deg] (thesis rule: 10;
 ``ki = K_D wc tan(lag)``)."""
 QUICK_PM, QUICK_DAMPING = (40.0,), (5.9,)

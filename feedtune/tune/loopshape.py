@@ -43,6 +43,7 @@ from ..control.prefilter import PrefilterGains
 from ..design.loopshape import LoopShapeDesign, axis_plant, design_loopshape
 from ..errors import DesignError, UsageError
 from ..frf import Frf
+from .filter_choice import choose_filters, merge_resonances, resonance_peaks, sensitivity_peaks
 from .search import (
     Probe,
     SearchResult,
@@ -154,6 +155,11 @@ class _AxisSearch:
         """The shape search over the box (the first edge from ``ref``, a passing probe of another stage count)."""
         return pattern_search(self.edge, ("pm_deg", "pi_lag_deg"), self.bounds, ref=ref)
 
+    def run_from(self, shape: tuple, probe: Probe) -> SearchResult | None:
+        """A local shape search from ``shape``, whose edge is expected near that of ``probe``."""
+        return pattern_search(self.edge, ("pm_deg", "pi_lag_deg"), self.bounds, initial=shape,
+                              ref=(tuple(shape), probe))
+
 
 def _stable(metrics) -> bool:
     return bool(metrics.stable and metrics.nyquist_reliable)
@@ -182,6 +188,7 @@ def tune_loopshape(
     pm_bounds=None,
     pi_lag_bounds=None,
     stages=STAGES,
+    filter_choice: str = "identical",
 ) -> LoopShapeDesign:
     """The loop-shaping design of an axis with the highest first crossover that meets the limits.
 
@@ -216,6 +223,10 @@ def tune_loopshape(
         The shape box [deg] (default ``PM_BOUNDS``, ``PI_LAG_BOUNDS``).
     stages : sequence of int
         Numbers of lead stages searched.
+    filter_choice : {"identical", "own"}
+        ``identical``: the filter pack as given; ``own``: the tuner places notches and a low-pass
+        (:func:`feedtune.tune.filter_choice.choose_filters`; the given filters are candidates, its leads are kept),
+        recorded in ``tuning["filters"]``.
 
     Returns
     -------
@@ -244,10 +255,15 @@ def tune_loopshape(
     if not counts or any(n < 1 for n in counts):
         raise UsageError(f"stages must be integers >= 1, got {stages!r}")
 
-    def make(xo, pm, lag, n):
-        return design_loopshape(ap, crossover_hz=xo, pm_deg=pm, pi_lag_deg=lag, filters=pack, fs=fs,
-                                delay_samples=delay_samples, prefilter=prefilter, prefilter_hz=prefilter_hz,
-                                stages=n)
+    if filter_choice not in ("identical", "own"):
+        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
+
+    def maker(filters: FilterPack):
+        def make(xo, pm, lag, n):
+            return design_loopshape(ap, crossover_hz=xo, pm_deg=pm, pi_lag_deg=lag, filters=filters, fs=fs,
+                                    delay_samples=delay_samples, prefilter=prefilter, prefilter_hz=prefilter_hz,
+                                    stages=n)
+        return make
 
     trial = design_loopshape(ap, crossover_hz=min(10.0, fs / 20), pm_deg=45.0, filters=pack, fs=fs,
                              delay_samples=delay_samples)
@@ -266,19 +282,31 @@ def tune_loopshape(
         lines = ap.frf.freq_hz[ap.frf.freq_hz > 0]
         bottom, top = max(bottom, float(lines[0]) * 1.25), min(top, float(lines[-1]) / 1.25)
     scan = np.geomspace(bottom, top, SCAN_POINTS)
-    results = {}
-    ref = None
-    for n in counts:
-        r = _AxisSearch(axis_cases, make, n, (pmb, lagb), scan).run(ref)
-        results[n] = r
-        if r is not None:
-            ref = (r.point, r.edge.best)
-    found = {n: r for n, r in results.items() if r is not None}
-    if not found:
+
+    def search(filters: FilterPack):
+        """``(best stage count, its SearchResult, every count's result)`` with a filter pack, or None."""
+        results = {}
+        ref = None
+        for n in counts:
+            r = _AxisSearch(axis_cases, maker(filters), n, (pmb, lagb), scan).run(ref)
+            results[n] = r
+            if r is not None:
+                ref = (r.point, r.edge.best)
+        found = {n: r for n, r in results.items() if r is not None}
+        if not found:
+            return None
+        n_best = max(found, key=lambda n: (found[n].edge.best.crossover_hz, -n))
+        return n_best, found[n_best], results
+
+    filter_record = {"choice": "identical", "why": "the filters given are used as they are"}
+    if filter_choice == "own":
+        pack, outcome, filter_record = _own_filters(pack, search, axis_cases, maker, (pmb, lagb), scan, fs)
+    else:
+        outcome = search(pack)
+    if outcome is None:
         raise DesignError(f"no loop-shaping design meets the limits ({policy.describe()}) in the {name} case; "
                           "relax the limits or change the filters")
-    n_best = max(found, key=lambda n: (found[n].edge.best.crossover_hz, -n))
-    best = found[n_best]
+    n_best, best, results = outcome
     design, metrics, _ = best.edge.best.result
     stable = {}
     for i, cases in enumerate(all_cases):
@@ -318,6 +346,48 @@ def tune_loopshape(
                    "best_per_stages_hz": {str(n): (None if r is None else float(r.edge.best.crossover_hz))
                                           for n, r in results.items()},
                    "checks": sum(c.checks for c in axis_cases), "seconds": round(time.perf_counter() - t0, 3)},
+        "filters": filter_record,
         "warnings": warnings,
     }
     return replace(design, tuning=tuning)
+
+
+def _own_filters(given: FilterPack, search, axis_cases: list, maker, bounds, scan: np.ndarray, fs: float):
+    """The tuner's own filter pack (:func:`feedtune.tune.filter_choice.choose_filters`): ``(pack, outcome of
+    search or None, record)``. Resonances: the peaks of the accelerance ``|G| (2 pi f)^2`` of every FRF (the model's
+    lightly damped poles without one); sensitivity peaks: of ``|S|`` of the current design on every FRF."""
+
+    def objective(outcome) -> float:
+        return float(outcome[1].edge.best.crossover_hz)
+
+    def screen(pack: FilterPack, outcome, beat: float):
+        n, r, _ = outcome
+        e = _AxisSearch(axis_cases, maker(pack), n, bounds, scan).edge(tuple(r.point), (r.point, r.edge.best), beat)
+        note = None if not e.pruned else (f"fails at {e.fail_scale:.4g} Hz, where the crossover is still below "
+                                          f"{beat:.4g} Hz: it cannot raise it")
+        return (None if e.best is None else e.best.crossover_hz), e.best, note
+
+    def refine(pack: FilterPack, outcome, probe):
+        n, r, results = outcome
+        local = _AxisSearch(axis_cases, maker(pack), n, bounds, scan).run_from(tuple(r.point), probe)
+        return None if local is None else (n, local, {**results, n: local})
+
+    def resonances_of(c: _AxisCase) -> list:
+        pc = c.pc
+        if not pc.measured:
+            feats = [(float(f), float(z)) for f, z in np.asarray(pc.features).reshape(-1, 2) if 0 < f < 0.45 * fs]
+            return sorted(feats, key=lambda fz: fz[1])[:3]
+        f = pc.freq_hz
+        return resonance_peaks(f, np.abs(pc.plant(f)).reshape(-1) * (2 * np.pi * f) ** 2)
+
+    def peaks(outcome) -> list[float]:
+        design = outcome[1].edge.best.result[0]
+        found = []
+        for c in axis_cases:
+            f = c.pc.freq_hz
+            s = np.abs(1.0 / (1.0 + c.Ge * design.controller_discrete().freqresp(f)))
+            found.extend((float(np.interp(p, f, s)), p) for p in sensitivity_peaks(f, s, objective(outcome)))
+        return [p for _, p in sorted(found, reverse=True)[:2]]
+
+    return choose_filters(given, run=search, objective=objective, screen=screen, refine=refine,
+                          resonances=merge_resonances([resonances_of(c) for c in axis_cases]), peaks=peaks, fs=fs)

@@ -11,8 +11,9 @@
    x = 0, with the notches and low-pass of section 4.4.1), the MIMO law of eq. 4.30
    (:func:`feedtune.tune.gantry.tune_gantry_mimo`, with the filter pack of section 4.4.2) and the independent PIDs
    (:func:`feedtune.tune.pid.tune_gantry_pid`) twice: with the MIMO design's notches and low-pass (the thesis'
-   rule, and the MIMO tuner's: filters fixed, gains searched) and choosing their own filters; each checked on the
-   FRF at x = 0;
+   rule, and the MIMO tuner's: filters fixed, gains searched) and choosing their own filters; the gantry
+   controllers on the FRFs of all three positions (each at its position: the limits on every one; tuned at x = 0
+   alone, the MIMO law was unstable at x = 0.3 m), each then checked on the FRF at x = 0;
 4. the gains files exported and read back as the runtimes run them (``GantryRuntime``/``AxisRuntime``), and
    with the three gantry controllers, on the twin with its own trip limits: the 57 N rope snap, tracking at 1 mm/s and
    200 mm/s, and circle and diamond contours (a run that trips is reported as tripped);
@@ -83,7 +84,8 @@ class GantryDemoResult:
         from .comparison import verdict_line
 
         lines = [f"Limits: {self.limits.get('profile')}; every controller tuned for the highest first crossover under "
-                 "them on the FRFs measured at x = 0 (discrete case):"]
+                 "them (discrete case): the gantry ones on the FRFs of every table position measured, the x axis on "
+                 "its FRF; figures at x = 0:"]
         for name in (*CONTROLLERS, "axis"):
             d = self.designs.get(name)
             if d:
@@ -187,9 +189,10 @@ def _figures(label: str, design, check, checked: str, analysis: dict) -> dict:
             "stable_measured": analysis[checked]["stable"]}
 
 
-def _design(twin, fit, frf0, axis_frf, texts, policy):
-    """Axis, MIMO and PID designs tuned under ``policy`` on the identified model and the FRFs measured at x = 0,
-    checked there (DesignError when a tuned design fails its own check), exported and read back as runtimes."""
+def _design(twin, fit, frfs, frf0, axis_frf, texts, policy):
+    """Axis, MIMO and PID designs tuned under ``policy`` on the identified model, the gantry ones on every 2x2 FRF
+    (``frfs``, each at its recorded position), checked on the FRFs measured at x = 0 (DesignError when a tuned
+    design fails its own check), exported and read back as runtimes."""
     from ..analysis.gantry import analyze_axis, analyze_gantry
     from ..analysis.limits import check_analysis
     from ..io import dumps_json, dumps_toml
@@ -206,9 +209,9 @@ def _design(twin, fit, frf0, axis_frf, texts, policy):
     h = _filters(MIMO_DESIGN)
     pid_identical_filters = type(h)(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta, ())  # the thesis' rule
     tuned = {
-        "mimo": tune_gantry_mimo(model, filters=h, frf=frf0, **common),
-        "pid": tune_gantry_pid(model, filters=pid_identical_filters, filter_choice="identical", frf=frf0, **common),
-        "pid_own": tune_gantry_pid(model, filter_choice="own", frf=frf0, **common),
+        "mimo": tune_gantry_mimo(model, filters=h, frf=frfs, **common),
+        "pid": tune_gantry_pid(model, filters=pid_identical_filters, filter_choice="identical", frf=frfs, **common),
+        "pid_own": tune_gantry_pid(model, filter_choice="own", frf=frfs, **common),
     }
     designs, runtimes = {}, {}
     for name, design in tuned.items():
@@ -330,7 +333,7 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     texts: dict = {}
     frfs, mass_logs, axis_log, axis_frf = _measure(twin, xs, seed, engine, texts, keep_raw)
     fit, mass, m_x = _identify(twin, xs, frfs, mass_logs, axis_log, texts)
-    designs, runtimes = _design(twin, fit, frfs[xs.index(0.0)], axis_frf, texts, policy)
+    designs, runtimes = _design(twin, fit, frfs, frfs[xs.index(0.0)], axis_frf, texts, policy)
     rows = [{"test": "design:", **{c: {k: designs[c][k] for k in ("crossover_hz", "ms")} for c in CONTROLLERS}}]
     rows += _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts)
     for row in rows[1:]:
