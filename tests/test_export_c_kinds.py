@@ -176,7 +176,7 @@ def test_options_are_checked():
 
 def test_export_refuses_what_the_runtime_refuses():
     bad = {**MIMO, "controller": "lqr"}
-    with pytest.raises(DataError, match="controller 'lqr' unknown"):
+    with pytest.raises(DataError, match="controller: expected one of 'mimo', 'pid', got 'lqr'"):
         c_header(bad)
     with pytest.raises(DataError, match="kind 'spindle' unknown"):
         c_header({**MIMO, "kind": "spindle"})

@@ -201,8 +201,8 @@ def _broken(mutate):
 @pytest.mark.parametrize("mutate, words", [
     (lambda d: d.update(kind="lathe"), "kind 'lathe'"),
     (lambda d: d.update(schema="feedtune.gains/2"), "not supported"),
-    (lambda d: d.update(controller="lqr"), "controller 'lqr'"),
-    (lambda d: d.pop("schedule"), "[schedule]"),
+    (lambda d: d.update(controller="lqr"), "controller: expected one of 'mimo', 'pid', got 'lqr'"),
+    (lambda d: d.pop("schedule"), "schedule is missing"),
     (lambda d: d["filters"].pop("lead_sos"), "filters.lead_sos"),
     (lambda d: d["reference"].pop("acceleration_sos"), "reference.acceleration_sos"),
     (lambda d: d["gains"].pop("beta"), "gains.beta"),
@@ -210,7 +210,7 @@ def _broken(mutate):
     (lambda d: d["schedule"].update(x=list(reversed(d["schedule"]["x"]))), "strictly increasing"),
     (lambda d: d["schedule"].update(alpha1=[0.5]), "schedule.alpha1"),
     (lambda d: d["sampling"].update(delay_samples=-1), "delay_samples"),
-    (lambda d: d["filters"].update(filter_pack_sos=[[1, 2, 3]]), "6 coefficients"),
+    (lambda d: d["filters"].update(filter_pack_sos=[[1, 2, 3]]), "filters.filter_pack_sos[0]: expected at least 6"),
 ])
 def test_bad_files_give_one_line_errors(mutate, words):
     with pytest.raises(DataError) as info:

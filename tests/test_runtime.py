@@ -108,9 +108,9 @@ def _broken(edit):
         (lambda d: d["filters"].update(filter_pack_sos=[[1, 0, 0, 0, 0, 0]]), "a0 = 0"),
         (lambda d: d["reference"].update(rotary_sos=[[1, 2, 3]]), "reference.rotary_sos[0]"),
         (lambda d: d["reference"].pop("table_sos"), "reference.table_sos"),
-        (lambda d: d["sampling"].update(fs_hz={"value": -1.0, "unit": "Hz"}), "fs_hz must be > 0"),
+        (lambda d: d["sampling"].update(fs_hz={"value": -1.0, "unit": "Hz"}), "sampling.fs_hz: must be > 0"),
         (lambda d: d["sampling"].update(delay_samples=-1), "delay_samples"),
-        (lambda d: d.pop("sampling"), "[sampling]"),
+        (lambda d: d.pop("sampling"), "sampling is missing"),
     ],
 )
 def test_bad_gains_documents_are_one_line_data_errors(edit, needle):

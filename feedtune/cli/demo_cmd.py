@@ -40,19 +40,13 @@ def demo(
     rope snap, tracking at 1 and 200 mm/s, contours.
     """
     from ..machines import get_machine
+    from ..workflows import run_machine_demo
     from ..workflows.files import check_out_dir, write_texts
 
     get_machine(machine)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_out_dir(out, force)
-    if machine == "gantry":
-        from ..workflows.gantry_demo import run_gantry_demo
-
-        result = run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=policy)
-    else:
-        from ..workflows.ballscrew_demo import run_demo
-
-        result = run_demo(seed=seed, engine=engine, limits=policy)
+    result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw)
     written = write_texts(result.texts, force=force, out_dir=out)
     report_path = write_demo_report(out, force, machine, policy)
     if as_json:
@@ -63,40 +57,10 @@ def demo(
         d["report"] = str(report_path)
         print_json(d)
         return
-    if machine == "ballscrew":
-        _print_ballscrew_designs(result)
-    typer.echo(result.table())
+    typer.echo(result.summary())
     typer.echo("")
     typer.echo(f"wrote {len(written)} files to {out}")
     typer.echo(f"report: {report_path}")
-
-
-def _print_ballscrew_designs(result) -> None:
-    from ..analysis.limits import Limits
-
-    ident = result.identified
-    typer.echo(
-        "Identified from the measured FRF: "
-        + ", ".join(f"{k} = {v:.4g} {ident['units'].get(k, '')}" for k, v in ident["params"].items())
-    )
-    lim = result.limits
-    typer.echo("Both controllers tuned under the same limits ("
-               + Limits(lim["ms_max"], lim["pm_min_deg"], lim["gm_min_db"], lim["disk_margin_min"],
-                        lim["profile"]).describe()
-               + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same rule: the highest "
-                 "first crossover; within 2 % of it the highest integral gain Ki2")
-    labels = {"mcppc": "MC-PPC", "ppi": "P-PI"}
-    for name, d in result.designs.items():
-        if name not in labels:
-            continue
-        params = d.get("design") or d.get("ppi_gains") or {}
-        chosen = ", ".join(f"{k} = {v:.4g}" for k, v in params.items())
-        crossovers = ", ".join(f"{x:.1f}" for x in d["crossovers_hz"])
-        pm = "-" if d["phase_margin_deg"] is None else f"{d['phase_margin_deg']:.3g} deg"
-        gm = "-" if d["gain_margin_db"] is None else f"{d['gain_margin_db']:.3g} dB"
-        typer.echo(f"{labels[name]} ({chosen}): crossovers {crossovers} Hz, Ms {d['ms']:.3g}, PM {pm}, GM {gm}, "
-                   f"Ki2 {d['gains']['Ki2']:.4g} V/(rad s); limit reached: {d['active_limit']}")
-    typer.echo("")
 
 
 REPORT_NAME = "report.html"

@@ -185,6 +185,9 @@ def check_gains_header(doc, where: str) -> None:
         raise DataError(f"{where}: gains schema {schema!r} is not supported; this feedtune reads version 1")
     if doc.get("kind") != "ballscrew":
         raise DataError(f"{where}: gains file is for machine kind {doc.get('kind')!r}, expected 'ballscrew'")
+    from .gains_schema import validate_gains
+
+    validate_gains(doc, where)
 
 
 def check_ballscrew_gains(doc: dict, where: str) -> None:

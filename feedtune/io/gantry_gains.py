@@ -98,6 +98,9 @@ def check_header(doc, where: str, kinds: tuple[str, ...] = (GANTRY_KIND, AXIS_KI
     kind = doc.get("kind")
     if kind not in kinds:
         raise DataError(f"{where}: gains file is for machine kind {kind!r}, expected {' or '.join(map(repr, kinds))}")
+    from .gains_schema import validate_gains
+
+    validate_gains(doc, where)
     return str(kind)
 
 

@@ -119,12 +119,16 @@ def gains_kinds() -> dict[str, Machine]:
 
 
 def machine_of_gains(doc: Mapping, where: str) -> Machine:
-    """The machine that executes a gains document, by its ``kind``; DataError naming the known kinds."""
+    """The machine that executes a gains document, by its ``kind``, once the document is valid
+    (:func:`feedtune.io.gains_schema.validate_gains`: one-line DataError naming the file and key)."""
+    from ..io.gains_schema import validate_gains
+
     kinds = gains_kinds()
     kind = doc.get("kind") if isinstance(doc, Mapping) else None
-    if kind not in kinds:
+    if not isinstance(kind, str) or kind not in kinds:
         known = ", ".join(repr(k) for k in kinds)
         raise DataError(f"{where}: gains file kind {kind!r} unknown; expected one of {known}")
+    validate_gains(doc, where)
     return kinds[kind]
 
 

@@ -1,1 +1,50 @@
 """Pipelines across stages: the demos (measure, identify, tune, test, compare) and the files they write."""
+
+from __future__ import annotations
+
+
+def _ballscrew_demo(*, seed, engine, limits, keep_raw):
+    from .ballscrew_demo import run_demo
+
+    return run_demo(seed=seed, engine=engine, limits=limits)
+
+
+def _gantry_demo(*, seed, engine, limits, keep_raw):
+    from .gantry_demo import run_gantry_demo
+
+    return run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=limits)
+
+
+DEMOS = {"ballscrew": _ballscrew_demo, "gantry": _gantry_demo}
+"""The demo pipeline of each registered machine (a new machine adds one entry)."""
+
+
+def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limits=None, keep_raw: bool = False):
+    """The demo of a registered machine (:func:`feedtune.machines.get_machine`): measure, identify, tune, test and
+    compare on its twin; nothing is written.
+
+    Parameters
+    ----------
+    machine : str
+        ``ballscrew`` or ``gantry`` (UsageError for another name).
+    seed : int
+        Seed of the excitation phases and the measurement noise.
+    engine : str
+        Simulation engine: ``auto``, ``numba`` or ``python``.
+    limits : Limits, optional
+        The limits every controller is tuned and checked under (default: ``textbook``).
+    keep_raw : bool
+        Also keep the raw excitation logs (gantry).
+
+    Returns
+    -------
+    DemoResult or GantryDemoResult
+        ``texts`` (the files), ``to_dict()``, ``summary()`` (what ``feedtune demo`` prints).
+    """
+    from ..errors import UsageError
+    from ..machines import get_machine
+
+    get_machine(machine)
+    if machine not in DEMOS:
+        raise UsageError(f"machine {machine!r} has no demo; demos: {', '.join(DEMOS)}")
+    return DEMOS[machine](seed=seed, engine=engine, limits=limits, keep_raw=keep_raw)

@@ -70,6 +70,33 @@ class DemoResult:
                 "units": {"max_um": "um", "rms_um": "um", "peak_um": "um", "settling_time_s": "s",
                           "speed": "mm/s"}}
 
+    def summary(self) -> str:
+        """What the demo prints: the identified model, both tuned designs with the limits and the rule, and the
+        comparison (:meth:`table`)."""
+        from ..analysis.limits import Limits
+
+        ident = self.identified
+        lines = ["Identified from the measured FRF: "
+                 + ", ".join(f"{k} = {v:.4g} {ident['units'].get(k, '')}" for k, v in ident["params"].items())]
+        lim = self.limits
+        lines.append("Both controllers tuned under the same limits ("
+                     + Limits(lim["ms_max"], lim["pm_min_deg"], lim["gm_min_db"], lim["disk_margin_min"],
+                              lim["profile"]).describe()
+                     + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same rule: the "
+                       "highest first crossover; within 2 % of it the highest integral gain Ki2")
+        labels = {"mcppc": "MC-PPC", "ppi": "P-PI"}
+        for name, d in self.designs.items():
+            if name not in labels:
+                continue
+            params = d.get("design") or d.get("ppi_gains") or {}
+            chosen = ", ".join(f"{k} = {v:.4g}" for k, v in params.items())
+            crossovers = ", ".join(f"{x:.1f}" for x in d["crossovers_hz"])
+            pm = "-" if d["phase_margin_deg"] is None else f"{d['phase_margin_deg']:.3g} deg"
+            gm = "-" if d["gain_margin_db"] is None else f"{d['gain_margin_db']:.3g} dB"
+            lines.append(f"{labels[name]} ({chosen}): crossovers {crossovers} Hz, Ms {d['ms']:.3g}, PM {pm}, GM {gm}, "
+                         f"Ki2 {d['gains']['Ki2']:.4g} V/(rad s); limit reached: {d['active_limit']}")
+        return "\n".join(lines) + "\n\n" + self.table()
+
     def table(self) -> str:
         """The comparison as text, laid out like Table 3.2 (plus MC-PPC with the pre-filter when run), with the
         limits and the rule both controllers were tuned by, and which one is better in each figure."""

@@ -79,6 +79,10 @@ class GantryDemoResult:
                 "units": {"max_um": "um", "rms_um": "um", "peak_um": "um", "settling_time_s": "s",
                           "crossover_hz": "Hz", "ms": "-"}}
 
+    def summary(self) -> str:
+        """What the demo prints: the comparison (:meth:`table`)."""
+        return self.table()
+
     def table(self) -> str:
         """The comparison as text: the limits and rules, the three controllers and the verdict against each PID."""
         from .comparison import verdict_line

@@ -1,0 +1,238 @@
+"""The schema of gains documents (every ``kind``), validated before anything executes, analyses or exports one.
+
+The structure (required tables and keys, types, ranges, sizes) is a JSON Schema (draft 2020-12) per kind,
+checked with the ``jsonschema`` library: the schema is a language-neutral document that users can publish and check
+their own files against (:func:`gains_schema` gives it), and its errors carry the path of the offending key. What a
+JSON Schema cannot say is checked after it, on the sections a target executes: every number finite and within
+float range (TOML allows ``nan``, ``inf`` and integers of any length), schedule positions strictly increasing, and
+every second-order section stable (poles inside the unit circle; a controller's integrator pole at ``z = 1`` is
+allowed where the law has one).
+
+Resource bounds: :data:`MAX_FS_HZ`, :data:`MAX_DELAY_SAMPLES`, :data:`MAX_PREVIEW_SAMPLES`, :data:`MAX_SECTIONS`,
+:data:`MAX_SCHEDULE_ROWS`, so that no document can make a runtime allocate without bound.
+
+:func:`validate_gains` raises :class:`~feedtune.errors.DataError` with one line naming the file and key, the same
+for ``export c``, ``analyze``, ``simulate`` and the runtimes (they all reach a gains document through
+:func:`feedtune.machines.registry.machine_of_gains`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..errors import DataError
+
+MAX_FS_HZ = 1e7
+"""Highest sample rate accepted [Hz]."""
+MAX_DELAY_SAMPLES = 1000
+"""Longest computational delay accepted [samples]."""
+MAX_PREVIEW_SAMPLES = 100_000
+"""Longest reference preview accepted [samples]."""
+MAX_SECTIONS = 256
+"""Most second-order sections in one cascade."""
+MAX_SCHEDULE_ROWS = 10_000
+"""Most rows of a gantry schedule table."""
+MAX_ABS = 1e300
+"""Largest magnitude of a number [-] (keeps products finite)."""
+POLE_MARGIN = 1e-9
+"""A section's pole must lie inside ``|z| < 1 - POLE_MARGIN`` (an integrator: within it of ``z = 1``)."""
+INTEGRATING_SOS = ("controller_sos",)
+"""Cascades that hold the law's own integrator (the x axis' PI): one pole at ``z = 1`` is allowed there."""
+
+_NUMBER = {"type": "number"}
+_QUANTITY = {"type": "object", "required": ["value", "unit"],
+             "properties": {"value": {"type": "number"}, "unit": {"type": "string"}}}
+_SOS = {"type": "array", "minItems": 1, "maxItems": MAX_SECTIONS,
+        "items": {"type": "array", "minItems": 6, "maxItems": 6, "items": _NUMBER}}
+_SAMPLING = {
+    "type": "object",
+    "required": ["fs_hz", "delay_samples"],
+    "properties": {
+        "fs_hz": {"anyOf": [
+            {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_FS_HZ},
+            {"type": "object", "required": ["value"], "properties": {
+                "value": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_FS_HZ},
+                "unit": {"const": "Hz"}}},
+        ]},
+        "delay_samples": {"type": "integer", "minimum": 0, "maximum": MAX_DELAY_SAMPLES},
+        "preview_samples": {"type": "integer", "minimum": 0, "maximum": MAX_PREVIEW_SAMPLES},
+    },
+}
+_UNITS = {"type": "object", "additionalProperties": {"type": "string"}}
+_GAINS = {"type": "object", "minProperties": 1,
+          "additionalProperties": {"anyOf": [_QUANTITY, _NUMBER]}}
+_CONTINUOUS = {"type": "object", "properties": {
+    "notches": {"type": "array", "maxItems": MAX_SECTIONS, "items": {"type": "object"}},
+    "leads": {"type": "array", "maxItems": MAX_SECTIONS, "items": {"type": "object"}},
+    "lpf_hz": {"type": ["number", "null"], "exclusiveMinimum": 0},
+    "lpf_order": {"enum": [1, 2]},
+    "lpf_zeta": {"type": "number", "exclusiveMinimum": 0},
+}}
+_COMMON = {
+    "schema": {"type": "string"},
+    "controller": {"type": "string"},
+    "sampling": _SAMPLING,
+    "units": _UNITS,
+    "gains": _GAINS,
+    "model": {"type": "object"},
+    "design": {"type": "object"},
+    "certificate": {"type": "object"},
+    "reference": {"type": "object", "patternProperties": {"_sos$": _SOS}},
+}
+_REQUIRED = ["kind", "sampling", "gains", "filters"]
+
+SCHEMAS = {
+    "ballscrew": {
+        "type": "object", "required": [*_REQUIRED, "reference"],
+        "properties": {**_COMMON, "kind": {"const": "ballscrew"},
+                       "filters": {"type": "object", "required": ["filter_pack_sos"],
+                                   "properties": {"filter_pack_sos": _SOS, "continuous": _CONTINUOUS}}},
+    },
+    "gantry": {
+        "type": "object", "required": [*_REQUIRED, "reference", "schedule"],
+        "properties": {
+            **_COMMON, "kind": {"const": "gantry"}, "controller": {"enum": ["mimo", "pid"]},
+            "filters": {"type": "object", "required": ["filter_pack_sos", "continuous"],
+                        "properties": {"filter_pack_sos": _SOS, "lead_sos": _SOS, "continuous": _CONTINUOUS,
+                                       "lead": {"type": "object"}}},
+            "schedule": {"type": "object", "required": ["x"], "properties": {
+                "units": _UNITS},
+                "additionalProperties": {"type": "array", "minItems": 1, "maxItems": MAX_SCHEDULE_ROWS,
+                                         "items": _NUMBER}},
+        },
+        "if": {"properties": {"controller": {"const": "mimo"}}},
+        "then": {"properties": {"filters": {"required": ["lead_sos", "lead"]}}},
+    },
+    "axis": {
+        "type": "object", "required": [*_REQUIRED, "feedforward", "reference"],
+        "properties": {**_COMMON, "kind": {"const": "axis"},
+                       "filters": {"type": "object", "required": ["controller_sos", "continuous"],
+                                   "properties": {"controller_sos": _SOS, "continuous": _CONTINUOUS,
+                                                  "lead_stages": {"type": "array", "maxItems": MAX_SECTIONS}}},
+                       "feedforward": {"type": "object", "required": ["mass"],
+                                       "properties": {"mass": {"anyOf": [_QUANTITY, _NUMBER]}}},
+                       "prefilter": {"type": "object"}},
+    },
+}
+"""The JSON Schema of each gains ``kind``."""
+
+CHECKED_SECTIONS = ("sampling", "gains", "filters", "reference", "schedule", "feedforward", "prefilter", "model")
+"""Sections whose numbers a target or the analysis uses (checked finite and in range)."""
+
+
+def gains_schema(kind: str) -> dict:
+    """The JSON Schema (draft 2020-12) of a gains document of ``kind``."""
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema",
+            "title": f"feedtune gains document, kind {kind}", **SCHEMAS[kind]}
+
+
+def _path(parts) -> str:
+    out = ""
+    for p in parts:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out
+
+
+def _finite(node, parts: list, where: str) -> None:
+    """Every number of ``node`` finite and within :data:`MAX_ABS` (DataError naming the key)."""
+    if isinstance(node, bool) or node is None or isinstance(node, str):
+        return
+    if isinstance(node, int):
+        if abs(node) > MAX_ABS or abs(node) > 2**63:
+            raise DataError(f"{where}: {_path(parts)}: integer with {len(str(abs(node)))} digits is out of range")
+        return
+    if isinstance(node, float):
+        if not math.isfinite(node) or abs(node) > MAX_ABS:
+            raise DataError(f"{where}: {_path(parts)}: value must be a finite number, got {node!r}")
+        return
+    if isinstance(node, Mapping):
+        for k, v in node.items():
+            _finite(v, [*parts, k], where)
+    elif isinstance(node, (list, tuple)):
+        for i, v in enumerate(node):
+            _finite(v, [*parts, i], where)
+
+
+def _stable_sections(name: str, sos, where: str) -> None:
+    """Every section of a cascade has ``a0 != 0`` and its poles inside the unit circle (DataError naming it)."""
+    for i, s in enumerate(sos):
+        a = np.asarray(s[3:], float)
+        if a[0] == 0:
+            raise DataError(f"{where}: {name}[{i}]: a0 = 0 (a section needs a0 != 0)")
+        poles = np.roots(a / a[0]) if np.any(a[1:]) else np.array([])
+        for p in poles:
+            if name.endswith(INTEGRATING_SOS) and abs(p - 1.0) <= POLE_MARGIN:
+                continue
+            if abs(p) >= 1.0 - POLE_MARGIN:
+                raise DataError(f"{where}: {name}[{i}]: section is unstable (pole at |z| = {abs(p):.6g}; a filter "
+                                "section must have its poles inside the unit circle)")
+
+
+def validate_gains(doc, where: str) -> str:
+    """Validate a gains document (module docstring); returns its ``kind``.
+
+    Raises
+    ------
+    DataError
+        One line: the file, the key and what was expected.
+    """
+    import jsonschema
+
+    if not isinstance(doc, Mapping):
+        raise DataError(f"{where}: a gains document must be a table of sections, got {type(doc).__name__}")
+    kind = doc.get("kind")
+    if not isinstance(kind, str) or kind not in SCHEMAS:
+        raise DataError(f"{where}: kind must be one of {', '.join(repr(k) for k in SCHEMAS)}, got {kind!r}")
+    for section in CHECKED_SECTIONS:
+        if section in doc:
+            _finite(doc[section], [section], where)
+    validator = jsonschema.Draft202012Validator(SCHEMAS[kind])
+    error = jsonschema.exceptions.best_match(validator.iter_errors(doc))
+    if error is not None:
+        parts = list(error.absolute_path)
+        if parts and parts[-1] == "value":  # a quantity {value, unit}: name the quantity
+            parts = parts[:-1]
+        if error.validator == "required":
+            missing = error.message.split("'")[1] if "'" in error.message else "?"
+            raise DataError(f"{where}: {_path([*parts, missing])} is missing")
+        raise DataError(f"{where}: {_path(parts) or 'document'}: {_message(error)}")
+    for section in ("filters", "reference"):
+        for name, sos in (doc.get(section) or {}).items():
+            if name.endswith("_sos"):
+                _stable_sections(f"{section}.{name}", sos, where)
+    sched = doc.get("schedule")
+    if isinstance(sched, Mapping):
+        x = np.asarray(sched["x"], float)
+        if np.any(np.diff(x) <= 0):
+            raise DataError(f"{where}: schedule.x: positions must be strictly increasing [m]")
+        for name, col in sched.items():
+            if name != "units" and len(col) != x.size:
+                raise DataError(f"{where}: schedule.{name}: {len(col)} rows, schedule.x has {x.size}")
+    return kind
+
+
+TYPE_WORDS = {"object": "a table", "array": "a list", "integer": "an integer", "number": "a number",
+              "string": "a string", "null": "nothing", "boolean": "true or false"}
+
+
+def _message(error) -> str:
+    """A short message for a jsonschema error (what was expected)."""
+    v = error.validator
+    if v == "type":
+        names = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
+        return f"expected {' or '.join(TYPE_WORDS.get(n, n) for n in names)}, got {error.instance!r}"[:160]
+    if v == "enum":
+        return f"expected one of {', '.join(map(repr, error.validator_value))}, got {error.instance!r}"[:160]
+    if v == "const":
+        return f"expected {error.validator_value!r}, got {error.instance!r}"[:160]
+    if v in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
+        word = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">", "exclusiveMaximum": "<"}[v]
+        return f"must be {word} {error.validator_value:g}, got {error.instance!r}"
+    if v in ("minItems", "maxItems", "minProperties"):
+        n = error.validator_value
+        what = ("key" if n == 1 else "keys") if v == "minProperties" else ("entry" if n == 1 else "entries")
+        return f"expected {'at least' if v.startswith('min') else 'at most'} {n} {what}, got {len(error.instance)}"
+    return error.message[:160]
