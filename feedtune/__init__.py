@@ -10,6 +10,13 @@ The library is the product; the ``feedtune`` command line is a thin layer over i
 * :mod:`feedtune.sim` -- trajectories, digital twins, the per-sample runtime of exported gains
 """
 
+import os as _os
+
+# numba caches compiled kernels beside the source unless told otherwise: never into the installed package
+_os.environ.setdefault("NUMBA_CACHE_DIR", _os.path.join(_os.environ.get("XDG_CACHE_HOME")
+                                                        or _os.path.join(_os.path.expanduser("~"), ".cache"),
+                                                        "feedtune", "numba"))
+
 from .errors import DataError, DesignError, FeedtuneError, UsageError
 from .frf import Frf
 from .log import Log

@@ -58,3 +58,19 @@ def fmt(x, unit: str = "", digits: int = 4) -> str:
     if x is None:
         return "-"
     return f"{x:.{digits}g}{(' ' + unit) if unit else ''}"
+
+
+def check_distinct_outputs(*named) -> None:
+    """Refuse (UsageError) two output options naming the same file: ``named`` holds ``(option, path)`` pairs."""
+    from pathlib import Path
+
+    from ..errors import UsageError
+
+    seen: dict = {}
+    for option, path in named:
+        if path is None:
+            continue
+        key = Path(path).resolve()
+        if key in seen:
+            raise UsageError(f"{option} {path} is also the file of {seen[key]}; give the outputs different names")
+        seen[key] = option

@@ -20,7 +20,7 @@ from .limits_options import (
 def demo(
     machine: str = typer.Argument("ballscrew", help="Which twin: ballscrew (thesis ch. 3) or gantry (ch. 4)."),
     out: Path = typer.Option(..., "--out", "-o", help="Folder for every file of the demo (created if missing)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the excitation phases and the measurement noise."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the excitation phases and the measurement noise."),
     engine: str = typer.Option("auto", "--engine", help="Simulation engine: auto, numba or python."),
     keep_raw: bool = typer.Option(False, "--keep-raw", help="gantry: also write the FRF and mass runs' raw logs."),
     limits: str = LIMITS_OPTION,

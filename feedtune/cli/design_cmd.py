@@ -126,9 +126,16 @@ def _friction_summary(ff: dict) -> None:
 
 
 def _load_model(path: Path):
+    """The ball-screw model of a model file; DataError for a model of another kind."""
+    from ..errors import DataError
     from ..io import load_model
+    from ..models.ballscrew import BallScrewModel
 
-    return load_model(path)
+    model = load_model(path)
+    if not isinstance(model, BallScrewModel):
+        raise DataError(f"{path}: a ball-screw model is needed (kind = \"ballscrew\", from 'feedtune identify "
+                        f"ballscrew'), got a {type(model).__name__}")
+    return model
 
 
 @app.command("ppc")

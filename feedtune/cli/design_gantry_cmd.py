@@ -56,13 +56,14 @@ def _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead):
 
 
 def _gantry_model(path: Path):
-    from ..errors import UsageError
+    """The gantry model of a model file; DataError (a file of the wrong kind, exit 1) otherwise."""
+    from ..errors import DataError
     from ..io import load_model
     from ..models.gantry import GantryModel
 
     model = load_model(path)
     if not isinstance(model, GantryModel):
-        raise UsageError(f"{path}: a gantry model is needed (kind = \"gantry\"), got a {type(model).__name__}")
+        raise DataError(f"{path}: a gantry model is needed (kind = \"gantry\"), got a {type(model).__name__}")
     return model
 
 

@@ -156,10 +156,12 @@ def frf(
     from ..identify.frf_estimate import estimate_frf
     from ..io import ensure_writable, write_frf
     from ..io.frf_read import frf_format
+    from .frf_options import quantity_option
     from .log_options import read_log_with_options
 
     outputs = split_names(output, "--output")
     freq_range = parse_float_pair(band, "--band")
+    quantity = quantity_option(quantity)
     _check_delay_samples(remove_sampling)
     if out is not None:
         frf_format(out)

@@ -18,12 +18,26 @@ def mat_channels(items: list[str] | None) -> dict[str, str] | None:
     return out
 
 
+def quantity_option(quantity: str | None) -> str | None:
+    """The ``--quantity`` option as a canonical quantity (position, velocity, acceleration); UsageError otherwise."""
+    if quantity is None:
+        return None
+    from ..errors import DataError, UsageError
+    from ..frf import normalize_quantity
+
+    try:
+        return normalize_quantity(quantity, "--quantity")
+    except DataError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def read_optional_frf(path, quantity=None, mat_freq=None, mat_channel=None, *, warn: bool = True):
     """Read an FRF file when a path is given, else None.
 
     With ``warn``, prints one warning line on stderr when the file still contains the zero-order hold and the
     computational delay of a sampled log (the discrete analysis case would count them twice).
     """
+    quantity = quantity_option(quantity)
     if path is None:
         return None
     from ..io import read_frf

@@ -42,9 +42,10 @@ def ballscrew(
     """Fit the 2-mass ball-screw model (m1, m2, b1, b2, k, c; eq. 3.1) to measured FRFs."""
     from ..identify.ballscrew import fit_ballscrew
     from ..io import read_frf, save_model
-    from .frf_options import mat_channels
+    from .frf_options import mat_channels, quantity_option
 
     b = parse_float_pair(band, "--band")
+    quantity = quantity_option(quantity)
     frfs = [read_frf(p, quantity=quantity, freq_var=mat_freq, channels=mat_channels(mat_channel)) for p in frf_files]
     fit = fit_ballscrew(frfs, band_hz=b, channels=channel or None, lead_m_per_rad=lead, fit_delay=not no_delay)
     result = fit.to_dict()

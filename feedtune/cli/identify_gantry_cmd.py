@@ -31,8 +31,9 @@ def _check_positions(files: list[Path], xs: list[float] | None, what: str) -> li
 def _gantry_frf(path: Path, quantity: str | None):
     from ..errors import DataError
     from ..io import read_frf
+    from .frf_options import quantity_option
 
-    frf = read_frf(path, quantity=quantity)
+    frf = read_frf(path, quantity=quantity_option(quantity))
     if frf.output_unit.strip() != "m":
         raise DataError(f"{path}: gantry FRFs must declare the output unit m (e.g. '# output: y1 [m]'); "
                         f"found {frf.output_unit!r}")

@@ -63,28 +63,76 @@ BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_TH
 """Set to 1 before numpy loads unless the user set them: feedtune's matrices are tiny (:mod:`feedtune.blas`)."""
 
 
+class _Signalled(BaseException):
+    """SIGINT or SIGTERM, turned into an exception that the command-line framework does not swallow (typer turns
+    KeyboardInterrupt into a silent exit 130), so that ``finally`` blocks remove temporary files."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _on_signal(signum, frame):
+    raise _Signalled(signum)
+
+
+def _quiet_stdout() -> None:
+    """After a broken pipe: send what is left of stdout to /dev/null so the exit is quiet."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def main() -> None:
-    """Entry point of the ``feedtune`` console script."""
+    """Entry point of the ``feedtune`` console script.
+
+    Exit codes (docs/conventions.md): 0 success, 1 data or design error, 2 usage error, 130 interrupted (SIGINT,
+    "feedtune: interrupted"), 143 terminated (SIGTERM), 141 when stdout is closed early (a pipe into ``head``:
+    quiet). Temporary files of unfinished outputs are removed on SIGINT and SIGTERM.
+    """
+    import signal
+
     from ..errors import FeedtuneError
 
     for name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
-
+    signal.signal(signal.SIGTERM, _on_signal)
+    signal.signal(signal.SIGINT, _on_signal)
+    if hasattr(signal, "SIGPIPE"):  # a closed stdout (a pipe into head) ends the process quietly, as for cat
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     try:
-        app()
+        code = app(standalone_mode=False)
     except FeedtuneError as exc:
         typer.echo(f"feedtune: error: {exc}", err=True)
         sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, typer.Abort):
         typer.echo("feedtune: interrupted", err=True)
         sys.exit(130)
-    except Exception as exc:  # a bug: one line unless asked for the traceback
+    except _Signalled as sig:
+        interrupted = sig.signum == signal.SIGINT
+        typer.echo(f"feedtune: {'interrupted' if interrupted else 'terminated'}", err=True)
+        sys.exit(130 if interrupted else 143)
+    except BrokenPipeError:
+        _quiet_stdout()
+        sys.exit(141)
+    except Exception as exc:  # the parser's usage errors (click's, or typer's copy of click), or a bug
+        if hasattr(exc, "show") and isinstance(getattr(exc, "exit_code", None), int):
+            exc.show()
+            sys.exit(exc.exit_code)
         if os.environ.get("FEEDTUNE_DEBUG"):
             raise
         typer.echo(
             f"feedtune: internal error: {type(exc).__name__}: {exc} (set FEEDTUNE_DEBUG=1 for a traceback)", err=True
         )
         sys.exit(1)
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        _quiet_stdout()
+        sys.exit(141)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":

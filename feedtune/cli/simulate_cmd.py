@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt, print_json
 from .twin_options import twin_from_options
 
 app = typer.Typer(
@@ -28,7 +28,7 @@ IDEAL_OPTION = typer.Option(
     "--ideal",
     help="Twin without unmodeled dynamics, friction, quantization, noise or saturation (the 2-mass model alone).",
 )
-SEED_OPTION = typer.Option(0, "--seed", help="Seed of the measurement noise (and multisine phases).")
+SEED_OPTION = typer.Option(0, "--seed", min=0, help="Seed of the measurement noise (and multisine phases).")
 ENGINE_OPTION = typer.Option("auto", "--engine", help="auto, numba or python.")
 OUT_OPTION = typer.Option(..., "--out", "-o", help="Log file to write (.csv).")
 GAINS_OPTION = typer.Option(..., "--gains", "-g", help="Gains file (.toml or .json) from feedtune design.")
@@ -116,6 +116,7 @@ def frf(
     _check_csv(out)
     frf_path = frf_out or out.with_name(out.stem + "_frf.csv")
     _check_csv(frf_path, "--frf-out")
+    check_distinct_outputs(("--out", out), ("--frf-out", frf_path))
     twin = twin_from_options(machine, param, ideal)
     ctrl = _runtime(gains) if gains is not None else None
     res = measure_frf(

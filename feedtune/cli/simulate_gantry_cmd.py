@@ -11,7 +11,7 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt, print_json
 from .twin_options import twin_from_options
 
 app = typer.Typer(
@@ -26,7 +26,7 @@ PARAM_OPTION = typer.Option(
          "pwm_noise_v=0; see docs/gantry_twin.md.")
 IDEAL_OPTION = typer.Option(False, "--ideal", help="Twin without structural, pitching or base modes, noise, "
                                                    "quantization or saturation (eq. 4.16 alone).")
-SEED_OPTION = typer.Option(0, "--seed", help="Seed of the noise (and multisine phases).")
+SEED_OPTION = typer.Option(0, "--seed", min=0, help="Seed of the noise (and multisine phases).")
 ENGINE_OPTION = typer.Option("auto", "--engine", help="Plant step: auto, numba or python.")
 OUT_OPTION = typer.Option(..., "--out", "-o", help="Log file to write (.csv).")
 GAINS_OPTION = typer.Option(..., "--gains", "-g", help="Gantry gains file (kind gantry) from feedtune design "
@@ -133,6 +133,7 @@ def frf(
     _check_csv(out)
     if frf_out is not None:
         _check_csv(frf_out, "--frf-out")
+    check_distinct_outputs(("--out", out), ("--frf-out", frf_out))
     xs = _positions(x)
     twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
@@ -183,6 +184,7 @@ def axis_frf(
     _check_csv(out)
     if frf_out is not None:
         _check_csv(frf_out, "--frf-out")
+    check_distinct_outputs(("--out", out), ("--frf-out", frf_out))
     twin = twin_from_options("gantry", param, ideal, group="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
     res = measure_axis_frf(twin, x, rms=rms, f_lo=f_lo, f_hi=f_hi, period_s=period, periods=periods, controller=g,

@@ -529,6 +529,12 @@ class _Problem:
         if np.any(response == 0):
             bad = next(s for s in series if np.any(s.response == 0))
             raise DataError(f"{bad.source}: channel {bad.channel} has zero response values in the band")
+        for sr in series:
+            mag = np.abs(sr.response)
+            if mag.min() < 1e-200 or mag.max() > 1e200:
+                raise DataError(f"{sr.source}: channel {sr.channel}: |H| spans {mag.min():.3g} to {mag.max():.3g} "
+                                f"rad/{sr.input_unit}; far outside a physical FRF: check the "
+                                "file's scale and units")
         weight = np.concatenate([_point_weights(s) for s in series])
         is_x1 = np.concatenate([np.full(s.freq_hz.size, s.role == _X1) for s in series])
         return cls(2j * np.pi * freq, np.log(response), is_x1, weight, tuple(names))
@@ -614,6 +620,10 @@ class _Problem:
         scale = self.scales(start, f_mode)
         lower = np.array([-np.inf if n in _LOG_PARAMS else 0.0 for n in self.names])
         x0 = np.maximum(self.to_x(start, scale), lower)
+        if not (np.all(np.isfinite(x0)) and np.all(np.isfinite(scale)) and np.all(scale > 0)):
+            bad = ", ".join(f"{n} = {v:.3g}" for n, v in start.items() if not (np.isfinite(v) and abs(v) < 1e150))
+            raise DataError(f"the fit cannot start: its starting values are not finite numbers ({bad or 'scales'}); "
+                            "the FRF's magnitudes are far outside a physical range: check its scale and units")
         result = least_squares(self.residual, x0, jac=self.jacobian, bounds=(lower, np.inf), args=(scale,),
                                method="trf", x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12,
                                max_nfev=500)

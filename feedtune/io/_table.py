@@ -150,6 +150,10 @@ def read_table_data(source: str | os.PathLike[str] | IO[str], what: str = "text"
     return raw, name
 
 
+MAX_HEADER_CHARS = 100_000
+"""Longest first row (header or numbers) accepted [characters]."""
+
+
 def read_bytes(path: str | os.PathLike[str]) -> bytes:
     """Read a whole file; missing files, folders and permission problems are a :class:`DataError`."""
     p = Path(path)
@@ -234,6 +238,9 @@ def parse_table(
     """
     if skip_rows < 0:
         raise DataError(f"{name}: skip_rows must be >= 0, got {skip_rows}")
+    nl, cr = (b"\n", b"\r") if isinstance(text, bytes) else ("\n", "\r")
+    if cr in text[:1 << 16] and nl not in text[:1 << 16]:  # old Mac line endings (CR only)
+        text = text.replace(cr, nl)
     encoding = _encoding_of(text)
     metadata: dict[str, list[str]] = {}
     comments: list[str] = []
@@ -253,6 +260,9 @@ def parse_table(
             comments.append(s.lstrip("#").strip())
     else:
         raise DataError(f"{name}: empty {what} file (no header and no data rows)")
+    if len(line) > MAX_HEADER_CHARS:
+        raise DataError(f"{name}: line {k + 1} is {len(line):,} characters long; expected a header row of column "
+                        f"names or a row of numbers (at most {MAX_HEADER_CHARS:,} characters)")
     sep = _guess_delimiter(line)
     cells = _split_cells(line, sep)
     if all(_is_number(c) for c in cells if c):

@@ -53,12 +53,46 @@ def _default_mode(dest: Path) -> int:
     return 0o666 & ~mask
 
 
-def _make_temp(dest: Path, suffix: str | None) -> Path:
-    """Create an empty temporary file beside ``dest`` and return its path."""
-    sfx = dest.suffix if suffix is None else suffix
+TEMP_MARK = ".ft"
+"""Temporary files are named ``.NAME.ft<pid>-<random>.tmp<suffix>`` beside their destination."""
+_SWEPT: set = set()
+
+
+def _pid_alive(pid: int) -> bool:
     try:
-        fd, name = tempfile.mkstemp(dir=dest.parent if str(dest.parent) else ".",
-                                    prefix=f".{dest.name}.", suffix=f".tmp{sfx}")
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    return True
+
+
+def sweep_stale_temps(folder: Path) -> list[Path]:
+    """Remove the temporary files that a killed feedtune process (SIGKILL, power loss) left in ``folder``: those
+    whose process no longer runs. Done once per folder and process, before the first write there."""
+    key = folder.resolve()
+    if key in _SWEPT:
+        return []
+    _SWEPT.add(key)
+    removed = []
+    for p in folder.glob(f".*{TEMP_MARK}*-*.tmp*"):
+        head = p.name.rsplit(TEMP_MARK, 1)[-1].split("-", 1)[0]
+        if head.isdigit() and int(head) != os.getpid() and not _pid_alive(int(head)):
+            _remove_quietly(p)
+            removed.append(p)
+    return removed
+
+
+def _make_temp(dest: Path, suffix: str | None) -> Path:
+    """Create an empty temporary file beside ``dest`` and return its path (stale ones are swept first)."""
+    sfx = dest.suffix if suffix is None else suffix
+    folder = dest.parent if str(dest.parent) else Path(".")
+    with contextlib.suppress(OSError):
+        sweep_stale_temps(folder)
+    try:
+        fd, name = tempfile.mkstemp(dir=folder, prefix=f".{dest.name}{TEMP_MARK}{os.getpid()}-",
+                                    suffix=f".tmp{sfx}")
     except OSError as exc:
         raise DataError(f"cannot write {dest}: {exc.strerror or exc}") from None
     os.close(fd)
@@ -95,6 +129,15 @@ def atomic_outputs(
         choose the format from the name.
     """
     dests = [ensure_writable(p, force) for p in paths]
+    seen: dict[Path, int] = {}
+    for i, d in enumerate(dests):
+        key = d.resolve()
+        if key in seen:
+            from ..errors import UsageError
+
+            raise UsageError(f"{d}: two outputs of this command would be written to the same file; give them "
+                             "different names")
+        seen[key] = i
     sfx = list(suffixes) if suffixes is not None else [None] * len(dests)
     temps: list[Path] = []
     try:

@@ -12,11 +12,24 @@ import numpy as np
 
 from ..errors import UsageError
 
-
 # ------------------------------------------------------------------------------------------ excitations
+MIN_PERIOD_SAMPLES = 16
+"""Fewest samples in one excitation period."""
+
+
+def period_samples(fs: float, period_s: float) -> int:
+    """Samples in one excitation period of ``period_s`` [s] at ``fs`` [Hz]; UsageError below
+    :data:`MIN_PERIOD_SAMPLES` (or beyond 2^31)."""
+    n = period_s * fs
+    if not (MIN_PERIOD_SAMPLES <= n <= 2**31):
+        raise UsageError(f"the excitation period {period_s:g} s holds {n:.3g} samples at fs = {fs:g} Hz; give a "
+                         f"period of {MIN_PERIOD_SAMPLES / fs:g} s or more (and at most {2**31 / fs:g} s)")
+    return round(n)
+
+
 def multisine(fs: float, period_s: float, f_lo: float, f_hi: float, rms: float, rng) -> np.ndarray:
     """One period of a random-phase multisine with flat amplitude on the lines ``f_lo..f_hi`` [V]."""
-    n = round(period_s * fs)
+    n = period_samples(fs, period_s)
     df = fs / n
     k = np.arange(n // 2 + 1)
     lines = (k * df >= f_lo) & (k * df <= f_hi) & (k > 0)
@@ -33,7 +46,7 @@ def chirp_period(fs: float, period_s: float, f_lo: float, f_hi: float, rms: floa
     """One period of a logarithmic sweep ``f_lo -> f_hi`` with amplitude ``sqrt(2) rms`` [V]."""
     from scipy.signal import chirp
 
-    n = round(period_s * fs)
+    n = period_samples(fs, period_s)
     t = np.arange(n) / fs
     return np.sqrt(2) * rms * chirp(t, f_lo, t[-1], f_hi, method="logarithmic", phi=-90)
 
@@ -42,6 +55,7 @@ def prbs_period(fs: float, period_s: float, f_hi: float, rms: float) -> np.ndarr
     """About ``period_s`` of a maximum-length binary sequence (+-rms) clocked at about ``2.5 f_hi`` [V]."""
     from scipy.signal import max_len_seq
 
+    period_samples(fs, period_s)
     hold = max(1, int(fs / (2.5 * f_hi)))
     nbits = int(np.clip(np.ceil(np.log2(period_s * fs / hold + 1)), 6, 20))
     seq = max_len_seq(nbits)[0].astype(float) * 2 - 1
