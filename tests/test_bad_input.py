@@ -114,3 +114,36 @@ def test_numba_caches_go_to_a_user_cache_folder():
 
     cache = os.environ["NUMBA_CACHE_DIR"]
     assert not os.path.abspath(cache).startswith(os.path.dirname(os.path.abspath(feedtune.__file__)))
+
+
+def test_a_uff_file_cut_inside_a_record_or_a_short_data_block_is_refused(examples_dir, tmp_path):
+    from feedtune.errors import DataError
+
+    write_frf(read_frf(examples_dir / "ballscrew_frf.csv"), tmp_path / "ex.uff")
+    lines = (tmp_path / "ex.uff").read_text().splitlines(keepends=True)
+    marks = [i for i, line in enumerate(lines) if line.strip() == "-1"]
+    (tmp_path / "cut.uff").write_text("".join(lines[:(marks[2] + marks[3]) // 2]))  # inside the second record
+    with pytest.raises(DataError, match="ends inside a UFF record"):
+        read_frf(tmp_path / "cut.uff")
+    (tmp_path / "short.uff").write_text("".join(lines[:marks[1] - 1400] + lines[marks[1]:]))  # 100 of 1500 points
+    with pytest.raises(DataError, match="holds 100 of its 1500 points"):
+        read_frf(tmp_path / "short.uff")
+
+
+def test_a_matlab_v73_char_variable_holding_non_characters_is_named(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    import numpy as np
+
+    from feedtune.errors import DataError
+
+    path = tmp_path / "bad73.mat"
+    with h5py.File(path, "w", userblock_size=512) as f:
+        f.create_dataset("quantity", data=np.array([[70_000_000], [5]], dtype=np.uint32)).attrs["MATLAB_class"] = \
+            np.bytes_("char")
+        f.create_dataset("freq_hz", data=np.arange(1, 11, dtype=float)[None, :]).attrs["MATLAB_class"] = \
+            np.bytes_("double")
+    with open(path, "r+b") as fh:  # the MATLAB v7.3 header in the user block
+        fh.write(b"MATLAB 7.3 MAT-file, Platform: GLNXA64, HDF5 schema 1.00 .".ljust(116, b" ") + b"\0" * 8
+                 + b"\x00\x02IM")
+    with pytest.raises(DataError, match="variable 'quantity' cannot be decoded"):
+        read_frf(path)

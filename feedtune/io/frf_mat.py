@@ -158,6 +158,8 @@ def _h5_dataset(ds: object) -> np.ndarray | str | None:
     data = data.T
     if cls == "char":
         rows = np.atleast_2d(data)
+        if rows.dtype.kind not in "iu" or rows.size and (rows.min() < 0 or rows.max() > 0x10FFFF):
+            raise ValueError("its char data holds values that are not characters (UTF-16 code units expected)")
         return "\n".join("".join(map(chr, row)).rstrip() for row in rows.astype(np.uint32))
     if data.dtype.kind not in "biufc" or cls in ("cell", "struct", "function_handle"):
         return None
@@ -177,7 +179,10 @@ def _load_v73(path: Path) -> MatContents:
             for key, obj in fh.items():
                 if key.startswith("#"):
                     continue
-                val = _h5_dataset(obj) if isinstance(obj, h5py.Dataset) else None
+                try:
+                    val = _h5_dataset(obj) if isinstance(obj, h5py.Dataset) else None
+                except (ValueError, TypeError, OverflowError) as exc:
+                    raise DataError(f"{path}: variable {key!r} cannot be decoded: {_short(exc)}") from None
                 if isinstance(val, str):
                     strings[key] = val
                 elif isinstance(val, np.ndarray):

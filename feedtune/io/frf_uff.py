@@ -63,6 +63,20 @@ def _position_unit(label: object, quantity: str, default: str) -> str:
     return s
 
 
+def _check_complete(p: Path) -> None:
+    """An ASCII UFF file is a sequence of blocks, each opened and closed by a line ``-1``: an odd number of such
+    lines means the file ends inside a block (pyuff then silently drops that record)."""
+    with open(p, "rb") as fh:
+        head = fh.read(80)
+        if b"\0" in head:  # binary 58b records hold raw bytes between the delimiters: not counted
+            return
+        fh.seek(0)
+        marks = sum(1 for line in fh if line.strip() == b"-1")
+    if marks % 2:
+        raise DataError(f"{p}: the file ends inside a UFF record ({marks} block delimiters '-1', an odd number): "
+                        "it was cut short")
+
+
 def _read_records(p: Path) -> list[dict]:
     import pyuff
 
@@ -73,7 +87,15 @@ def _read_records(p: Path) -> list[dict]:
         recs = uff.read_sets(idx) if idx else []
     except Exception as exc:
         raise DataError(f"{p}: not a readable UFF file ({' '.join(str(exc).split())[:100]})") from None
-    return [recs] if isinstance(recs, dict) else list(recs)
+    _check_complete(p)
+    recs = [recs] if isinstance(recs, dict) else list(recs)
+    for r in recs:
+        n, got = r.get("num_pts"), len(np.atleast_1d(r.get("data", [])))
+        if n is not None and int(n) != got:
+            name = str(r.get("id1", "")).strip() or "?"
+            raise DataError(f"{p}: record {name!r} holds {got} of its {int(n)} points: the file was cut short or "
+                            "edited")
+    return recs
 
 
 def _quantity_of(records: list[dict], name: str) -> str:
