@@ -232,3 +232,37 @@ def test_rigid_model_file_round_trip_and_errors(tmp_path):
         bad.write_text(text.replace(old, new, 1))
         with pytest.raises(DataError, match=message):
             load_model(bad)
+
+
+# --------------------------------------------------------------------------------------- data-quality warnings
+def _with(log: Log, **signals) -> Log:
+    return Log(log.t, {**dict(log.signals), **signals}, dict(log.units), dict(log.meta))
+
+
+def test_the_real_emps_log_gives_no_warning(emps_fit):
+    assert emps_fit.warnings == ()
+
+
+def test_a_coarsely_quantized_position_is_warned_about(emps):
+    """EMPS's position rounded to 0.1 mm (about one step per sample while moving): the mass comes out 16 % low, and
+    the fit says why; at 20 um (0.6 % off) it says nothing; at 1 mm the fit is refused and the reason names the
+    quantization."""
+    from feedtune.errors import IllConditionedError
+
+    def quantized(q):
+        return _with(emps, qm=np.round(emps.get("qm") / q) * q)
+
+    fit = fit_rigid(quantized(1e-4), force="vir", position="qm", force_scale=GTAU)
+    assert abs(fit.values["mass"] / EMPS_SYMMETRIC["mass"] - 1) > 0.1  # the damage the warning is about
+    assert any("quantized to 0.0001 m" in w for w in fit.warnings), fit.warnings
+    assert "quantized" in " ".join(fit.to_dict()["warnings"])
+    assert fit_rigid(quantized(2e-5), force="vir", position="qm", force_scale=GTAU).warnings == ()
+    with pytest.raises(IllConditionedError, match=r"quantized to 0\.001 m"):
+        fit_rigid(quantized(1e-3), force="vir", position="qm", force_scale=GTAU)
+
+
+def test_a_command_clipped_at_30_percent_is_warned_about(emps):
+    u = emps.get("vir")
+    limit = 0.3 * float(np.max(np.abs(u)))
+    fit = fit_rigid(_with(emps, vir=np.clip(u, -limit, limit)), force="vir", position="qm", force_scale=GTAU)
+    assert any("clipped" in w for w in fit.warnings), fit.warnings

@@ -154,6 +154,8 @@ def rigid(
         v = result["validation"]
         typer.echo(f"  cross-check on {validate}: relative error {fmt(v['relative_error_pct'], '%')}, "
                    f"RMS {fmt(v['residual_rms'], v['units']['residual_rms'])}")
+    for w in result.get("warnings", []):
+        typer.echo(f"  warning: {w}")
     for p in result.get("files", []):
         typer.echo(f"wrote {p}")
 
@@ -258,8 +260,7 @@ def friction(
     typer.echo(f"  mass {fmt(result['mass'], result['units']['mass'])}, viscous "
                f"{fmt(result['viscous'], result['units']['viscous'])}; observer poles "
                f"{', '.join(fmt(p, 'Hz') for p in result['disturbance']['observer_poles_hz'])}")
-    if fit["omega_at_bound"]:
-        typer.echo("  warning: Omega ended on its bound; the log does not resolve the Stribeck velocity "
-                   "(move slowly through low speeds)")
+    for w in result.get("warnings", []):
+        typer.echo(f"  warning: {w}")
     for p in result.get("files", []):
         typer.echo(f"wrote {p}")

@@ -29,6 +29,7 @@ from ..log import Log
 from ..models.ballscrew import BallScrewModel
 from ..models.friction import StribeckFriction
 from ..models.rigid import RigidBodyModel
+from .data_quality import POOR_FIT_PCT
 from .kalman import DisturbanceEstimate, estimate_disturbance
 from .rigid import RigidFit, fit_rigid, position_si
 
@@ -144,6 +145,9 @@ class FrictionIdentification:
         Samples that entered the fit (after transient, reversal guard and ``min_speed``).
     reversal_guard_s : float
         Time left out after every velocity reversal [s].
+    warnings : tuple of str
+        What makes the identification unreliable: coarse position quantization, a clipped command, a poor
+        fit, Omega on its bound, and the rigid fit's own warnings.
     """
 
     fit: StribeckFit
@@ -153,6 +157,7 @@ class FrictionIdentification:
     rigid_fit: RigidFit | None
     n_used: int
     reversal_guard_s: float
+    warnings: tuple = ()
 
     @property
     def friction(self) -> StribeckFriction:
@@ -171,6 +176,7 @@ class FrictionIdentification:
             "rigid_fit": None if self.rigid_fit is None else self.rigid_fit.to_dict(),
             "n_used": self.n_used,
             "reversal_guard_s": self.reversal_guard_s,
+            "warnings": list(self.warnings),
             "units": {"mass": est.units["mass"], "viscous": est.units["viscous"], "reversal_guard_s": "s"},
         }
 
@@ -487,5 +493,14 @@ def identify_friction(log: Log, *, position: str, command: str, model=None, mass
     fit = fit_stribeck(estimate.velocity[use], estimate.disturbance[use], min_speed=min_speed,
                        per_direction_omega=per_direction_omega, viscous=b_rest,
                        command_unit=estimate.command_unit, velocity_unit=estimate.velocity_unit)
+    from .rigid import data_warnings
+
+    warnings = list(rigid.warnings) if rigid is not None else data_warnings(log, command, position, "")
+    if fit.relative_error_pct > POOR_FIT_PCT:
+        warnings.append(f"poor Stribeck fit: relative error {fit.relative_error_pct:.3g} % > {POOR_FIT_PCT:g} %")
+    if fit.omega_at_bound:
+        warnings.append("Omega ended on its bound; the log does not resolve the Stribeck velocity (move slowly "
+                        "through low speeds)")
     return FrictionIdentification(fit=fit, disturbance=estimate, mass=estimate.mass, viscous=estimate.viscous,
-                                  rigid_fit=rigid, n_used=fit.n_pos + fit.n_neg, reversal_guard_s=guard)
+                                  rigid_fit=rigid, n_used=fit.n_pos + fit.n_neg, reversal_guard_s=guard,
+                                  warnings=tuple(dict.fromkeys(warnings)))

@@ -27,6 +27,7 @@ import numpy as np
 from ..errors import DataError, IllConditionedError, UsageError
 from ..log import Log
 from ..models.rigid import RigidBodyModel
+from .data_quality import clipping_warning, fit_warnings, quantization_warning
 
 POSITION_SCALE = {
     "m": ("m", 1.0), "": ("m", 1.0), "mm": ("m", 1e-3), "um": ("m", 1e-6), "µm": ("m", 1e-6),
@@ -134,6 +135,9 @@ class RigidFit:
         Butterworth order.
     force_unit, position_unit : str
         Units of the force and of the position (``"m"`` or ``"rad"``).
+    warnings : tuple of str
+        What makes the fit unreliable (:mod:`feedtune.identify.data_quality`: coarse position quantization,
+        a clipped command, a poor fit, a poorly determined mass).
     """
 
     model: RigidBodyModel
@@ -152,6 +156,7 @@ class RigidFit:
     position_unit: str
     asymmetric: bool = False
     source: str = field(default="log")
+    warnings: tuple = ()
 
     @property
     def units(self) -> dict[str, str]:
@@ -178,6 +183,7 @@ class RigidFit:
             "decimate": self.decimate,
             "cutoff_hz": self.cutoff_hz,
             "filter_order": self.filter_order,
+            "warnings": list(self.warnings),
             "rigid_model": self.model.to_dict(),
         }
 
@@ -435,12 +441,21 @@ def fit_rigid(log: Log, *, force: str, position: str, asymmetric: bool = False, 
     std = np.sqrt(sigma2 * np.diag(np.linalg.inv(W.T @ W)))
     values = {n: float(v) for n, v in zip(names, theta, strict=True)}
     stds = {n: float(s) for n, s in zip(names, std, strict=True)}
-    _check_mass(values, stds, f"{samples.force_unit}/({samples.position_unit}/s^2)", where)
+    warnings = data_warnings(log, force, position, samples.force_unit)
+    try:
+        _check_mass(values, stds, f"{samples.force_unit}/({samples.position_unit}/s^2)", where)
+    except IllConditionedError as exc:
+        if not warnings:
+            raise
+        raise IllConditionedError(f"{exc}; the log: {'; '.join(warnings)}") from None
+    rel = float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y))
+    unit_of = {"mass": f"{samples.force_unit}/({samples.position_unit}/s^2)"}
+    warnings += fit_warnings(rel, values, stds, unit_of)
     return RigidFit(
         model=_model_from(values, samples),
         values=values,
         std=stds,
-        relative_error_pct=float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y)),
+        relative_error_pct=rel,
         residual_rms=float(np.sqrt(np.mean(residual**2))),
         condition_number=cond,
         scaled_condition_number=scaled_cond,
@@ -453,7 +468,17 @@ def fit_rigid(log: Log, *, force: str, position: str, asymmetric: bool = False, 
         position_unit=samples.position_unit,
         asymmetric=asymmetric,
         source=log.source,
+        warnings=tuple(warnings),
     )
+
+
+def data_warnings(log: Log, force: str, position: str, force_unit: str) -> list[str]:
+    """Quantization of the position and clipping of the command in the raw log
+    (:mod:`feedtune.identify.data_quality`)."""
+    q, unit = position_si(log, position)
+    found = [quantization_warning(q, f"position column {position!r}", unit),
+             clipping_warning(log.get(force), f"command column {force!r}", log.unit(force) or force_unit)]
+    return [w for w in found if w]
 
 
 def _model_from(values: dict[str, float], samples: _Samples) -> RigidBodyModel:

@@ -158,7 +158,7 @@ def _h5_dataset(ds: object) -> np.ndarray | str | None:
     data = data.T
     if cls == "char":
         rows = np.atleast_2d(data)
-        if rows.dtype.kind not in "iu" or rows.size and (rows.min() < 0 or rows.max() > 0x10FFFF):
+        if rows.dtype.kind not in "iu" or (rows.size and (rows.min() < 0 or rows.max() > 0x10FFFF)):
             raise ValueError("its char data holds values that are not characters (UTF-16 code units expected)")
         return "\n".join("".join(map(chr, row)).rstrip() for row in rows.astype(np.uint32))
     if data.dtype.kind not in "biufc" or cls in ("cell", "struct", "function_handle"):
