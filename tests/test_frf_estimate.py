@@ -271,3 +271,19 @@ def test_bad_parameters_and_units(small_log):
     mixed = small_log.with_signals({"z": small_log["y"]}, {"z": "rad"})
     with pytest.raises(DataError, match="share one unit"):
         estimate_frf(mixed, input="u", outputs=["y", "z"])
+
+
+def test_a_period_that_does_not_fit_the_excitation_is_warned_about():
+    """A multisine repeating every 1000 samples estimated with period_samples 900 (the issue's wrong
+    --period-samples): the estimate says so; 1000 and its multiple 2000 give no warning."""
+    rng = np.random.default_rng(0)
+    n, fs = 1000, 1000.0
+    spec = np.zeros(n // 2 + 1, complex)
+    spec[1:200] = np.exp(2j * np.pi * rng.random(199))
+    u = np.tile(np.fft.irfft(spec, n), 12)
+    y = np.convolve(u, [0.5, 0.3, 0.2])[: u.size]
+    log = Log(np.arange(u.size) / fs, {"u": u, "y": y}, {"u": "V", "y": "m"}, {"source": "synthetic"})
+    bad = estimate_frf(log, input="u", outputs=["y"], method="periodic", period_samples=900)
+    assert "period_samples 900 does not fit the excitation, which repeats every 1000 samples" in bad.meta["warning"]
+    for p in (1000, 2000):
+        assert "warning" not in estimate_frf(log, input="u", outputs=["y"], method="periodic", period_samples=p).meta

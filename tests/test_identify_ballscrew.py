@@ -274,3 +274,25 @@ def test_real_two_mass_bench_mode_and_anti_resonance_match_the_measurement(real_
     motor_only = fit_ballscrew([frf], channels=["x1/u"]).model.params()
     for name in ("m1", "m2", "k"):
         assert motor_only[name] == pytest.approx(model.params()[name], rel=0.02), name
+
+
+def test_outlier_lines_are_named_and_a_clean_frf_has_none(examples_dir):
+    """Five lines of the example FRF inside the fit band multiplied by 10 (a glitch): each is named; the clean
+    FRF gives no such warning."""
+    from dataclasses import replace
+
+    from feedtune.io import read_frf
+
+    frf = read_frf(examples_dir / "ballscrew_frf.csv")
+    clean = fit_ballscrew([frf])
+    assert not any("stand out" in w for w in clean.warnings)
+    lo, hi = clean.band_hz
+    inside = np.flatnonzero((frf.freq_hz > lo) & (frf.freq_hz < hi))
+    idx = inside[np.linspace(5, inside.size - 5, 5).astype(int)]
+    h = frf.response.copy()
+    h[:, :, idx] *= 10
+    bad = fit_ballscrew([replace(frf, response=h)])
+    lines = [w for w in bad.warnings if "stand out" in w]
+    assert len(lines) == 2 and all("5 line(s)" in w for w in lines), lines
+    for f in frf.freq_hz[idx]:
+        assert all(f"{f:.4g}" in w for w in lines)

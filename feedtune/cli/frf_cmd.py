@@ -57,7 +57,9 @@ def frf_summary(frf, log_path: Path) -> dict:
         "quantity": frf.quantity,
         "channels": channels,
         "unit": f"{frf.output_unit or '-'}/{frf.input_unit or '-'}",
-        "estimate": {k: v for k, v in meta.items() if k not in ("source", "method", "estimator", *SAMPLING_KEYS)},
+        "estimate": {k: v for k, v in meta.items() if k not in ("source", "method", "estimator", "warning",
+                                                                 *SAMPLING_KEYS)},
+        "warnings": [meta["warning"]] if meta.get("warning") else [],
         "sampling": sampling_record(meta),
         "units": {"band_hz": "Hz", "coherence": "-", "frf": f"{frf.output_unit or '-'}/{frf.input_unit or '-'}",
                   "fs_hz": "Hz", "delay_samples": "samples"},
@@ -110,6 +112,8 @@ def _print_summary(result: dict) -> None:
             continue
         typer.echo(f"  {ch}: coherence min {c['min']:.3f}, median {c['median']:.3f}, mean {c['mean']:.3f}; "
                    f"{c['lines_above_0_9']} of {result['lines']} lines >= {GOOD_COHERENCE}")
+    for w in result.get("warnings", []):
+        typer.echo(f"  warning: {w}")
     if "out" in result:
         typer.echo(f"wrote {result['out']}")
 

@@ -220,7 +220,8 @@ def fit_ballscrew(
     model = BallScrewModel(**{p: theta[p] for p in PARAM_NAMES}, lead_m_per_rad=lead, input_unit=input_unit)
     delay = theta.get("delay", 0.0)
     quality = _fit_quality(in_band, model, delay)
-    warnings = _fit_warnings(model, std, quality, in_band, band, poor_fit_threshold, converged)
+    outliers = {ch: _outlier_lines(f, np.log(r)) for ch, f, r in _channel_ratios(in_band, model, delay)}
+    warnings = _fit_warnings(model, std, quality, in_band, band, poor_fit_threshold, converged, outliers)
     return BallScrewFit(
         model=model,
         std={p: std[p] for p in PARAM_NAMES},
@@ -664,16 +665,20 @@ def _point_weights(s: _Series) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------------------- quality
-def _fit_quality(series: list[_Series], model: BallScrewModel, delay: float) -> dict[str, dict]:
-    """Per-channel nrmse, magnitude and phase RMS errors over the band points."""
-    out = {}
+def _channel_ratios(series: list[_Series], model: BallScrewModel, delay: float):
+    """``(channel, lines [Hz], model / measured)`` per channel over the band points."""
     for channel in dict.fromkeys(s.channel for s in series):
         parts = [s for s in series if s.channel == channel]
         freq = np.concatenate([s.freq_hz for s in parts])
         measured = np.concatenate([s.response for s in parts])
         g = model.frequency_response(freq)["G11" if parts[0].role == _X1 else "G21"]
-        modelled = g * np.exp(-2j * np.pi * freq * delay)
-        ratio = modelled / measured
+        yield channel, freq, g * np.exp(-2j * np.pi * freq * delay) / measured
+
+
+def _fit_quality(series: list[_Series], model: BallScrewModel, delay: float) -> dict[str, dict]:
+    """Per-channel nrmse, magnitude and phase RMS errors over the band points."""
+    out = {}
+    for channel, freq, ratio in _channel_ratios(series, model, delay):
         out[channel] = {
             "nrmse": float(np.sqrt(np.mean(np.abs(ratio - 1) ** 2))),
             "mag_rms_db": float(np.sqrt(np.mean((20 * np.log10(np.abs(ratio))) ** 2))),
@@ -681,6 +686,21 @@ def _fit_quality(series: list[_Series], model: BallScrewModel, delay: float) -> 
             "n_points": int(freq.size),
         }
     return out
+
+
+OUTLIER_SIGMAS = 8.0
+"""A line is an outlier when its log residual exceeds this many robust standard deviations (1.4826 MAD) of its
+channel's residuals and a factor of 1.5 in magnitude or 25 deg in phase."""
+
+
+def _outlier_lines(freq: np.ndarray, log_ratio: np.ndarray) -> list[float]:
+    """Lines [Hz] whose complex log residual ``log(model / measured)`` stands out (robust test of
+    :data:`OUTLIER_SIGMAS`): single bad lines (a glitch, a harmonic of the mains) that bias a least-squares fit."""
+    r = np.abs(log_ratio - np.median(log_ratio.real) - 1j * np.median(log_ratio.imag))
+    mad = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+    floor = min(np.log(1.5), np.radians(25.0))
+    bad = (r > np.median(r) + OUTLIER_SIGMAS * max(mad, 1e-12)) & (r > floor)
+    return [float(f) for f in freq[bad]]
 
 
 def _fit_warnings(
@@ -691,6 +711,7 @@ def _fit_warnings(
     band: tuple[float, float],
     poor_fit_threshold: float,
     converged: bool,
+    outliers: dict | None = None,
 ) -> list[str]:
     """Human-readable warnings about fit quality and parameter determination."""
     warnings = []
@@ -714,6 +735,12 @@ def _fit_warnings(
                             f"(relative std > {100 * _REL_STD_LIMIT:.0f} %)")
     if not model.modes():
         warnings.append("the fitted model has no oscillatory mode (over-damped): check the band and channels")
+    for channel, lines in (outliers or {}).items():
+        if lines:
+            shown = ", ".join(f"{f:.4g}" for f in lines[:5]) + (" ..." if len(lines) > 5 else "")
+            warnings.append(f"{len(lines)} line(s) of {channel} stand out from the fit ({shown} Hz; more than "
+                            f"{OUTLIER_SIGMAS:g} robust standard deviations): outliers bias the fit; remove them or "
+                            "narrow the band")
     warnings.extend(_coherence_warnings(series))
     return warnings
 

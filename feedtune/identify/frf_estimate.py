@@ -498,6 +498,7 @@ def _periodic(
     from scipy.fft import rfft
 
     period, how = _period(u if r is None else r, period_samples, where)
+    mismatch = _period_mismatch(u if r is None else r, period, where) if how == "given" else None
     if period > u.size:
         raise DataError(f"{where}: log has {u.size} samples, fewer than one period of {period} samples")
     kept = _period_count(u.size, period, transient_periods, where)
@@ -536,7 +537,23 @@ def _periodic(
     }
     if kept == 1:
         meta["coherence_note"] = "one period averaged: coherence is 1 by construction"
+    if mismatch:
+        meta["warning"] = mismatch
     return line_idx / (period * dt), h, coh, meta
+
+
+def _period_mismatch(exc: np.ndarray, period: int, where: str) -> str | None:
+    """Why a given period does not fit the excitation (it repeats every other number of samples, not a divisor of
+    ``period``), or None."""
+    try:
+        lag, corr = detect_period(exc, where=where)
+    except DataError:
+        return None
+    if period % lag == 0 or abs(period - lag) <= 0:
+        return None
+    return (f"period_samples {period} does not fit the excitation, which repeats every {lag} samples "
+            f"(autocorrelation {corr:.3f}): the FRF averages misaligned periods and is wrong; pass {lag} or leave "
+            "period_samples out to detect it")
 
 
 # ------------------------------------------------------------------------------------------ FRF
