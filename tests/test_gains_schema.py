@@ -134,3 +134,25 @@ def test_the_commands_give_the_same_line_and_exit_1(case, tmp_path, capsys, monk
         lines.add(err.replace(str(tmp_path) + "/", ""))
     assert len(lines) == 1, lines
     assert not (tmp_path / "g.h").exists() and not (tmp_path / "r.csv").exists()
+
+
+# ------------------------------------------------------------------ model and mass documents
+@pytest.mark.parametrize("edit, words", [
+    (lambda d: d.update(kind=["ballscrew"]), "is not a known model kind"),
+    (lambda d: d["params"]["m1"].update(value=10**400), "params.m1.value: integer with 401 digits"),
+    (lambda d: d["params"]["k"].update(value=float("inf")), "params.k.value: value must be a finite number"),
+])
+def test_broken_model_documents_are_one_line_data_errors(edit, words, tmp_path):
+    """Before: TypeError (unhashable kind) and OverflowError (a 400-digit integer) as internal errors."""
+    import json
+    import re
+
+    from feedtune.io import load_model, model_document
+    from feedtune.models import THESIS_TABLE_3_1
+
+    doc = model_document(THESIS_TABLE_3_1)
+    edit(doc)
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(doc, allow_nan=True))
+    with pytest.raises(DataError, match=re.escape(words)):
+        load_model(path)

@@ -86,10 +86,64 @@ def _char_to_str(a: np.ndarray) -> str:
     return "\n".join(str(x).rstrip() for x in np.atleast_1d(a.squeeze()).reshape(-1))
 
 
+_MI_MATRIX, _MI_COMPRESSED = 14, 15
+_MI_TYPES = {1: 1, 2: 1, 3: 2, 4: 2, 5: 4, 6: 4, 7: 4, 9: 8, 12: 8, 13: 8, 14: 1, 15: 1, 16: 1, 17: 2, 18: 4}
+"""MAT v5 data types and their item size [bytes] (miINT8 .. miUTF32)."""
+
+
+def _check_v5_elements(buf: bytes, start: int, end: int, where: str, depth: int = 0) -> None:
+    """Walk the data elements of a MAT v5 buffer and refuse one whose type or size does not fit (scipy's reader
+    crashes the process on some corrupted files instead of raising)."""
+    import struct
+    import zlib
+
+    off = start
+    while off < end:
+        if end - off < 8:
+            raise DataError(f"{where}: truncated MAT data element at byte {off}")
+        tag, nbytes = struct.unpack_from("<II", buf, off)
+        if tag >> 16:  # small data element: type and size in the first 4 bytes, data in the next 4
+            t, n = tag & 0xFFFF, tag >> 16
+            if t not in _MI_TYPES or n > 4 or n % _MI_TYPES[t]:
+                raise DataError(f"{where}: corrupt MAT data element at byte {off} (type {t}, {n} bytes)")
+            off += 8
+            continue
+        if tag not in _MI_TYPES:
+            raise DataError(f"{where}: corrupt MAT data element at byte {off} (unknown type {tag})")
+        body = off + 8
+        if nbytes > end - body:
+            raise DataError(f"{where}: MAT data element at byte {off} claims {nbytes} bytes, {end - body} remain: "
+                            "the file is truncated or corrupt")
+        if tag == _MI_COMPRESSED:
+            if depth:
+                raise DataError(f"{where}: corrupt MAT file (a compressed element inside another)")
+            d = zlib.decompressobj()
+            try:
+                inner = d.decompress(buf[body:body + nbytes])
+            except zlib.error as exc:
+                raise DataError(f"{where}: corrupt compressed MAT variable at byte {off} ({exc})") from None
+            if not d.eof or d.unused_data:
+                raise DataError(f"{where}: corrupt compressed MAT variable at byte {off} (the stream does not end "
+                                "where the element does)")
+            _check_v5_elements(inner, 0, len(inner), where, depth + 1)
+        elif tag == _MI_MATRIX:
+            _check_v5_elements(buf, body, body + nbytes, where, depth + 1)
+        elif nbytes % _MI_TYPES[tag]:
+            raise DataError(f"{where}: corrupt MAT data element at byte {off} ({nbytes} bytes of {_MI_TYPES[tag]}-byte "
+                            "items)")
+        off = body + nbytes + ((-nbytes) % 8 if tag != _MI_COMPRESSED else 0)
+    if off > end and depth:
+        raise DataError(f"{where}: corrupt MAT file (an element overruns its parent)")
+
+
 def _load_v5(path: Path) -> MatContents:
     import scipy.io
     from scipy.io.matlab import MatReadError
 
+    buf = path.read_bytes()
+    if len(buf) >= 128 and buf[126:128] in (b"IM", b"MI") and buf[124:126] in (b"\x00\x01", b"\x01\x00"):
+        if buf[126:128] == b"IM":  # little-endian files (everything written today); others go to scipy as they are
+            _check_v5_elements(buf, 128, len(buf), str(path))
     try:
         raw = scipy.io.loadmat(str(path), squeeze_me=False, chars_as_strings=True)
     except (ValueError, TypeError, OSError, RuntimeError, MatReadError):  # RuntimeError: scipy refuses v7.3

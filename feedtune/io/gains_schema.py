@@ -18,12 +18,12 @@ for ``export c``, ``analyze``, ``simulate`` and the runtimes (they all reach a g
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
 import numpy as np
 
 from ..errors import DataError
+from .schema_common import check_finite, key_path
 
 MAX_FS_HZ = 1e7
 """Highest sample rate accepted [Hz]."""
@@ -35,8 +35,6 @@ MAX_SECTIONS = 256
 """Most second-order sections in one cascade."""
 MAX_SCHEDULE_ROWS = 10_000
 """Most rows of a gantry schedule table."""
-MAX_ABS = 1e300
-"""Largest magnitude of a number [-] (keeps products finite)."""
 POLE_MARGIN = 1e-9
 """A section's pole must lie inside ``|z| < 1 - POLE_MARGIN`` (an integrator: within it of ``z = 1``)."""
 INTEGRATING_SOS = ("controller_sos",)
@@ -129,33 +127,6 @@ def gains_schema(kind: str) -> dict:
             "title": f"feedtune gains document, kind {kind}", **SCHEMAS[kind]}
 
 
-def _path(parts) -> str:
-    out = ""
-    for p in parts:
-        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
-    return out
-
-
-def _finite(node, parts: list, where: str) -> None:
-    """Every number of ``node`` finite and within :data:`MAX_ABS` (DataError naming the key)."""
-    if isinstance(node, bool) or node is None or isinstance(node, str):
-        return
-    if isinstance(node, int):
-        if abs(node) > MAX_ABS or abs(node) > 2**63:
-            raise DataError(f"{where}: {_path(parts)}: integer with {len(str(abs(node)))} digits is out of range")
-        return
-    if isinstance(node, float):
-        if not math.isfinite(node) or abs(node) > MAX_ABS:
-            raise DataError(f"{where}: {_path(parts)}: value must be a finite number, got {node!r}")
-        return
-    if isinstance(node, Mapping):
-        for k, v in node.items():
-            _finite(v, [*parts, k], where)
-    elif isinstance(node, (list, tuple)):
-        for i, v in enumerate(node):
-            _finite(v, [*parts, i], where)
-
-
 def _stable_sections(name: str, sos, where: str) -> None:
     """Every section of a cascade has ``a0 != 0`` and its poles inside the unit circle (DataError naming it)."""
     for i, s in enumerate(sos):
@@ -188,7 +159,7 @@ def validate_gains(doc, where: str) -> str:
         raise DataError(f"{where}: kind must be one of {', '.join(repr(k) for k in SCHEMAS)}, got {kind!r}")
     for section in CHECKED_SECTIONS:
         if section in doc:
-            _finite(doc[section], [section], where)
+            check_finite(doc[section], [section], where)
     validator = jsonschema.Draft202012Validator(SCHEMAS[kind])
     error = jsonschema.exceptions.best_match(validator.iter_errors(doc))
     if error is not None:
@@ -197,8 +168,8 @@ def validate_gains(doc, where: str) -> str:
             parts = parts[:-1]
         if error.validator == "required":
             missing = error.message.split("'")[1] if "'" in error.message else "?"
-            raise DataError(f"{where}: {_path([*parts, missing])} is missing")
-        raise DataError(f"{where}: {_path(parts) or 'document'}: {_message(error)}")
+            raise DataError(f"{where}: {key_path([*parts, missing])} is missing")
+        raise DataError(f"{where}: {key_path(parts) or 'document'}: {_message(error)}")
     for section in ("filters", "reference"):
         for name, sos in (doc.get(section) or {}).items():
             if name.endswith("_sos"):

@@ -9,6 +9,7 @@ from ..errors import DataError
 from ..models.gantry_mass import MassFit
 from ..quantity import quantity, value_of
 from .document import read_document, require_schema
+from .schema_common import check_finite
 
 # ------------------------------------------------------------------------------------------ mass document
 MASS_SCHEMA = "feedtune.mass"
@@ -69,9 +70,13 @@ def read_mass_document(path):
     for key in ("m", "alpha1_0", "dalpha1_dx"):
         if key not in doc:
             raise DataError(f"{where}: entry {key!r} is missing")
+    for key in ("m", "alpha1_0", "dalpha1_dx", "alpha1_rms_residual", "m_x"):
+        check_finite(doc.get(key), [key], where)
     fit = MassFit(positions=(), m=value_of(doc["m"], f"{u}/(m/s^2)", f"{where}: m"),
                   alpha1_0=value_of(doc["alpha1_0"], "-", f"{where}: alpha1_0"),
                   dalpha1_dx=value_of(doc["dalpha1_dx"], "1/m", f"{where}: dalpha1_dx"),
                   alpha1_rms_residual=value_of(doc.get("alpha1_rms_residual", 0.0), "-", where))
     m_x = value_of(doc["m_x"], f"{u}/(m/s^2)", f"{where}: m_x") if "m_x" in doc else None
+    if not fit.m > 0 or (m_x is not None and not m_x > 0):
+        raise DataError(f"{where}: the masses m and m_x must be > 0 {u}/(m/s^2), got {fit.m:g} and {m_x}")
     return fit, m_x

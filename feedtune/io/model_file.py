@@ -42,6 +42,7 @@ from .document import read_document, require_schema, write_document
 from .friction_model import stribeck_from_doc, stribeck_to_doc
 from .gantry_model import gantry_model_from_doc, gantry_model_to_doc
 from .rigid_model import rigid_from_doc, rigid_to_doc
+from .schema_common import check_finite
 
 MODEL_SCHEMA = "feedtune.model"
 MODEL_SCHEMA_MAJOR = 1
@@ -184,8 +185,11 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     doc = read_document(path)
     require_schema(doc, MODEL_SCHEMA, where, MODEL_SCHEMA_MAJOR)
     kind = doc.get("kind")
-    if kind not in _REGISTRY:
+    if not isinstance(kind, str) or kind not in _REGISTRY:
         known = ", ".join(model_kinds())
         raise DataError(f"{where}: kind = {kind!r} is not a known model kind; known: {known}")
+    for key, value in doc.items():  # every number the loaders read: finite and within float range
+        if key not in ("fit", "design"):
+            check_finite(value, [key], where)
     loader = _REGISTRY[kind][0]
     return loader(doc, where)

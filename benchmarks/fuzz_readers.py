@@ -1,0 +1,56 @@
+"""The long fuzz run of every reader and document loader (issue 14), by hand:
+``python benchmarks/fuzz_readers.py [EXAMPLES]`` (default 3000 per reader).
+
+Byte-level mutations of a valid file of each format (tests/fuzz_inputs.py) must be read or refused with feedtune's
+own error. Prints, per reader, the examples run, how many were read, refused and crashed, the distinct crash
+signatures and the time per example, and exits 1 when anything crashed. (A crash of a C extension would end the
+process: a finder that runs each case in a subprocess is in the docstring of tests/fuzz_inputs.py's callers.)
+"""
+
+from __future__ import annotations
+
+import random
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+
+def main(examples: int = 3000) -> int:
+    from fuzz_inputs import mutate, readers
+
+    from feedtune.errors import FeedtuneError
+
+    crashed_total = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for name, (suffix, valid, read) in readers(ROOT / "examples", tmp).items():
+            n = examples if name != "gains analysis" else max(examples // 3, 1)
+            counts, crashes = Counter(), Counter()
+            path = tmp / f"case{suffix}"
+            t0 = time.perf_counter()
+            for seed in range(n):
+                path.write_bytes(mutate(valid, random.Random(seed)))
+                try:
+                    read(path)
+                    counts["read"] += 1
+                except FeedtuneError:
+                    counts["refused"] += 1
+                except Exception as exc:  # a crash of our code
+                    counts["crashed"] += 1
+                    crashes[f"{type(exc).__name__}: {str(exc)[:80]}"] += 1
+            dt = (time.perf_counter() - t0) / n
+            crashed_total += counts["crashed"]
+            print(f"{name:15s} {n:6d} examples: {counts['read']:5d} read, {counts['refused']:5d} refused, "
+                  f"{counts['crashed']:3d} crashed ({1e3 * dt:.1f} ms each)")
+            for sig, k in crashes.most_common(10):
+                print(f"    {k:4d} x {sig}")
+    return 1 if crashed_total else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(int(sys.argv[1]) if len(sys.argv) > 1 else 3000))
