@@ -5,6 +5,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from c_compile import compile_c
 
 from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.mcppc import design_mcppc
@@ -80,10 +81,7 @@ def test_c_header_matches_vectorised_law(tmp_path, design, extras):
     (tmp_path / "gains.h").write_text(c_header(doc))
     (tmp_path / "main.c").write_text(MAIN_C)
     exe = tmp_path / "run"
-    subprocess.run(
-        [cc, "-std=c99", "-O1", "-Wall", "-Werror", "-o", str(exe), str(tmp_path / "main.c"), "-lm"], check=True,
-        cwd=tmp_path,
-    )
+    compile_c(cc, tmp_path / "main.c", exe)
     rng = np.random.default_rng(1)
     n = 4000
     t = np.arange(n) / 20000.0

@@ -9,6 +9,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from c_compile import compile_c
 from test_cli import run
 
 from feedtune.control.filters import FilterPack, LeadStage, Notch
@@ -81,8 +82,7 @@ def _run_c(tmp_path, header: str, main_c: str, inputs: np.ndarray) -> np.ndarray
     (tmp_path / "gains.h").write_text(header)
     (tmp_path / "main.c").write_text(main_c)
     exe = tmp_path / "prog"
-    subprocess.run([GCC, "-Wall", "-Wextra", "-Werror", "-std=c99", "-O2", "-o", str(exe), str(tmp_path / "main.c"),
-                    "-lm"], check=True, capture_output=True, text=True)
+    compile_c(GCC, tmp_path / "main.c", exe, opt="-O2")
     text = "\n".join(" ".join(repr(float(v)) for v in row) for row in inputs) + "\n"
     res = subprocess.run([str(exe)], input=text, check=True, capture_output=True, text=True)
     return np.array([[float(v) for v in line.split()] for line in res.stdout.splitlines()])
