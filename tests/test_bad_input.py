@@ -98,6 +98,8 @@ def test_temporary_files_of_a_killed_process_are_swept_by_the_next_write(tmp_pat
 
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
 def test_a_signal_stops_the_demo_with_a_message_and_leaves_no_temporary_file(sig, code, word, tmp_path):
+    """Before: SIGINT exited 130 without a word (typer swallowed it), SIGTERM left temporary files, and a kill in
+    the last seconds left data without report.html."""
     out = tmp_path / "demo"
     p = subprocess.Popen([sys.executable, "-c", "from feedtune.cli.main import main; main()", "demo", "--out",
                           str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -107,6 +109,7 @@ def test_a_signal_stops_the_demo_with_a_message_and_leaves_no_temporary_file(sig
     assert p.returncode == code and err.strip().splitlines()[-1] == f"feedtune: {word}", err
     leftovers = [q for q in tmp_path.rglob("*") if TEMP_MARK in q.name]
     assert leftovers == []
+    assert not out.exists()  # the demo folder appears whole (report included) or not at all
 
 
 def test_numba_caches_go_to_a_user_cache_folder():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import typer
@@ -39,6 +40,7 @@ def demo(
     table positions, eq. 4.16 model, x-axis loop shaping, MIMO against independent PIDs tuned under the same limits,
     rope snap, tracking at 1 and 200 mm/s, contours.
     """
+    from ..io.atomic import staged_folder
     from ..machines import get_machine
     from ..workflows import run_machine_demo
     from ..workflows.files import check_out_dir, write_texts
@@ -47,8 +49,11 @@ def demo(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_out_dir(out, force)
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw)
-    written = write_texts(result.texts, force=force, out_dir=out)
-    report_path = write_demo_report(out, force, machine, policy)
+    with staged_folder(out) as stage:  # the folder appears whole, the report in it, or not at all
+        staged = write_texts(result.texts, force=True, out_dir=stage)
+        write_demo_report(stage, True, machine, policy)
+    written = [out / p.name for p in staged]
+    report_path = out / REPORT_NAME
     if as_json:
         d = result.to_dict()
         d["machine"] = machine
@@ -68,12 +73,18 @@ REPORT_NAME = "report.html"
 
 def write_demo_report(out: Path, force: bool, machine: str = "ballscrew", limits=None) -> Path:
     """Build the report from every file in the demo folder (under the demo's limits) and write it there as
-    report.html."""
+    report.html. The files are named relative to that folder (where the report sits), so the report reads the same
+    wherever the folder is moved, and a staging folder's name never shows."""
     from ..report.build import build_report, write_report
     from ..report.sections import ReportLimits
 
-    path = out / REPORT_NAME
-    built = build_report([out], title=f"feedtune demo on the digital twin ({machine})",
-                         limits=ReportLimits() if limits is None else ReportLimits(limits))
+    path = Path(out).resolve() / REPORT_NAME
+    here = Path.cwd()
+    os.chdir(out)
+    try:
+        built = build_report(["."], title=f"feedtune demo on the digital twin ({machine})",
+                             limits=ReportLimits() if limits is None else ReportLimits(limits))
+    finally:
+        os.chdir(here)
     write_report(built, path, force=force)
     return path

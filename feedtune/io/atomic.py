@@ -79,9 +79,44 @@ def sweep_stale_temps(folder: Path) -> list[Path]:
     for p in folder.glob(f".*{TEMP_MARK}*-*.tmp*"):
         head = p.name.rsplit(TEMP_MARK, 1)[-1].split("-", 1)[0]
         if head.isdigit() and int(head) != os.getpid() and not _pid_alive(int(head)):
-            _remove_quietly(p)
+            if p.is_dir():
+                import shutil
+
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                _remove_quietly(p)
             removed.append(p)
     return removed
+
+
+@contextlib.contextmanager
+def staged_folder(out: str | os.PathLike[str]) -> Iterator[Path]:
+    """Build a folder of outputs under a temporary name beside ``out`` and move it into place when the block
+    succeeds: a new ``out`` appears whole (one rename), an existing one (written into with ``--force``) gets each
+    file replaced (:func:`os.replace`). On an error or a signal the staging folder is removed; one a killed process
+    left is swept by the next write there (:func:`sweep_stale_temps`)."""
+    import shutil
+
+    dest = Path(out)
+    parent = dest.parent if str(dest.parent) else Path(".")
+    with contextlib.suppress(OSError):
+        sweep_stale_temps(parent)
+    try:
+        stage = Path(tempfile.mkdtemp(dir=parent, prefix=f".{dest.name}{TEMP_MARK}{os.getpid()}-", suffix=".tmp"))
+    except OSError as exc:
+        raise DataError(f"cannot write {dest}: {exc.strerror or exc}") from None
+    try:
+        yield stage
+        if not dest.exists():
+            os.replace(stage, dest)
+        else:
+            for f in sorted(stage.iterdir(), key=lambda q: q.name == "report.html"):  # the report last
+                os.replace(f, dest / f.name)
+    except OSError as exc:
+        raise DataError(f"cannot write {dest}: {exc.strerror or exc}") from None
+    finally:
+        if stage.exists():
+            shutil.rmtree(stage, ignore_errors=True)
 
 
 def _make_temp(dest: Path, suffix: str | None) -> Path:
