@@ -29,7 +29,7 @@ def main(examples: int = 3000) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for name, (suffix, valid, read) in readers(ROOT / "examples", tmp).items():
-            n = examples if name != "gains analysis" else max(examples // 3, 1)
+            n = examples
             counts, crashes = Counter(), Counter()
             path = tmp / f"case{suffix}"
             t0 = time.perf_counter()
