@@ -156,3 +156,40 @@ def test_broken_model_documents_are_one_line_data_errors(edit, words, tmp_path):
     path.write_text(json.dumps(doc, allow_nan=True))
     with pytest.raises(DataError, match=re.escape(words)):
         load_model(path)
+
+
+def test_model_schemas_refuse_values_outside_their_physical_range(tmp_path):
+    """A Stribeck level with the wrong sign (the issue's mirrored fit wrote ds_pos = -108 N and load_model took it),
+    a mass distribution outside (0, 1) and a negative mass in a mass file are refused, naming the key; the model
+    schemas are valid JSON Schemas and accept what feedtune writes."""
+    import json
+
+    import jsonschema
+
+    from feedtune.io import load_model, model_document, save_model
+    from feedtune.io.mass_file import read_mass_document
+    from feedtune.io.model_schema import MODEL_SCHEMAS, model_schema
+    from feedtune.models.friction import StribeckFriction
+    from feedtune.models.gantry import THESIS_GANTRY
+
+    for kind in [*MODEL_SCHEMAS, "mass"]:
+        jsonschema.Draft202012Validator.check_schema(model_schema(kind))
+    friction = StribeckFriction(20.0, 25.0, -19.0, -24.0, 0.01, command_unit="N", velocity_unit="m/s")
+    save_model(tmp_path / "f.toml", friction)
+    assert load_model(tmp_path / "f.toml") == friction
+    doc = model_document(friction)
+    doc["params"]["ds_pos"]["value"] = -108.0
+    (tmp_path / "bad_f.json").write_text(json.dumps(doc))
+    with pytest.raises(DataError, match=r"params\.ds_pos: must be >= 0, got -108"):
+        load_model(tmp_path / "bad_f.json")
+    doc = model_document(THESIS_GANTRY)
+    doc["params"]["alpha1_0"]["value"] = 1.5
+    (tmp_path / "bad_g.json").write_text(json.dumps(doc))
+    with pytest.raises(DataError, match=r"alpha1_0 must lie in \(0, 1\), got 1\.5"):  # the loader's own check
+        load_model(tmp_path / "bad_g.json")
+    mass = {"schema": "feedtune.mass/1", "kind": "gantry_mass", "input_unit": "V",
+            "m": {"value": -2.7, "unit": "V/(m/s^2)"}, "alpha1_0": {"value": 0.5, "unit": "-"},
+            "dalpha1_dx": {"value": -0.17, "unit": "1/m"}}
+    (tmp_path / "mass.json").write_text(json.dumps(mass))
+    with pytest.raises(DataError, match=r"mass\.json: m: must be > 0"):
+        read_mass_document(tmp_path / "mass.json")

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..errors import DataError
-from .schema_common import check_finite, key_path
+from .schema_common import check_finite, check_schema
 
 MAX_FS_HZ = 1e7
 """Highest sample rate accepted [Hz]."""
@@ -150,8 +150,6 @@ def validate_gains(doc, where: str) -> str:
     DataError
         One line: the file, the key and what was expected.
     """
-    import jsonschema
-
     if not isinstance(doc, Mapping):
         raise DataError(f"{where}: a gains document must be a table of sections, got {type(doc).__name__}")
     kind = doc.get("kind")
@@ -160,16 +158,7 @@ def validate_gains(doc, where: str) -> str:
     for section in CHECKED_SECTIONS:
         if section in doc:
             check_finite(doc[section], [section], where)
-    validator = jsonschema.Draft202012Validator(SCHEMAS[kind])
-    error = jsonschema.exceptions.best_match(validator.iter_errors(doc))
-    if error is not None:
-        parts = list(error.absolute_path)
-        if parts and parts[-1] == "value":  # a quantity {value, unit}: name the quantity
-            parts = parts[:-1]
-        if error.validator == "required":
-            missing = error.message.split("'")[1] if "'" in error.message else "?"
-            raise DataError(f"{where}: {key_path([*parts, missing])} is missing")
-        raise DataError(f"{where}: {key_path(parts) or 'document'}: {_message(error)}")
+    check_schema(doc, SCHEMAS[kind], where)
     for section in ("filters", "reference"):
         for name, sos in (doc.get(section) or {}).items():
             if name.endswith("_sos"):
@@ -183,27 +172,3 @@ def validate_gains(doc, where: str) -> str:
             if name != "units" and len(col) != x.size:
                 raise DataError(f"{where}: schedule.{name}: {len(col)} rows, schedule.x has {x.size}")
     return kind
-
-
-TYPE_WORDS = {"object": "a table", "array": "a list", "integer": "an integer", "number": "a number",
-              "string": "a string", "null": "nothing", "boolean": "true or false"}
-
-
-def _message(error) -> str:
-    """A short message for a jsonschema error (what was expected)."""
-    v = error.validator
-    if v == "type":
-        names = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
-        return f"expected {' or '.join(TYPE_WORDS.get(n, n) for n in names)}, got {error.instance!r}"[:160]
-    if v == "enum":
-        return f"expected one of {', '.join(map(repr, error.validator_value))}, got {error.instance!r}"[:160]
-    if v == "const":
-        return f"expected {error.validator_value!r}, got {error.instance!r}"[:160]
-    if v in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
-        word = {"minimum": ">=", "maximum": "<=", "exclusiveMinimum": ">", "exclusiveMaximum": "<"}[v]
-        return f"must be {word} {error.validator_value:g}, got {error.instance!r}"
-    if v in ("minItems", "maxItems", "minProperties"):
-        n = error.validator_value
-        what = ("key" if n == 1 else "keys") if v == "minProperties" else ("entry" if n == 1 else "entries")
-        return f"expected {'at least' if v.startswith('min') else 'at most'} {n} {what}, got {len(error.instance)}"
-    return error.message[:160]

@@ -9,6 +9,7 @@ from ..errors import DataError
 from ..models.gantry_mass import MassFit
 from ..quantity import quantity, value_of
 from .document import read_document, require_schema
+from .model_schema import validate_mass
 from .schema_common import check_finite
 
 # ------------------------------------------------------------------------------------------ mass document
@@ -72,6 +73,7 @@ def read_mass_document(path):
             raise DataError(f"{where}: entry {key!r} is missing")
     for key in ("m", "alpha1_0", "dalpha1_dx", "alpha1_rms_residual", "m_x"):
         check_finite(doc.get(key), [key], where)
+    validate_mass(doc, where)
     fit = MassFit(positions=(), m=value_of(doc["m"], f"{u}/(m/s^2)", f"{where}: m"),
                   alpha1_0=value_of(doc["alpha1_0"], "-", f"{where}: alpha1_0"),
                   dalpha1_dx=value_of(doc["dalpha1_dx"], "1/m", f"{where}: dalpha1_dx"),

@@ -41,6 +41,7 @@ from ..quantity import quantity, value_of
 from .document import read_document, require_schema, write_document
 from .friction_model import stribeck_from_doc, stribeck_to_doc
 from .gantry_model import gantry_model_from_doc, gantry_model_to_doc
+from .model_schema import validate_model
 from .rigid_model import rigid_from_doc, rigid_to_doc
 from .schema_common import check_finite
 
@@ -191,5 +192,6 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     for key, value in doc.items():  # every number the loaders read: finite and within float range
         if key not in ("fit", "design"):
             check_finite(value, [key], where)
-    loader = _REGISTRY[kind][0]
-    return loader(doc, where)
+    model = _REGISTRY[kind][0](doc, where)  # the loader's own checks first (their messages name the rule)
+    validate_model(doc, kind, where)  # then the schema's ranges, which no loader may relax
+    return model
