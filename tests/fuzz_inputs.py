@@ -81,6 +81,22 @@ def readers(examples: Path, tmp: Path) -> dict[str, tuple[str, bytes, Callable[[
     log = "t,u,x1,x2\n" + "".join(f"{k / 1000:.3f},{(k % 7) / 7:.4f},{k * 1e-4:.6f},{k * 1.1e-4:.6f}\n"
                                   for k in range(300))
     (tmp / "log.csv").write_text("# unit: u [V]\n# unit: x1 [rad]\n# unit: x2 [rad]\n" + log)
+    import numpy as np
+    import scipy.io
+
+    t = np.arange(300) / 1000.0
+    scipy.io.savemat(tmp / "log.mat", {"t": t[:, None], "u": np.sin(40 * t)[:, None], "x1": (1e-3 * t)[:, None]})
+    formats_extra = {"log mat": (".mat", (tmp / "log.mat").read_bytes(), read_log)}
+    try:
+        import asammdf
+
+        mdf = asammdf.MDF()
+        mdf.append([asammdf.Signal(np.sin(40 * t), t, name="u", unit="V"),
+                    asammdf.Signal(1e-3 * t, t, name="x1", unit="rad")])
+        mdf.save(tmp / "log.mf4", overwrite=True)
+        formats_extra["log mdf"] = (".mf4", (tmp / "log.mf4").read_bytes(), read_log)
+    except ImportError:  # the optional extra
+        pass
     mass = {"schema": "feedtune.mass/1", "kind": "gantry_mass", "input_unit": "V",
             "m": {"value": 2.7, "unit": "V/(m/s^2)"}, "alpha1_0": {"value": 0.5, "unit": "-"},
             "dalpha1_dx": {"value": -0.17, "unit": "1/m"}, "m_x": {"value": 0.7, "unit": "V/(m/s^2)"}}
@@ -95,6 +111,7 @@ def readers(examples: Path, tmp: Path) -> dict[str, tuple[str, bytes, Callable[[
         "gains runtime": (".toml", (tmp / "gains.toml").read_bytes(), _gains_doc),
         "gains analysis": (".toml", (tmp / "gains.toml").read_bytes(), _analysis),
         "mass": (".json", (tmp / "mass.json").read_bytes(), lambda p: read_mass_document(p)),
+        **formats_extra,
     }
 
 

@@ -28,8 +28,40 @@ def _import_asammdf(path: str):
     return asammdf
 
 
+PROBE_TIMEOUT_S = 300.0
+"""Longest time the crash probe may read a file [s]."""
+
+
+def _probe(path: str) -> None:
+    """Read the file once in a child process first: asammdf crashes the process (a segmentation fault) on some
+    corrupt files instead of raising, which would end the caller without a word. A crash there is a DataError
+    here; any other outcome leaves the reading (and its error message) to the caller's process."""
+    import subprocess
+    import sys
+
+    code = ("import sys, asammdf\n"
+            "with asammdf.MDF(sys.argv[1]) as m:\n"
+            "    for s in m.iter_channels(skip_master=True):\n"
+            "        s.samples, s.timestamps\n")
+    try:
+        res = subprocess.run([sys.executable, "-c", code, path], capture_output=True, timeout=PROBE_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        raise DataError(f"{path}: the MDF reader did not finish within {PROBE_TIMEOUT_S:g} s") from None
+    except OSError:
+        return
+    if res.returncode < 0:
+        raise DataError(f"{path}: the MDF reader crashed on this file (signal {-res.returncode}): the file is "
+                        "corrupt") from None
+
+
 def _numeric_signals(path: str, channels: Sequence[str] | None) -> list:
+    import gc
+    import sys
+
     asammdf = _import_asammdf(path)
+    _probe(path)
+    hook = sys.unraisablehook
+    sys.unraisablehook = lambda _: None  # a half-built asammdf object's __del__ prints a traceback on corrupt files
     try:
         with asammdf.MDF(path) as mdf:
             found = [s for s in mdf.iter_channels(skip_master=True)
@@ -38,6 +70,9 @@ def _numeric_signals(path: str, channels: Sequence[str] | None) -> list:
         raise
     except Exception as exc:
         raise DataError(f"{path}: not a readable MDF file ({' '.join(str(exc).split())[:100]})") from None
+    finally:
+        gc.collect()
+        sys.unraisablehook = hook
     unique: dict[str, object] = {}
     for s in found:
         unique.setdefault(s.name, s)
