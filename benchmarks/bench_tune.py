@@ -14,10 +14,10 @@ MC-PPC on one FRF of 2000 lines, measured in the same run, so the ratios do not 
 
 from __future__ import annotations
 
-import time
 from dataclasses import replace
 
 import numpy as np
+from timing import best_of
 
 from feedtune.analysis.ballscrew import analyze_ballscrew, analyze_case, plant_cases
 from feedtune.analysis.gantry import analyze_gantry_case, gantry_plant_cases
@@ -34,15 +34,6 @@ from feedtune.tune.ppi import tune_ppi
 F = np.logspace(0, np.log10(9000.0), 2000)
 SCALES = (0.7, 0.9, 1.1, 1.3)
 MODE_HZ, MODE_ZETA, MODE_GAIN = 703.3, 0.005, 0.5
-
-
-def best_of(fn, n=5):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def with_mode(frf: Frf) -> Frf:

@@ -92,13 +92,30 @@ def print_certificate(cert: dict) -> None:
                f"Ms {w['ms']:.3g} ({w['ms_frf']}); active limit: {active}")
 
 
+def _write_certified(title: str, doc: dict, cert, result: dict, out: Path | None, force: bool,
+                     as_json: bool) -> bool:
+    """Refuse a design that fails its certificate (the gains file as written), write it, print the JSON; True when
+    the JSON was printed (nothing else to print)."""
+    from ..errors import DesignError
+    from ..io import write_document
+
+    if not cert.ok:  # the tuner re-checks its winner on every FRF; this is the gains file as written
+        raise DesignError(f"the tuned {title} fails its certificate: "
+                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
+    if out is not None:
+        write_document(out, doc, force=force)
+        result["out"] = str(out)
+    if as_json:
+        print_json(result)
+        return True
+    return False
+
+
 def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pack, filters: str | None,
                     fs: float, delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool,
                     as_json: bool) -> None:
     """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
     from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
-    from ..errors import DesignError
-    from ..io import write_document
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
     from ..io.gains import gains_document
@@ -122,14 +139,7 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
     result = {"kind": "ballscrew", "controller": design.kind, "gains": gains, "gain_units": units,
               "filters": design.filters.to_dict(), "filter_choice": design.tuning.get("filters", {"choice": choice}),
               "design": design.design_dict(), "certificate": cert.to_dict()}
-    if not cert.ok:  # the tuner re-checks its winner on every FRF; this is the gains file as written
-        raise DesignError(f"the tuned {TITLES[structure]} fails its certificate: "
-                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
-    if out is not None:
-        write_document(out, doc, force=force)
-        result["out"] = str(out)
-    if as_json:
-        print_json(result)
+    if _write_certified(TITLES[structure], doc, cert, result, out, force, as_json):
         return
     typer.echo(f"{TITLES[structure]} tuned: " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}"
                                                           for k, v in gains.items()))
@@ -142,8 +152,7 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
 def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | None, fs: float,
                delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool) -> None:
     """Tune an x axis by loop shaping on every FRF, certify, write, print."""
-    from ..errors import DesignError
-    from ..io import load_model, write_document
+    from ..io import load_model
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
     from ..io.gantry_gains import axis_gains_document
@@ -167,14 +176,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     tuning = design.tuning
     result = {"kind": "axis", "controller": "loopshape", "design": design.design_dict(),
               "filters": design.filters.to_dict(), "certificate": cert.to_dict()}
-    if not cert.ok:
-        raise DesignError("the tuned loop-shaping design fails its certificate: "
-                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
-    if out is not None:
-        write_document(out, doc, force=force)
-        result["out"] = str(out)
-    if as_json:
-        print_json(result)
+    if _write_certified("loop-shaping design", doc, cert, result, out, force, as_json):
         return
     typer.echo(f"x-axis loop shaping tuned: crossover {fmt(tuning['crossover_hz'], 'Hz')}, PM target "
                f"{fmt(tuning['pm_target_deg'], 'deg')}, integral lag {fmt(tuning['pi_lag_deg'], 'deg')}, "
@@ -205,8 +207,6 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
                  filters_pack, filters: str | None, fs: float, delay_samples: int, quantity: str | None, policy,
                  out: Path | None, force: bool, as_json: bool) -> None:
     """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
-    from ..errors import DesignError
-    from ..io import write_document
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
     from ..io.gantry_gains import gantry_gains_document
@@ -236,14 +236,7 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
     result = {"kind": "gantry", "controller": design.controller, "design_x_m": design.x, "gains": gains,
               "gain_units": units, "filters": design.law.filters.to_dict(), "filter_choice": record,
               "design": design.design_dict(), "certificate": cert.to_dict()}
-    if not cert.ok:
-        raise DesignError(f"the tuned {TITLES[structure]} fails its certificate: "
-                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
-    if out is not None:
-        write_document(out, doc, force=force)
-        result["out"] = str(out)
-    if as_json:
-        print_json(result)
+    if _write_certified(TITLES[structure], doc, cert, result, out, force, as_json):
         return
     shape = (f"CoM crossover target {fmt(design.crossover_hz, 'Hz')}, PM target {fmt(design.pm_deg, 'deg')}, "
              f"damping increase {design.damping_increase:g}" if structure == "gantry" else
