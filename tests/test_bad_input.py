@@ -150,3 +150,12 @@ def test_a_matlab_v73_char_variable_holding_non_characters_is_named(tmp_path):
                  + b"\x00\x02IM")
     with pytest.raises(DataError, match="variable 'quantity' cannot be decoded"):
         read_frf(path)
+
+
+def test_main_in_process_leaves_the_callers_signal_handlers_as_they_were(capsys, monkeypatch):
+    """The CLI turns SIGINT/SIGTERM into a clean exit while it runs; called in-process (tests, notebooks) it must not
+    leave its handlers behind (a pytest worker would then survive SIGTERM)."""
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    code, _, _ = run(["--help"], capsys, monkeypatch)
+    assert code == 0
+    assert {s: signal.getsignal(s) for s in before} == before

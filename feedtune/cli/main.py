@@ -94,14 +94,27 @@ def main() -> None:
     """
     import signal
 
-    from ..errors import FeedtuneError
-
     for name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGINT)}
     signal.signal(signal.SIGTERM, _on_signal)
     signal.signal(signal.SIGINT, _on_signal)
     if hasattr(signal, "SIGPIPE"):  # a closed stdout (a pipe into head) ends the process quietly, as for cat
+        handlers[signal.SIGPIPE] = signal.getsignal(signal.SIGPIPE)
         signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    try:
+        _run()
+    finally:  # main() called in-process (tests, notebooks) leaves the caller's signal handling as it was
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+
+
+def _run() -> None:
+    """Run the command line and turn its outcome into an exit code (:func:`main`)."""
+    import signal
+
+    from ..errors import FeedtuneError
+
     try:
         code = app(standalone_mode=False)
     except FeedtuneError as exc:
