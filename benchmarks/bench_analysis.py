@@ -12,20 +12,12 @@ import sys
 import time
 
 import numpy as np
+from timing import best_of
 
 from feedtune.analysis.ballscrew import analyze_ballscrew
 from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.mcppc import design_mcppc
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
-
-
-def best_of(fn, n=5):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy import signal
+from timing import best_of
 
 from feedtune.identify.frf_estimate import estimate_frf
 from feedtune.log import Log
@@ -42,14 +43,6 @@ def _multisine(rng: np.random.Generator) -> np.ndarray:
     return np.tile(one / np.abs(one).max(), N // PERIOD)
 
 
-def _best(fn, repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
 
 def main() -> Log:
     rng = np.random.default_rng(0)
@@ -71,7 +64,7 @@ def main() -> Log:
     print(f"{N} samples at {FS:g} Hz, 2 outputs")
     for name, fn in cases.items():
         frf = fn()
-        print(f"  {name:32s} {_best(fn) * 1e3:8.1f} ms   ({frf.freq_hz.size} lines)")
+        print(f"  {name:32s} {best_of(fn, 3) * 1e3:8.1f} ms   ({frf.freq_hz.size} lines)")
     return ms_log
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from timing import best_of
 
 from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.design.gantry_mimo import design_gantry_mimo
@@ -71,14 +72,6 @@ def _references(fs: float, n: int) -> tuple[np.ndarray, np.ndarray]:
     return pad[0], pad[1]
 
 
-def _best(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
 
 def main() -> None:
     twin = GantryTwin()
@@ -100,7 +93,7 @@ def main() -> None:
             yr, xr = (y_ref, x_ref) if g.controller != "zero" else (np.zeros(n), 0.05)  # nothing moves: at rest
             run = twin.simulate(g, a, yr, x_ref=xr, engine=engine)
             assert not run.tripped, run.trip_message
-            t = _best(lambda g=g, a=a, yr=yr, xr=xr, e=engine: twin.simulate(g, a, yr, x_ref=xr, engine=e),
+            t = best_of(lambda g=g, a=a, yr=yr, xr=xr, e=engine: twin.simulate(g, a, yr, x_ref=xr, engine=e),
                       3 if engine == "numba" else 1)
             print(f"  {engine:6s} {label:38s}: {t:.3f} s, {t / run.t.size * 1e6:6.2f} us/sample, "
                   f"{SECONDS / t:5.1f}x real time")
@@ -124,13 +117,13 @@ def marginal() -> None:
         n = int(sec * twin.fs)
         y, x = _references(twin.fs, n)
         twin.simulate(mimo, axis, y, x_ref=x)
-        times[sec] = _best(lambda y=y, x=x: twin.simulate(mimo, axis, y, x_ref=x), 5)
+        times[sec] = best_of(lambda y=y, x=x: twin.simulate(mimo, axis, y, x_ref=x), 5)
     per = (times[5.0] - times[1.0]) / (4.0 * twin.fs)
     bs = BallScrewTwin()
     rt = load_runtime(gains_document(design_mcppc(THESIS_TABLE_3_1, filters=THESIS_FILTER_PACK)))
     ref = _reference(bs)
     bs.simulate(rt, ref[:100])
-    t_bs = _best(lambda: bs.simulate(rt, ref), 3) / ref.size
+    t_bs = best_of(lambda: bs.simulate(rt, ref), 3) / ref.size
     print(f"compiled gantry loop (MIMO + axis), marginal: {per * 1e6:.3f} us/sample, {1 / (per * twin.fs):.0f}x real "
           f"time at {twin.fs:g} Hz (target >= 100x); ball-screw loop {t_bs * 1e6:.3f} us/sample "
           f"({BS_SECONDS:g} s run): gantry/ball screw = {per / t_bs:.2f}")

@@ -13,9 +13,8 @@ Run by hand: ``python benchmarks/bench_mimo_analysis.py``. Prints
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from timing import best_of
 
 from feedtune.analysis.gantry import analyze_gantry
 from feedtune.analysis.mimo import analyze_mimo, matmul, sensitivity, singular_values
@@ -34,14 +33,6 @@ N_STEPS = 15000
 H = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)],
                 450.0, 2, 0.7, [LeadStage(154, 70)])
 
-
-def best_of(fn, n=5):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def bench_analysis(mimo) -> None:

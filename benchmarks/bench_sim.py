@@ -9,9 +9,8 @@ tracks a back-and-forth move under MC-PPC. Prints the best of a few runs per eng
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from timing import best_of
 
 from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.mcppc import design_mcppc
@@ -33,14 +32,6 @@ def _reference(twin: BallScrewTwin) -> np.ndarray:
     return pos / twin.lead
 
 
-def _best(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
 
 def main() -> None:
     twin = BallScrewTwin()
@@ -55,7 +46,7 @@ def main() -> None:
             twin.simulate(rt, x_ref[:1000], engine="numba")  # compile (or load the cache) outside the timing
         run = twin.simulate(rt, x_ref, engine=engine)
         assert not run.tripped, run.trip_message
-        results[engine] = _best(lambda e=engine: twin.simulate(rt, x_ref, engine=e), 3 if engine == "numba" else 1)
+        results[engine] = best_of(lambda e=engine: twin.simulate(rt, x_ref, engine=e), 3 if engine == "numba" else 1)
         err = (x_ref - run.from_zero().x2) * twin.lead
         print(f"  {engine:6s}: {results[engine]:.3f} s  ({SECONDS / results[engine]:.1f}x real time); "
               f"max tracking error {np.max(np.abs(err)) * 1e6:.2f} um")
@@ -64,7 +55,7 @@ def main() -> None:
     u = np.zeros((n, 3))
     u[1:, 0] = run.from_zero().u[:-1]
     sys = (twin.Ad, twin.Bd, np.eye(twin.n_states)[:2], np.zeros((2, 3)), 1.0 / twin.fs)
-    t_dlsim = _best(lambda: dlsim(sys, u), 1)
+    t_dlsim = best_of(lambda: dlsim(sys, u), 1)
     print(f"  scipy.signal.dlsim, linear plant only, open loop: {t_dlsim:.3f} s")
     for engine, t in results.items():
         print(f"  ratio dlsim / {engine} closed loop: {t_dlsim / t:.1f}")

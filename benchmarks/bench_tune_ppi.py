@@ -9,10 +9,10 @@ of a shape) and of one analysis check (``analyze_case`` on the checked case).
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
+from timing import best_of
 
 from feedtune.analysis.ballscrew import analyze_ballscrew, analyze_case, plant_cases
 from feedtune.analysis.check import resolve_limits
@@ -26,14 +26,6 @@ from feedtune.tune.ppi import Surrogate, tune_ppi
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ballscrew_frf.csv"
 
-
-def best_of(fn, n=5):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main() -> None:
