@@ -122,14 +122,6 @@ class MimoLaw:
                 "delay_samples": self.delay_samples}
 
 
-def law_at(law, schedule: GantrySchedule, x: float):
-    """The feedback law the target runs at table position ``x`` [m]: a MIMO law with the schedule's averaging
-    weights ``alpha(x)`` (eq. 4.33); a PID law as it is (its gains are not scheduled)."""
-    if getattr(law, "controller", None) == "mimo":
-        return replace(law, alpha=schedule.alpha(x))
-    return law
-
-
 # ---------------------------------------------------------------------------------------- schedule
 @dataclass(frozen=True)
 class GantrySchedule:
@@ -178,6 +170,14 @@ class GantrySchedule:
         """Per-side pre-filter gains at ``x``."""
         r = self.at(x)
         return PrefilterGains(*r[5:9]), PrefilterGains(*r[9:13])
+
+
+def law_at(law, schedule: GantrySchedule, x: float):
+    """The feedback law the target runs at table position ``x`` [m]: a MIMO law with the schedule's averaging
+    weights ``alpha(x)`` (eq. 4.33); a PID law as it is (its gains are not scheduled)."""
+    if getattr(law, "controller", None) == "mimo":
+        return replace(law, alpha=schedule.alpha(x))
+    return law
 
 
 @dataclass(frozen=True)

@@ -549,7 +549,7 @@ def _period_mismatch(exc: np.ndarray, period: int, where: str) -> str | None:
         lag, corr = detect_period(exc, where=where)
     except DataError:
         return None
-    if period % lag == 0 or abs(period - lag) <= 0:
+    if period % lag == 0:  # the period itself or a multiple of it
         return None
     return (f"period_samples {period} does not fit the excitation, which repeats every {lag} samples "
             f"(autocorrelation {corr:.3f}): the FRF averages misaligned periods and is wrong; pass {lag} or leave "

@@ -596,7 +596,7 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
         if best is None:
             return None
         if best is not ranking[0]:
-            refused = sum(1 for c in ranking[:ranking.index(best)])
+            refused = ranking.index(best)
             rec.warnings.append(f"the {refused} best shape(s) failed the full verification; the next best was taken "
                                 f"({best.objective:.4g} Hz instead of {ranking[0].objective:.4g} Hz)")
     if best.bandwidth >= hi * (1 - 2e-3):
