@@ -111,12 +111,25 @@ class Zpk:
     def evaluate(self, x) -> np.ndarray:
         """Evaluate at complex points ``x`` (``s`` or ``z``), vectorised."""
         x = np.asarray(x, dtype=complex)
+        n_roots = max(self.zeros.size, self.poles.size)
+        if n_roots <= _BLOCK * 3 and x.size * n_roots <= _SMALL:  # few points (searches): two calls in all
+            xr = x.reshape(1, -1)
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                num = np.prod(xr - self.zeros[:, None], axis=0)
+                return (self.gain * num / np.prod(xr - self.poles[:, None], axis=0)).reshape(x.shape)
         out = np.full(x.shape, self.gain, dtype=complex)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for r in self.zeros:  # loops over roots (a handful), not over frequencies
-                out *= x - r
-            for p in self.poles:
-                out /= x - p
+        num, den, tmp = np.empty_like(out), np.empty_like(out), np.empty_like(out)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            # loops over roots (a handful), not over frequencies; zeros and poles in blocks of _BLOCK, one complex
+            # division per block (the products of a block stay far inside the float range)
+            for k in range(0, max(self.zeros.size, self.poles.size), _BLOCK):
+                for roots, acc in ((self.zeros[k:k + _BLOCK], num), (self.poles[k:k + _BLOCK], den)):
+                    acc.fill(1.0)
+                    for r in roots:
+                        np.subtract(x, r, out=tmp)
+                        acc *= tmp
+                out *= num
+                out /= den
         return out
 
     def freqresp(self, freq_hz) -> np.ndarray:
@@ -168,6 +181,12 @@ class Zpk:
     def __repr__(self) -> str:
         kind = "continuous" if self.dt is None else f"dt={self.dt:g} s"
         return f"Zpk(zeros={np.round(self.zeros, 6)}, poles={np.round(self.poles, 6)}, gain={self.gain:g}, {kind})"
+
+
+_BLOCK = 8
+"""Roots multiplied together before one division in :meth:`Zpk.evaluate`."""
+_SMALL = 1 << 12
+"""Points times roots up to which :meth:`Zpk.evaluate` forms every factor at once."""
 
 
 def sos_freqresp(sos: np.ndarray, freq_hz, fs: float) -> np.ndarray:

@@ -153,9 +153,11 @@ def _zoh_tf(model: BallScrewModel, fs: float):
         for i, outp in ((0, "G1"), (1, "G2")):
             polys[outp + inp] = (num[i], den)
 
-    def evaluate(freq_hz) -> dict[str, np.ndarray]:
+    def evaluate(freq_hz, keys=None) -> dict[str, np.ndarray]:
         z = np.exp(2j * np.pi * np.asarray(freq_hz, float) / fs)
-        return {k: np.polyval(n, z) / np.polyval(d, z) for k, (n, d) in polys.items()}
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv_den = 1.0 / np.polyval(den, z)  # one denominator (ss2tf of one system)
+        return {k: np.polyval(polys[k][0], z) * inv_den for k in (polys if keys is None else keys)}
 
     return evaluate
 
@@ -186,7 +188,7 @@ def plant_cases(model: BallScrewModel, fs: float, delay_samples: float, frf: Frf
 
     def pick(fn, a, b):
         def out(fr):
-            g = fn(fr)
+            g = fn(fr, (a, b))
             return np.array([g[a], g[b]])
 
         return out
@@ -242,7 +244,7 @@ def analyze_case(law: BallScrewLaw, pc: PlantCase, *, responses: bool = True) ->
 
     extension = model_extension(f, g, pc.model_plant, ext_loop)
     feats = np.vstack([pc.features, controller_features(paths)])
-    metrics = analyze_loop(f, evaluate=loop_function(paths, pc), features=feats, open_loop_rhp_poles=rhp,
+    metrics = analyze_loop(f, L, evaluate=loop_function(paths, pc), features=feats, open_loop_rhp_poles=rhp,
                            extension=extension, noise_db=pc.noise_db, measured=pc.measured)
     S = 1.0 / (1.0 + L)
     if not responses:

@@ -390,7 +390,7 @@ def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisC
 
     extension = model_extension(f, G, pc.model_plant, ext_loop)
     feats = np.vstack([pc.features, lightly_damped(C.poles, C.dt), lightly_damped(C.zeros, C.dt)])
-    metrics = analyze_loop(f, evaluate=evaluate, features=feats, open_loop_rhp_poles=rhp, extension=extension,
+    metrics = analyze_loop(f, L, evaluate=evaluate, features=feats, open_loop_rhp_poles=rhp, extension=extension,
                            noise_db=pc.noise_db, measured=pc.measured)
     if not responses:
         return AxisCase(pc.name, f, L, S, None, None, G * S, metrics)

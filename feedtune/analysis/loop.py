@@ -529,7 +529,8 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
     freq_hz : array_like, shape (n,)
         Strictly increasing grid [Hz]: the samples of ``L``, or the base grid (and band) of ``evaluate``.
     L : array_like, shape (n,), optional
-        Loop transfer [-] on ``freq_hz`` (when no ``evaluate`` is given).
+        Loop transfer [-] on ``freq_hz``: the loop itself without ``evaluate``; with it, ``evaluate(freq_hz)``
+        already computed by the caller (not evaluated again).
     evaluate : callable, optional
         ``evaluate(f)`` -> ``L`` at any ``f`` [Hz] in ``[freq_hz[0], freq_hz[-1]]``; the grid is refined with it.
     features : array_like, shape (k, 2), optional
@@ -562,9 +563,10 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
     f0 = np.asarray(freq_hz, float)
     warnings: list[str] = []
     if evaluate is not None:
-        f, Lg = resolve(f0, evaluate, lambda R: [R], features)
+        L0 = evaluate(f0) if L is None else np.asarray(L, complex)
+        f, Lg = resolve(f0, evaluate, lambda R: [R], features, known=L0)
         if measured:
-            warnings += line_resolution_warnings(f0, evaluate(f0))
+            warnings += line_resolution_warnings(f0, L0)
     else:
         f, Lg = f0, np.asarray(L, complex)
         check_samples(f, [Lg])

@@ -162,7 +162,8 @@ def _split(f: np.ndarray, intervals: np.ndarray, n: int) -> np.ndarray:
 
 
 def resolve(freq_hz, evaluate: Callable[[np.ndarray], np.ndarray],
-            loops: Callable[[np.ndarray], Sequence[np.ndarray]], features=None) -> tuple[np.ndarray, np.ndarray]:
+            loops: Callable[[np.ndarray], Sequence[np.ndarray]], features=None,
+            known: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Grid and response on which the loops are resolved (module docstring).
 
     Parameters
@@ -175,6 +176,8 @@ def resolve(freq_hz, evaluate: Callable[[np.ndarray], np.ndarray],
         ``loops(R)`` -> the scalar loops (complex arrays over frequency) to keep resolved, from a response block.
     features : array_like, shape (k, 2), optional
         Lightly damped roots of the exact parts (:func:`lightly_damped`).
+    known : ndarray, optional
+        ``evaluate(freq_hz)`` when the caller has it already (not evaluated again).
 
     Returns
     -------
@@ -188,7 +191,7 @@ def resolve(freq_hz, evaluate: Callable[[np.ndarray], np.ndarray],
     """
     f = np.asarray(freq_hz, float)
     extra = feature_points(features if features is not None else np.empty((0, 2)), f[0], f[-1])
-    R = evaluate(f)
+    R = evaluate(f) if known is None else np.asarray(known)
     if extra.size:
         f, R = _merge(f, R, extra, evaluate(extra))
     for _ in range(MAX_ROUNDS + 1):
@@ -259,10 +262,13 @@ INTERPOLATION = "log magnitude and unwrapped phase, linear in log frequency, bet
 def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     """A function evaluating the measured ``response`` (last axis over ``freq_hz`` [Hz] > 0) between its lines.
 
-    :data:`INTERPOLATION`; exact on the lines. Frequencies outside the lines are clamped to the end values.
+    :data:`INTERPOLATION`; exact on the lines (asked for the lines themselves, it returns the measured values
+    without interpolating). Frequencies outside the lines are clamped to the end values.
     """
     f = np.asarray(freq_hz, float)
     h = np.asarray(response, complex)
+    h_lines = h.copy()
+    h_lines.setflags(write=False)
     lf = np.log(f)
     with np.errstate(divide="ignore"):
         lm = np.log(np.maximum(np.abs(h), 1e-300))
@@ -272,6 +278,8 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
 
     def evaluate(fq: np.ndarray) -> np.ndarray:
         fq = np.asarray(fq, float)
+        if fq.shape == f.shape and (fq is f or np.array_equal(fq, f)):
+            return h_lines.copy()
         x = np.log(np.clip(fq, f[0], f[-1]))
         i = np.clip(np.searchsorted(lf, x) - 1, 0, f.size - 2)
         t = (x - lf[i]) / (lf[i + 1] - lf[i])
@@ -301,7 +309,8 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
         d2 = np.pad(d2, ((0, 0), (1, 1)), mode="edge")
         from scipy.ndimage import median_filter
 
-        med = median_filter(d2, size=(1, 2 * half_window + 1), mode="nearest")
+        # row by row: scipy's one-dimensional running median is ~8x faster than the 2-D filter of size (1, w)
+        med = np.vstack([median_filter(row, size=2 * half_window + 1, mode="nearest") for row in d2])
         out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
     if coherence is not None:
         g = np.asarray(coherence, float).reshape(-1, n)

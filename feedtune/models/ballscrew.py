@@ -98,14 +98,17 @@ class BallScrewModel:
             "G23": np.array([m1, c + b1, k]),
         }
 
-    def frequency_response(self, freq_hz) -> dict[str, np.ndarray]:
-        """Position responses G11, G12, G13, G21, G22, G23 [rad/V] on a grid [Hz] (vectorised)."""
+    def frequency_response(self, freq_hz, keys=None) -> dict[str, np.ndarray]:
+        """Position responses G11, G12, G13, G21, G22, G23 [rad/V] on a grid [Hz] (vectorised); only ``keys``
+        (names among G11, G13, G21, G23) when given."""
         s = 2j * np.pi * np.asarray(freq_hz, float)
+        nums = self.numerators()
         with np.errstate(divide="ignore", invalid="ignore"):
-            den = np.polyval(self.denominator(), s)
-            out = {name: np.polyval(num, s) / den for name, num in self.numerators().items()}
-        out["G12"] = out["G11"]
-        out["G22"] = out["G21"]
+            inv_den = 1.0 / np.polyval(self.denominator(), s)
+            out = {name: np.polyval(nums[name], s) * inv_den for name in (nums if keys is None else keys)}
+        if keys is None:
+            out["G12"] = out["G11"]
+            out["G22"] = out["G21"]
         return out
 
     def frf(self, freq_hz, quantity: str = "position"):
