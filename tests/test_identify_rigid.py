@@ -180,14 +180,74 @@ def test_standstill_is_ill_conditioned():
         fit_rigid(log, force="u", position="x")
 
 
-def test_one_direction_only_asymmetric_is_ill_conditioned():
-    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0)
+def test_one_direction_fits_mass_viscous_and_the_constant_of_that_direction_with_a_warning():
+    # truth: constant for dq > 0 is Fc + offset = 8 - 1.5 = 6.5 N; the sign column equals the constant one
+    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0, offset=-1.5)
     log = _synthetic(truth, both_ways=False)
-    with pytest.raises(IllConditionedError, match="both directions"):
-        fit_rigid(log, force="u", position="x", cutoff_hz=20.0, asymmetric=True)
-    # the symmetric model cannot separate Coulomb friction from the offset either
-    with pytest.raises(IllConditionedError, match="linearly dependent"):
-        fit_rigid(log, force="u", position="x", cutoff_hz=20.0)
+    for asymmetric in (False, True):
+        fit = fit_rigid(log, force="u", position="x", cutoff_hz=20.0, asymmetric=asymmetric)
+        assert set(fit.values) == {"mass", "viscous", "constant"}
+        assert fit.values["mass"] == pytest.approx(12.0, rel=1e-3)
+        assert fit.values["viscous"] == pytest.approx(30.0, rel=1e-3)
+        assert fit.values["constant"] == pytest.approx(6.5, rel=1e-3)
+        assert fit.to_dict()["model"] == "rigid-one-direction"
+        assert any("one direction only" in w and "cannot be separated" in w for w in fit.warnings)
+        # stored as the offset: the model reproduces the force for motion in the measured direction
+        assert fit.model.offset == pytest.approx(6.5, rel=1e-3) and fit.model.coulomb_pos == 0.0
+
+
+def test_several_logs_one_direction_each_separate_coulomb_and_offset():
+    # two runs, one each way (as the HSM150 steps): stacked, the full symmetric model is identifiable
+    truth = RigidBodyModel(mass=12.0, viscous=30.0, coulomb_pos=8.0, offset=-1.5)
+    fwd = _synthetic(truth, both_ways=False)
+    t = fwd.t
+    w = 2 * np.pi * np.array([0.15, 0.4, 1.1])
+    amp = np.array([0.08, 0.02, 0.004])
+    vb = -((amp[:, None] * w[:, None] * np.cos(w[:, None] * t)).sum(0) + 0.2)
+    ab = (amp[:, None] * w[:, None] ** 2 * np.sin(w[:, None] * t)).sum(0)
+    back = Log(t, {"x": -fwd.get("x"), "u": truth.force(ab, vb)}, {"x": "m", "u": "N"}, {"source": "back"})
+    fit = fit_rigid([fwd, back], force="u", position="x", cutoff_hz=20.0)
+    assert set(fit.values) == {"mass", "viscous", "coulomb", "offset"}
+    for name, value in (("mass", 12.0), ("viscous", 30.0), ("coulomb", 8.0), ("offset", -1.5)):
+        assert fit.values[name] == pytest.approx(value, rel=2e-3, abs=2e-3), name
+    assert not any("one direction" in w for w in fit.warnings)
+    # one of them alone: the lumped fit
+    assert set(fit_rigid(back, force="u", position="x", cutoff_hz=20.0).values) == {"mass", "viscous", "constant"}
+
+
+def test_automatic_cutoff_follows_the_velocity_spectrum():
+    from scipy import signal
+
+    from feedtune.identify.rigid import auto_cutoff_hz
+
+    rng = np.random.default_rng(3)
+    fs = 1000.0
+    t = np.arange(20000) / fs
+    for f_motion in (2.0, 30.0):
+        # broadband motion (white noise through a 4th-order low-pass at f_motion, integrated to a position) and
+        # 1e-8 m of position noise: the rule must land above the motion's band and far below Nyquist
+        b, a = signal.butter(4, f_motion, fs=fs)
+        v = signal.lfilter(b, a, rng.standard_normal(t.size))
+        sigma_n = 1e-8
+        x = np.cumsum(v) / fs * 0.1 + sigma_n * rng.standard_normal(t.size)
+        cut, how = auto_cutoff_hz(x, 1 / fs)
+        # the rule from the known spectra: signal 0.01 |H|^2 (2 / fs), noise through the central difference
+        # (2 sigma_n^2 / fs) (fs sin(w))^2; the band ends where their sum falls to 20 dB above the noise's median
+        # over [fs/4, fs/2]; the cut-off is 2.5 times that
+        fg = np.linspace(0.01, fs / 2, 200001)
+        w = 2 * np.pi * fg / fs
+        noise = 2 * sigma_n**2 / fs * (fs * np.sin(w)) ** 2
+        sig = 0.01 * np.abs(signal.freqz(b, a, worN=fg, fs=fs)[1]) ** 2 * 2 / fs * (np.sin(w) / w) ** 2
+        floor = np.median(noise[fg >= fs / 4])
+        edge = fg[np.flatnonzero((sig + noise < 100 * floor) & (fg > f_motion / 2))[0]]
+        assert cut == pytest.approx(2.5 * edge, rel=0.1), (f_motion, cut, edge, how)
+    # a constant speed has no spectrum above round-off: the EMPS recipe's 100 Hz
+    assert auto_cutoff_hz(0.05 * t, 1 / fs)[0] == 100.0
+    # slow motion in a log too short to filter and decimate at its bandwidth
+    b, a = signal.butter(4, 2.0, fs=fs)
+    short = np.cumsum(signal.lfilter(b, a, rng.standard_normal(1000))) / fs * 0.1 + 1e-6 * rng.standard_normal(1000)
+    with pytest.raises(DataError, match="too few for the automatic cut-off"):
+        auto_cutoff_hz(short, 1 / fs)
 
 
 # ------------------------------------------------------------------------------------------ bad input
@@ -210,7 +270,7 @@ def test_bad_input_gives_one_line_errors():
     with pytest.raises(DataError, match="not uniform"):
         fit_rigid(Log(t, dict(log.signals), dict(log.units)), force="u", position="x")
     with pytest.raises(DataError, match="too few"):
-        fit_rigid(log.slice(None, 0.2), force="u", position="x")
+        fit_rigid(log.slice(None, 0.2), force="u", position="x", cutoff_hz=100.0)
 
 
 def test_rigid_model_file_round_trip_and_errors(tmp_path):
@@ -252,13 +312,16 @@ def test_a_coarsely_quantized_position_is_warned_about(emps):
     def quantized(q):
         return _with(emps, qm=np.round(emps.get("qm") / q) * q)
 
-    fit = fit_rigid(quantized(1e-4), force="vir", position="qm", force_scale=GTAU)
+    fit = fit_rigid(quantized(1e-4), force="vir", position="qm", force_scale=GTAU, cutoff_hz=100.0)
     assert abs(fit.values["mass"] / EMPS_SYMMETRIC["mass"] - 1) > 0.1  # the damage the warning is about
     assert any("quantized to 0.0001 m" in w for w in fit.warnings), fit.warnings
     assert "quantized" in " ".join(fit.to_dict()["warnings"])
-    assert fit_rigid(quantized(2e-5), force="vir", position="qm", force_scale=GTAU).warnings == ()
+    # the automatic cut-off sees the quantization floor and filters below it: the mass is back within 2 %
+    auto = fit_rigid(quantized(1e-4), force="vir", position="qm", force_scale=GTAU)
+    assert auto.cutoff_hz < 50 and abs(auto.values["mass"] / EMPS_SYMMETRIC["mass"] - 1) < 0.02
+    assert fit_rigid(quantized(2e-5), force="vir", position="qm", force_scale=GTAU, cutoff_hz=100.0).warnings == ()
     with pytest.raises(IllConditionedError, match=r"quantized to 0\.001 m"):
-        fit_rigid(quantized(1e-3), force="vir", position="qm", force_scale=GTAU)
+        fit_rigid(quantized(1e-3), force="vir", position="qm", force_scale=GTAU, cutoff_hz=100.0)
 
 
 def test_a_command_clipped_at_30_percent_is_warned_about(emps):

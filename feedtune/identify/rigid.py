@@ -13,13 +13,36 @@ The recipe is the one of the EMPS benchmark (Janot, Gautier, Brunot 2019, ``Scri
    (order-8 Chebyshev, zero phase; factor ``round(fs / cutoff)``, 10 for EMPS);
 6. ordinary least squares, ``sigma^2 = ||r||^2 / (n - p)``, covariance ``sigma^2 (W^T W)^-1``.
 
-Ill-conditioned problems (no acceleration, constant velocity, one direction only for the asymmetric model)
-raise :class:`~feedtune.errors.IllConditionedError` naming the degenerate columns instead of returning
-meaningless numbers.
+Several logs (:func:`fit_rigid` with a list): each log is filtered, differentiated, trimmed and decimated on
+its own (no filter runs across the joint of two files), then the decimated rows are stacked into one least-squares
+problem with one set of parameters.
+
+Cut-off rule (``cutoff_hz=None``, :func:`auto_cutoff_hz`): the motion's band ends at the lowest frequency where the
+power spectral density of the velocity (central differences of the raw position; Welch, Hann windows of 4096
+samples; a running median over 9 lines so that a lone quantization tone does not count), from its peak below fs/4
+on, first falls to 20 dB above its noise floor (the median PSD over ``[fs/4, fs/2]``); the cut-off is 2.5 times
+that (the decimation filter, at 0.4 times the cut-off, then passes the band), to two significant digits, within
+what the log's length allows. It gives
+100 Hz on the EMPS log (the published recipe: 5x its 20 Hz dynamic bandwidth) and 7-9 Hz on slow servo-motor steps
+(HSM150), where 100 Hz biases the inertia low by the noise of the differentiated position (errors in the regressor).
+With several logs each log gets its own. The rule is made for tracking and step logs (a continuous
+spectrum); between the lines of a sine or multisine log the spectrum falls to the floor, so give such logs a
+cut-off.
+
+One direction (every decimated sample moves the same way): ``sign(dq)`` equals the constant column, so Coulomb
+friction and offset cannot be separated. The fit then identifies the mass, the viscous coefficient and their
+sum for that direction, ``constant = Fc sign(dq) + offset``, stored as the model's offset with a warning that says
+so (the model then holds for motion in that direction only); the asymmetric model falls back to the same fit. A
+log whose other direction holds less than :data:`FEW_REVERSED` of the samples gets a warning that Coulomb friction
+and offset rest on those few samples.
+
+Ill-conditioned problems (no acceleration, constant velocity) raise :class:`~feedtune.errors.IllConditionedError`
+naming the degenerate columns instead of returning meaningless numbers.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,12 +64,22 @@ MAX_SCALED_CONDITION = 1e6
 MAX_MASS_RELATIVE_STD = 0.25
 """Largest accepted relative standard deviation of the mass estimate."""
 
+FEW_REVERSED = 0.05
+"""Fraction of samples moving the other way below which Coulomb friction and offset are flagged as weakly
+separated."""
+
+AUTO_CUTOFF_DB = 20.0
+"""Signal-to-noise ratio of the velocity spectrum that ends the motion's band [dB]."""
+AUTO_CUTOFF_FACTOR = 2.5
+"""Automatic cut-off over the motion's band: the decimation filter (at 0.4 x the cut-off) then passes the band."""
+
 SYMMETRIC_PARAMS = ("mass", "viscous", "coulomb", "offset")
+ONE_DIRECTION_PARAMS = ("mass", "viscous", "constant")
 ASYMMETRIC_PARAMS = ("mass", "viscous_pos", "coulomb_pos", "viscous_neg", "coulomb_neg")
 COLUMN_LABELS = {
     "mass": "ddq (acceleration)", "viscous": "dq (velocity)", "coulomb": "sign(dq)", "offset": "1 (constant)",
     "viscous_pos": "dq for dq>0", "coulomb_pos": "1 for dq>0", "viscous_neg": "dq for dq<0",
-    "coulomb_neg": "-1 for dq<0",
+    "coulomb_neg": "-1 for dq<0", "constant": "1 (constant)",
 }
 
 
@@ -111,10 +144,12 @@ class RigidFit:
     Attributes
     ----------
     model : RigidBodyModel
-        The identified model (symmetric fit: ``offset`` identified; asymmetric fit: ``offset = 0``).
+        The identified model (symmetric fit: ``offset`` identified; asymmetric fit: ``offset = 0``; one
+        direction: ``constant`` as the offset, no Coulomb friction).
     values, std : dict of str to float
         Estimates and their standard deviations ``sqrt(diag(sigma^2 (W^T W)^-1))``; names are
-        ``mass, viscous, coulomb, offset`` or ``mass, viscous_pos, coulomb_pos, viscous_neg, coulomb_neg``.
+        ``mass, viscous, coulomb, offset``, ``mass, viscous_pos, coulomb_pos, viscous_neg, coulomb_neg`` or (one
+        direction) ``mass, viscous, constant``.
     relative_error_pct : float
         ``100 ||r|| / ||tau||`` on the decimated samples [%].
     residual_rms : float
@@ -130,9 +165,11 @@ class RigidFit:
     decimate : int
         Decimation factor used.
     cutoff_hz : float
-        Butterworth cut-off [Hz].
+        Butterworth cut-off [Hz] (the highest of the logs' when chosen per log).
     filter_order : int
         Butterworth order.
+    cutoff_rule : str
+        ``"given"`` or how it was chosen from the data (:func:`auto_cutoff_hz`, per log).
     force_unit, position_unit : str
         Units of the force and of the position (``"m"`` or ``"rad"``).
     warnings : tuple of str
@@ -157,19 +194,22 @@ class RigidFit:
     asymmetric: bool = False
     source: str = field(default="log")
     warnings: tuple = ()
+    cutoff_rule: str = "given"
 
     @property
     def units(self) -> dict[str, str]:
         """Unit of every estimated parameter."""
         f, p = self.force_unit, self.position_unit
-        unit_of = {"mass": f"{f}/({p}/s^2)", "viscous": f"{f}/({p}/s)", "coulomb": f, "offset": f}
+        unit_of = {"mass": f"{f}/({p}/s^2)", "viscous": f"{f}/({p}/s)", "coulomb": f, "offset": f, "constant": f}
         return {name: unit_of[name.split("_")[0]] for name in self.values}
 
     def to_dict(self) -> dict:
         """JSON-ready summary with units."""
         return {
             "source": self.source,
-            "model": "rigid-asymmetric" if self.asymmetric else "rigid",
+            "model": ("rigid-one-direction" if "constant" in self.values
+                      else "rigid-asymmetric" if self.asymmetric else "rigid"),
+            "cutoff_rule": self.cutoff_rule,
             "values": dict(self.values),
             "std": dict(self.std),
             "units": {**self.units, "relative_error_pct": "%", "residual_rms": self.force_unit,
@@ -238,6 +278,77 @@ class _Samples:
     position_peak: float
 
 
+def _shortest_cutoff(n: int, fs: float) -> float:
+    """The lowest cut-off [Hz] whose edge trim and decimation a log of ``n`` samples at ``fs`` [Hz] can afford,
+    with a 25 % margin (``2 round(5 fs / fc) + 30 round(fs / fc) <= n``)."""
+    return 1.25 * (10.0 + 30.0) * fs / n
+
+
+def auto_cutoff_hz(position: np.ndarray, dt: float) -> tuple[float, str]:
+    """The Butterworth cut-off chosen from a log's position (module docstring: cut-off rule).
+
+    Parameters
+    ----------
+    position : ndarray
+        Raw position samples [m or rad].
+    dt : float
+        Sample time [s].
+
+    Returns
+    -------
+    (float, str)
+        The cut-off [Hz] and a sentence saying how it was chosen.
+
+    Raises
+    ------
+    DataError
+        A log too short for the cut-off its motion needs.
+    """
+    from scipy import signal
+    from scipy.ndimage import median_filter
+
+    fs = 1.0 / dt
+    v = np.gradient(np.asarray(position, float), dt)
+    n = v.size
+    f, psd = signal.welch(v, fs=fs, nperseg=min(n, 4096), detrend="linear")
+    floor = float(np.median(psd[f >= fs / 4]))
+    smooth = median_filter(psd, size=9, mode="nearest")  # a lone line (a quantization tone) does not count
+    peak = int(np.argmax(np.where(f < fs / 4, smooth, 0.0)))  # the motion's peak, below the floor's band
+    edge_i = _band_end(smooth > floor * 10 ** (AUTO_CUTOFF_DB / 10), peak)
+    lo, hi = _shortest_cutoff(n, fs), 0.4 * fs
+    varies = np.std(signal.detrend(v)) > 1e-6 * np.max(np.abs(v))  # more than round-off of a constant speed
+    if floor <= 0 or edge_i is None or edge_i <= 1 or not varies:  # no band: noise from the first line on
+        edge = min(100.0, hi) / AUTO_CUTOFF_FACTOR
+        how = "no velocity content above the noise floor: 100 Hz (the EMPS recipe)"
+    else:
+        edge = float(f[edge_i])
+        how = (f"{AUTO_CUTOFF_FACTOR:g} x {edge:.3g} Hz, where the velocity spectrum falls to {AUTO_CUTOFF_DB:g} dB "
+               "above its noise floor")
+    cutoff = AUTO_CUTOFF_FACTOR * edge
+    if cutoff < lo / 2:
+        raise DataError(f"{n} samples are too few for the automatic cut-off: the motion needs {cutoff:.3g} Hz, "
+                        f"but the filter edges and the decimation of a log this short need at least {lo:.3g} Hz; "
+                        "give a longer log or cutoff_hz")
+    cutoff = float(f"{min(max(cutoff, lo), hi):.2g}")
+    if AUTO_CUTOFF_FACTOR * edge < lo:
+        how += f"; raised to {cutoff:g} Hz, the lowest the log's length allows"
+    return cutoff, how
+
+
+def _band_end(above: np.ndarray, start: int) -> int | None:
+    """Index of the first line at or after ``start`` where ``above`` is False; None when there is none."""
+    below = np.flatnonzero(~above[start:])
+    return int(below[0]) + start if below.size else None
+
+
+def _auto_cutoff_of(log: Log, q: np.ndarray, dt: float) -> tuple[float, str]:
+    """:func:`auto_cutoff_hz` of a log, its errors naming the log."""
+    try:
+        return auto_cutoff_hz(q, dt)
+    except DataError as exc:
+        raise DataError(f"{log.source}: {exc}") from None
+
+
 def _check_settings(fs: float, cutoff_hz, filter_order, decimate) -> tuple[float, int, int]:
     cutoff = _positive_float(cutoff_hz, "cutoff_hz")
     if cutoff >= fs / 2:
@@ -285,8 +396,10 @@ def _prepare(log: Log, force: str, position: str, cutoff_hz, filter_order, decim
     if not (np.isfinite(scale) and scale != 0):
         raise UsageError(f"force_scale must be a finite non-zero number, got {force_scale!r}")
     dt = uniform_sample_time(log)
-    cutoff, order, factor = _check_settings(1.0 / dt, cutoff_hz, filter_order, decimate)
     q, pos_unit = position_si(log, position)
+    if cutoff_hz is None:
+        cutoff_hz = _auto_cutoff_of(log, q, dt)[0]
+    cutoff, order, factor = _check_settings(1.0 / dt, cutoff_hz, filter_order, decimate)
     tau = log.get(force) * scale
     border = round(5.0 / (dt * cutoff))
     n_needed = 2 * border + factor * 30 + 3 * (order + 1)
@@ -306,10 +419,10 @@ def _prepare(log: Log, force: str, position: str, cutoff_hz, filter_order, decim
                     float(np.max(np.abs(q_f))))
 
 
-def _regressor(dq: np.ndarray, ddq: np.ndarray, asymmetric: bool) -> np.ndarray:
-    """Full-rate observation matrix (see module doc)."""
+def _regressor(dq: np.ndarray, ddq: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+    """Full-rate observation matrix of the symmetric or asymmetric parameters ``names`` (see module doc)."""
     s = np.sign(dq)
-    if not asymmetric:
+    if names == SYMMETRIC_PARAMS:
         return np.column_stack([ddq, dq, s, np.ones_like(dq)])
     o_pos = (1.0 + s) / 2.0
     o_neg = (1.0 - s) / 2.0
@@ -317,17 +430,25 @@ def _regressor(dq: np.ndarray, ddq: np.ndarray, asymmetric: bool) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------- conditioning
-def _check_directions(dq: np.ndarray, asymmetric: bool, where: str) -> None:
-    if not asymmetric:
-        return
+def _directions(dq: np.ndarray, asymmetric: bool) -> tuple[tuple[str, ...], list[str]]:
+    """The parameters the directions of ``dq`` can separate, and what to say about it (module docstring)."""
     n = dq.size
-    for sign, label, cols in ((1, ">", "viscous_pos, coulomb_pos"), (-1, "<", "viscous_neg, coulomb_neg")):
-        count = int(np.count_nonzero(np.sign(dq) == sign))
-        if count < max(20, n // 100):
-            raise IllConditionedError(
-                f"{where}: asymmetric model needs motion in both directions, but only {count} of {n} samples "
-                f"have dq {label} 0 (columns {cols} are empty); use the symmetric model or a log that "
-                "moves both ways")
+    n_pos = int(np.count_nonzero(dq > 0))
+    n_neg = int(np.count_nonzero(dq < 0))
+    few = min(n_pos, n_neg)
+    names = ASYMMETRIC_PARAMS if asymmetric else SYMMETRIC_PARAMS
+    if few < max(20, n // 100):
+        way = "dq > 0" if n_pos >= n_neg else "dq < 0"
+        wanted = "per-direction friction" if asymmetric else "Coulomb friction and offset"
+        return ONE_DIRECTION_PARAMS, [
+            f"the data move in one direction only ({way} in {max(n_pos, n_neg)} of {n} samples, the other way in "
+            f"{few}): {wanted} cannot be separated; fitted mass, viscous friction and their constant sum "
+            f"Fc sign(dq) + offset for this direction, stored as the offset (the model holds for {way} only; add a "
+            "log that moves the other way to separate them)"]
+    if few < FEW_REVERSED * n:
+        return names, [f"only {few} of {n} samples ({100 * few / n:.2g} %) move the other way: the split between "
+                       "Coulomb friction and offset rests on them (check it against a log that moves both ways)"]
+    return names, []
 
 
 def _check_kinematics(samples: _Samples, where: str) -> None:
@@ -374,27 +495,30 @@ def _check_mass(values: dict[str, float], std: dict[str, float], unit: str, wher
 
 
 # ------------------------------------------------------------------------------------------ public API
-def fit_rigid(log: Log, *, force: str, position: str, asymmetric: bool = False, cutoff_hz: float = 100.0,
-              filter_order: int = 4, decimate: int | None = None, force_scale: float = 1.0,
-              velocity_threshold: float | None = None, force_unit: str | None = None) -> RigidFit:
-    """Identify mass, viscous and Coulomb friction and offset from a tracking log by IDIM-LS.
+def fit_rigid(log: Log | Sequence[Log], *, force: str, position: str, asymmetric: bool = False,
+              cutoff_hz: float | None = None, filter_order: int = 4, decimate: int | None = None,
+              force_scale: float = 1.0, velocity_threshold: float | None = None,
+              force_unit: str | None = None) -> RigidFit:
+    """Identify mass, viscous and Coulomb friction and offset from one or several tracking logs by IDIM-LS.
 
     Model ``tau = M ddq + Fv dq + Fc sign(dq) + offset`` (asymmetric: ``Fv+, Fc+`` for ``dq > 0`` and
-    ``Fv-, Fc-`` for ``dq < 0``, Coulomb values as magnitudes, no offset). Processing as in the EMPS
-    benchmark; see the module docstring.
+    ``Fv-, Fc-`` for ``dq < 0``, Coulomb values as magnitudes, no offset; one direction only: ``M, Fv`` and a
+    constant). Processing as in the EMPS benchmark; see the module docstring.
 
     Parameters
     ----------
-    log : Log
-        Uniformly sampled tracking log.
+    log : Log or sequence of Log
+        Uniformly sampled tracking log(s) with the same columns; several logs are processed one by one and
+        their decimated rows stacked (module docstring).
     force : str
         Column with the drive command or force [V, N or N*m]; multiplied by ``force_scale``.
     position : str
         Column with the measured position [m or rad; mm, um, nm and deg are converted].
     asymmetric : bool
         Separate viscous and Coulomb coefficients per direction.
-    cutoff_hz : float
-        Cut-off of the zero-phase Butterworth position filter [Hz] (about 5x the dynamic bandwidth).
+    cutoff_hz : float or None
+        Cut-off of the zero-phase Butterworth position filter [Hz] (about 5x the dynamic bandwidth); None
+        chooses it from each log (:func:`auto_cutoff_hz`).
     filter_order : int
         Butterworth order (applied forward and backward).
     decimate : int or None
@@ -417,21 +541,44 @@ def fit_rigid(log: Log, *, force: str, position: str, asymmetric: bool = False, 
     Raises
     ------
     IllConditionedError
-        No motion, no acceleration, constant velocity only, or (asymmetric) motion in one direction only.
+        No motion, no acceleration or constant velocity only.
+    DataError
+        Logs whose position or force units differ.
     """
-    where = f"{log.source}: rigid-body fit"
-    samples = _prepare(log, force, position, cutoff_hz, filter_order, decimate, force_scale, force_unit)
-    names = ASYMMETRIC_PARAMS if asymmetric else SYMMETRIC_PARAMS
-    _check_kinematics(samples, where)
-    _check_directions(samples.velocity, asymmetric, where)
-    full = np.column_stack([_regressor(samples.velocity, samples.acceleration, asymmetric),
-                            samples.velocity, samples.force])
-    dec = decimate_columns(full, samples.decimate)
-    W, dq, y = dec[:, :-2], dec[:, -2], dec[:, -1]
+    logs = [log] if isinstance(log, Log) else list(log)
+    if not logs:
+        raise UsageError("fit_rigid needs at least one log")
+    source = logs[0].source if len(logs) == 1 else f"{len(logs)} logs ({logs[0].source}, ...)"
+    where = f"{source}: rigid-body fit"
+    rules = []
+    prepared = []
+    for lg in logs:
+        cut = cutoff_hz
+        if cut is None:
+            cut, how = _auto_cutoff_of(lg, position_si(lg, position)[0], uniform_sample_time(lg))
+            rules.append((cut, how))
+        samples = _prepare(lg, force, position, cut, filter_order, decimate, force_scale, force_unit)
+        _check_kinematics(samples, f"{lg.source}: rigid-body fit")
+        prepared.append(samples)
+    first = prepared[0]
+    for lg, smp in zip(logs[1:], prepared[1:], strict=True):
+        if (smp.position_unit, smp.force_unit) != (first.position_unit, first.force_unit):
+            raise DataError(f"{lg.source}: position in {smp.position_unit} and force in {smp.force_unit}, but "
+                            f"{logs[0].source} has {first.position_unit} and {first.force_unit}; the logs of one "
+                            "fit must share their units")
+    # every candidate column decimated once (decimation is linear); the directions of the decimated velocity
+    # decide which of them the data can separate
+    dec = np.vstack([decimate_columns(np.column_stack([_regressor(smp.velocity, smp.acceleration, SYMMETRIC_PARAMS),
+                                                       _regressor(smp.velocity, smp.acceleration, ASYMMETRIC_PARAMS),
+                                                       smp.velocity, smp.force]), smp.decimate)
+                     for smp in prepared])
+    dq, y = dec[:, -2], dec[:, -1]
     if velocity_threshold is not None:
-        threshold = _positive_float(velocity_threshold, "velocity_threshold")
-        keep = np.abs(dq) >= threshold
-        W, dq, y = W[keep], dq[keep], y[keep]
+        keep = np.abs(dq) >= _positive_float(velocity_threshold, "velocity_threshold")
+        dec, dq, y = dec[keep], dq[keep], y[keep]
+    names, direction_notes = _directions(dq, asymmetric)
+    W = dec[:, {SYMMETRIC_PARAMS: [0, 1, 2, 3], ASYMMETRIC_PARAMS: [4, 5, 6, 7, 8],
+                ONE_DIRECTION_PARAMS: [0, 1, 3]}[names]]
     if y.size < 3 * len(names):
         raise DataError(f"{where}: only {y.size} samples left after decimation and velocity_threshold")
     cond, scaled_cond, norms = _scaled_condition(W, names, where)
@@ -441,18 +588,18 @@ def fit_rigid(log: Log, *, force: str, position: str, asymmetric: bool = False, 
     std = np.sqrt(sigma2 * np.diag(np.linalg.inv(W.T @ W)))
     values = {n: float(v) for n, v in zip(names, theta, strict=True)}
     stds = {n: float(s) for n, s in zip(names, std, strict=True)}
-    warnings = data_warnings(log, force, position, samples.force_unit)
+    warnings = [w for lg in logs for w in data_warnings(lg, force, position, first.force_unit)]
     try:
-        _check_mass(values, stds, f"{samples.force_unit}/({samples.position_unit}/s^2)", where)
+        _check_mass(values, stds, f"{first.force_unit}/({first.position_unit}/s^2)", where)
     except IllConditionedError as exc:
         if not warnings:
             raise
         raise IllConditionedError(f"{exc}; the log: {'; '.join(warnings)}") from None
     rel = float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y))
-    unit_of = {"mass": f"{samples.force_unit}/({samples.position_unit}/s^2)"}
-    warnings += fit_warnings(rel, values, stds, unit_of)
+    unit_of = {"mass": f"{first.force_unit}/({first.position_unit}/s^2)"}
+    warnings = direction_notes + warnings + fit_warnings(rel, values, stds, unit_of)
     return RigidFit(
-        model=_model_from(values, samples),
+        model=_model_from(values, first),
         values=values,
         std=stds,
         relative_error_pct=rel,
@@ -461,15 +608,27 @@ def fit_rigid(log: Log, *, force: str, position: str, asymmetric: bool = False, 
         scaled_condition_number=scaled_cond,
         column_norms={n: float(c) for n, c in zip(names, norms, strict=True)},
         n_samples=int(y.size),
-        decimate=samples.decimate,
-        cutoff_hz=samples.cutoff_hz,
-        filter_order=samples.filter_order,
-        force_unit=samples.force_unit,
-        position_unit=samples.position_unit,
-        asymmetric=asymmetric,
-        source=log.source,
-        warnings=tuple(warnings),
+        decimate=max(smp.decimate for smp in prepared),
+        cutoff_hz=max(smp.cutoff_hz for smp in prepared),
+        filter_order=first.filter_order,
+        force_unit=first.force_unit,
+        position_unit=first.position_unit,
+        asymmetric=asymmetric and names == ASYMMETRIC_PARAMS,
+        source=source,
+        warnings=tuple(dict.fromkeys(warnings)),
+        cutoff_rule="given" if cutoff_hz is not None else _rule_text(rules),
     )
+
+
+def _rule_text(rules: list[tuple[float, str]]) -> str:
+    """How the cut-offs of one or several logs were chosen, in one sentence."""
+    if len(rules) == 1:
+        return f"{rules[0][0]:g} Hz: {rules[0][1]}"
+    cuts = [c for c, _ in rules]
+    raised = sum("raised" in how for _, how in rules)
+    return (f"{min(cuts):g}-{max(cuts):g} Hz over the {len(rules)} logs, each {AUTO_CUTOFF_FACTOR:g} x where its "
+            f"velocity spectrum falls to {AUTO_CUTOFF_DB:g} dB above its noise floor"
+            + (f" (raised to the lowest its length allows in {raised})" if raised else ""))
 
 
 def data_warnings(log: Log, force: str, position: str, force_unit: str) -> list[str]:
@@ -483,6 +642,8 @@ def data_warnings(log: Log, force: str, position: str, force_unit: str) -> list[
 
 def _model_from(values: dict[str, float], samples: _Samples) -> RigidBodyModel:
     units = {"command_unit": samples.force_unit, "position_unit": samples.position_unit}
+    if "constant" in values:
+        return RigidBodyModel(mass=values["mass"], viscous=values["viscous"], offset=values["constant"], **units)
     if "offset" in values:
         return RigidBodyModel(mass=values["mass"], viscous=values["viscous"], coulomb_pos=values["coulomb"],
                               coulomb_neg=values["coulomb"], offset=values["offset"], **units)
