@@ -252,6 +252,19 @@ def test_identify_friction_recovers_the_simulated_truth(closed_loop):
     assert out["units"]["mass"] == "N/(m/s^2)" and out["friction"]["units"]["omega_pos"] == "m/s"
 
 
+def test_identify_friction_from_several_logs_recovers_the_simulated_truth(closed_loop):
+    # the run cut in two files at a standstill between moves: each gets its own filter, one fit over both
+    log, _ = closed_loop
+    cut = log.t[log.n // 2]
+    parts = [log.slice(None, cut), log.slice(cut, None)]
+    result = identify_friction(parts, position="x", command="u", mass=MASS, viscous=VISCOUS)
+    _assert_close_to(result.friction, TRUTH, rel=0.10)
+    assert result.n_logs == 2 and result.to_dict()["n_logs"] == 2
+    # without a mass: the rigid fit runs over both logs as well
+    joint = identify_friction(parts, position="x", command="u")
+    assert joint.rigid_fit is not None and joint.rigid_fit.source.startswith("2 logs")
+
+
 def test_identify_friction_with_direction_dependent_omega():
     truth = StribeckFriction(12.0, 20.0, -10.0, -17.0, omega_pos=0.006, omega_neg=0.012)
     log, _ = _simulate(truth, seed=1)

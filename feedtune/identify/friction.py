@@ -20,6 +20,7 @@ pass slowly through the low-speed range (low acceleration at reversals) and dwel
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -136,7 +137,7 @@ class FrictionIdentification:
     fit : StribeckFit
         Stribeck fit (``fit.friction`` is the model to feed forward).
     disturbance : DisturbanceEstimate
-        The Kalman-filter estimate the fit was made on.
+        The Kalman-filter estimate the fit was made on (of the first log when several were given).
     mass, viscous : float
         Rigid-body values the filter used [command/(position/s^2)], [command/(position/s)].
     rigid_fit : RigidFit or None
@@ -144,7 +145,9 @@ class FrictionIdentification:
     n_used : int
         Samples that entered the fit (after transient, reversal guard and ``min_speed``).
     reversal_guard_s : float
-        Time left out after every velocity reversal [s].
+        Time left out after every velocity reversal [s] (of the first log).
+    n_logs : int
+        Number of logs whose samples entered the fit.
     warnings : tuple of str
         What makes the identification unreliable: coarse position quantization, a clipped command, a poor
         fit, Omega on its bound, and the rigid fit's own warnings.
@@ -158,6 +161,7 @@ class FrictionIdentification:
     n_used: int
     reversal_guard_s: float
     warnings: tuple = ()
+    n_logs: int = 1
 
     @property
     def friction(self) -> StribeckFriction:
@@ -175,6 +179,7 @@ class FrictionIdentification:
             "viscous": self.viscous,
             "rigid_fit": None if self.rigid_fit is None else self.rigid_fit.to_dict(),
             "n_used": self.n_used,
+            "n_logs": self.n_logs,
             "reversal_guard_s": self.reversal_guard_s,
             "warnings": list(self.warnings),
             "units": {"mass": est.units["mass"], "viscous": est.units["viscous"], "reversal_guard_s": "s"},
@@ -391,31 +396,36 @@ def _fit_result(theta, residual, jac, dirs, threshold, viscous, shared, omega_bo
 
 
 # ------------------------------------------------------------------------------------- full procedure
-def _rigid_values(log: Log, position: str, command: str, model, mass, viscous, command_scale
-                  ) -> tuple[Log, object, object, tuple[float, float], RigidFit | None]:
+def _in_screw_rotation(log: Log, position: str, model: BallScrewModel) -> Log:
+    """The log with its position in rad of screw rotation (a table position in m divided by the lead)."""
+    q, unit = position_si(log, position)
+    return log.with_signals({position: q / model.lead_m_per_rad}, {position: "rad"}) if unit == "m" else log
+
+
+def _rigid_values(logs: list[Log], position: str, command: str, model, mass, viscous, command_scale
+                  ) -> tuple[list[Log], object, object, tuple[float, float], RigidFit | None]:
     """Mass, observer viscous coefficient and residual viscous pair (for the fit) from the arguments."""
     if model is not None and (mass is not None or viscous is not None):
         raise UsageError("give either model= or mass=/viscous=, not both")
     if isinstance(model, BallScrewModel):
-        q, unit = position_si(log, position)
-        if unit == "m":
-            log = log.with_signals({position: q / model.lead_m_per_rad}, {position: "rad"})
-        return log, model.total_inertia, model.b1 + model.b2, (0.0, 0.0), None
+        logs = [_in_screw_rotation(lg, position, model) for lg in logs]
+        return logs, model.total_inertia, model.b1 + model.b2, (0.0, 0.0), None
     if isinstance(model, RigidBodyModel):
-        unit = position_si(log, position)[1]
-        if unit != model.position_unit:
-            raise DataError(f"{log.source}: position column {position!r} is in {unit} but the rigid-body "
-                            f"model is in {model.position_unit}")
+        for log in logs:
+            unit = position_si(log, position)[1]
+            if unit != model.position_unit:
+                raise DataError(f"{log.source}: position column {position!r} is in {unit} but the rigid-body "
+                                f"model is in {model.position_unit}")
         b_mean = (model.viscous + model.viscous_negative) / 2.0
-        return log, model.mass, b_mean, (model.viscous - b_mean, model.viscous_negative - b_mean), None
+        return logs, model.mass, b_mean, (model.viscous - b_mean, model.viscous_negative - b_mean), None
     if model is not None:
         raise UsageError(f"model must be a BallScrewModel or a RigidBodyModel, got {type(model).__name__}")
     if mass is not None:  # checked by estimate_disturbance
-        return log, mass, 0.0 if viscous is None else viscous, (0.0, 0.0), None
+        return logs, mass, 0.0 if viscous is None else viscous, (0.0, 0.0), None
     if viscous is not None:
         raise UsageError("viscous= needs mass= as well")
-    rigid = fit_rigid(log, force=command, position=position, force_scale=command_scale)
-    return log, rigid.model.mass, max(rigid.model.viscous, 0.0), (0.0, 0.0), rigid
+    rigid = fit_rigid(logs, force=command, position=position, force_scale=command_scale)
+    return logs, rigid.model.mass, max(rigid.model.viscous, 0.0), (0.0, 0.0), rigid
 
 
 def _guard_time(value) -> float:
@@ -439,7 +449,8 @@ def _reversal_mask(t: np.ndarray, v: np.ndarray, guard_s: float) -> np.ndarray:
     return ok
 
 
-def identify_friction(log: Log, *, position: str, command: str, model=None, mass: float | None = None,
+def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, model=None,
+                      mass: float | None = None,
                       viscous: float | None = None, command_scale: float = 1.0,
                       command_unit: str | None = None,
                       q_disturbance: float | None = None, r_position: float | None = None,
@@ -450,8 +461,9 @@ def identify_friction(log: Log, *, position: str, command: str, model=None, mass
 
     Parameters
     ----------
-    log : Log
-        Uniformly sampled tracking log.
+    log : Log or sequence of Log
+        Uniformly sampled tracking log(s) with the same columns: each log gets its own Kalman filter (no estimate
+        runs across the joint of two files) and the samples of all enter one Stribeck fit.
     position, command : str
         Position column [m or rad] and drive command column (scaled by ``command_scale``).
     model : BallScrewModel or RigidBodyModel or None
@@ -480,27 +492,37 @@ def identify_friction(log: Log, *, position: str, command: str, model=None, mass
     FrictionIdentification
         The Stribeck model, its fit statistics and the disturbance estimate.
     """
-    log, m, b_obs, b_rest, rigid = _rigid_values(log, position, command, model, mass, viscous, command_scale)
-    estimate = estimate_disturbance(log, position=position, command=command, mass=m, viscous=b_obs,
-                                    q_disturbance=q_disturbance, r_position=r_position, method=method,
-                                    bandwidth_hz=bandwidth_hz, command_scale=command_scale,
-                                    command_unit=command_unit)
-    guard = estimate.transient_s if reversal_guard_s is None else _guard_time(reversal_guard_s)
-    use = estimate.after_transient() & _reversal_mask(estimate.t, estimate.velocity, guard)
-    # the estimates carry nothing above the observer bandwidth: 20 samples per period of it are plenty
-    stride = max(1, int(log.fs / (20.0 * max(estimate.observer_poles_hz))))
-    use[np.arange(use.size) % stride != 0] = False
-    fit = fit_stribeck(estimate.velocity[use], estimate.disturbance[use], min_speed=min_speed,
+    logs = [log] if isinstance(log, Log) else list(log)
+    if not logs:
+        raise UsageError("identify_friction needs at least one log")
+    logs, m, b_obs, b_rest, rigid = _rigid_values(logs, position, command, model, mass, viscous, command_scale)
+    speeds, levels = [], []
+    for lg in logs:
+        estimate = estimate_disturbance(lg, position=position, command=command, mass=m, viscous=b_obs,
+                                        q_disturbance=q_disturbance, r_position=r_position, method=method,
+                                        bandwidth_hz=bandwidth_hz, command_scale=command_scale,
+                                        command_unit=command_unit)
+        guard = estimate.transient_s if reversal_guard_s is None else _guard_time(reversal_guard_s)
+        use = estimate.after_transient() & _reversal_mask(estimate.t, estimate.velocity, guard)
+        # the estimates carry nothing above the observer bandwidth: 20 samples per period of it are plenty
+        stride = max(1, int(lg.fs / (20.0 * max(estimate.observer_poles_hz))))
+        use[np.arange(use.size) % stride != 0] = False
+        speeds.append(estimate.velocity[use])
+        levels.append(estimate.disturbance[use])
+        if lg is logs[0]:
+            first, first_guard = estimate, guard
+    fit = fit_stribeck(np.concatenate(speeds), np.concatenate(levels), min_speed=min_speed,
                        per_direction_omega=per_direction_omega, viscous=b_rest,
-                       command_unit=estimate.command_unit, velocity_unit=estimate.velocity_unit)
+                       command_unit=first.command_unit, velocity_unit=first.velocity_unit)
     from .rigid import data_warnings
 
-    warnings = list(rigid.warnings) if rigid is not None else data_warnings(log, command, position, "")
+    warnings = (list(rigid.warnings) if rigid is not None
+                else [w for lg in logs for w in data_warnings(lg, command, position, "")])
     if fit.relative_error_pct > POOR_FIT_PCT:
         warnings.append(f"poor Stribeck fit: relative error {fit.relative_error_pct:.3g} % > {POOR_FIT_PCT:g} %")
     if fit.omega_at_bound:
         warnings.append("Omega ended on its bound; the log does not resolve the Stribeck velocity (move slowly "
                         "through low speeds)")
-    return FrictionIdentification(fit=fit, disturbance=estimate, mass=estimate.mass, viscous=estimate.viscous,
-                                  rigid_fit=rigid, n_used=fit.n_pos + fit.n_neg, reversal_guard_s=guard,
-                                  warnings=tuple(dict.fromkeys(warnings)))
+    return FrictionIdentification(fit=fit, disturbance=first, mass=first.mass, viscous=first.viscous,
+                                  rigid_fit=rigid, n_used=fit.n_pos + fit.n_neg, reversal_guard_s=first_guard,
+                                  warnings=tuple(dict.fromkeys(warnings)), n_logs=len(logs))
