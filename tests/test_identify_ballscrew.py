@@ -8,6 +8,7 @@ the real-data check compares with resonance and anti-resonance frequencies read 
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -91,6 +92,14 @@ def test_noise_free_table_3_1_recovered_within_1_percent_with_automatic_band():
     assert result.modes[0].freq_hz == pytest.approx(130, abs=0.5)
     assert result.modes[0].zeta == pytest.approx(0.027, abs=0.0005)
     assert all(q["nrmse"] < 1e-6 for q in result.fit.values())
+
+
+def test_a_channel_counting_the_other_way_is_named_with_its_phase_and_the_fix():
+    frf = make_frf(state_space_frf(TABLE_3_1, FREQ))
+    flipped = replace(frf, response=frf.response * np.array([1.0, -1.0])[:, None, None])
+    with pytest.raises(DataError, match=r"channel x2/u: its phase below the first axial mode is \+0 deg .*"
+                                        r"--frf-scale x2/u=-1"):
+        fit_ballscrew([flipped])
 
 
 def test_realistic_data_within_5_percent_and_b1_flagged(realistic_fit):

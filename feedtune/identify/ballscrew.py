@@ -464,6 +464,16 @@ def _anti_resonance_hz(x1: list[_Series], f_mode: float) -> float:
     return float(np.median(best)) if best else float("nan")
 
 
+def _inverted_sign_message(s: _Series, below: np.ndarray) -> str:
+    """The error for a channel whose rigid-body response has the wrong sign (a position behind a double
+    integrator lags by 180 deg; a channel counting the other way leads by about 0 deg)."""
+    phase = round(float(np.degrees(np.angle(np.median(s.response[below] / np.abs(s.response[below]))))))
+    return (f"{s.source}: channel {s.channel}: its phase below the first axial mode is {phase:+d} deg where a "
+            "position response of a rigid body has -180 deg: the channel's sign looks inverted (an encoder or a "
+            f"drive counting the other way); flip it with --frf-scale {s.channel}=-1 (library: scale=) or check the "
+            "channels")
+
+
 def _rigid_body_estimates(series: list[_Series], f_mode: float, f_anti: float) -> tuple[float, float]:
     """Total inertia ``m1 + m2`` and total viscous damping ``b1 + b2`` from the low-frequency response.
 
@@ -484,6 +494,8 @@ def _rigid_body_estimates(series: list[_Series], f_mode: float, f_anti: float) -
         inv_acc = 1.0 / (s.response[m] * (1j * w) ** 2 * shape)      # ~ M + b / (j w)
         masses.append(np.median(inv_acc.real))
         dampings.append(np.median(-inv_acc.imag * w))
+        if masses[-1] < 0:
+            raise DataError(_inverted_sign_message(s, m))
     total_mass = float(np.median(masses))
     if not (np.isfinite(total_mass) and total_mass > 0):
         raise DataError("cannot read the rigid-body inertia off the FRF below the first axial mode: "
