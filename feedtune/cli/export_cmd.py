@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from ..export.c_common import float_bound_text
 from .common import FORCE_OPTION, JSON_OPTION, print_json
 from .limits_options import (
     DM_MIN_OPTION,
@@ -32,6 +33,11 @@ def export_c(
     anti_windup: str = typer.Option("none", "--anti-windup", metavar="none|clamp",
                                     help="clamp: an integrator stops integrating while its command sits at --u-max "
                                          "and the error drives it further (conditional integration)."),
+    single: bool = typer.Option(False, "--float", help="Single precision: float states, coefficients and "
+                                                        "arithmetic (no double operation), the filters rewritten in "
+                                                        "difference form so that, fed the same inputs, the commands "
+                                                        f"stay within {float_bound_text()} x the peak command of the "
+                                                        "double header (docs/export.md). Default: double."),
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -54,10 +60,12 @@ def export_c(
     from ..machines import analyze_gains
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    precision = "float" if single else "double"
     target = out or gains_file.with_suffix(".h")
     ensure_writable(target, force)
     doc = read_document(gains_file)
-    c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup)  # options, document
+    c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup,
+             precision=precision)  # options, document
     check, case = check_analysis(analyze_gains(doc, str(gains_file)).analysis, policy)
     warning = None
     if not check.ok:
@@ -66,11 +74,12 @@ def export_c(
             raise DesignError(f"{gains_file}: {msg}; not exported (use --allow-unstable to export it anyway)")
         warning = f"this design fails the limits check ({policy.describe()}): {msg}"
         typer.echo(f"feedtune: warning: {msg} (exported because of --allow-unstable)", err=True)
-    text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning)
+    text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning,
+                    precision=precision)
     atomic_write_text(target, text, force=force)
     if as_json:
         print_json({"kind": "c_header", "gains_kind": doc.get("kind"), "out": str(target), "prefix": prefix,
-                    "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup,
+                    "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup, "precision": precision,
                     "check": {"checked_case": case, **check.to_dict()}})
     else:
         typer.echo(f"wrote {target}")

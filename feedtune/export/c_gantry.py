@@ -4,20 +4,25 @@ of loop-shaped x-axis documents (``kind = "axis"``, eq. 4.18-4.20).
 Each is rendered from the runtime that executes the document (:class:`~feedtune.machines.gantry.runtime.
 GantryRuntime`, :class:`~feedtune.machines.gantry.runtime.AxisRuntime`): the same sections, gains and schedule, and
 ``PREFIX_step()`` performs the operations of its ``step`` in the same order (docs/gantry_gains.md).
+
+In ``float`` precision the filters are in difference form (:func:`~feedtune.export.c_common.difference_form`) and a
+pre-filtered reference is carried in two parts, the reference and the pre-filter's small correction, which the
+filters difference apart: their float sum would be rounded at the position's resolution, and the acceleration
+feedforward's second difference would multiply that rounding.
 """
 
 from __future__ import annotations
 
 from .c_common import (
+    CFilter,
     COptions,
     banner,
-    c_double,
-    double_array,
+    filter_step_function,
+    filter_type,
     integrate_line,
     limit_lines,
     output_line,
-    sos_array,
-    sos_step_function,
+    row_array,
     table_array,
 )
 
@@ -27,17 +32,26 @@ PREFILTER = ("prefilter_vel", "prefilter_acc", "prefilter_jerk", "prefilter_snap
 
 def _sampling(rt, opts: COptions) -> list[str]:
     P = opts.P
-    return [f"#define {P}_FS_HZ {c_double(rt.fs)}", f"#define {P}_DELAY_SAMPLES {rt.delay_samples}",
+    return [f"#define {P}_FS_HZ {opts.num(rt.fs)}", f"#define {P}_DELAY_SAMPLES {rt.delay_samples}",
             f"#define {P}_PREVIEW_SAMPLES {rt.preview_samples}", ""]
 
 
-def _state_arrays(names, P: str) -> list[str]:
-    return [f"    double {n.lower()}[{P}_{n}_NSEC][2];" for n in names]
+COMMAND_FILTERS = ("H", "LEAD", "C")
+"""Filters of an error or a command (the others filter the reference position)."""
+
+
+def _filters(opts: COptions, rt, keys: dict[str, str]) -> dict[str, CFilter]:
+    """The filters of the runtime ``rt`` named ``PREFIX_NAME`` (``keys``: name -> key of ``rt.sos``)."""
+    return {n: CFilter(opts, f"{opts.P}_{n}", rt.sos[k], n not in COMMAND_FILTERS) for n, k in keys.items()}
+
+
+def _state_arrays(flt: dict[str, CFilter], names, opts: COptions) -> list[str]:
+    return [f"    {opts.real} {flt[n].state(n.lower())};" for n in names]
 
 
 def gantry_header(doc: dict, rt, opts: COptions) -> str:
     """The header of a gantry gains document executed by ``rt`` (a ``GantryRuntime``)."""
-    prefix, P, unit = opts.prefix, opts.P, rt.command_unit
+    prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
     mimo = rt.controller == "mimo"
     ncol = rt.schedule.shape[1] if rt._prefilter_on else 5
     law = ("MIMO law of section 4.4.2 (lead on the CoM error, damping of the yaw error, integral action, CoM "
@@ -51,79 +65,85 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
     out += ["", *_sampling(rt, opts), *limit_lines(opts, unit)]
     g = rt.gains
     if mimo:
-        out += [f"static const double {P}_BETA = {c_double(g['beta'])}; /* {unit}/(m/s), yaw damping */",
-                f"static const double {P}_KI = {c_double(g['ki'])}; /* {unit}/(m s), integral gain */"]
+        out += [f"static const {R} {P}_BETA = {num(g['beta'])}; /* {unit}/(m/s), yaw damping */",
+                f"static const {R} {P}_KI = {num(g['ki'])}; /* {unit}/(m s), integral gain */"]
     else:
         units = {"kp": f"{unit}/m", "kd": f"{unit}/(m/s)", "ki": f"{unit}/(m s)"}
-        out += [f"static const double {P}_{k.upper()} = {c_double(g[k])}; /* {units[k[:2]]} */"
+        out += [f"static const {R} {P}_{k.upper()} = {num(g[k])}; /* {units[k[:2]]} */"
                 for k in ("kp1", "kd1", "ki1", "kp2", "kd2", "ki2")]
     out += ["", f"#define {P}_NX {rt.schedule_x.size}", f"#define {P}_NCOL {ncol}",
-            *double_array(f"{P}_SCHED_X", rt.schedule_x, "table positions of the schedule [m]"), ""]
+            *row_array(f"{P}_SCHED_X", rt.schedule_x, "table positions of the schedule [m]", R), ""]
     out += table_array(f"{P}_SCHED", rt.schedule[:, :ncol],
                        "schedule rows: alpha1, alpha2 [-], m11, m12, m22 [" + unit + "/(m/s^2)]"
-                       + (", k_vel..k_snap side 1 then side 2 [s..s^4]" if ncol > 5 else ""))
+                       + (", k_vel..k_snap side 1 then side 2 [s..s^4]" if ncol > 5 else ""), R)
     names = ["H", "POS", "ACC"] + (["LEAD"] if mimo else []) + (["PV", "PA", "PJ", "PS"] if ncol > 5 else [])
     keys = {"H": "filter_pack", "POS": "position", "ACC": "acceleration", "LEAD": "lead", "PV": PREFILTER[0],
             "PA": PREFILTER[1], "PJ": PREFILTER[2], "PS": PREFILTER[3]}
+    flt = _filters(opts, rt, {n: keys[n] for n in names})
+    out += filter_type(opts)
     for n in names:
-        out += sos_array(f"{P}_{n}", rt.sos[keys[n]])
+        out += flt[n].arrays()
     twice = ["H", "POS", "ACC"]
+    # the reference of each side: ra1 = r + rc1 (double: summed; float: two parts, differenced apart)
+    ra1, c1, ra2, c2 = ("r", "rc1", "r", "rc2") if opts.single else ("ra1", None, "ra2", None)
     out += [
         "typedef struct {",
-        *[f"    double {n.lower()}1[{P}_{n}_NSEC][2], {n.lower()}2[{P}_{n}_NSEC][2];" for n in twice],
-        *_state_arrays([n for n in names if n not in twice], P),
-        "    double e1_prev, e2_prev, ie1, ie2, u1_prev, u2_prev;",
+        *[f"    {R} {flt[n].state(n.lower() + '1')}, {flt[n].state(n.lower() + '2')};" for n in twice],
+        *_state_arrays(flt, [n for n in names if n not in twice], opts),
+        f"    {R} e1_prev, e2_prev, ie1, ie2, u1_prev, u2_prev;",
         "    int started;",
         f"}} {prefix}_state;",
         "",
         f"static inline void {prefix}_init({prefix}_state *s) {{ memset(s, 0, sizeof(*s)); }}",
         "",
-        *sos_step_function(prefix),
+        *filter_step_function(opts),
         "/* the schedule row at table position x [m]: linear interpolation, clamped at the ends */",
-        f"static inline void {prefix}_schedule(double x, double *row) {{",
+        f"static inline void {prefix}_schedule({R} x, {R} *row) {{",
         "    int i = 0;",
         f"    while (i < {P}_NX && {P}_SCHED_X[i] <= x) ++i;",
         f"    if (i == 0 || i == {P}_NX) {{",
         f"        for (int c = 0; c < {P}_NCOL; ++c) row[c] = {P}_SCHED[i == 0 ? 0 : {P}_NX - 1][c];",
         "        return;",
         "    }",
-        f"    double w = (x - {P}_SCHED_X[i - 1]) * (1.0 / ({P}_SCHED_X[i] - {P}_SCHED_X[i - 1]));",
+        f"    {R} w = (x - {P}_SCHED_X[i - 1]) * ({num(1.0)} / ({P}_SCHED_X[i] - {P}_SCHED_X[i - 1]));",
         f"    for (int c = 0; c < {P}_NCOL; ++c)",
         f"        row[c] = {P}_SCHED[i - 1][c] + w * ({P}_SCHED[i][c] - {P}_SCHED[i - 1][c]);",
         "}",
         "",
         f"/* y_r_preview = y_r[k + {P}_PREVIEW_SAMPLES] [m]; y1, y2 = encoders at k [m]; x = table position [m];",
         f"   writes u[0], u[1] [{unit}] */",
-        f"static inline void {prefix}_step({prefix}_state *s, double y_r_preview, double y1, double y2, double x, "
-        "double *u) {",
-        f"    double sr[{P}_NCOL];",
+        f"static inline void {prefix}_step({prefix}_state *s, {R} y_r_preview, {R} y1, {R} y2, {R} x, "
+        f"{R} *u) {{",
+        f"    {R} sr[{P}_NCOL];",
         f"    {prefix}_schedule(x, sr);",
-        "    double r = y_r_preview, ra1 = r, ra2 = r;",
+        "    float r = y_r_preview, rc1 = 0.0f, rc2 = 0.0f;  /* the references of the sides: r + rc1, r + rc2 */"
+        if opts.single else "    double r = y_r_preview, ra1 = r, ra2 = r;",
     ]
     if ncol > 5:
+        lhs1, lhs2 = ("rc1 = ", "rc2 = ") if opts.single else ("ra1 = r + ", "ra2 = r + ")
         out += [
-            f"    double d0 = {prefix}_sos_step({P}_PV, s->pv, {P}_PV_NSEC, r);",
-            f"    double d1 = {prefix}_sos_step({P}_PA, s->pa, {P}_PA_NSEC, r);",
-            f"    double d2 = {prefix}_sos_step({P}_PJ, s->pj, {P}_PJ_NSEC, r);",
-            f"    double d3 = {prefix}_sos_step({P}_PS, s->ps, {P}_PS_NSEC, r);",
-            "    ra1 = r + sr[5] * d0 + sr[6] * d1 + sr[7] * d2 + sr[8] * d3;",
-            "    ra2 = r + sr[9] * d0 + sr[10] * d1 + sr[11] * d2 + sr[12] * d3;",
+            f"    {R} d0 = {flt['PV'].call('pv', 'r')};",
+            f"    {R} d1 = {flt['PA'].call('pa', 'r')};",
+            f"    {R} d2 = {flt['PJ'].call('pj', 'r')};",
+            f"    {R} d3 = {flt['PS'].call('ps', 'r')};",
+            f"    {lhs1}sr[5] * d0 + sr[6] * d1 + sr[7] * d2 + sr[8] * d3;",
+            f"    {lhs2}sr[9] * d0 + sr[10] * d1 + sr[11] * d2 + sr[12] * d3;",
         ]
     out += [
-        f"    double acc1 = {prefix}_sos_step({P}_ACC, s->acc1, {P}_ACC_NSEC, ra1);",
-        f"    double acc2 = {prefix}_sos_step({P}_ACC, s->acc2, {P}_ACC_NSEC, ra2);",
-        f"    double e1 = {prefix}_sos_step({P}_POS, s->pos1, {P}_POS_NSEC, ra1) - y1;",
-        f"    double e2 = {prefix}_sos_step({P}_POS, s->pos2, {P}_POS_NSEC, ra2) - y2;",
+        f"    {R} acc1 = {flt['ACC'].call('acc1', ra1, c1)};",
+        f"    {R} acc2 = {flt['ACC'].call('acc2', ra2, c2)};",
+        f"    {R} e1 = {flt['POS'].call('pos1', ra1, c1)} - y1;",
+        f"    {R} e2 = {flt['POS'].call('pos2', ra2, c2)} - y2;",
         "    if (!s->started) { s->e1_prev = e1; s->e2_prev = e2; s->started = 1; }",
         integrate_line(opts, "s->ie1", "e1", f"{P}_FS_HZ", "s->u1_prev"),
         integrate_line(opts, "s->ie2", "e2", f"{P}_FS_HZ", "s->u2_prev"),
-        "    double w1, w2;",
+        f"    {R} w1, w2;",
     ]
     if mimo:
         out += [
-            "    double a1 = sr[0], a2 = sr[1];",
-            f"    double v = {prefix}_sos_step({P}_LEAD, s->lead, {P}_LEAD_NSEC, a1 * e1 + a2 * e2);",
-            f"    double dd = {P}_BETA * ((e1 - e2) - (s->e1_prev - s->e2_prev)) * {P}_FS_HZ;",
+            f"    {R} a1 = sr[0], a2 = sr[1];",
+            f"    {R} v = {flt['LEAD'].call('lead', 'a1 * e1 + a2 * e2')};",
+            f"    {R} dd = {P}_BETA * ((e1 - e2) - (s->e1_prev - s->e2_prev)) * {P}_FS_HZ;",
             f"    w1 = a1 * (v + dd + {P}_KI * s->ie1);",
             f"    w2 = a2 * (v - dd + {P}_KI * s->ie2);",
         ]
@@ -134,8 +154,8 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
         ]
     out += [
         "    s->e1_prev = e1; s->e2_prev = e2;",
-        *output_line(opts, "u1", f"{prefix}_sos_step({P}_H, s->h1, {P}_H_NSEC, w1) + sr[2] * acc1 + sr[3] * acc2"),
-        *output_line(opts, "u2", f"{prefix}_sos_step({P}_H, s->h2, {P}_H_NSEC, w2) + sr[3] * acc1 + sr[4] * acc2"),
+        *output_line(opts, "u1", f"{flt['H'].call('h1', 'w1')} + sr[2] * acc1 + sr[3] * acc2"),
+        *output_line(opts, "u2", f"{flt['H'].call('h2', 'w2')} + sr[3] * acc1 + sr[4] * acc2"),
         "    s->u1_prev = u1; s->u2_prev = u2;",
         "    u[0] = u1; u[1] = u2;",
         "}",
@@ -152,7 +172,7 @@ def axis_header(doc: dict, rt, opts: COptions) -> str:
     The integral action is inside the controller's sections (``K (Ti s + 1) / s`` times leads and filters), so there
     is no separate integrator to hold: ``--anti-windup clamp`` is refused for an axis (see :func:`check_axis`).
     """
-    prefix, P, unit = opts.prefix, opts.P, rt.command_unit
+    prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
     pre = rt._prefilter_on
     out = banner("Loop-shaped x-axis controller (eq. 4.18-4.20) with mass feedforward and trajectory pre-filter.",
                  doc, opts, [
@@ -161,38 +181,41 @@ def axis_header(doc: dict, rt, opts: COptions) -> str:
                      f"Call {prefix}_init() once, then {prefix}_step() every sample with x_r[k + "
                      f"{P}_PREVIEW_SAMPLES] and the encoder x[k]; apply u_x with the delay the design assumed."])
     out += ["", *_sampling(rt, opts), *limit_lines(opts, unit),
-            f"static const double {P}_MASS = {c_double(rt.mass)}; /* {unit}/(m/s^2), feedforward mass */"]
+            f"static const {R} {P}_MASS = {num(rt.mass)}; /* {unit}/(m/s^2), feedforward mass */"]
     if pre:
-        out += [f"static const double {P}_K_{t.upper()} = {c_double(k)}; /* s^{i + 1} */"
+        out += [f"static const {R} {P}_K_{t.upper()} = {num(k)}; /* s^{i + 1} */"
                 for i, (t, k) in enumerate(zip(("vel", "acc", "jerk", "snap"), rt.prefilter_gains, strict=True))]
     out.append("")
     names = ["C", "POS", "ACC"] + (["PV", "PA", "PJ", "PS"] if pre else [])
     keys = {"C": "controller", "POS": "position", "ACC": "acceleration", "PV": PREFILTER[0], "PA": PREFILTER[1],
             "PJ": PREFILTER[2], "PS": PREFILTER[3]}
+    flt = _filters(opts, rt, {n: keys[n] for n in names})
+    out += filter_type(opts)
     for n in names:
-        out += sos_array(f"{P}_{n}", rt.sos[keys[n]])
+        out += flt[n].arrays()
+    # the pre-filtered reference ra = r + rc (double: summed; float: two parts, differenced apart)
+    ra, corr, lhs = ("r", "rc", "rc = ") if opts.single else ("ra", None, "ra = r + ")
     out += [
         "typedef struct {",
-        *_state_arrays(names, P),
-        "    double u_prev;",
+        *_state_arrays(flt, names, opts),
+        f"    {R} u_prev;",
         f"}} {prefix}_state;",
         "",
         f"static inline void {prefix}_init({prefix}_state *s) {{ memset(s, 0, sizeof(*s)); }}",
         "",
-        *sos_step_function(prefix),
+        *filter_step_function(opts),
         f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [m]; x = encoder at k [m]; returns u_x [{unit}] */",
-        f"static inline double {prefix}_step({prefix}_state *s, double x_r_preview, double x) {{",
-        "    double r = x_r_preview, ra = r;",
+        f"static inline {R} {prefix}_step({prefix}_state *s, {R} x_r_preview, {R} x) {{",
+        "    float r = x_r_preview, rc = 0.0f;  /* the pre-filtered reference r + rc */" if opts.single
+        else "    double r = x_r_preview, ra = r;",
     ]
     if pre:
-        out += [f"    ra = r + {P}_K_VEL * {prefix}_sos_step({P}_PV, s->pv, {P}_PV_NSEC, r) + {P}_K_ACC * "
-                f"{prefix}_sos_step({P}_PA, s->pa, {P}_PA_NSEC, r)",
-                f"           + {P}_K_JERK * {prefix}_sos_step({P}_PJ, s->pj, {P}_PJ_NSEC, r) + {P}_K_SNAP * "
-                f"{prefix}_sos_step({P}_PS, s->ps, {P}_PS_NSEC, r);"]
+        out += [f"    {lhs}{P}_K_VEL * {flt['PV'].call('pv', 'r')} + {P}_K_ACC * {flt['PA'].call('pa', 'r')}",
+                f"           + {P}_K_JERK * {flt['PJ'].call('pj', 'r')} + {P}_K_SNAP * {flt['PS'].call('ps', 'r')};"]
     out += [
-        f"    double uff = {P}_MASS * {prefix}_sos_step({P}_ACC, s->acc, {P}_ACC_NSEC, r);",
-        f"    double e = {prefix}_sos_step({P}_POS, s->pos, {P}_POS_NSEC, ra) - x;",
-        *output_line(opts, "u", f"{prefix}_sos_step({P}_C, s->c, {P}_C_NSEC, e) + uff"),
+        f"    {R} uff = {P}_MASS * {flt['ACC'].call('acc', 'r')};",
+        f"    {R} e = {flt['POS'].call('pos', ra, corr)} - x;",
+        *output_line(opts, "u", f"{flt['C'].call('c', 'e')} + uff"),
         "    s->u_prev = u;",
         "    return u;",
         "}",

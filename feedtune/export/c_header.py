@@ -5,7 +5,10 @@ One entry point for every gains kind (:func:`c_header`): the document is first r
 one-line error; then the emitter of its kind (:data:`EMITTERS`) renders it. Headers need only ``<string.h>`` (and
 ``<math.h>`` for the ball screw's friction feedforward) and compile with ``gcc -Wall -Wextra -Werror -std=c99``.
 Options (:class:`~feedtune.export.c_common.COptions`): the prefix of the identifiers, an output limit and
-conditional-integration anti-windup, and a warning line.
+conditional-integration anti-windup, a warning line, and the precision: ``double`` (default) or ``float``, whose
+filters are rewritten in difference form so that a float32 target stays within
+:data:`~feedtune.export.c_common.FLOAT_ERROR_BOUND` of the double header's peak command (and which also compiles with
+``-Wdouble-promotion -Wfloat-conversion``: no double arithmetic).
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ EMITTERS: dict[str, Callable[[dict, object, COptions, str], str]] = {
 
 
 def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max: float | None = None,
-             anti_windup: str = "none", warning: str | None = None) -> str:
+             anti_windup: str = "none", warning: str | None = None, precision: str = "double") -> str:
     """Render a gains document as a C header.
 
     Parameters
@@ -57,6 +60,10 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
         further (needs ``u_max``; not for an axis, whose integral action is inside its sections).
     warning : str, optional
         A line at the top of the header (e.g. that the design is outside its limits).
+    precision : {"double", "float"}
+        C type of every state, coefficient and operation. ``float``: the filters are rewritten in difference form
+        (:func:`~feedtune.export.c_common.difference_form`); fed the same inputs, the commands stay within
+        :data:`~feedtune.export.c_common.FLOAT_ERROR_BOUND` of the peak command of the double header.
 
     Raises
     ------
@@ -67,6 +74,6 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
     """
     from ..machines import load_runtime
 
-    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning)
+    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning, precision=precision)
     rt = load_runtime(doc, where)
     return EMITTERS[doc["kind"]](doc, rt, opts, where)
