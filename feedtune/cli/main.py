@@ -38,6 +38,24 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        from .. import __version__
+
+        typer.echo(f"feedtune {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                 help="Print the version and exit."),
+) -> None:
+    """Identify and tune precision feed drives: ball-screw drives and linear-motor gantries."""
+
+
 # gantry commands join the machine-independent groups
 identify_cmd.app.command("gantry")(identify_gantry_cmd.gantry)
 identify_cmd.app.command("mass")(identify_gantry_cmd.mass)
