@@ -82,7 +82,8 @@ class LogOptions:
             raise UsageError(f"--skip-rows expects an integer >= 0, got {skip_rows!r}")
         if time is not None and not time.strip():
             raise UsageError("--time expects a column name, got an empty string")
-        factors = {name: _factor(name, text) for name, text in parse_assignments(scale, "--scale", "FACTOR").items()}
+        factors = {name: scale_factor(name, text)
+                   for name, text in parse_assignments(scale, "--scale", "FACTOR").items()}
         return cls(
             mapping=parse_assignments(map_, "--map", "COLUMN"),
             fs=fs,
@@ -126,7 +127,8 @@ def parse_assignments(items: list[str] | None, option: str, value_name: str) -> 
     return out
 
 
-def _factor(name: str, text: str) -> float:
+def scale_factor(name: str, text: str) -> float:
+    """The FACTOR of ``--scale NAME=FACTOR``: a finite non-zero number (UsageError otherwise)."""
     from ..errors import UsageError
 
     try:

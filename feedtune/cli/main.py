@@ -21,6 +21,7 @@ from . import (
     frf_cmd,
     identify_cmd,
     identify_gantry_cmd,
+    log_cmd,
     prefilter_cmd,
     report_cmd,
     simulate_cmd,
@@ -75,6 +76,7 @@ app.command("report")(report_cmd.report)
 app.add_typer(simulate_cmd.app, name="simulate")
 app.command("trajectory")(trajectory_cmd.trajectory)
 app.command("demo")(demo_cmd.demo)
+app.add_typer(log_cmd.app, name="log")
 
 
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")

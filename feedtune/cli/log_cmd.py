@@ -1,0 +1,123 @@
+"""``feedtune log``: bring logs from other tools into feedtune's CSV format.
+
+``log convert`` reads one log with the options every log command has (``--map``, ``--scale``, ``--unit``,
+``--skip-rows``, ``--time``, ``--fs``) and writes it as a feedtune CSV log; ``log merge`` puts several logs on one
+time base (:func:`feedtune.log_merge.merge_logs`): an amplifier trace and a DAQ channel at different rates, one
+started late, a sensor offset, a speed to integrate into a position.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+
+app = typer.Typer(rich_markup_mode=None, help="Convert and merge logs from other tools.", no_args_is_help=True)
+
+
+def _summary(log, out: Path, as_json: bool, extra: dict | None = None) -> None:
+    info = {"out": str(out), "n_samples": log.n, "fs_hz": log.fs, "t0_s": float(log.t[0]),
+            "duration_s": float(log.t[-1] - log.t[0]), "signals": {k: log.unit(k) for k in log.signals},
+            **(extra or {})}
+    if as_json:
+        print_json(info)
+        return
+    names = ", ".join(f"{k} [{u}]" if u else k for k, u in info["signals"].items())
+    typer.echo(f"wrote {out}: {log.n} samples at {fmt(log.fs, 'Hz', 6)} over {fmt(info['duration_s'], 's')}; "
+               f"signals {names}")
+    for name, what in (extra or {}).get("merge", {}).items():
+        typer.echo(f"  {name}: {what}")
+
+
+@app.command("convert")
+def convert(
+    log_file: Path = typer.Argument(..., help="Log to read (.csv, .mat, .mf4)."),
+    out: Path = typer.Option(..., "--out", "-o", help="feedtune CSV log to write."),
+    map_: list[str] = MAP_OPTION,
+    fs: float = FS_OPTION,
+    time: str = TIME_OPTION,
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    skip_rows: int = SKIP_ROWS_OPTION,
+    keep: str = typer.Option(None, "--keep", help="Comma-separated signals to keep (default: all)."),
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Read a log with the usual log options and write it as a feedtune CSV log (names, units, time in s).
+
+    Example: feedtune log convert a3MR.csv --skip-rows 3 --time Time --scale Time=1e-3 --map n="Analog 1"
+    --unit n=rpm --keep n --out amp.csv"""
+    from ..errors import UsageError
+    from ..io import write_log_csv
+    from ..io.atomic import ensure_writable
+    from ..log import Log
+    from .log_options import read_log_with_options
+
+    ensure_writable(out, force)
+    log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
+    if keep:
+        names = [n.strip() for n in keep.split(",") if n.strip()]
+        missing = [n for n in names if n not in log.signals]
+        if missing:
+            raise UsageError(f"--keep {missing[0]!r}: no such signal in {log_file} (signals: "
+                             f"{', '.join(log.signals)})")
+        log = Log(log.t, {n: log[n] for n in names}, {n: log.unit(n) for n in names}, log.meta)
+    write_log_csv(log, out, force=force)
+    _summary(log, out, as_json)
+
+
+@app.command("merge")
+def merge(
+    log_files: list[Path] = typer.Argument(..., help="feedtune CSV logs (or any log the log commands read with "
+                                                      "their defaults), each with its own time column."),
+    out: Path = typer.Option(..., "--out", "-o", help="Merged feedtune CSV log to write."),
+    fs: float = typer.Option(None, "--fs", help="Sample rate of the merged log [Hz] (default: the lowest rate "
+                                                "among the logs)."),
+    shift: list[str] = typer.Option(None, "--shift", metavar="NAME=SECONDS",
+                                    help="Add SECONDS to the time stamps of a signal (repeatable)."),
+    offset: list[str] = typer.Option(None, "--offset", metavar="NAME=VALUE|mean:N",
+                                     help="Subtract a constant from a signal, or the mean of its first N samples."),
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    integrate: list[str] = typer.Option(None, "--integrate", metavar="NEW=NAME",
+                                        help="Add NEW, the running integral of NAME (e.g. x=v: a position from a "
+                                             "measured speed in m/s)."),
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+) -> None:
+    """Put several logs on one uniform time base: shift, offset, scale, anti-alias and resample, integrate.
+
+    Order per signal: shift, offset, scale; then low-pass the signals faster than the base (zero-phase, 0.4 x the
+    base rate), interpolate linearly, integrate. Example: feedtune log merge daq.csv amp.csv --shift f=0.004
+    --offset f=mean:10 --scale f=-200 --unit f=N --integrate x=v --out merged.csv"""
+    from ..errors import UsageError
+    from ..io import read_log, write_log_csv
+    from ..io.atomic import ensure_writable
+    from ..log_merge import merge_logs
+    from .log_options import parse_assignments, scale_factor
+
+    ensure_writable(out, force)
+    if len(log_files) < 2:
+        raise UsageError("log merge needs two or more logs")
+    shifts = {}
+    for name, text in parse_assignments(shift, "--shift", "SECONDS").items():
+        try:
+            shifts[name] = float(text)
+        except ValueError:
+            raise UsageError(f"--shift {name}={text}: SECONDS must be a number") from None
+    offsets: dict[str, float | str] = {}
+    for name, text in parse_assignments(offset, "--offset", "VALUE").items():
+        try:
+            offsets[name] = float(text)
+        except ValueError:
+            offsets[name] = text  # "mean:N", checked by merge_logs
+    factors = {name: scale_factor(name, text) for name, text in parse_assignments(scale, "--scale", "FACTOR").items()}
+    logs = [read_log(p) for p in log_files]
+    merged = merge_logs(logs, fs=fs, shift_s=shifts, offset=offsets, scale=factors,
+                        units=parse_assignments(unit, "--unit", "UNIT"),
+                        integrate=parse_assignments(integrate, "--integrate", "NAME"))
+    write_log_csv(merged, out, force=force)
+    _summary(merged, out, as_json, {"merge": merged.meta["merge"], "logs": [str(p) for p in log_files]})
