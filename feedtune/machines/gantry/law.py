@@ -2,8 +2,8 @@
 
 Each law is a plain function over arrays and scalars that numba compiles (:func:`compiled_laws`); the runtimes
 (:class:`~feedtune.machines.gantry.runtime.GantryRuntime`, :class:`~feedtune.machines.gantry.runtime.AxisRuntime`)
-call the compiled function once per ``step``, and the twin's closed loop calls the same functions inside its compiled
-kernel, so the law a target runs, the runtime and the simulation are one code. The C header
+call the compiled function once per ``step``, and the twin's closed loop inlines the same functions into its compiled
+kernel (:func:`compiled_inline`), so the law a target runs, the runtime and the simulation are one code. The C header
 (:mod:`feedtune.export.c_gantry`) writes the same operations in C and is checked against the runtime sample by
 sample.
 
@@ -18,6 +18,8 @@ Data layout (built by :func:`gantry_law_data` / :func:`axis_law_data` from a run
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -212,13 +214,28 @@ class AxisLawData:
 _LAWS: list = []
 
 
-def compiled_laws() -> tuple:
-    """``(gantry_law_step, axis_law_step)`` compiled by numba (once per process, cached on disk)."""
-    if not _LAWS:
-        from ...sim.engine import compiled
+def compiled_inline(func: Callable) -> Callable:
+    """``func`` compiled by numba (``njit(cache=True, nogil=True)``) and inlined into the compiled functions that call
+    it (numba IR inlining, ``inline="always"``); called from Python it runs as compiled alone.
 
+    A call between compiled functions passes every array as a structure of seven or more words, which costs as much
+    as a second-order section: the twin's closed loop inlines the laws, their sections and the plant step.
+
+    numba's disk cache of the twin's loop is keyed on ``twin.py`` alone: after editing this module in a working copy,
+    touch ``machines/gantry/twin.py`` (or clear the numba cache) so the loop is compiled again (an installed release
+    rewrites every file, so users are not affected).
+    """
+    import numba
+
+    return numba.njit(cache=True, nogil=True, inline="always")(func)
+
+
+def compiled_laws() -> tuple:
+    """``(gantry_law_step, axis_law_step)`` compiled by numba (once per process, cached on disk), inlined into the
+    compiled twin loop that calls them, with the sections and the schedule inlined into them."""
+    if not _LAWS:
         global _sos, _row
-        _sos = compiled(sos_run)
-        _row = compiled(schedule_row)
-        _LAWS.extend([compiled(gantry_law_step), compiled(axis_law_step)])
+        _sos = compiled_inline(sos_run)
+        _row = compiled_inline(schedule_row)
+        _LAWS.extend([compiled_inline(gantry_law_step), compiled_inline(axis_law_step)])
     return tuple(_LAWS)

@@ -43,10 +43,12 @@ Integration: the 28 linear states (:data:`STATE_NAMES`, the x axis included) are
 held over a sample (``expm`` of the augmented matrix) at every point of a grid in ``x`` (``x_min_m .. x_max_m``
 in steps of ``x_grid_m``, 5 mm by default: 201 points over +-0.5 m), and the step uses the matrices linearly
 interpolated at the table's current position (``x`` changes slowly against the sample rate; the terms
-proportional to ``x'`` that a moving mass adds are neglected; the x-axis rows do not depend on ``x``). One
-compiled function (numba when installed, the same code in plain Python otherwise) advances the plant by one
-sample, so the closed loop costs one Python call of each controller's ``step`` plus a few microseconds per
-sample.
+proportional to ``x'`` that a moving mass adds are neglected; the x-axis rows do not depend on ``x``). The step
+multiplies ``[Ad Bd]`` by the states and inputs over its non-zero entries only, in blocks of four rows, and
+interpolates only the entries that depend on ``x`` (:class:`_Tables`). One function (compiled by numba when
+installed, the same code in plain Python otherwise) advances the plant by one sample; with the runtimes of gains
+files, plant and both laws run in one compiled loop (well over 100 times real time at 15 kHz), other controllers
+cost one Python call of their ``step`` per sample plus a few microseconds.
 
 Every value is a field of :class:`GantryTwinParams` (``with_overrides`` takes ``name=value`` strings); the
 seed makes noise repeatable; a following-error envelope, an I2t overload limit and the table's travel stop
@@ -64,7 +66,7 @@ from ...errors import DataError, UsageError
 from ...lti import zoh
 from ...models.gantry import PARAM_NAMES as MODEL_PARAMS
 from ...models.gantry import THESIS_GANTRY, GantryModel
-from ...sim.engine import choose_engine, compiled, kernel, sample_vector
+from ...sim.engine import choose_engine, kernel, sample_vector
 from ...sim.params import finite_param, non_negative_param, parse_override_value, positive_param
 
 STATE_NAMES = ("y1", "y2", "v1", "v2", "yb", "vb", "eta320", "eta320_dot", "eta382", "eta382_dot", "q", "q_dot",
@@ -508,7 +510,7 @@ def floor_force_rms(p: GantryTwinParams) -> float:
 
 # ------------------------------------------------------------------------------------------ the kernel
 # indices into the parameter vector of the kernel
-(P_XMIN, P_DX, P_NGRID, P_L, P_OFFSET, P_FRAC, P_PA1, P_PA2, P_PB1, P_PB2, P_PC1, P_PC2, P_XE1, P_XE2, P_XE3, P_Q,
+(P_XMIN, P_INV_DX, P_NGRID, P_L, P_OFFSET, P_FRAC, P_PA1, P_PA2, P_PB1, P_PB2, P_PC1, P_PC2, P_XE1, P_XE2, P_XE3, P_Q,
  P_UMAX, P_ENV, P_I2T_A, P_I2T_LIM, P_DELAY, P_ORIGIN, P_XLO, P_XHI) = range(24)
 N_PAR = 24
 _IX = I_X
@@ -516,6 +518,7 @@ _IM1, _IM2, _IM3 = I_MODE["mode320"], I_MODE["bending"], I_MODE["mode940"]
 _IX1, _IX2, _IX3 = I_XMODE["x_mode186"], I_XMODE["x_mode332"], I_XMODE["x_mode404"]
 _NS = N_STATES
 _NI = N_INPUTS
+_RB = 4  # rows per block of the step's matrix product
 
 
 def _measure(k, z, par, noise, rec):
@@ -549,8 +552,12 @@ def _measure(k, z, par, noise, rec):
     return y1, y2, xm
 
 
-def _step(k, u1, u2, ux, z, znew, buf, work, tabA, tabB, par, noise, ext, ref, rec, rowA, colA, rowB, colB, nconst):
+def _step(k, u1, u2, ux, z, znew, buf, work, par, noise, ext, ref, rec, cptr, ccol, cval, vptr, vcol, vtab,
+          vdif):
     """Apply the commands computed at sample ``k`` and advance the plant to sample ``k + 1``.
+
+    ``z``: the states, then the inputs held over the sample (written here); ``znew``: scratch of the padded rows;
+    ``cptr .. vdif``: the blocked ``[Ad Bd]`` of :class:`_Tables` (the products are written for :data:`_RB` = 4).
 
     Returns a status: 0 running, 1 following-error envelope, 2 I2t overload, 3 non-finite command, 4 the
     table left its travel (sample ``k`` is recorded; the plant is not advanced).
@@ -601,49 +608,47 @@ def _step(k, u1, u2, ux, z, znew, buf, work, tabA, tabB, par, noise, ext, ref, r
         f1 = buf[j]
         f2 = buf[j + 1]
         fx = buf[j + 2]
-    work[3] = f1 + noise[k * 6 + 3]
-    work[4] = f2 + noise[k * 6 + 4]
-    work[5] = fx + noise[k * 6 + 5]
-    work[6] = ext[o]
-    work[7] = ext[o + 1]
-    # linear interpolation of the discrete matrices at the table position
+    n = _NS
+    z[n] = f1 + noise[k * 6 + 3]
+    z[n + 1] = f2 + noise[k * 6 + 4]
+    z[n + 2] = fx + noise[k * 6 + 5]
+    z[n + 3] = ext[o]
+    z[n + 4] = ext[o + 1]
+    # [Ad Bd] [z; u] in blocks of 4 rows (_Tables): the constant columns, then the varying ones interpolated
+    # between the grid points around the table
     ng = int(par[P_NGRID])
-    sx = (x - par[P_XMIN]) / par[P_DX]
+    sx = (x - par[P_XMIN]) * par[P_INV_DX]
     i = int(sx) if sx > 0.0 else 0
     if i > ng - 2:
         i = ng - 2
     w = min(max(sx - i, 0.0), 1.0)
-    n = _NS
-    na = len(colA)
-    nb = len(colB)
-    oa0 = i * na
-    oa1 = oa0 + na
-    ob0 = i * nb
-    ob1 = ob0 + nb
-    # A z + B u interpolated between grid points i and i + 1 over the non-zero entries (``znew``: 3 n scratch)
+    ov = i * 4 * len(vcol)
+    for blk in range(len(cptr) - 1):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        for j in range(cptr[blk], cptr[blk + 1]):
+            zc = z[ccol[j]]
+            q = 4 * j
+            a0 += cval[q] * zc
+            a1 += cval[q + 1] * zc
+            a2 += cval[q + 2] * zc
+            a3 += cval[q + 3] * zc
+        for j in range(vptr[blk], vptr[blk + 1]):
+            zc = z[vcol[j]]
+            q = ov + 4 * j
+            a0 += (vtab[q] + w * vdif[q]) * zc
+            a1 += (vtab[q + 1] + w * vdif[q + 1]) * zc
+            a2 += (vtab[q + 2] + w * vdif[q + 2]) * zc
+            a3 += (vtab[q + 3] + w * vdif[q + 3]) * zc
+        q = 4 * blk
+        znew[q] = a0
+        znew[q + 1] = a1
+        znew[q + 2] = a2
+        znew[q + 3] = a3
     for row in range(n):
-        znew[row] = 0.0
-        znew[n + row] = 0.0
-        znew[2 * n + row] = 0.0
-    ca = nconst[0]
-    cb = nconst[1]
-    for j in range(ca):  # the same at every grid point
-        znew[rowA[j]] += tabA[oa0 + j] * z[colA[j]]
-    for j in range(cb):
-        znew[rowB[j]] += tabB[ob0 + j] * work[3 + colB[j]]
-    for j in range(ca, na):
-        zc = z[colA[j]]
-        r0 = n + rowA[j]
-        znew[r0] += tabA[oa0 + j] * zc
-        znew[r0 + n] += tabA[oa1 + j] * zc
-    for j in range(cb, nb):
-        uc = work[3 + colB[j]]
-        r0 = n + rowB[j]
-        znew[r0] += tabB[ob0 + j] * uc
-        znew[r0 + n] += tabB[ob1 + j] * uc
-    for row in range(n):
-        s0 = znew[n + row]
-        z[row] = znew[row] + (s0 + w * (znew[2 * n + row] - s0))
+        z[row] = znew[row]
     return 0
 
 
@@ -721,38 +726,64 @@ class _Tables:
     """The exact ZOH matrices on the position grid, and their sparse form for the per-sample step.
 
     The plant's blocks (rigid body, yaw, structural, pitching and base modes, x axis) are coupled only where the
-    physics couples them, so most entries of ``Ad``, ``Bd`` are exactly zero at every grid point (95 of 784 and 58
-    of 140 are not, on the default twin), and of those most do not depend on the position (63 and 36). The step
-    runs over the non-zero entries only, as flat lists ``(row, column)`` with the position-independent ones first
-    (``n_const_*`` of them) and the varying ones after, each sorted by row and column (so every row's sums are taken
-    in column order): the constant entries once, the varying ones at the two grid points around the table
-    (values ``val_*``, flat per grid point).
+    physics couples them, so most entries of ``[Ad Bd]`` are exactly zero at every grid point (153 of 924 are not,
+    on the default twin), and of those most do not depend on the position (99). The step multiplies ``[Ad Bd]`` by
+    ``[z; u]`` in blocks of :data:`_RB` = 4 consecutive rows (the last padded with zero rows): for each block the
+    columns where one of its rows has a non-zero entry, as 4 values each (the block's rows, zeros included), first
+    the columns whose values do not depend on the position (``ccol``, values ``cval``, block ``b`` from ``cptr[b]``
+    to ``cptr[b + 1]``), then those whose values do (``vcol``, ``vptr``), interpolated per sample from their values
+    at each grid point ``vtab`` and the differences to the next one ``vdif`` (flat per grid point: ``4 len(vcol)``
+    values). Each row's sum runs over the constant columns, then the varying ones, each in column order; the padded
+    zeros add nothing.
     """
 
     xs: np.ndarray
     Ad: np.ndarray  # (n_grid, n_states, n_states)
     Bd: np.ndarray  # (n_grid, n_states, n_inputs)
-    row_a: np.ndarray
-    col_a: np.ndarray
-    val_a: np.ndarray
-    row_b: np.ndarray
-    col_b: np.ndarray
-    val_b: np.ndarray
-    n_const: np.ndarray  # [A, B]
+    cptr: np.ndarray  # (n_blocks + 1,) int64
+    ccol: np.ndarray  # (n_ccol,) int64, columns of [z; u]
+    cval: np.ndarray  # (4 n_ccol,)
+    vptr: np.ndarray  # (n_blocks + 1,) int64
+    vcol: np.ndarray  # (n_vcol,) int64
+    vtab: np.ndarray  # (n_grid * 4 n_vcol,)
+    vdif: np.ndarray  # (n_grid * 4 n_vcol,)
 
     @classmethod
     def build(cls, xs: np.ndarray, Ad: np.ndarray, Bd: np.ndarray) -> _Tables:
-        """With the sparse form of the entries that are non-zero at some grid point."""
-        parts, counts = [], []
-        for M in (Ad, Bd):
-            nz = np.any(M != 0.0, axis=0)
-            varies = np.any(M != M[:1], axis=0)
-            rows, cols = np.nonzero(nz)
-            order = np.lexsort((cols, rows, varies[rows, cols]))  # constant entries first, each by row and column
-            rows, cols = rows[order], cols[order]
-            parts += [rows.astype(np.int64), cols.astype(np.int64), np.ascontiguousarray(M[:, rows, cols]).ravel()]
-            counts.append(int(np.sum(~varies[rows, cols])))
-        return cls(xs, Ad, Bd, *parts, np.array(counts, dtype=np.int64))
+        """With the blocked sparse form of ``[Ad Bd]`` (see the class docstring)."""
+        n_grid, n, _ = Ad.shape
+        n_blocks = -(-n // _RB)
+        M = np.zeros((n_grid, n_blocks * _RB, n + Bd.shape[2]))
+        M[:, :n] = np.concatenate([Ad, Bd], axis=2)
+        nonzero = np.any(M != 0.0, axis=0)
+        varies = np.any(M != M[:1], axis=0)
+        cptr, ccol, vptr, vcol = [0], [], [0], []
+        for b in range(n_blocks):
+            rows = slice(b * _RB, (b + 1) * _RB)
+            var = np.any(varies[rows], axis=0)
+            ccol += np.flatnonzero(np.any(nonzero[rows], axis=0) & ~var).tolist()
+            vcol += np.flatnonzero(var).tolist()
+            cptr.append(len(ccol))
+            vptr.append(len(vcol))
+        blocks = np.repeat(np.arange(n_blocks), np.diff(cptr))
+        cval = np.stack([M[0, b * _RB:(b + 1) * _RB, c] for b, c in zip(blocks, ccol, strict=True)]).ravel() \
+            if ccol else np.zeros(0)
+        blocks = np.repeat(np.arange(n_blocks), np.diff(vptr))
+        vtab = np.stack([M[:, b * _RB:(b + 1) * _RB, c] for b, c in zip(blocks, vcol, strict=True)], axis=1) \
+            if vcol else np.zeros((n_grid, 0, _RB))
+        vtab = vtab.reshape(n_grid, -1)
+        vdif = np.diff(vtab, axis=0, append=vtab[-1:])
+        i64 = np.int64
+        return cls(xs, Ad, Bd, np.array(cptr, i64), np.array(ccol, i64), np.ascontiguousarray(cval),
+                   np.array(vptr, i64), np.array(vcol, i64), np.ascontiguousarray(vtab).ravel(),
+                   np.ascontiguousarray(vdif).ravel())
+
+    def interpolated(self, x: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(Ad, Bd)`` at table position ``x`` [m] as the step interpolates them: ``M_i + w (M_i+1 - M_i)``."""
+        sx = (x - self.xs[0]) * (1.0 / (self.xs[1] - self.xs[0]))
+        i = min(int(sx) if sx > 0.0 else 0, self.xs.size - 2)
+        w = min(max(sx - i, 0.0), 1.0)
+        return self.Ad[i] + w * (self.Ad[i + 1] - self.Ad[i]), self.Bd[i] + w * (self.Bd[i + 1] - self.Bd[i])
 
 
 class GantryTwin:
@@ -802,11 +833,7 @@ class GantryTwin:
 
     def interpolated_system(self, x: float) -> tuple[np.ndarray, np.ndarray]:
         """``(Ad, Bd)`` as the simulation uses them: linear interpolation on the grid at ``x`` [m]."""
-        tb = self.tables()
-        dx = tb.xs[1] - tb.xs[0]
-        i = int(np.clip(np.floor((x - tb.xs[0]) / dx), 0, tb.xs.size - 2))
-        w = float(np.clip((x - tb.xs[0]) / dx - i, 0.0, 1.0))
-        return (1 - w) * tb.Ad[i] + w * tb.Ad[i + 1], (1 - w) * tb.Bd[i] + w * tb.Bd[i + 1]
+        return self.tables().interpolated(x)
 
     # ------------------------------------------------------------------ analytic responses
     def frequency_response(self, freq_hz, x: float, *, sampled: bool = True) -> np.ndarray:
@@ -987,7 +1014,7 @@ class GantryTwin:
         tb = self.tables()
         par = np.zeros(N_PAR)
         par[P_XMIN] = tb.xs[0]
-        par[P_DX] = tb.xs[1] - tb.xs[0]
+        par[P_INV_DX] = 1.0 / (tb.xs[1] - tb.xs[0])
         par[P_NGRID] = tb.xs.size
         par[P_L] = p.model.L
         par[P_OFFSET] = p.table_offset
@@ -1018,22 +1045,22 @@ class GantryTwin:
         (duck-typed objects with ``step``) are stepped from Python around the compiled plant step.
         """
         tb = self.tables()
-        z0 = np.zeros(N_STATES)
+        z0 = np.zeros(N_STATES + N_INPUTS)  # the states, then the inputs held over the sample
         z0[I_X] = x0  # at rest, the table at x0
-        arrays = [z0, np.zeros(3 * N_STATES), np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(8), tb.val_a,
-                  tb.val_b, self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(),
-                  np.zeros(total * N_REC), tb.row_a, tb.col_a, tb.row_b, tb.col_b, tb.n_const]
+        arrays = [z0, np.zeros((tb.cptr.size - 1) * _RB), np.zeros(3 * (self.params.delay_samples + 1)), np.zeros(3),
+                  self._parameter_vector(y0), noise.ravel(), ext.ravel(), ref.ravel(), np.zeros(total * N_REC),
+                  tb.cptr, tb.ccol, tb.cval, tb.vptr, tb.vcol, tb.vtab, tb.vdif]
         if choose_engine(engine) == "numba" and _compiled_laws(gantry, axis):
             loop = _compiled_loop()
             yr = np.ascontiguousarray(y_full - y0)
             xr = np.ascontiguousarray(x_full - x0)
             k, status = loop(total, pg, pa, y0, x0, yr, xr, *arrays, *gantry.law.args(), gantry.law.out,
                              *axis.law.args())
-            return int(k), int(status), arrays[10].reshape(total, N_REC)
+            return int(k), int(status), arrays[8].reshape(total, N_REC)
         measure, step = kernel(_measure, engine), kernel(_step, engine)
         if choose_engine(engine) == "python":
             arrays = [a.tolist() for a in arrays]
-        z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec, rowA, colA, rowB, colB, nconst = arrays
+        z, znew, buf, work, par, nz, ex, rf, rec, cptr, ccol, cval, vptr, vcol, vtab, vdif = arrays
         y1, y2, x = measure(0, z, par, nz, rec)
         g_step, a_step = gantry.step, axis.step
         yr = (y_full - y0).tolist()  # the controllers' filters start at zero: positions relative to the start
@@ -1044,8 +1071,8 @@ class GantryTwin:
         for k in range(total):
             u1, u2 = g_step(yr[k + pg], y1 - y0, y2 - y0, x)
             ux = a_step(xr[k + pa], x - x0)
-            status = step(k, float(u1), float(u2), float(ux), z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec,
-                          rowA, colA, rowB, colB, nconst)
+            status = step(k, float(u1), float(u2), float(ux), z, znew, buf, work, par, nz, ex, rf, rec, cptr, ccol,
+                          cval, vptr, vcol, vtab, vdif)
             if status:
                 break
             if k < last:
@@ -1079,8 +1106,8 @@ def _compiled_laws(gantry, axis) -> bool:
 _m = _s = _g = _a = None  # the compiled callees of _closed_loop, set by _compiled_loop before it is compiled
 
 
-def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec, rowA, colA,
-                 rowB, colB, nconst, g_sos, g_seg, g_w, g_wofs, g_par, g_st, g_sx, g_sched, g_out, a_sos, a_seg,
+def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, par, nz, ex, rf, rec, cptr, ccol, cval, vptr,
+                 vcol, vtab, vdif, g_sos, g_seg, g_w, g_wofs, g_par, g_st, g_sx, g_sched, g_out, a_sos, a_seg,
                  a_w, a_par):
     """Plant and both control laws, one sample per iteration (the loop of :meth:`GantryTwin._run` with the laws of
     :mod:`feedtune.machines.gantry.law`); returns ``(last sample, status)``."""
@@ -1090,8 +1117,8 @@ def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, tabA, tabB, 
     for k in range(total):
         _g(g_sos, g_seg, g_w, g_wofs, g_par, g_st, g_sx, g_sched, yr[k + pg], y1 - y0, y2 - y0, x, g_out)
         ux = _a(a_sos, a_seg, a_w, a_par, xr[k + pa], x - x0)
-        status = _s(k, g_out[0], g_out[1], ux, z, znew, buf, work, tabA, tabB, par, nz, ex, rf, rec, rowA, colA,
-                    rowB, colB, nconst)
+        status = _s(k, g_out[0], g_out[1], ux, z, znew, buf, work, par, nz, ex, rf, rec, cptr, ccol, cval, vptr,
+                    vcol, vtab, vdif)
         if status != 0:
             break
         if k < total - 1:
@@ -1099,15 +1126,25 @@ def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, tabA, tabB, 
     return k, status
 
 
-def _compiled_loop():
-    """:func:`_closed_loop` compiled with its callees (the plant's measure and step, both laws)."""
-    global _m, _s, _g, _a
-    if _g is None:
-        from .law import compiled_laws
+_LOOP: list = []
 
+
+def _compiled_loop():
+    """:func:`_closed_loop` compiled by numba (once per process, cached on disk) with its callees inlined (the
+    plant's measure and step, both laws and their sections and schedule, :func:`~feedtune.machines.gantry.law.
+    compiled_inline`) and without reference counting (``_nrt=False``): the loop allocates nothing and only borrows
+    the arrays it is given, while numba would otherwise count a reference to every array argument of every inlined
+    call, every sample (a third of the loop's time)."""
+    if not _LOOP:
+        import numba
+
+        from .law import compiled_inline, compiled_laws
+
+        global _m, _s, _g, _a
         _g, _a = compiled_laws()
-        _m, _s = compiled(_measure), compiled(_step)
-    return compiled(_closed_loop)
+        _m, _s = compiled_inline(_measure), compiled_inline(_step)
+        _LOOP.append(numba.njit(cache=True, nogil=True, _nrt=False)(_closed_loop))
+    return _LOOP[0]
 
 
 def _check_controller(ctrl, name: str) -> None:
