@@ -15,6 +15,11 @@ survives a CSV round trip):
 
 :func:`sampling_state` reads the record back (also recognising FRFs written before it existed);
 :func:`double_counting_warning` is the one-line warning the analysis commands print for a ``not_removed`` FRF.
+
+The record also tells design and analysis at which rate the FRF's machine was sampled: :func:`recorded_fs` and
+:func:`recorded_delay` read it, :func:`rates_disagree` compares a target rate with it (more than
+:data:`FS_TOLERANCE` apart) and :func:`band_warning` flags an FRF that ends far below the target's Nyquist
+frequency (last line below :data:`NYQUIST_FRACTION` of ``fs / 2``), where the analysed loop rests on the model.
 """
 
 from __future__ import annotations
@@ -34,6 +39,11 @@ SAMPLING_DELAY_KEY = "sampling_delay_samples"
 REMOVED = "removed"
 NOT_REMOVED = "not_removed"
 UNKNOWN = "unknown"
+
+#: Relative difference [-] above which a sample rate disagrees with the one an FRF records (0.1 %).
+FS_TOLERANCE = 1e-3
+#: An FRF ending below this fraction [-] of the target's Nyquist frequency ``fs / 2`` draws :func:`band_warning`.
+NYQUIST_FRACTION = 0.25
 
 #: Metadata ``method`` values written by :func:`feedtune.identify.frf_estimate.estimate_frf` (a sampled log).
 _LOG_ESTIMATE_METHODS = ("h1", "periodic")
@@ -181,3 +191,75 @@ def double_counting_warning(frf: Frf, path: object | None = None) -> str | None:
     return (f"{name} was estimated from a sampled log{at} without removing the ZOH and the computational delay; "
             "if its input is the controller's command, the discrete case counts them twice "
             "(feedtune frf --remove-sampling DELAY_SAMPLES)")
+
+
+def _recorded_number(frf: Frf, key: str, name: str, what: str, ok) -> float | None:
+    text = frf.meta.get(key)
+    if text is None or str(text).strip() == "":
+        return None
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not (math.isfinite(value) and ok(value)):
+        raise DataError(f"{name}: metadata {key} = {text!r} is not {what}")
+    return value
+
+
+def recorded_fs(frf: Frf, name: str | None = None) -> float | None:
+    """The sample rate [Hz] an FRF records (``sampling_fs_hz``), or None when it records none.
+
+    Parameters
+    ----------
+    frf : Frf
+    name : str, optional
+        File name used in messages (default ``frf.source``).
+
+    Raises
+    ------
+    DataError
+        The record is not a sample rate > 0 Hz.
+    """
+    return _recorded_number(frf, SAMPLING_FS_KEY, frf.source if name is None else name, "a sample rate > 0 Hz",
+                            lambda v: v > 0)
+
+
+def recorded_delay(frf: Frf, name: str | None = None) -> float | None:
+    """The computational delay [samples] divided out of an FRF (``sampling_delay_samples``), or None.
+
+    Raises
+    ------
+    DataError
+        The record is not a number of samples >= 0.
+    """
+    return _recorded_number(frf, SAMPLING_DELAY_KEY, frf.source if name is None else name,
+                            "a number of samples >= 0", lambda v: v >= 0)
+
+
+def rates_disagree(fs: float, recorded: float) -> bool:
+    """True when a sample rate ``fs`` [Hz] differs from a ``recorded`` one [Hz] by more than :data:`FS_TOLERANCE`
+    of the recorded rate."""
+    return abs(fs - recorded) > FS_TOLERANCE * recorded
+
+
+def band_warning(frf: Frf, fs: float, name: str | None = None) -> str | None:
+    """One-line warning when an FRF ends far below the Nyquist frequency of the target, else None.
+
+    The rule: the last line ``f_max`` [Hz] is below ``NYQUIST_FRACTION * fs / 2``; above ``f_max`` the measured and
+    discrete analysis cases (and every check on them) rest on the model alone.
+
+    Parameters
+    ----------
+    frf : Frf
+    fs : float
+        Sample rate of the target [Hz].
+    name : str, optional
+        File name used in the message (default ``frf.source``).
+    """
+    f_max = float(frf.freq_hz[-1])
+    nyquist = fs / 2
+    if f_max >= NYQUIST_FRACTION * nyquist:
+        return None
+    label = frf.source if name is None else name
+    return (f"{label}: the FRF ends at {f_max:g} Hz, far below the Nyquist frequency {nyquist:g} Hz of "
+            f"fs = {fs:g} Hz; the loop above it rests on the model")

@@ -260,9 +260,11 @@ def test_identify_friction_from_several_logs_recovers_the_simulated_truth(closed
     result = identify_friction(parts, position="x", command="u", mass=MASS, viscous=VISCOUS)
     _assert_close_to(result.friction, TRUTH, rel=0.10)
     assert result.n_logs == 2 and result.to_dict()["n_logs"] == 2
-    # without a mass: the rigid fit runs over both logs as well
+    # without a mass: the joint fit of mass, viscous friction and the law runs over both logs as well
     joint = identify_friction(parts, position="x", command="u")
-    assert joint.rigid_fit is not None and joint.rigid_fit.source.startswith("2 logs")
+    assert joint.joint_fit is not None and joint.n_logs == 2
+    assert joint.mass == pytest.approx(MASS, rel=0.02)
+    _assert_close_to(joint.friction, TRUTH, rel=0.10)
 
 
 def test_identify_friction_with_direction_dependent_omega():
@@ -352,10 +354,14 @@ def test_emps_coulomb_levels_near_benchmark(real_data_dir):
     # a symmetric viscous model leaves the offset and the viscous asymmetry in the two levels;
     # their symmetric part is the Coulomb friction
     assert result.fit.coulomb == pytest.approx(fc, rel=0.20)
-    # without a model the symmetric IDIM-LS fit is made on the same log first: same result
+    # rigid first: the symmetric IDIM-LS fit is made on the same log first: same result as with its model
+    first = identify_friction(log, joint=False, **opts)
+    assert first.rigid_fit is not None and first.rigid_fit.values["mass"] == pytest.approx(95.1089, rel=0.02)
+    assert first.friction == result.friction
+    # without a model, by default: mass, viscous friction and the Stribeck law fitted together
     auto = identify_friction(log, **opts)
-    assert auto.rigid_fit is not None and auto.rigid_fit.values["mass"] == pytest.approx(95.1089, rel=0.02)
-    assert auto.friction == result.friction
+    assert auto.joint_fit is not None and auto.mass == pytest.approx(95.1089, rel=0.02)
+    assert auto.fit.coulomb == pytest.approx(fc, rel=0.20)
 
 
 # ------------------------------------------------------------------------------------- model file

@@ -20,6 +20,7 @@ import typer
 from typer.core import TyperGroup
 
 from .common import JSON_OPTION, fmt, print_json
+from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -29,6 +30,7 @@ from .limits_options import (
     limits_from_options,
 )
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+from .sampling_options import FS_OVERRIDE_OPTION
 
 GAINS_COMMAND = "gains"
 GAINS_SUFFIXES = (".toml", ".json")
@@ -66,25 +68,37 @@ def analyze(
     gains_file: Path = typer.Argument(..., help="Gains file (.toml or .json) from 'feedtune design'."),
     frf: Path = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u) for the measured and discrete cases."),
     quantity: str = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata."),
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     strict: bool = typer.Option(False, "--check", help="Exit 1 when the design does not meet the limits."),
+    fs_override: bool = FS_OVERRIDE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Loop, every crossover and margin, Ms, disk margin, |S|<1 bands, Nyquist stability, disturbance and tracking
     of a design, and its verdict under the limits."""
     from ..io import read_document
     from ..machines import analyze_gains
-    from .frf_options import read_optional_frf
+    from .frf_options import FrfReadOptions, read_optional_frf
     from .limits_options import finish_analysis
+    from .sampling_options import gains_sampling
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     doc = read_document(gains_file)
-    done = analyze_gains(doc, str(gains_file), read_optional_frf(frf, quantity))
-    finish_analysis(dict(done.result), done.analysis, policy, as_json, strict)
+    measured = read_optional_frf(frf, quantity, options=frf_options)
+    rate = gains_sampling(doc, str(gains_file), [(frf, measured)], override=fs_override)
+    if rate is not None:
+        rate.report(as_json)
+    done = analyze_gains(doc, str(gains_file), measured)
+    record = rate.to_json() if rate is not None and measured is not None else {}  # checked against an FRF
+    finish_analysis({**done.result, **record}, done.analysis, policy, as_json, strict)
 
 
 # ------------------------------------------------------------------------------------------ logs

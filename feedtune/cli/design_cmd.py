@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -17,6 +18,7 @@ from .limits_options import (
     limits_from_options,
     print_check,
 )
+from .sampling_options import DELAY_OPTION, FS_OVERRIDE_OPTION, fs_option, target_sampling
 from .summary import print_design_summary
 
 app = typer.Typer(
@@ -28,8 +30,9 @@ app = typer.Typer(
 NOTCH_HELP = "Notch HZ,ZETA_Z,ZETA_P (repeatable), e.g. --notch 420,0.55,0.7 --notch 1080,0.05,0.7."
 NOTCH_OPTION = typer.Option(None, "--notch", help=NOTCH_HELP)
 LPF_OPTION = typer.Option(None, "--lpf", help="First-order low-pass pole frequency [Hz] (eq. 3.10).")
-FS_OPTION = typer.Option(20000.0, "--fs", help="Sample rate of the target [Hz].")
-DELAY_OPTION = typer.Option(1, "--delay-samples", help="Computational delay [samples].")
+DEFAULT_FS = 20000.0
+"""Sample rate [Hz] of ``design ppc|ppi`` without ``--fs`` and without a rate recorded in the FRF."""
+FS_OPTION = fs_option("20000 Hz")
 QUANTITY_OPTION = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata.")
 OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin).")
 ALLOW_OPTION = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated.")
@@ -64,8 +67,9 @@ def _load_friction(path: Path | None):
 
 
 def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, as_json, friction=None,
-            friction_band=None):
-    """Analyse, check the limits, write the gains file, print the result."""
+            friction_band=None, sampling=None, frf_options=None):
+    """Analyse, check the limits, write the gains file, print the result (``sampling``: the
+    :class:`~feedtune.cli.sampling_options.TargetSampling` recorded in the ``--json`` result)."""
     from ..analysis.check import check_design
     from ..errors import DesignError
     from ..io import write_document
@@ -73,20 +77,22 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
     from .frf_options import read_optional_frf
 
     friction_model = _load_friction(friction)
-    frf = read_optional_frf(frf_path, quantity)
+    frf = read_optional_frf(frf_path, quantity, options=frf_options)
     check = check_design(design, frf=frf, limits=limits)
     analysis = check.analysis.to_dict()
-    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
+    from ..control.ballscrew_law import all_gain_units
 
     result = {
         "kind": design.kind,
         "controller": design.kind,
         "gains": dict(design.gains),
-        "gain_units": {**GAIN_UNITS, **PPI_UNITS},
+        "gain_units": all_gain_units(design.model.input_unit),
+        "command_unit": design.model.input_unit,
         "closed_loop_poles": [[float(p.real), float(p.imag)] for p in check.closed_loop_poles],
         "analysis": analysis,
         "check": check.to_dict(),
         "design": design.design_dict(),
+        **({} if sampling is None else sampling.to_json()),
     }
     if design.kind == "ppi":
         result["gains"].update(design.ppi_gains)
@@ -151,8 +157,13 @@ def ppc(
     lpf: float = LPF_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
+    fs_override: bool = FS_OVERRIDE_OPTION,
     frf: Path = typer.Option(None, "--frf", help="Measured FRF for the measured and discrete analysis cases."),
     quantity: str = QUANTITY_OPTION,
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -169,14 +180,19 @@ def ppc(
     crossover under the limits."""
     from ..design.mcppc import design_mcppc
     from ..tune.mcppc import tune_mcppc
-    from .frf_options import read_optional_frf
+    from .frf_options import FrfReadOptions, read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
+    measured = read_optional_frf(frf, quantity, warn=False, options=frf_options)  # warned once, when _finish reads it
+    rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
+    rate.report(as_json, "design ppc")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     if beta is None and pole_hz is None and zeta is None:
         design = tune_mcppc(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
-                            frf=read_optional_frf(frf, quantity, warn=False))  # warned once, when _finish reads it
+                            frf=measured)
     else:
         design = design_mcppc(model, beta=4.0 if beta is None else beta, pole_hz=50.0 if pole_hz is None else pole_hz,
                               zeta=0.7 if zeta is None else zeta, filters=filters, fs=fs,
@@ -192,6 +208,8 @@ def ppc(
         as_json=as_json,
         friction=friction,
         friction_band=friction_band,
+        sampling=rate,
+        frf_options=frf_options,
     )
 
 
@@ -204,14 +222,19 @@ def ppi(
     gm_min: float = GM_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     kpx: float = typer.Option(None, "--kpx", help="Position-loop gain [1/s] (give all three to skip tuning)."),
-    kpv: float = typer.Option(None, "--kpv", help="Velocity-loop proportional gain [V/(rad/s)]."),
-    kiv: float = typer.Option(None, "--kiv", help="Velocity-loop integral gain [V/rad]."),
+    kpv: float = typer.Option(None, "--kpv", help="Velocity-loop proportional gain [command unit/(rad/s)]."),
+    kiv: float = typer.Option(None, "--kiv", help="Velocity-loop integral gain [command unit/rad]."),
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
+    fs_override: bool = FS_OVERRIDE_OPTION,
     frf: Path = typer.Option(None, "--frf", help="Measured FRF: tuning and checking use the discrete case on it."),
     quantity: str = QUANTITY_OPTION,
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     out: Path = OUT_OPTION,
     friction: Path = FRICTION_OPTION,
     friction_band: float = FRICTION_BAND_OPTION,
@@ -223,14 +246,19 @@ def ppi(
     from ..design.ppi import design_ppi
     from ..errors import UsageError
     from ..tune.ppi import tune_ppi
-    from .frf_options import read_optional_frf
+    from .frf_options import FrfReadOptions, read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
     given = [g is not None for g in (kpx, kpv, kiv)]
     if any(given) and not all(given):
         raise UsageError("give all of --kpx, --kpv and --kiv, or none of them to tune them under the limits")
+    measured = read_optional_frf(frf, quantity, warn=False, options=frf_options)  # warned once, when _finish reads it
+    rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
+    rate.report(as_json, "design ppi")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     if all(given):
         design = design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kiv, filters=filters, fs=fs, delay_samples=delay_samples)
     else:
@@ -240,7 +268,7 @@ def ppi(
             filters=filters,
             fs=fs,
             delay_samples=delay_samples,
-            frf=read_optional_frf(frf, quantity, warn=False),  # warned once, when _finish reads it
+            frf=measured,
         )
     _finish(
         design,
@@ -253,4 +281,6 @@ def ppi(
         as_json=as_json,
         friction=friction,
         friction_band=friction_band,
+        sampling=rate,
+        frf_options=frf_options,
     )

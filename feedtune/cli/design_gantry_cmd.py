@@ -20,6 +20,7 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, print_json
 from .design_cmd import ALLOW_OPTION, DELAY_OPTION, NOTCH_OPTION, OUT_OPTION, QUANTITY_OPTION
+from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -30,8 +31,11 @@ from .limits_options import (
     limits_from_options,
     print_check,
 )
+from .sampling_options import FS_OVERRIDE_OPTION, fs_option, target_sampling
 
-FS_OPTION = typer.Option(15000.0, "--fs", help="Sample rate of the target [Hz].")
+DEFAULT_FS = 15000.0
+"""Sample rate [Hz] of ``design loopshape|gantry|pid`` without ``--fs`` and without a rate recorded in an FRF."""
+FS_OPTION = fs_option("15000 Hz")
 LPF_OPTION = typer.Option(None, "--lpf", help="Low-pass frequency [Hz] of the filter pack.")
 LEAD_OPTION = typer.Option(None, "--lead", help="Extra lead stage HZ,DEG in the filter pack (repeatable), "
                                                 "e.g. --lead 154,70.")
@@ -106,7 +110,7 @@ def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, 
             raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
 
 
-def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, as_json) -> None:
+def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, as_json, sampling=None) -> None:
     from ..analysis.gantry import analyze_gantry, target_violations
     from ..analysis.limits import check_analysis
     from ..control.gantry import reference_from_schedule
@@ -122,7 +126,8 @@ def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, 
     units = mimo_gain_units(unit) if design.controller == "mimo" else pid_gain_units(unit)
     gains = {k: v["value"] for k, v in doc["gains"].items()}
     result = {"kind": "gantry", "controller": design.controller, "x_m": design.x, "gains": gains,
-              "gain_units": units, "design": doc["design"], "analysis": analysis}
+              "gain_units": units, "design": doc["design"], "analysis": analysis,
+              **({} if sampling is None else sampling.to_json())}
     if design.controller == "mimo":
         result["gains"]["lead_gain"] = design.law.lead_gain
         result["gain_units"]["lead_gain"] = f"{unit}/m"
@@ -158,8 +163,13 @@ def loopshape(
     prefilter_hz: float = PREFILTER_HZ_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
+    fs_override: bool = FS_OVERRIDE_OPTION,
     frf: Path = typer.Option(None, "--frf", help="Measured SISO FRF for the measured and discrete cases."),
     quantity: str = QUANTITY_OPTION,
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -176,18 +186,24 @@ def loopshape(
     from ..control.prefilter import PrefilterGains
     from ..design.loopshape import design_loopshape
     from ..errors import UsageError
+    from ..frf import Frf
     from ..io.gantry_gains import axis_gains_document
     from ..tune.loopshape import tune_loopshape
-    from .frf_options import read_optional_frf
+    from .frf_options import FrfReadOptions, read_optional_frf
 
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     if plant_file.suffix.lower() in (".toml", ".json"):
         from ..io import load_model
 
         plant = load_model(plant_file)
     else:
-        plant = read_optional_frf(plant_file, quantity)
+        plant = read_optional_frf(plant_file, quantity, options=frf_options)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
-    measured = read_optional_frf(frf, quantity)
+    measured = read_optional_frf(frf, quantity, options=frf_options)
+    rate = target_sampling(fs, delay_samples, [(plant_file, plant if isinstance(plant, Frf) else None),
+                                               (frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
+    rate.report(as_json, "design loopshape")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
     common = dict(filters=filters, fs=fs, delay_samples=delay_samples, prefilter=PrefilterGains.parse(prefilter),
                   prefilter_hz=prefilter_hz, mass=mass, channel=channel)
@@ -213,7 +229,7 @@ def loopshape(
     result = {"kind": "axis", "controller": "loopshape", "gains": gains,
               "gain_units": {k: v["unit"] for k, v in doc["gains"].items()},
               "lead_stages": [s.to_dict() for s in design.lead_stages], "design": doc["design"],
-              "analysis": analysis, "check": {"checked_case": checked}}
+              "analysis": analysis, "check": {"checked_case": checked}, **rate.to_json()}
     _write_and_report(result, doc, check, extra, out=out, force=force, allow_unstable=allow_unstable,
                       as_json=as_json)
 
@@ -242,8 +258,13 @@ def gantry(
     prefilter_hz: float = PREFILTER_HZ_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
+    fs_override: bool = FS_OVERRIDE_OPTION,
     frf: Path = GANTRY_FRF_OPTION,
     quantity: str = QUANTITY_OPTION,
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -257,18 +278,23 @@ def gantry(
     """Gantry MIMO control: averaging, lead, active damping, actuator-level integral (eq. 4.22-4.33)."""
     from ..control.prefilter import PrefilterGains
     from ..design.gantry_mimo import design_gantry_mimo
-    from .frf_options import read_optional_frf
+    from .frf_options import FrfReadOptions, read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _gantry_model(model_file)
+    measured = read_optional_frf(frf, quantity, options=frf_options)
+    rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
+    rate.report(as_json, "design gantry")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     design = design_gantry_mimo(
         model, crossover_hz=crossover_hz, pm_deg=pm_deg, damping_increase=damping_increase, ki=ki,
         integral_lag_deg=integral_lag_deg, filters=_loop_filters(notch, lpf, lpf_order, lpf_zeta, lead), fs=fs,
         delay_samples=delay_samples, x=x, x_grid=_x_grid(model, x_min, x_max, x_points),
         prefilter1=PrefilterGains.parse(prefilter1, "--prefilter1"),
         prefilter2=PrefilterGains.parse(prefilter2, "--prefilter2"), prefilter_hz=prefilter_hz)
-    _gantry_finish(design, read_optional_frf(frf, quantity), limits=policy, targets=(crossover_hz, pm_deg), out=out,
-                   force=force, allow_unstable=allow_unstable, as_json=as_json)
+    _gantry_finish(design, measured, limits=policy, targets=(crossover_hz, pm_deg), out=out,
+                   force=force, allow_unstable=allow_unstable, as_json=as_json, sampling=rate)
 
 
 # ------------------------------------------------------------------------------------------ pid
@@ -354,8 +380,13 @@ def pid(
     prefilter_hz: float = PREFILTER_HZ_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
+    fs_override: bool = FS_OVERRIDE_OPTION,
     frf: Path = GANTRY_FRF_OPTION,
     quantity: str = QUANTITY_OPTION,
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
@@ -367,14 +398,18 @@ def pid(
     from ..design.gantry_pid import design_gantry_pid
     from ..errors import UsageError
     from ..tune.pid import FILTER_CHOICES, tune_gantry_pid
-    from .frf_options import read_optional_frf
+    from .frf_options import FrfReadOptions, read_optional_frf
 
     if filter_choice is not None and filter_choice not in FILTER_CHOICES:
         raise UsageError(f"--filters must be own or identical, got {filter_choice!r}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _gantry_model(model_file)
-    measured = read_optional_frf(frf, quantity)
+    measured = read_optional_frf(frf, quantity, options=frf_options)
     filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
+    rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
+    rate.report(as_json, "design pid")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     given = [g is not None for g in (kp, kd, ki)]
     if any(given) and not all(given):
         raise UsageError("give all of --kp, --kd and --ki, or none of them to tune them under the limits")
@@ -397,4 +432,4 @@ def pid(
         if not as_json:
             _print_tuning(design.tuning)
     _gantry_finish(design, measured, limits=policy.override(ms_max=ms_max), targets=None, out=out, force=force,
-                   allow_unstable=allow_unstable, as_json=as_json)  # --match: the MIMO design's Ms
+                   allow_unstable=allow_unstable, as_json=as_json, sampling=rate)  # --match: the MIMO design's Ms

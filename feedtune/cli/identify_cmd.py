@@ -12,6 +12,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair, print_json
+from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
 
 app = typer.Typer(rich_markup_mode=None, help="Identify models from FRFs and logs.", no_args_is_help=True)
@@ -35,18 +36,23 @@ def ballscrew(
     ),
     mat_freq: str = typer.Option(None, "--mat-freq", help="MATLAB files: name of the frequency variable [Hz]."),
     mat_channel: list[str] = typer.Option(None, "--mat-channel", help="MATLAB files: CHANNEL=VARIABLE, e.g. x2/u=H2."),
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     out: Path = typer.Option(None, "--out", "-o", help="Model file to write (.toml, with a .json twin)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Fit the 2-mass ball-screw model (m1, m2, b1, b2, k, c; eq. 3.1) to measured FRFs."""
     from ..identify.ballscrew import fit_ballscrew
-    from ..io import read_frf, save_model
-    from .frf_options import mat_channels, quantity_option
+    from ..io import save_model
+    from .frf_options import FrfReadOptions, quantity_option, read_frf_with_options
 
     b = parse_float_pair(band, "--band")
     quantity = quantity_option(quantity)
-    frfs = [read_frf(p, quantity=quantity, freq_var=mat_freq, channels=mat_channels(mat_channel)) for p in frf_files]
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frfs = [read_frf_with_options(p, quantity, mat_freq, mat_channel, frf_options) for p in frf_files]
     fit = fit_ballscrew(frfs, band_hz=b, channels=channel or None, lead_m_per_rad=lead, fit_delay=not no_delay)
     result = fit.to_dict()
     if out is not None:
@@ -101,11 +107,15 @@ def _std_text(value: float, std: float | None, unit: str) -> str:
 
 @app.command("rigid")
 def rigid(
-    log_file: Path = typer.Argument(..., help="Tracking log (.csv, .mat, .mf4) with position and command."),
+    log_files: list[Path] = typer.Argument(..., help="Tracking log(s) (.csv, .mat, .mf4) with position and "
+                                                      "command; several logs are filtered one by one and fitted "
+                                                      "together."),
     position: str = typer.Option("x", "--position", help="Measured position column [m or rad; mm, um, deg]."),
     input_: str = typer.Option("u", "--input", "-i", help="Command or force column (unit from the log or --unit)."),
     asymmetric: bool = typer.Option(False, "--asymmetric", help="Viscous and Coulomb friction per direction."),
-    lpf_hz: float = typer.Option(100.0, "--lpf-hz", help="Zero-phase Butterworth cut-off of the position [Hz]."),
+    lpf_hz: float = typer.Option(None, "--lpf-hz", help="Zero-phase Butterworth cut-off of the position [Hz] "
+                                                        "(default: from the data, where the velocity spectrum "
+                                                        "meets its noise floor; see docs/commands.md)."),
     filter_order: int = typer.Option(4, "--filter-order", help="Butterworth order (applied forward and backward)."),
     decimate: int = typer.Option(None, "--decimate", help="Parallel decimation factor (default round(fs / lpf-hz))."),
     velocity_threshold: float = typer.Option(
@@ -131,10 +141,13 @@ def rigid(
     options = LogOptions.from_cli(map_, fs, time, scale, unit, skip_rows)
     settings = {"force": input_, "position": position, "cutoff_hz": lpf_hz, "filter_order": filter_order,
                 "decimate": decimate, "velocity_threshold": velocity_threshold}
-    fit = fit_rigid(options.read(log_file), asymmetric=asymmetric, **settings)
-    result = {"log": str(log_file), **fit.to_dict()}
+    fit = fit_rigid([options.read(p) for p in log_files], asymmetric=asymmetric, **settings)
+    log_file = log_files[0] if len(log_files) == 1 else f"{len(log_files)} logs ({log_files[0]}, ...)"
+    result = {"log": str(log_file), **({"logs": [str(p) for p in log_files]} if len(log_files) > 1 else {}),
+              **fit.to_dict()}
     if validate is not None:
-        result["validation"] = validate_rigid(options.read(validate), fit.model, **settings).to_dict()
+        result["validation"] = validate_rigid(options.read(validate), fit.model,
+                                              **{**settings, "cutoff_hz": fit.cutoff_hz}).to_dict()
     if out is not None:
         record = {k: v for k, v in result.items() if k not in ("rigid_model", "validation")}
         result["files"] = [str(p) for p in save_model(out, fit.model, fit=record, force=force)]
@@ -142,7 +155,8 @@ def rigid(
         print_json(result)
         return
     units = result["units"]
-    kind = "asymmetric" if asymmetric else "symmetric"
+    kind = {"rigid": "symmetric", "rigid-asymmetric": "asymmetric", "rigid-one-direction": "one-direction"}[
+        result["model"]]
     typer.echo(f"Rigid-body model ({kind} friction, IDIM-LS) from {log_file}:")
     for name, value in result["values"].items():
         typer.echo(f"  {name:12s} = {_std_text(value, result['std'][name], units[name])}")
@@ -150,6 +164,8 @@ def rigid(
                f"{fmt(result['residual_rms'], units['residual_rms'])}, condition number "
                f"{fmt(result['condition_number'])}, {result['n_samples']} samples after decimation by "
                f"{result['decimate']}, filter {fmt(result['cutoff_hz'], 'Hz')}")
+    if result["cutoff_rule"] != "given":
+        typer.echo(f"  filter cut-off chosen from the data: {result['cutoff_rule']}")
     if "validation" in result:
         v = result["validation"]
         typer.echo(f"  cross-check on {validate}: relative error {fmt(v['relative_error_pct'], '%')}, "
@@ -176,13 +192,34 @@ def _friction_model_source(model_file: Path | None):
     return model
 
 
-def _friction_record(result: dict, log_file: Path) -> dict:
+def _friction_record(result: dict, log_file: Path | str) -> dict:
     """What goes in the ``[fit]`` table of a friction model file (no lists with missing values)."""
+    if result.get("method") == "steady-state":
+        fit = result["fit"]
+        return {
+            "log": str(log_file),
+            "method": f"steady-state: mean command on constant-velocity plateaus, {result['law']} law per direction",
+            "std": {f"{name}_{key}": s for key, d in fit["directions"].items() for name, s in d["std"].items()
+                    if s is not None},
+            "rms_error": fit["rms_error"],
+            "relative_error_pct": fit["relative_error_pct"],
+            "n_points": len(result["points"]),
+            "points_velocity": [p["velocity"] for p in result["points"]],
+            "points_force": [p["force"] for p in result["points"]],
+            "omega_at_bound": any(d["omega_at_bound"] for d in fit["directions"].values()),
+            "units": {"rms_error": fit["units"]["rms_error"], "relative_error_pct": "%",
+                      "points_velocity": result["units"]["velocity"], "points_force": result["units"]["force"]},
+        }
     fit = result["friction"]
     dist = result["disturbance"]
-    return {
+    law = result.get("law", "stribeck")
+    joint = result.get("joint_fit")
+    units = result["units"]
+    record = {
         "log": str(log_file),
-        "method": "Kalman-filter equivalent disturbance, Stribeck eq. 2.1 least squares",
+        "method": ("Kalman-filter equivalent disturbance, "
+                   + ("Stribeck eq. 2.1" if law == "stribeck" else f"{law} law") + " least squares"
+                   + ("; mass and viscous friction from the joint fit" if joint else "")),
         "mass": result["mass"],
         "viscous": result["viscous"],
         "std": {k: v for k, v in fit["std"].items() if v is not None},
@@ -194,32 +231,99 @@ def _friction_record(result: dict, log_file: Path) -> dict:
         "omega_at_bound": fit["omega_at_bound"],
         "observer_poles_hz": dist["observer_poles_hz"],
         "reversal_guard_s": result["reversal_guard_s"],
-        "units": {"mass": result["units"]["mass"], "viscous": result["units"]["viscous"],
+        "units": {"mass": units["mass"], "viscous": units["viscous"],
                   "rms_error": fit["units"]["rms_error"], "relative_error_pct": "%",
                   "min_speed": fit["units"]["min_speed"], "observer_poles_hz": "Hz", "reversal_guard_s": "s"},
     }
+    if joint:  # per-direction viscous coefficients and the mass's std of the joint fit
+        record["viscous_pos"], record["viscous_neg"] = joint["viscous_pos"], joint["viscous_neg"]
+        record["units"].update(viscous_pos=units["viscous"], viscous_neg=units["viscous"])
+        if joint["mass_std"] is not None:
+            record["mass_std"] = joint["mass_std"]
+            record["units"]["mass_std"] = units["mass"]
+    return record
+
+
+def _friction_steady_state_checks(given: dict, steady_state: bool) -> None:
+    """``--steady-state`` takes no Kalman/mass options, the plateau options need ``--steady-state``."""
+    from ..errors import UsageError
+
+    kalman = ("--model", "--mass", "--viscous", "--bandwidth-hz", "--method", "--per-direction-omega",
+              "--reversal-guard", "--rigid-first")
+    plateau = ("--plateau-acc-tol", "--plateau-vel-tol", "--plateau-min-duration")
+    used = [name for name, value in given.items() if value is not None and value is not False]
+    if steady_state and any(name in kalman for name in used):
+        raise UsageError(f"{next(n for n in used if n in kalman)} is not used by --steady-state (the plateau "
+                         "method needs no mass and no observer)")
+    if not steady_state and any(name in plateau for name in used):
+        raise UsageError(f"{next(n for n in used if n in plateau)} needs --steady-state")
+
+
+def _friction_steady_state_text(result: dict, log_file: Path | str) -> None:
+    """Print a steady-state friction result."""
+    fit, units = result["fit"], result["units"]
+    fu = fit["units"]
+    typer.echo(f"Steady-state friction ({result['law']} law, {len(result['points'])} plateaus) from {log_file}:")
+    for p in result["points"]:
+        typer.echo(f"  v = {fmt(p['velocity'], units['velocity']):>14s}  F = {fmt(p['force'], units['force'])}  "
+                   f"(scatter {fmt(p['force_std'])}, {fmt(p['duration_s'], 's')})")
+    for key, d in fit["directions"].items():
+        typer.echo(f"  {'v > 0' if key == 'pos' else 'v < 0'}: "
+                   + ", ".join(f"{name} = {_std_text(d[name], d['std'].get(name), fu[name])}"
+                               for name in ("dc", "ds", "omega", "viscous")))
+    typer.echo(f"  fit RMS {fmt(fit['rms_error'], fu['rms_error'])} ({fmt(fit['relative_error_pct'], '%')})")
+    for w in result.get("warnings", []):
+        typer.echo(f"  warning: {w}")
+    for p in result.get("files", []):
+        typer.echo(f"wrote {p}")
 
 
 @app.command("friction")
 def friction(
-    log_file: Path = typer.Argument(..., help="Tracking log (.csv, .mat, .mf4) moving both ways at several speeds."),
+    log_files: list[Path] = typer.Argument(..., help="Tracking log(s) (.csv, .mat, .mf4) moving both ways at "
+                                                      "several speeds; several logs are filtered one by one and "
+                                                      "fitted together."),
     model_file: Path = typer.Option(
-        None, "--model", help="Ballscrew or rigid model file giving mass and viscous friction (default: IDIM-LS fit)."
+        None, "--model", help="Ballscrew or rigid model file giving mass and viscous friction (default: joint fit)."
     ),
     position: str = typer.Option("x", "--position", help="Position column, e.g. x1 or x2 [rad] or x [m]."),
     input_: str = typer.Option("u", "--input", "-i", help="Command column (unit from the log or --unit)."),
     mass: float = typer.Option(None, "--mass", help="Mass or inertia instead of --model [command/(position/s^2)]."),
     viscous: float = typer.Option(None, "--viscous", help="Viscous friction with --mass [command/(position/s)]."),
+    law: str = typer.Option("stribeck", "--law", help="Friction law: stribeck (eq. 2.1), hump or lugre."),
+    steady_state: bool = typer.Option(
+        False, "--steady-state", help="Fit the law to the mean command on constant-velocity plateaus (no Kalman "
+                                      "filter, no mass)."
+    ),
+    rigid_first: bool = typer.Option(
+        False, "--rigid-first", help="Without --model/--mass: IDIM-LS rigid fit first instead of the joint fit."
+    ),
+    lpf_hz: float = typer.Option(
+        None, "--lpf-hz", help="Position filter cut-off of the joint, rigid or plateau fit [Hz] (default: from "
+                               "the data)."
+    ),
     bandwidth_hz: float = typer.Option(
         None, "--bandwidth-hz", help="Kalman observer bandwidth [Hz] (default min(0.05 fs, 50 Hz))."
     ),
-    method: str = typer.Option("steady-state", "--method", help="steady-state (fast) or filterpy (per-sample)."),
-    min_speed: float = typer.Option(None, "--min-speed", help="Ignore slower samples [m/s or rad/s] (default 2 %)."),
+    method: str = typer.Option(None, "--method", help="Kalman filter: steady-state (fast, default) or filterpy "
+                                                      "(per-sample)."),
+    min_speed: float = typer.Option(None, "--min-speed", help="Ignore slower samples or plateaus [m/s or rad/s] "
+                                                              "(default 2 % of the peak; plateaus 0.2 %)."),
     per_direction_omega: bool = typer.Option(
         False, "--per-direction-omega", help="Separate Stribeck velocity per direction."
     ),
     reversal_guard_s: float = typer.Option(
         None, "--reversal-guard", help="Time left out after each reversal [s] (default: observer settling time)."
+    ),
+    plateau_acc_tol: float = typer.Option(
+        None, "--plateau-acc-tol", help="--steady-state: largest |acceleration| on a plateau [m/s^2 or rad/s^2] "
+                                        "(default 5 % of the log's 99th percentile)."
+    ),
+    plateau_vel_tol: float = typer.Option(
+        None, "--plateau-vel-tol", help="--steady-state: relative velocity tolerance of a plateau (default 0.02)."
+    ),
+    plateau_min_duration: float = typer.Option(
+        None, "--plateau-min-duration", help="--steady-state: shortest plateau [s] (default 0.1)."
     ),
     map_: list[str] = MAP_OPTION,
     fs: float = FS_OPTION,
@@ -231,34 +335,63 @@ def friction(
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Stribeck friction (eq. 2.1, per direction) from the Kalman-filter equivalent disturbance of a log."""
+    """Friction per direction: Stribeck eq. 2.1 (or --law hump|lugre) from the Kalman-filter equivalent disturbance,
+    or with --steady-state from constant-velocity plateaus."""
+    from ..errors import DataError
     from ..identify.friction import identify_friction
+    from ..identify.friction_curve import PlateauSettings, identify_friction_curve
     from ..io import save_model
+    from ..models.friction import check_law
     from .log_options import read_log_with_options
 
+    check_law(law)
+    _friction_steady_state_checks({
+        "--model": model_file, "--mass": mass, "--viscous": viscous, "--bandwidth-hz": bandwidth_hz,
+        "--method": method, "--per-direction-omega": per_direction_omega, "--reversal-guard": reversal_guard_s,
+        "--rigid-first": rigid_first, "--plateau-acc-tol": plateau_acc_tol, "--plateau-vel-tol": plateau_vel_tol,
+        "--plateau-min-duration": plateau_min_duration}, steady_state)
     _check_model_out(out, force)
     model = _friction_model_source(model_file)
-    log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
-    ident = identify_friction(log, position=position, command=input_, model=model, mass=mass, viscous=viscous,
-                              bandwidth_hz=bandwidth_hz, method=method, min_speed=min_speed,
-                              per_direction_omega=per_direction_omega, reversal_guard_s=reversal_guard_s)
-    result = {"log": str(log_file), **ident.to_dict()}
+    logs = [read_log_with_options(p, map_, fs, time, scale, unit, skip_rows) for p in log_files]
+    log_file = log_files[0] if len(log_files) == 1 else f"{len(log_files)} logs ({log_files[0]}, ...)"
+    if steady_state:
+        given = {"acc_tol": plateau_acc_tol, "vel_tol": plateau_vel_tol, "min_duration": plateau_min_duration,
+                 "min_speed": min_speed}
+        ident = identify_friction_curve(logs, position=position, command=input_, law=law, cutoff_hz=lpf_hz,
+                                        settings=PlateauSettings(**{k: v for k, v in given.items() if v is not None}))
+        if out is not None and ident.friction is None:
+            way = "v > 0" if "pos" in ident.fit.directions else "v < 0"
+            raise DataError(f"--out {out}: only {way} has plateaus, and a friction model file needs both directions; "
+                            "run without --out to see the one-direction fit, or add runs the other way")
+    else:
+        ident = identify_friction(logs, position=position, command=input_, model=model, mass=mass, viscous=viscous,
+                                  bandwidth_hz=bandwidth_hz, method=method or "steady-state", min_speed=min_speed,
+                                  per_direction_omega=per_direction_omega, reversal_guard_s=reversal_guard_s,
+                                  law=law, joint=not rigid_first, cutoff_hz=lpf_hz)
+    result = {"log": str(log_file), **({"logs": [str(p) for p in log_files]} if len(log_files) > 1 else {}),
+              **ident.to_dict()}
     if out is not None:
         record = _friction_record(result, log_file)
         result["files"] = [str(p) for p in save_model(out, ident.friction, fit=record, force=force)]
     if as_json:
         print_json(result)
         return
+    if steady_state:
+        _friction_steady_state_text(result, log_file)
+        return
     fit = result["friction"]
     f, u, std = fit["friction"], fit["units"], fit["std"]
-    typer.echo(f"Stribeck friction (eq. 2.1) from {log_file}:")
+    name = "Stribeck friction (eq. 2.1)" if result["law"] == "stribeck" else f"Friction ({result['law']} law)"
+    typer.echo(f"{name} from {log_file}:")
     for name in ("dc_pos", "ds_pos", "omega_pos", "dc_neg", "ds_neg", "omega_neg"):
         typer.echo(f"  {name:9s} = {_std_text(f[name], std.get(name), u[name])}")
     typer.echo(f"  Coulomb {fmt(fit['coulomb'], u['coulomb'])}, offset {fmt(fit['offset'], u['offset'])}; "
                f"fit RMS {fmt(fit['rms_error'], u['rms_error'])} ({fmt(fit['relative_error_pct'], '%')}), "
                f"{fit['n_pos']} + {fit['n_neg']} samples")
+    source = ("joint fit" if result.get("joint_fit") else "IDIM-LS rigid fit" if result.get("rigid_fit")
+              else "given")
     typer.echo(f"  mass {fmt(result['mass'], result['units']['mass'])}, viscous "
-               f"{fmt(result['viscous'], result['units']['viscous'])}; observer poles "
+               f"{fmt(result['viscous'], result['units']['viscous'])} ({source}); observer poles "
                f"{', '.join(fmt(p, 'Hz') for p in result['disturbance']['observer_poles_hz'])}")
     for w in result.get("warnings", []):
         typer.echo(f"  warning: {w}")

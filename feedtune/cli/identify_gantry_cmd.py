@@ -16,6 +16,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair, print_json
+from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -28,12 +29,11 @@ def _check_positions(files: list[Path], xs: list[float] | None, what: str) -> li
     return xs
 
 
-def _gantry_frf(path: Path, quantity: str | None):
+def _gantry_frf(path: Path, quantity: str | None, frf_options=None):
     from ..errors import DataError
-    from ..io import read_frf
-    from .frf_options import quantity_option
+    from .frf_options import read_frf_with_options
 
-    frf = read_frf(path, quantity=quantity_option(quantity))
+    frf = read_frf_with_options(path, quantity, options=frf_options)
     if frf.output_unit.strip() != "m":
         raise DataError(f"{path}: gantry FRFs must declare the output unit m (e.g. '# output: y1 [m]'); "
                         f"found {frf.output_unit!r}")
@@ -57,6 +57,10 @@ def gantry(
     m_x: float = typer.Option(None, "--m-x", help="Table mass [V/(m/s^2)]: fit only J0 and d of J(x)."),
     quantity: str = typer.Option(None, "--quantity", help="position, velocity or acceleration (overrides the "
                                                           "files)."),
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     out: Path = typer.Option(None, "--out", "-o", help="Model file to write (.toml with a .json twin)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
@@ -64,13 +68,15 @@ def gantry(
     """Fit the gantry yaw model (eq. 4.1-4.16: m, J0, d, m_x, c, k, alpha1(x)) to 2x2 FRFs at several x."""
     from ..identify.gantry import fit_gantry
     from ..io import save_model
+    from .frf_options import FrfReadOptions
 
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     xs = _check_positions(frf_files, x, "FRF file")
     b = parse_float_pair(band, "--band")
     from ..io.mass_file import read_mass_document
 
     mass_fit, mass_mx = read_mass_document(mass_file) if mass_file is not None else (None, None)
-    frfs = [_gantry_frf(p, quantity) for p in frf_files]
+    frfs = [_gantry_frf(p, quantity, frf_options) for p in frf_files]
     fit = fit_gantry(frfs, xs, L=span, band_hz=b, mass_distribution=mass_fit, bounds=bounds,
                      m_x=m_x if m_x is not None else mass_mx)
     result = fit.to_dict()

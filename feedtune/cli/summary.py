@@ -76,5 +76,6 @@ def print_design_summary(result: dict) -> None:
         typer.echo("PM, GM: the worst over every crossover; disk = balanced disk margin alpha")
     ideal = result["analysis"].get("ideal") or {}
     if ideal.get("disturbance_min_real_rad_per_V") is not None:
-        typer.echo(f"d2->x2 most negative real part: {ideal['disturbance_min_real_rad_per_V']:.4g} rad/V at "
+        unit = result.get("command_unit", "V")
+        typer.echo(f"d2->x2 most negative real part: {ideal['disturbance_min_real_rad_per_V']:.4g} rad/{unit} at "
                    f"{ideal['disturbance_min_real_freq_hz']:.1f} Hz (ideal)")

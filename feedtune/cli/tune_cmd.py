@@ -17,6 +17,7 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
 from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _load_model
+from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -25,12 +26,14 @@ from .limits_options import (
     PM_MIN_OPTION,
     limits_from_options,
 )
+from .sampling_options import FS_OVERRIDE_OPTION, target_sampling
 
 FRFS_OPTION = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u), repeatable: one per table position or "
                                                "load. The limits must hold on every one.")
 OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml or .json), with the certificate.")
-FS_OPTION = typer.Option(None, "--fs", help="Sample rate of the target [Hz] (default 20000 for mcppc and ppi, 15000 "
-                                             "for gantry, pid and loopshape).")
+FS_OPTION = typer.Option(None, "--fs", help="Sample rate of the target [Hz] (default: the rate the FRF files record, "
+                                             "sampling_fs_hz, else 20000 for mcppc and ppi, 15000 for gantry, pid "
+                                             "and loopshape).")
 DEFAULT_FS = {"mcppc": 20000.0, "ppi": 20000.0, "gantry": 15000.0, "pid": 15000.0, "loopshape": 15000.0}
 X_OPTION = typer.Option(None, "--x", help="gantry, pid: table position [m] of each --frf, in order (repeatable; "
                                           "default: the position recorded in each FRF file, x_m).")
@@ -57,10 +60,10 @@ def _filter_choice(choice: str | None, notch, lpf) -> str:
     return choice
 
 
-def _frfs(paths: list[Path] | None, quantity: str | None) -> list[tuple[str, object]]:
+def _frfs(paths: list[Path] | None, quantity: str | None, frf_options=None) -> list[tuple[str, object]]:
     from .frf_options import read_optional_frf
 
-    return [(str(p), read_optional_frf(p, quantity)) for p in paths or []]
+    return [(str(p), read_optional_frf(p, quantity, options=frf_options)) for p in paths or []]
 
 
 def print_filters(pack: dict, record: dict) -> None:
@@ -112,10 +115,10 @@ def _write_certified(title: str, doc: dict, cert, result: dict, out: Path | None
 
 
 def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pack, filters: str | None,
-                    fs: float, delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool,
-                    as_json: bool) -> None:
+                    fs: float | None, delay_samples: int | None, quantity: str | None, policy, out: Path | None,
+                    force: bool, as_json: bool, fs_override: bool = False, frf_options=None) -> None:
     """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
-    from ..control.ballscrew_law import GAIN_UNITS, PPI_UNITS
+    from ..control.ballscrew_law import all_gain_units
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
     from ..io.gains import gains_document
@@ -127,7 +130,10 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
     if out is not None:
         ensure_writable(out, force)  # refused before the search, not after it
     model = _load_model(model_file)
-    frfs = _frfs(frf, quantity)
+    frfs = _frfs(frf, quantity, frf_options)
+    rate = target_sampling(fs, delay_samples, frfs, default_fs=DEFAULT_FS[structure], override=fs_override)
+    rate.report(as_json, f"tune {structure}")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     tuner = {"mcppc": tune_mcppc, "ppi": tune_ppi}[structure]
     design = tuner(model, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
                    frf=[f for _, f in frfs] or None, filter_choice=choice)
@@ -135,10 +141,10 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
     cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
     doc["certificate"] = strip_none(cert.to_dict())
     gains = {**design.gains, **getattr(design, "ppi_gains", {})}
-    units = {**GAIN_UNITS, **PPI_UNITS}
+    units = all_gain_units(model.input_unit)
     result = {"kind": "ballscrew", "controller": design.kind, "gains": gains, "gain_units": units,
               "filters": design.filters.to_dict(), "filter_choice": design.tuning.get("filters", {"choice": choice}),
-              "design": design.design_dict(), "certificate": cert.to_dict()}
+              "design": design.design_dict(), "certificate": cert.to_dict(), **rate.to_json()}
     if _write_certified(TITLES[structure], doc, cert, result, out, force, as_json):
         return
     typer.echo(f"{TITLES[structure]} tuned: " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}"
@@ -149,8 +155,9 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
         typer.echo(f"wrote {out}")
 
 
-def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | None, fs: float,
-               delay_samples: int, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool) -> None:
+def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | None, fs: float | None,
+               delay_samples: int | None, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool,
+               fs_override: bool = False, frf_options=None) -> None:
     """Tune an x axis by loop shaping on every FRF, certify, write, print."""
     from ..io import load_model
     from ..io.atomic import ensure_writable
@@ -166,8 +173,13 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     if plant_file.suffix.lower() in (".toml", ".json"):
         plant = load_model(plant_file)
     else:
-        plant = read_optional_frf(plant_file, quantity)
-    frfs = _frfs(frf, quantity)
+        plant = read_optional_frf(plant_file, quantity, options=frf_options)
+    frfs = _frfs(frf, quantity, frf_options)
+    plant_frf = [] if plant_file.suffix.lower() in (".toml", ".json") else [(str(plant_file), plant)]
+    rate = target_sampling(fs, delay_samples, plant_frf + frfs, default_fs=DEFAULT_FS["loopshape"],
+                           override=fs_override)
+    rate.report(as_json, "tune loopshape")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     design = tune_loopshape(plant, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
                             frf=[f for _, f in frfs] or None, filter_choice=choice)
     doc = axis_gains_document(design)
@@ -175,7 +187,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     doc["certificate"] = strip_none(cert.to_dict())
     tuning = design.tuning
     result = {"kind": "axis", "controller": "loopshape", "design": design.design_dict(),
-              "filters": design.filters.to_dict(), "certificate": cert.to_dict()}
+              "filters": design.filters.to_dict(), "certificate": cert.to_dict(), **rate.to_json()}
     if _write_certified("loop-shaping design", doc, cert, result, out, force, as_json):
         return
     typer.echo(f"x-axis loop shaping tuned: crossover {fmt(tuning['crossover_hz'], 'Hz')}, PM target "
@@ -187,13 +199,13 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
         typer.echo(f"wrote {out}")
 
 
-def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity: str | None):
+def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity: str | None, frf_options=None):
     """``[(name, Frf)]`` of gantry FRFs, each carrying its table position (``--x`` or its own ``x_m``)."""
     from dataclasses import replace
 
     from ..tune.gantry_cases import frf_positions
 
-    frfs = _frfs(paths, quantity)
+    frfs = _frfs(paths, quantity, frf_options)
     if xs and not frfs:
         from ..errors import UsageError
 
@@ -204,8 +216,9 @@ def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity:
 
 
 def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: list[float] | None, design_x: float,
-                 filters_pack, filters: str | None, fs: float, delay_samples: int, quantity: str | None, policy,
-                 out: Path | None, force: bool, as_json: bool) -> None:
+                 filters_pack, filters: str | None, fs: float | None, delay_samples: int | None, quantity: str | None,
+                 policy, out: Path | None, force: bool, as_json: bool, fs_override: bool = False,
+                 frf_options=None) -> None:
     """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
     from ..io.atomic import ensure_writable
     from ..io.document import strip_none
@@ -218,7 +231,10 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
     if out is not None:
         ensure_writable(out, force)
     model = _gantry_model(model_file)
-    frfs = _positioned_frfs(frf, xs, quantity)
+    frfs = _positioned_frfs(frf, xs, quantity, frf_options)
+    rate = target_sampling(fs, delay_samples, frfs, default_fs=DEFAULT_FS[structure], override=fs_override)
+    rate.report(as_json, f"tune {structure}")
+    fs, delay_samples = rate.fs_hz, rate.delay_samples
     common = {"limits": policy, "filters": filters_pack, "fs": fs, "delay_samples": delay_samples, "x": design_x,
               "frf": [f for _, f in frfs] or None}
     choice = _filter_choice(filters, filters_pack.notches, filters_pack.lpf_hz)
@@ -235,7 +251,7 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
         gains["lead_gain"], units["lead_gain"] = design.law.lead_gain, f"{model.input_unit}/m"
     result = {"kind": "gantry", "controller": design.controller, "design_x_m": design.x, "gains": gains,
               "gain_units": units, "filters": design.law.filters.to_dict(), "filter_choice": record,
-              "design": design.design_dict(), "certificate": cert.to_dict()}
+              "design": design.design_dict(), "certificate": cert.to_dict(), **rate.to_json()}
     if _write_certified(TITLES[structure], doc, cert, result, out, force, as_json):
         return
     shape = (f"CoM crossover target {fmt(design.crossover_hz, 'Hz')}, PM target {fmt(design.pm_deg, 'deg')}, "
@@ -277,7 +293,12 @@ def tune(
     filters: str = FILTERS_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
+    fs_override: bool = FS_OVERRIDE_OPTION,
     quantity: str = QUANTITY_OPTION,
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -300,11 +321,12 @@ def tune(
     --lpf 450 --lead 154,70 -o mimo_gains.toml"""
     from ..errors import UsageError
     from .design_gantry_cmd import _loop_filters
+    from .frf_options import FrfReadOptions
 
     if structure not in TITLES:
         raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
-    fs = DEFAULT_FS[structure] if fs is None else fs
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     gantry = structure in ("gantry", "pid")
     if x and not gantry:
         raise UsageError(f"--x gives gantry FRF positions; {structure} has none")
@@ -316,11 +338,12 @@ def tune(
     if gantry:
         pack = _loop_filters(notch, lpf, order, 0.7, lead)
         _tune_gantry(structure, model_file, frf, x, design_x, pack, filters, fs, delay_samples, quantity, policy, out,
-                     force, as_json)
+                     force, as_json, fs_override=fs_override, frf_options=frf_options)
         return
     if structure == "loopshape":
         _tune_axis(model_file, frf, _loop_filters(notch, lpf, order, 0.7, lead), filters, fs, delay_samples,
-                   quantity, policy, out, force, as_json)
+                   quantity, policy, out, force, as_json, fs_override=fs_override, frf_options=frf_options)
         return
     _tune_ballscrew(structure, model_file, frf, _loop_filters(notch, lpf, order, 0.7, None), filters, fs,
-                    delay_samples, quantity, policy, out, force, as_json)
+                    delay_samples, quantity, policy, out, force, as_json, fs_override=fs_override,
+                    frf_options=frf_options)

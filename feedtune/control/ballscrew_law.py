@@ -25,7 +25,20 @@ from ..lti import Zpk
 from .discretize import backward_difference, backward_euler_integrator, matched
 
 GAIN_NAMES = ("Kx1", "Kx2", "Kv1", "Kv2", "Ki2")
-GAIN_UNITS = {"Kx1": "V/rad", "Kx2": "V/rad", "Kv1": "V/(rad/s)", "Kv2": "V/(rad/s)", "Ki2": "V/(rad s)"}
+
+
+def gain_units(command_unit: str = "V") -> dict[str, str]:
+    """Units of ``Kx1, Kx2, Kv1, Kv2, Ki2`` for a drive commanded in ``command_unit`` (V, A, N, N*m, %): the
+    law's positions are in rad of screw or motor rotation.
+
+    Examples
+    --------
+    >>> gain_units("A")["Kv2"]
+    'A/(rad/s)'
+    """
+    u = command_unit
+    return {"Kx1": f"{u}/rad", "Kx2": f"{u}/rad", "Kv1": f"{u}/(rad/s)", "Kv2": f"{u}/(rad/s)",
+            "Ki2": f"{u}/(rad s)"}
 
 
 def pd_zpk(kp: float, kd: float, ki: float = 0.0) -> Zpk:
@@ -77,7 +90,8 @@ class BallScrewLaw:
     Parameters
     ----------
     gains : dict
-        ``Kx1, Kx2, Kv1, Kv2, Ki2`` in V/rad, V/rad, V/(rad/s), V/(rad/s), V/(rad s).
+        ``Kx1, Kx2, Kv1, Kv2, Ki2`` in U/rad, U/rad, U/(rad/s), U/(rad/s), U/(rad s) for a command in U
+        (:func:`gain_units`).
     filter_pack : Zpk
         Continuous ``G_fp(s)``.
     rotary_reference : Zpk
@@ -163,4 +177,11 @@ def _sum_zpk(a: Zpk, b: Zpk) -> Zpk:
     return Zpk.from_tf(num, den, a.dt)
 
 
-PPI_UNITS = {"Kpx": "1/s", "Kpv": "V/(rad/s)", "Kiv": "V/rad"}
+def ppi_units(command_unit: str = "V") -> dict[str, str]:
+    """Units of the P-PI gains ``Kpx, Kpv, Kiv`` for a drive commanded in ``command_unit``."""
+    return {"Kpx": "1/s", "Kpv": f"{command_unit}/(rad/s)", "Kiv": f"{command_unit}/rad"}
+
+
+def all_gain_units(command_unit: str = "V") -> dict[str, str]:
+    """:func:`gain_units` and :func:`ppi_units` together (what a gains file of either controller can hold)."""
+    return {**gain_units(command_unit), **ppi_units(command_unit)}

@@ -18,6 +18,11 @@ Stribeck velocity ``Omega`` (where the friction changes fastest anyway).
 Units: the ball-screw law's positions are rad of screw rotation, so a friction model identified on the table
 in m/s is converted with the screw lead ``lead_m_per_rad`` (from the gains file's ``[model]``): the Stribeck
 velocities and the band are stored in rad/s. The friction levels must be in the gains file's command unit.
+
+Friction laws (:class:`~feedtune.models.friction.FrictionLaw`): a ``stribeck`` law is fed forward as eq. 2.1
+without its viscous term (the design's own feedforward ``(b1 + b2) s`` carries the viscous friction; the dropped
+coefficients are recorded in ``source``). The ``hump`` and ``lugre`` laws are refused: the gains file's
+``[friction_feedforward]``, the runtime and the C export implement eq. 2.1 only.
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DataError, UsageError
-from ..models.friction import StribeckFriction
+from ..models.friction import FrictionLaw, StribeckFriction
 
 LEVELS = ("dc_pos", "ds_pos", "dc_neg", "ds_neg")
 VELOCITY = "rad/s"
@@ -106,8 +111,9 @@ def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_
 
     Parameters
     ----------
-    friction : StribeckFriction
-        Identified model; velocities in m/s (table travel) or rad/s (screw rotation).
+    friction : StribeckFriction or FrictionLaw
+        Identified model; velocities in m/s (table travel) or rad/s (screw rotation). A ``stribeck``
+        :class:`FrictionLaw` is fed forward without its viscous term (module docstring).
     command_unit : str
         The gains file's command unit; the model's levels must be in it.
     lead_m_per_rad : float
@@ -121,10 +127,20 @@ def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_
     Raises
     ------
     DataError
-        The model's command unit differs from ``command_unit``, or a bad lead.
+        The model's command unit differs from ``command_unit``, a bad lead, or a law other than ``stribeck``.
     UsageError
         ``v_band`` not > 0.
     """
+    dropped = {}
+    if isinstance(friction, FrictionLaw):
+        if friction.law != "stribeck":
+            raise DataError(f"{where}: a {friction.law!r} friction law cannot be fed forward (the gains file's "
+                            "[friction_feedforward] and the C export implement eq. 2.1 only); identify the friction "
+                            "with --law stribeck")
+        unit = f"{friction.command_unit}/({friction.velocity_unit})"
+        dropped = {"viscous_not_fed_forward": {"pos": {"value": friction.viscous_pos, "unit": unit},
+                                               "neg": {"value": friction.viscous_negative, "unit": unit}}}
+        friction = friction.without_viscous()
     if friction.command_unit != command_unit:
         raise DataError(f"{where}: friction levels are in {friction.command_unit!r} but the gains file's command is "
                         f"in {command_unit!r}; identify the friction from the drive command in {command_unit}")
@@ -140,7 +156,7 @@ def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_
                                  command_unit=command_unit, velocity_unit=VELOCITY)
     source = {**friction.to_dict(), "velocity_unit": friction.velocity_unit,
               "lead_m_per_rad": {"value": float(lead_m_per_rad), "unit": "m/rad"},
-              "v_band": {"value": float(v_band), "unit": friction.velocity_unit}}
+              "v_band": {"value": float(v_band), "unit": friction.velocity_unit}, **dropped}
     return FrictionFeedforward(converted, float(v_band) / per_rad, source)
 
 

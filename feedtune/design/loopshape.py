@@ -53,16 +53,18 @@ class AxisPlant:
     Attributes
     ----------
     mass : float
-        Control-signal equivalent mass [V/(m/s^2)] (feedforward, ideal analysis cases; design plant
-        when there is no FRF).
+        Control-signal equivalent mass [U/(m/s^2)] (feedforward, ideal analysis cases; design plant
+        when there is no FRF), U the command unit.
     frf : Frf or None
-        Measured SISO position FRF [m/V]; when given, the design uses it.
+        Measured SISO position FRF [m/U]; when given, the design uses it.
     channel : str or None
         The FRF channel used (``"OUT/IN"``).
     source : str
         Where the plant came from (for the gains file).
     mass_method : str
         ``"given"`` or how the mass was estimated from the FRF.
+    command_unit : str
+        The drive's command unit U (V, A, N, %): from the FRF's input or the model's command.
     """
 
     mass: float
@@ -70,6 +72,7 @@ class AxisPlant:
     channel: str | None = None
     source: str = "double integrator"
     mass_method: str = "given"
+    command_unit: str = "V"
 
     def response(self, freq_hz) -> np.ndarray:
         """Continuous plant response [m/V] on a grid [Hz]: the FRF (interpolated) or ``1/(m s^2)``."""
@@ -82,7 +85,7 @@ class AxisPlant:
         """Description with units."""
         return {"kind": "axis", "mass": self.mass, "frf": None if self.frf is None else self.frf.source,
                 "channel": self.channel, "source": self.source, "mass_method": self.mass_method,
-                "units": {"mass": "V/(m/s^2)"}}
+                "command_unit": self.command_unit, "units": {"mass": f"{self.command_unit}/(m/s^2)"}}
 
 
 def frf_at(frf: Frf, channel: str, freq_hz: np.ndarray) -> np.ndarray:
@@ -126,23 +129,32 @@ def axis_plant(plant, *, mass: float | None = None, channel: str | None = None,
             ch = plant.channels[0]
         elif not plant.has(ch):
             raise DataError(f"{plant.source}: no channel {ch!r}; available: {', '.join(plant.channels)}")
+        unit = plant.input_unit
         if mass is not None:
-            return AxisPlant(_positive(mass, "--mass [V/(m/s^2)]"), plant, ch, plant.source, "given")
+            return AxisPlant(_positive(mass, f"--mass [{unit}/(m/s^2)]"), plant, ch, plant.source, "given", unit)
         m, how = _mass_from_frf(plant, ch, crossover_hz)
-        return AxisPlant(m, plant, ch, plant.source, how)
+        return AxisPlant(m, plant, ch, plant.source, how, unit)
     if mass is not None:
-        return AxisPlant(_positive(mass, "--mass [V/(m/s^2)]"), source="given mass")
+        return AxisPlant(_positive(mass, "--mass [command unit/(m/s^2)]"), source="given mass",
+                         command_unit=_command_unit_of(plant))
     if isinstance(plant, (int, float)) and not isinstance(plant, bool):
         return AxisPlant(_positive(plant, "x-axis mass [V/(m/s^2)]"), source="given mass")
     if getattr(plant, "position_unit", "m") != "m":
         raise UsageError(f"the x-axis plant must be a linear axis in m; this {type(plant).__name__} is in "
                          f"{plant.position_unit}")
+    unit = _command_unit_of(plant)
     for attr in ("m_x", "mass"):
         if hasattr(plant, attr):
-            return AxisPlant(_positive(getattr(plant, attr), f"model {attr} [V/(m/s^2)]"),
-                             source=f"{type(plant).__name__}.{attr}")
+            return AxisPlant(_positive(getattr(plant, attr), f"model {attr} [{unit}/(m/s^2)]"),
+                             source=f"{type(plant).__name__}.{attr}", command_unit=unit)
     raise UsageError(f"cannot use a {type(plant).__name__} as the x-axis plant; give a mass, a gantry or "
                      "rigid-body model, or a measured FRF")
+
+
+def _command_unit_of(model) -> str:
+    """The command unit of a model (a rigid-body model's ``command_unit``, a gantry model's ``input_unit``; V for
+    a bare mass)."""
+    return str(getattr(model, "command_unit", None) or getattr(model, "input_unit", None) or "V")
 
 
 def _mass_from_frf(frf: Frf, channel: str, crossover_hz: float | None) -> tuple[float, str]:

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..errors import DataError, UsageError
 from ..frf import Frf
-from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel, Mode
+from ..models.ballscrew import PARAM_NAMES, BallScrewModel, Mode, param_units
 
 DEFAULT_CHANNELS = ("x1/u", "x2/u")
 """Default motor-side and table-side channel names ``OUT/IN``."""
@@ -99,7 +99,7 @@ class BallScrewFit:
     def to_dict(self) -> dict:
         """JSON-ready summary; units in the ``"units"`` entry."""
         unit_in = self.model.input_unit
-        units = {name: PARAM_UNITS[name].replace("V", unit_in) for name in PARAM_NAMES}
+        units = param_units(unit_in)
         units.update({"freq_hz": "Hz", "zeta": "-", "real_pole_hz": "Hz", "band_hz": "Hz", "delay_s": "s",
                       "nrmse": "-", "mag_rms_db": "dB", "phase_rms_deg": "deg",
                       "lead_m_per_rad": "m/rad"})
@@ -217,7 +217,8 @@ def fit_ballscrew(
     theta, std, converged = problem.solve(start, f_mode)
 
     lead = float(lead_m_per_rad) if lead_m_per_rad is not None else BallScrewModel.lead_m_per_rad
-    model = BallScrewModel(**{p: theta[p] for p in PARAM_NAMES}, lead_m_per_rad=lead, input_unit=input_unit)
+    model = BallScrewModel(**{p: theta[p] for p in PARAM_NAMES}, lead_m_per_rad=lead, input_unit=input_unit,
+                           lead_given=lead_m_per_rad is not None)
     delay = theta.get("delay", 0.0)
     quality = _fit_quality(in_band, model, delay)
     outliers = {ch: _outlier_lines(f, np.log(r)) for ch, f, r in _channel_ratios(in_band, model, delay)}
@@ -742,7 +743,7 @@ def _fit_warnings(
     for name in PARAM_NAMES:
         value, sigma = params[name], std[name]
         if not sigma <= _REL_STD_LIMIT * abs(value):
-            unit = PARAM_UNITS[name].replace("V", model.input_unit)
+            unit = param_units(model.input_unit)[name]
             warnings.append(f"{name} poorly determined: {value:.4g} +/- {sigma:.2g} {unit} "
                             f"(relative std > {100 * _REL_STD_LIMIT:.0f} %)")
     if not model.modes():

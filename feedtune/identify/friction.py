@@ -16,6 +16,32 @@ constants to follow) and speeds below ``min_speed``. On logs sampled much faster
 bandwidth ``f_o`` the fit takes every ``fs / (20 f_o)``-th sample (the estimates carry no information
 between them; it also keeps the fit fast). For a good Stribeck fit the test trajectory should
 pass slowly through the low-speed range (low acceleration at reversals) and dwell at several speeds.
+
+Friction laws (``law=``): ``"stribeck"`` (or None) fits eq. 2.1 as above (:func:`fit_stribeck`, a
+:class:`~feedtune.models.friction.StribeckFriction`); ``"hump"`` and ``"lugre"`` fit those laws to the same
+disturbance samples (:func:`feedtune.identify.friction_curve.fit_friction_law`, ``vs`` per direction, no viscous
+term: the viscous friction is the model's), giving a :class:`~feedtune.models.friction.FrictionLaw`. A fitted
+level whose sign is opposite to its direction is a :class:`DataError` naming it (a mirrored or sign-inverted
+command).
+
+Joint fit (``joint=True``, without a model or a mass; the default): the rigid-first path
+(IDIM-LS ``M, Fv, Fc, offset``, then the filter with that ``M, Fv``) lets the rigid fit absorb the Stribeck decay
+of the low speeds as a too small (even negative) viscous coefficient and a biased mass, and the Stribeck fit
+inherits both. The joint fit (:func:`fit_joint_friction`) fits the mass, a viscous coefficient per direction and
+the law's parameters per direction together, by nonlinear least squares on the IDIM-LS regressor of
+:mod:`feedtune.identify.rigid` (zero-phase Butterworth position filter with the automatic cut-off, central
+differences, parallel decimation) with the law's nonlinear terms evaluated at the decimated velocity:
+``u = M a + Fv v + law(v)``. It is done there and not on the Kalman estimate because the causal filter's
+disturbance estimate lags the friction by the observer's time constant while the speed changes, an error
+proportional to the acceleration that a mass term absorbs (9 % too much mass on the test simulation); the
+zero-phase IDIM filters have no lag. Left out: ``5 / cutoff`` seconds after every reversal of the decimated
+velocity (:data:`JOINT_GUARD_CUTOFFS`: the friction jump smeared by the filters) and speeds below 2 % of the peak.
+The decimated columns are divided by the decimation chain's DC gain (scipy's zero-phase order-8 Chebyshev
+decimation passes a constant with gain ``0.9886`` per stage, its ripple floor ``0.9943`` squared by the forward and
+backward passes; ``0.977`` for the two stages of a factor above 13), which a linear IDIM-LS fit does not notice
+but a law's levels and ``vs`` would (-2.6 % on the test simulation). The Kalman filter then runs with
+the joint mass and viscous coefficients and the law is fitted to its disturbance as with a model, so the
+reported friction is of the same method either way (the joint fit's own law parameters are in ``joint_fit``).
 """
 
 from __future__ import annotations
@@ -28,9 +54,10 @@ import numpy as np
 from ..errors import DataError, IllConditionedError, UsageError
 from ..log import Log
 from ..models.ballscrew import BallScrewModel
-from ..models.friction import StribeckFriction
+from ..models.friction import StribeckFriction, check_law
 from ..models.rigid import RigidBodyModel
 from .data_quality import POOR_FIT_PCT
+from .friction_curve import FrictionLawFit, check_fitted_signs, fit_friction_law, parameter_std
 from .kalman import DisturbanceEstimate, estimate_disturbance
 from .rigid import RigidFit, fit_rigid, position_si
 
@@ -47,6 +74,12 @@ level needs samples where ``exp(-|v|/Omega)`` is not negligible, the Coulomb lev
 DEFAULT_MIN_SPEED_FRACTION = 0.02
 """Default ``min_speed`` as a fraction of the peak speed: closer to zero speed the estimate is dominated by
 stick/creep around reversals rather than by the sliding friction of eq. 2.1."""
+
+JOINT_GUARD_CUTOFFS = 5.0
+"""Reversal guard of the joint fit: ``5 / cutoff_hz`` seconds after every reversal of the decimated velocity."""
+
+MAX_MASS_RELATIVE_STD = 0.25
+"""Largest accepted relative standard deviation of the joint fit's mass."""
 
 
 @dataclass(frozen=True)
@@ -129,6 +162,71 @@ class StribeckFit:
 
 
 @dataclass(frozen=True)
+class JointFit:
+    """Result of :func:`fit_joint_friction`: mass, viscous friction and a friction law fitted together.
+
+    Attributes
+    ----------
+    law_fit : FrictionLawFit
+        The law per direction (levels, ``vs``, viscous ``Fv`` per direction) and the shared mass with their
+        standard deviations, on the decimated IDIM-LS samples.
+    cutoff_hz : float
+        Butterworth cut-off of the position filter [Hz] (the highest of the logs').
+    cutoff_rule : str
+        ``"given"`` or how it was chosen (:func:`feedtune.identify.rigid.auto_cutoff_hz`).
+    decimate : int
+        Decimation factor.
+    dc_gain : float
+        DC gain of the decimation chain divided out of the decimated columns [-].
+    guard_s : float
+        Time left out after every velocity reversal [s].
+    min_speed : float
+        Speed threshold [velocity unit].
+    n_samples : int
+        Decimated samples in the fit.
+    force_unit, position_unit : str
+        Units of the command and of the position.
+    """
+
+    law_fit: FrictionLawFit
+    cutoff_hz: float
+    cutoff_rule: str
+    decimate: int
+    dc_gain: float
+    guard_s: float
+    min_speed: float
+    n_samples: int
+    force_unit: str
+    position_unit: str
+
+    @property
+    def mass(self) -> float:
+        """Mass or inertia [command unit/(position unit/s^2)]."""
+        return float(self.law_fit.mass)
+
+    @property
+    def viscous_pair(self) -> tuple[float, float]:
+        """Viscous coefficients ``(Fv+, Fv-)`` [command unit/(position unit/s)]."""
+        d = self.law_fit.directions
+        return d["pos"].viscous, d["neg"].viscous
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary with units."""
+        f, p = self.force_unit, self.position_unit
+        return {
+            "method": "joint nonlinear least squares on the IDIM-LS regressor: u = M a + Fv v + law(v)",
+            "mass": self.mass, "mass_std": self.law_fit.mass_std,
+            "viscous_pos": self.viscous_pair[0], "viscous_neg": self.viscous_pair[1],
+            "law_fit": self.law_fit.to_dict(),
+            "cutoff_hz": self.cutoff_hz, "cutoff_rule": self.cutoff_rule, "decimate": self.decimate,
+            "dc_gain": self.dc_gain, "guard_s": self.guard_s, "min_speed": self.min_speed,
+            "n_samples": self.n_samples,
+            "units": {"mass": f"{f}/({p}/s^2)", "mass_std": f"{f}/({p}/s^2)", "viscous_pos": f"{f}/({p}/s)",
+                      "viscous_neg": f"{f}/({p}/s)", "cutoff_hz": "Hz", "guard_s": "s", "min_speed": f"{p}/s"},
+        }
+
+
+@dataclass(frozen=True)
 class FrictionIdentification:
     """Result of :func:`identify_friction`.
 
@@ -151,6 +249,10 @@ class FrictionIdentification:
     warnings : tuple of str
         What makes the identification unreliable: coarse position quantization, a clipped command, a poor
         fit, Omega on its bound, and the rigid fit's own warnings.
+    law : str
+        The friction law fitted to the disturbance (``"stribeck"``: eq. 2.1).
+    joint_fit : JointFit or None
+        The joint fit of mass, viscous friction and the law that gave ``mass`` and ``viscous`` (``joint=True``).
     """
 
     fit: StribeckFit
@@ -162,10 +264,13 @@ class FrictionIdentification:
     reversal_guard_s: float
     warnings: tuple = ()
     n_logs: int = 1
+    law: str = "stribeck"
+    joint_fit: JointFit | None = None
 
     @property
     def friction(self) -> StribeckFriction:
-        """The identified eq. 2.1 model."""
+        """The identified model: eq. 2.1 (:class:`StribeckFriction`), or a
+        :class:`~feedtune.models.friction.FrictionLaw` of another law (without viscous term)."""
         return self.fit.friction
 
     def to_dict(self) -> dict:
@@ -178,6 +283,8 @@ class FrictionIdentification:
             "mass": self.mass,
             "viscous": self.viscous,
             "rigid_fit": None if self.rigid_fit is None else self.rigid_fit.to_dict(),
+            "joint_fit": None if self.joint_fit is None else self.joint_fit.to_dict(),
+            "law": self.law,
             "n_used": self.n_used,
             "n_logs": self.n_logs,
             "reversal_guard_s": self.reversal_guard_s,
@@ -317,6 +424,9 @@ def fit_stribeck(velocity, disturbance, *, min_speed: float | None = None, per_d
     ------
     IllConditionedError
         A direction has fewer than 50 samples above ``min_speed`` or no range of speeds.
+    DataError
+        A fitted level has the sign opposite to its direction (``dc_pos, ds_pos >= 0``, ``dc_neg, ds_neg <= 0``;
+        the message names it: a mirrored or sign-inverted command, or an offset larger than the friction).
     """
     v = _as_series(velocity, "velocity")
     d = _as_series(disturbance, "disturbance")
@@ -339,8 +449,10 @@ def fit_stribeck(velocity, disturbance, *, min_speed: float | None = None, per_d
     sol = _least_squares(dirs, np.concatenate([*levels, omega0]), omega_lo, omega_hi, shared)
     bounds = {key: (float(omega_lo[min(k, omega_lo.size - 1)]), float(omega_hi[min(k, omega_hi.size - 1)]))
               for k, key in enumerate(("pos", "neg"))}
-    return _fit_result(sol.x, sol.fun, sol.jac, dirs, threshold, (b_pos, b_neg), shared, bounds,
-                       command_unit, velocity_unit)
+    fit = _fit_result(sol.x, sol.fun, sol.jac, dirs, threshold, (b_pos, b_neg), shared, bounds, command_unit,
+                      velocity_unit)
+    check_fitted_signs(fit.friction, "Stribeck fit")
+    return fit
 
 
 def _least_squares(dirs, start: np.ndarray, omega_lo: np.ndarray, omega_hi: np.ndarray, shared: bool):
@@ -362,23 +474,11 @@ def _least_squares(dirs, start: np.ndarray, omega_lo: np.ndarray, omega_hi: np.n
                          bounds=(lower, upper), x_scale="jac", method="trf")
 
 
-def _parameter_std(jac: np.ndarray, s2: float) -> np.ndarray:
-    """``sqrt(diag(s2 (J^T J)^-1))`` computed with column scaling; ``inf`` when not identifiable."""
-    jtj = jac.T @ jac
-    scale = np.sqrt(np.diag(jtj))
-    if np.any(scale == 0):
-        return np.full(scale.size, np.inf)
-    normalised = jtj / np.outer(scale, scale)
-    if np.linalg.cond(normalised) > 1e12:
-        return np.full(scale.size, np.inf)
-    return np.sqrt(s2 * np.diag(np.linalg.inv(normalised)) / scale**2)
-
-
 def _fit_result(theta, residual, jac, dirs, threshold, viscous, shared, omega_bounds, command_unit,
                 velocity_unit) -> StribeckFit:
     n = residual.size
     s2 = float(residual @ residual) / max(n - theta.size, 1)
-    std = _parameter_std(jac, s2)
+    std = parameter_std(jac, s2)
     omega_neg = theta[4] if shared else theta[5]
     names = ["dc_pos", "ds_pos", "dc_neg", "ds_neg", "omega_pos"]
     stds = {k: float(s) for k, s in zip(names, std[:5], strict=True)}
@@ -395,16 +495,118 @@ def _fit_result(theta, residual, jac, dirs, threshold, viscous, shared, omega_bo
     )
 
 
+# ------------------------------------------------------------------------------------------ joint fit
+def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str, law: str = "stribeck",
+                       command_scale: float = 1.0, command_unit: str | None = None, cutoff_hz: float | None = None,
+                       filter_order: int = 4, decimate: int | None = None, min_speed: float | None = None,
+                       guard_s: float | None = None) -> JointFit:
+    """Fit mass, viscous friction per direction and a friction law per direction together (module docstring).
+
+    ``u = M a + Fv v + law(v)`` by nonlinear least squares
+    (:func:`~feedtune.identify.friction_curve.fit_friction_law` with the acceleration) on the IDIM-LS samples of
+    :mod:`feedtune.identify.rigid`: zero-phase Butterworth position filter, central differences, edges trimmed,
+    parallel decimation of ``[a, v, u]`` (each log on its own), divided by the decimation's DC gain.
+
+    Parameters
+    ----------
+    log : Log or sequence of Log
+        Uniformly sampled tracking log(s) moving both ways at several speeds, with accelerations.
+    position, command : str
+        Position column [m or rad; mm, um, deg converted] and command column (times ``command_scale``).
+    law : str
+        ``"stribeck"``, ``"hump"`` or ``"lugre"``.
+    command_scale : float
+        Multiplies the command (e.g. a drive gain in N/V).
+    command_unit : str or None
+        Unit of the scaled command (default as in :func:`~feedtune.identify.rigid.fit_rigid`).
+    cutoff_hz, filter_order, decimate
+        As for :func:`~feedtune.identify.rigid.fit_rigid` (``cutoff_hz=None``: chosen from each log).
+    min_speed : float or None
+        Samples slower than this are left out [velocity unit]; default 2 % of the peak speed.
+    guard_s : float or None
+        Time left out after every reversal [s]; default ``5 / cutoff_hz`` (:data:`JOINT_GUARD_CUTOFFS`).
+
+    Returns
+    -------
+    JointFit
+        The law fit with the mass, the filter settings and the samples used.
+
+    Raises
+    ------
+    IllConditionedError
+        No motion or acceleration, a direction without samples, or a mass that the log does not determine.
+    DataError
+        A fitted level or viscous coefficient of the wrong sign (named), logs with different units.
+    """
+    from .rigid import _check_kinematics, _prepare, auto_cutoff_hz, decimate_columns, uniform_sample_time
+
+    law = check_law(law)
+    logs = [log] if isinstance(log, Log) else list(log)
+    if not logs:
+        raise UsageError("fit_joint_friction needs at least one log")
+    columns, cutoffs, rules, first = [], [], [], None
+    for lg in logs:
+        cut = cutoff_hz
+        if cut is None:
+            try:
+                cut, how = auto_cutoff_hz(position_si(lg, position)[0], uniform_sample_time(lg))
+            except DataError as exc:
+                raise DataError(f"{lg.source}: {exc}") from None
+            rules.append(f"{cut:g} Hz: {how}")
+        smp = _prepare(lg, command, position, cut, filter_order, decimate, command_scale, command_unit)
+        _check_kinematics(smp, f"{lg.source}: joint friction fit")
+        if first is None:
+            first = smp
+        elif (smp.position_unit, smp.force_unit) != (first.position_unit, first.force_unit):
+            raise DataError(f"{lg.source}: position in {smp.position_unit} and command in {smp.force_unit}, but "
+                            f"{logs[0].source} has {first.position_unit} and {first.force_unit}")
+        dec = decimate_columns(np.column_stack([smp.acceleration, smp.velocity, smp.force, np.ones(smp.force.size)]),
+                               smp.decimate)
+        gain = float(np.median(dec[:, 3]))
+        a, v, u = (dec[:, :3] / dec[:, 3:4]).T
+        guard = JOINT_GUARD_CUTOFFS / smp.cutoff_hz if guard_s is None else _guard_time(guard_s)
+        keep = _reversal_mask(np.arange(v.size) * smp.dt * smp.decimate, v, guard)
+        columns.append((a[keep], v[keep], u[keep]))
+        cutoffs.append((smp.cutoff_hz, smp.decimate, gain, guard))
+    a, v, u = (np.concatenate(c) for c in zip(*columns, strict=True))
+    threshold = DEFAULT_MIN_SPEED_FRACTION * float(np.max(np.abs(v))) if min_speed is None else float(min_speed)
+    velocity_unit = f"{first.position_unit}/s"
+    fit = fit_friction_law(v, u, law=law, acceleration=a, viscous=True, min_speed=threshold,
+                           min_points=MIN_SAMPLES_PER_DIRECTION, command_unit=first.force_unit,
+                           velocity_unit=velocity_unit, where="joint friction fit")
+    mass, mass_std = fit.mass, (float("inf") if fit.mass_std is None else fit.mass_std)
+    if not (mass > 0 and mass_std <= MAX_MASS_RELATIVE_STD * mass):
+        raise IllConditionedError(
+            f"joint friction fit: the acceleration carries no usable information (mass = {mass:.4g} +/- "
+            f"{mass_std:.2g} {first.force_unit}/({first.position_unit}/s^2)); the log needs clear acceleration "
+            "phases (or check the sign of the command scale)")
+    if len(fit.directions) < 2:
+        missing = "v < 0" if "pos" in fit.directions else "v > 0"
+        raise IllConditionedError(f"joint friction fit: too few samples with {missing} above min_speed (need at least "
+                                  f"{MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions")
+    return JointFit(law_fit=fit, cutoff_hz=max(c[0] for c in cutoffs),
+                    cutoff_rule="given" if cutoff_hz is not None else "; ".join(rules),
+                    decimate=max(c[1] for c in cutoffs), dc_gain=cutoffs[0][2], guard_s=cutoffs[0][3],
+                    min_speed=threshold, n_samples=int(v.size), force_unit=first.force_unit,
+                    position_unit=first.position_unit)
+
+
 # ------------------------------------------------------------------------------------- full procedure
 def _in_screw_rotation(log: Log, position: str, model: BallScrewModel) -> Log:
     """The log with its position in rad of screw rotation (a table position in m divided by the lead)."""
     q, unit = position_si(log, position)
+    if unit == "m" and not model.lead_given:
+        raise DataError(f"{log.source}: position column {position!r} is in m but the ball-screw model has no lead "
+                        "(identified without --lead): give the position in rad or identify the model with --lead")
     return log.with_signals({position: q / model.lead_m_per_rad}, {position: "rad"}) if unit == "m" else log
 
 
-def _rigid_values(logs: list[Log], position: str, command: str, model, mass, viscous, command_scale
-                  ) -> tuple[list[Log], object, object, tuple[float, float], RigidFit | None]:
-    """Mass, observer viscous coefficient and residual viscous pair (for the fit) from the arguments."""
+def _rigid_values(logs: list[Log], position: str, command: str, model, mass, viscous, command_scale,
+                  joint: bool = False, law: str = "stribeck", command_unit: str | None = None,
+                  cutoff_hz: float | None = None
+                  ) -> tuple[list[Log], object, object, tuple[float, float], RigidFit | JointFit | None]:
+    """Mass, observer viscous coefficient and residual viscous pair (for the fit) from the arguments, and the
+    rigid or joint fit that gave them (None when given)."""
     if model is not None and (mass is not None or viscous is not None):
         raise UsageError("give either model= or mass=/viscous=, not both")
     if isinstance(model, BallScrewModel):
@@ -424,7 +626,13 @@ def _rigid_values(logs: list[Log], position: str, command: str, model, mass, vis
         return logs, mass, 0.0 if viscous is None else viscous, (0.0, 0.0), None
     if viscous is not None:
         raise UsageError("viscous= needs mass= as well")
-    rigid = fit_rigid(logs, force=command, position=position, force_scale=command_scale)
+    if joint:
+        fit = fit_joint_friction(logs, position=position, command=command, law=law, command_scale=command_scale,
+                                 command_unit=command_unit, cutoff_hz=cutoff_hz)
+        b_pos, b_neg = fit.viscous_pair
+        b_mean = (b_pos + b_neg) / 2.0
+        return logs, fit.mass, b_mean, (b_pos - b_mean, b_neg - b_mean), fit
+    rigid = fit_rigid(logs, force=command, position=position, force_scale=command_scale, cutoff_hz=cutoff_hz)
     return logs, rigid.model.mass, max(rigid.model.viscous, 0.0), (0.0, 0.0), rigid
 
 
@@ -456,8 +664,9 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
                       q_disturbance: float | None = None, r_position: float | None = None,
                       bandwidth_hz: float | None = None, method: str = "steady-state",
                       min_speed: float | None = None, per_direction_omega: bool = False,
-                      reversal_guard_s: float | None = None) -> FrictionIdentification:
-    """Identify Stribeck friction from a tracking log: Kalman disturbance estimate, then eq. 2.1 fit.
+                      reversal_guard_s: float | None = None, law: str | None = None,
+                      joint: bool = True, cutoff_hz: float | None = None) -> FrictionIdentification:
+    """Identify friction from a tracking log: Kalman disturbance estimate, then eq. 2.1 (or another law) fit.
 
     Parameters
     ----------
@@ -472,7 +681,8 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
         gives ``mass`` and the mean viscous coefficient (an asymmetric remainder is subtracted in the fit).
     mass, viscous : float or None
         Alternative to ``model`` [command/(position/s^2)], [command/(position/s)]. With neither a model
-        nor a mass, :func:`~feedtune.identify.rigid.fit_rigid` is run on the log first.
+        nor a mass, :func:`~feedtune.identify.rigid.fit_rigid` is run on the log first, or with ``joint=True``
+        :func:`fit_joint_friction`.
     command_scale : float
         Multiplies the command (e.g. a drive gain in N/V).
     command_unit : str or None
@@ -486,16 +696,38 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
     reversal_guard_s : float or None
         Time left out after each velocity reversal [s]; default the observer's settling time
         (``DisturbanceEstimate.transient_s``).
+    law : str or None
+        Law fitted to the disturbance: ``None`` or ``"stribeck"`` (eq. 2.1, :func:`fit_stribeck`), ``"hump"`` or
+        ``"lugre"`` (:func:`~feedtune.identify.friction_curve.fit_friction_law` without a viscous term, ``vs``
+        per direction; ``per_direction_omega`` does not apply).
+    joint : bool
+        Without a model or a mass: fit mass, viscous friction and the law together first
+        (:func:`fit_joint_friction`, module docstring; the default); False: the rigid-body IDIM-LS fit first
+        (it absorbs the Stribeck decay into the viscous term).
+    cutoff_hz : float or None
+        Position filter cut-off of that rigid or joint fit [Hz]; None chooses it from each log.
 
     Returns
     -------
     FrictionIdentification
-        The Stribeck model, its fit statistics and the disturbance estimate.
+        The friction model, its fit statistics and the disturbance estimate.
+
+    Raises
+    ------
+    DataError
+        A fitted level of the wrong sign (named; a mirrored or sign-inverted command), bad columns or units.
+    IllConditionedError
+        Too few samples per direction, no range of speeds, no acceleration (rigid or joint fit).
     """
     logs = [log] if isinstance(log, Log) else list(log)
     if not logs:
         raise UsageError("identify_friction needs at least one log")
-    logs, m, b_obs, b_rest, rigid = _rigid_values(logs, position, command, model, mass, viscous, command_scale)
+    law_name = "stribeck" if law is None else check_law(law)
+    logs, m, b_obs, b_rest, prior = _rigid_values(logs, position, command, model, mass, viscous, command_scale,
+                                                  joint=joint, law=law_name, command_unit=command_unit,
+                                                  cutoff_hz=cutoff_hz)
+    rigid = prior if isinstance(prior, RigidFit) else None
+    joint_fit = prior if isinstance(prior, JointFit) else None
     speeds, levels = [], []
     for lg in logs:
         estimate = estimate_disturbance(lg, position=position, command=command, mass=m, viscous=b_obs,
@@ -511,18 +743,51 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
         levels.append(estimate.disturbance[use])
         if lg is logs[0]:
             first, first_guard = estimate, guard
-    fit = fit_stribeck(np.concatenate(speeds), np.concatenate(levels), min_speed=min_speed,
-                       per_direction_omega=per_direction_omega, viscous=b_rest,
-                       command_unit=first.command_unit, velocity_unit=first.velocity_unit)
+    speed, level = np.concatenate(speeds), np.concatenate(levels)
+    if law_name == "stribeck":
+        fit = fit_stribeck(speed, level, min_speed=min_speed, per_direction_omega=per_direction_omega,
+                           viscous=b_rest, command_unit=first.command_unit, velocity_unit=first.velocity_unit)
+    else:
+        fit = _law_fit_of_disturbance(speed, level, law_name, min_speed, b_rest, first)
     from .rigid import data_warnings
 
     warnings = (list(rigid.warnings) if rigid is not None
                 else [w for lg in logs for w in data_warnings(lg, command, position, "")])
+    if joint_fit is not None:
+        warnings += list(joint_fit.law_fit.warnings)
     if fit.relative_error_pct > POOR_FIT_PCT:
-        warnings.append(f"poor Stribeck fit: relative error {fit.relative_error_pct:.3g} % > {POOR_FIT_PCT:g} %")
+        warnings.append(f"poor {law_name} fit: relative error {fit.relative_error_pct:.3g} % > {POOR_FIT_PCT:g} %")
     if fit.omega_at_bound:
         warnings.append("Omega ended on its bound; the log does not resolve the Stribeck velocity (move slowly "
                         "through low speeds)")
     return FrictionIdentification(fit=fit, disturbance=first, mass=first.mass, viscous=first.viscous,
                                   rigid_fit=rigid, n_used=fit.n_pos + fit.n_neg, reversal_guard_s=first_guard,
-                                  warnings=tuple(dict.fromkeys(warnings)), n_logs=len(logs))
+                                  warnings=tuple(dict.fromkeys(warnings)), n_logs=len(logs), law=law_name,
+                                  joint_fit=joint_fit)
+
+
+def _law_fit_of_disturbance(speed: np.ndarray, level: np.ndarray, law: str, min_speed: float | None,
+                            b_rest: tuple[float, float], estimate: DisturbanceEstimate) -> StribeckFit:
+    """A hump or LuGre law fitted to the disturbance samples, as a :class:`StribeckFit` of a
+    :class:`~feedtune.models.friction.FrictionLaw` (no viscous term: the residual viscous pair ``b_rest`` is
+    subtracted first, as in :func:`fit_stribeck`)."""
+    if speed.size == 0 or not np.any(speed != 0):
+        raise IllConditionedError(f"{law} fit: the velocity is zero everywhere")
+    threshold = DEFAULT_MIN_SPEED_FRACTION * float(np.max(np.abs(speed))) if min_speed is None else float(min_speed)
+    if not (np.isfinite(threshold) and threshold >= 0):
+        raise UsageError(f"min_speed must be >= 0 {estimate.velocity_unit}, got {min_speed!r}")
+    d = level - np.where(speed > 0, b_rest[0], b_rest[1]) * speed
+    fit = fit_friction_law(speed, d, law=law, viscous=False, min_speed=threshold,
+                           min_points=MIN_SAMPLES_PER_DIRECTION, command_unit=estimate.command_unit,
+                           velocity_unit=estimate.velocity_unit, where=f"{law} fit")
+    if len(fit.directions) < 2:
+        missing = "v < 0" if "pos" in fit.directions else "v > 0"
+        raise IllConditionedError(f"{law} fit: too few samples with {missing} above min_speed (need at least "
+                                  f"{MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions")
+    p, n = fit.directions["pos"], fit.directions["neg"]
+    std = {"dc_pos": p.std["dc"], "ds_pos": p.std["ds"], "dc_neg": n.std["dc"], "ds_neg": n.std["ds"],
+           "omega_pos": p.std["omega"], "omega_neg": n.std["omega"]}
+    return StribeckFit(friction=fit.model.without_viscous(), std=std, rms_error=fit.rms_error,
+                       relative_error_pct=fit.relative_error_pct, n_pos=p.n, n_neg=n.n, min_speed=threshold,
+                       viscous_pos=b_rest[0], viscous_neg=b_rest[1],
+                       omega_bounds={"pos": p.omega_bounds, "neg": n.omega_bounds})

@@ -11,23 +11,48 @@ Format (see ``docs/formats.md``)::
 
 Column suffixes per channel ``OUT/IN``: ``re`` + ``im``, or ``mag`` (linear) / ``mag_db`` together with
 ``phase_deg`` / ``phase_rad``, and an optional ``coh`` (0..1).
+
+Vendor exports (any other header) are read two ways (:func:`read_frf_csv`):
+
+* a column map ``columns={"freq": "Frequency [Hz]", "x1/u.mag_db": "Magnitude [dB]", ...}`` (CLI ``--frf-map``):
+  ``freq`` (unit from the header, else Hz), ``freq_hz``, ``freq_khz`` or ``freq_rad_s``, and ``OUT/IN.KIND`` with
+  KIND one of :data:`SUFFIXES`; only the mapped channels are read;
+* without a map, a single-channel header is recognised when it is unambiguous: one frequency column (name with
+  ``freq``, unit Hz, kHz or rad/s), magnitude (dB or linear, by its unit) + phase (deg or rad, by its unit), or
+  real + imaginary columns, and an optional coherence column. The channel is ``auto_channel`` (default ``x1/u``).
+
+Units are read from ``NAME [UNIT]`` / ``NAME (UNIT)`` header cells or from a second header row of units
+(``Frequency,Magnitude,Phase`` then ``Hz,dB,deg``). The columns used are recorded in ``meta["columns"]`` in the
+map's own syntax, e.g. ``freq_hz=Frequency [Hz]; x1/u.mag_db=Magnitude [dB]; x1/u.phase_deg=Phase [deg]``.
 """
 
 from __future__ import annotations
 
+import csv
+import math
 import os
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import IO
 
 import numpy as np
 
-from ..errors import DataError
+from ..errors import DataError, UsageError
 from ..frf import Frf, normalize_quantity
-from ._table import TextTable, csv_rows, parse_table, read_table_data
+from ._table import MAX_HEADER_CHARS, TextTable, csv_rows, parse_table, read_table_data
 from .atomic import atomic_write_text
 
 SUFFIXES = ("re", "im", "mag", "mag_db", "phase_deg", "phase_rad", "coh")
+FREQ_KEYS = {"freq_hz": 1.0, "freq_khz": 1e3, "freq_rad_s": 1.0 / (2.0 * math.pi)}
+"""Column-map keys of the frequency column and their factor to Hz; the key ``freq`` takes the header's unit."""
+DEFAULT_CHANNEL = "x1/u"
+"""Channel name of a recognised single-channel vendor header when ``auto_channel`` is not given."""
+MAP_OPTION = "--frf-map"
+"""How messages name the column map (the ``columns`` argument of :func:`read_frf_csv`)."""
+RECOGNISED_FORMAT = "csv, recognised header"
+MAPPED_FORMAT = "csv, column map"
+"""``meta["format"]`` of an FRF read from a vendor header without and with a column map (not written to files)."""
 _UNIT_RE = re.compile(r"^(.*?)\s*\[(.*)\]\s*$")
 _RESERVED_META = {"quantity", "input", "output", "input_unit", "output_unit"}
 
@@ -67,7 +92,7 @@ def _group_columns(columns: list[str], name: str) -> dict[str, dict[str, int]]:
         channel, dot, suffix = col.rpartition(".")
         if not dot or suffix not in SUFFIXES:
             raise DataError(f"{name}: column {col!r} is not understood; expected freq_hz or OUT/IN.SUFFIX "
-                            f"with SUFFIX one of {', '.join(SUFFIXES)}")
+                            f"with SUFFIX one of {', '.join(SUFFIXES)} (or map the columns with {MAP_OPTION})")
         parts = channel.split("/")
         if len(parts) != 2 or not all(p.strip() for p in parts):
             raise DataError(f"{name}: column {col!r}: channel {channel!r} must look like OUT/IN, e.g. x2/u")
@@ -105,24 +130,20 @@ def _channel_coherence(channel: str, col: int, table: TextTable) -> np.ndarray:
     bad = (coh < 0) | (coh > 1)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise DataError(f"{table.name}: line {table.line_number(i)}, column '{channel}.coh': "
+        raise DataError(f"{table.name}: line {table.line_number(i)}, column {table.columns[col]!r}: "
                         f"coherence {coh[i]:g} is outside 0..1")
     return coh
 
 
-def frf_from_table(table: TextTable, quantity: str | None = None) -> Frf:
-    """Build an :class:`Frf` from a parsed CSV table (header ``freq_hz``, channel columns)."""
+def _no_freq_message(name: str, header: str) -> str:
+    return (f"{name}: no frequency column (expected 'freq_hz', a header such as 'Frequency [Hz]', or a "
+            f"{MAP_OPTION} freq=COLUMN; the header is: {header})")
+
+
+def _assemble(table: TextTable, f: np.ndarray, channels: dict[str, np.ndarray],
+              coherence: dict[str, np.ndarray], quantity: str | None, extra_meta: Mapping[str, str]) -> Frf:
+    """The :class:`Frf` of a table's channels: quantity, units and metadata from its ``# key: value`` lines."""
     name = table.name
-    lower = [c.lower() for c in table.columns]
-    if "freq_hz" not in lower:
-        raise DataError(f"{name}: no 'freq_hz' column; the header has {', '.join(table.columns)}")
-    f = table.data[:, lower.index("freq_hz")]
-    groups = _group_columns(table.columns, name)
-    if not groups:
-        raise DataError(f"{name}: no channel columns (OUT/IN.re, OUT/IN.im ...) besides freq_hz")
-    channels = {ch: _channel_response(ch, cols, table) for ch, cols in groups.items()}
-    coherence = {ch: _channel_coherence(ch, cols["coh"], table)
-                 for ch, cols in groups.items() if "coh" in cols}
     q_meta = table.metadata.get("quantity", ["position"])[-1]
     q = normalize_quantity(quantity if quantity is not None else q_meta, f"{name}: quantity")
     input_unit, output_unit = frf_units(table.metadata, name)
@@ -130,12 +151,481 @@ def frf_from_table(table: TextTable, quantity: str | None = None) -> Frf:
     for key, values in table.metadata.items():
         if key not in _RESERVED_META:
             meta["origin" if key == "source" else key] = "; ".join(values)
+    meta.update(extra_meta)
     return Frf.from_channels(f, channels, coherence=coherence or None, quantity=q, input_unit=input_unit,
                              output_unit=output_unit, meta=meta)
 
 
-def read_frf_csv(source: str | os.PathLike[str] | IO[str], *, quantity: str | None = None) -> Frf:
-    """Read an FRF from a CSV file.
+def frf_from_table(table: TextTable, quantity: str | None = None) -> Frf:
+    """Build an :class:`Frf` from a parsed CSV table (header ``freq_hz``, channel columns)."""
+    name = table.name
+    lower = [c.lower() for c in table.columns]
+    if "freq_hz" not in lower:
+        raise DataError(_no_freq_message(name, ", ".join(table.columns)))
+    f = table.data[:, lower.index("freq_hz")]
+    groups = _group_columns(table.columns, name)
+    if not groups:
+        raise DataError(f"{name}: no channel columns (OUT/IN.re, OUT/IN.im ...) besides freq_hz")
+    channels = {ch: _channel_response(ch, cols, table) for ch, cols in groups.items()}
+    coherence = {ch: _channel_coherence(ch, cols["coh"], table)
+                 for ch, cols in groups.items() if "coh" in cols}
+    return _assemble(table, f, channels, coherence, quantity, {})
+
+
+# ----------------------------------------------------------------------------------------- vendor headers
+_CELL_UNIT_RE = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]*)[\])]\s*$")
+_NATIVE_COLUMN_RE = re.compile(r"^[^/\s]+/[^/\s]+\.(?:" + "|".join(SUFFIXES) + r")$", re.IGNORECASE)
+_FREQ_UNITS = {"hz": "freq_hz", "1/s": "freq_hz", "khz": "freq_khz", "rad/s": "freq_rad_s", "rad/sec": "freq_rad_s",
+               "radian/s": "freq_rad_s", "radians/s": "freq_rad_s"}
+_DEG_UNITS = ("deg", "degree", "degrees", "°")
+_RAD_UNITS = ("rad", "radian", "radians")
+_UNIT_TOKENS = ("hz", "khz", "db", "deg", "rad", "°")
+_UNITS_ROW_MAX_CHARS = 24
+
+
+@dataclass(frozen=True)
+class ColumnMap:
+    """A parsed FRF column map (see :func:`parse_column_map`).
+
+    Attributes
+    ----------
+    freq_key : str or None
+        ``"freq"`` (unit from the header, else Hz), ``"freq_hz"``, ``"freq_khz"`` or ``"freq_rad_s"``; None lets
+        the reader find the frequency column.
+    freq_column : str or None
+        The column named for the frequency.
+    channels : dict of str to dict of str to str
+        ``{"OUT/IN": {KIND: column}}`` with KIND one of :data:`SUFFIXES`.
+    """
+
+    freq_key: str | None
+    freq_column: str | None
+    channels: dict[str, dict[str, str]]
+
+
+def parse_column_map(columns: Mapping[str, str]) -> ColumnMap:
+    """Check and split an FRF column map ``{NAME: COLUMN}``.
+
+    Parameters
+    ----------
+    columns : mapping of str to str
+        NAME is ``freq`` (unit from the header, else Hz), ``freq_hz``, ``freq_khz``, ``freq_rad_s`` or
+        ``OUT/IN.KIND`` with KIND one of ``re, im, mag, mag_db, phase_deg, phase_rad, coh``; COLUMN is a header
+        cell (``Magnitude [dB]``), the name without its unit (``Magnitude``) or ``colK`` (0-based).
+
+    Returns
+    -------
+    ColumnMap
+
+    Raises
+    ------
+    UsageError
+        An unknown NAME, a channel that is not ``OUT/IN``, the frequency given twice, or a channel without a
+        complete response (re + im, or one magnitude + one phase).
+    """
+    freq_key = freq_column = None
+    channels: dict[str, dict[str, str]] = {}
+    kinds = ", ".join(SUFFIXES)
+    for key, column in columns.items():
+        key, column = str(key).strip(), str(column).strip()
+        if not key or not column:
+            raise UsageError(f"{MAP_OPTION} expects NAME=COLUMN, got {key}={column}")
+        if key == "freq" or key in FREQ_KEYS:
+            if freq_key is not None:
+                raise UsageError(f"{MAP_OPTION} names the frequency column twice ({freq_key}, {key})")
+            freq_key, freq_column = key, column
+            continue
+        channel, dot, kind = key.rpartition(".")
+        if not dot:
+            raise UsageError(f"{MAP_OPTION} {key}={column}: NAME must be freq, freq_hz, freq_khz, freq_rad_s or "
+                             f"OUT/IN.KIND (KIND one of {kinds}), e.g. x1/u.mag_db")
+        if kind not in SUFFIXES:
+            raise UsageError(f"{MAP_OPTION} {key}={column}: unknown KIND {kind!r}; expected one of {kinds}")
+        parts = channel.split("/")
+        if len(parts) != 2 or not all(p.strip() for p in parts):
+            raise UsageError(f"{MAP_OPTION} {key}={column}: channel {channel!r} must look like OUT/IN, e.g. x2/u")
+        if kind in channels.setdefault(channel, {}):
+            raise UsageError(f"{MAP_OPTION} names {key} twice")
+        channels[channel][kind] = column
+    if not channels:
+        raise UsageError(f"{MAP_OPTION} maps no channel; give OUT/IN.KIND=COLUMN entries, e.g. "
+                         "x1/u.mag_db='Magnitude [dB]' and x1/u.phase_deg='Phase [deg]'")
+    for channel, cols in channels.items():
+        _check_kinds(channel, set(cols))
+    return ColumnMap(freq_key, freq_column, channels)
+
+
+def _check_kinds(channel: str, kinds: set[str]) -> None:
+    """UsageError unless ``kinds`` is re + im or one magnitude + one phase (each with an optional coh)."""
+    has = kinds - {"coh"}
+    mags, phases = has & {"mag", "mag_db"}, has & {"phase_deg", "phase_rad"}
+    if has == {"re", "im"} or (len(mags) == 1 and len(phases) == 1 and has == mags | phases):
+        return
+    hint = (f"give {channel}.re + {channel}.im, or {channel}.mag_db (or .mag) + {channel}.phase_deg "
+            "(or .phase_rad)")
+    what = ", ".join(sorted(has)) if has else "only a coherence"
+    raise UsageError(f"{MAP_OPTION}: channel {channel} has {what}; {hint}")
+
+
+def check_channel_name(channel: str, option: str = "auto_channel") -> str:
+    """``channel`` stripped when it looks like ``OUT/IN``; UsageError naming ``option`` otherwise."""
+    parts = str(channel).strip().split("/")
+    if len(parts) != 2 or not all(p.strip() and p == p.strip() for p in parts) or any("," in p for p in parts):
+        raise UsageError(f"{option} expects a channel name OUT/IN such as x1/u or x2/u, got {channel!r}")
+    return "/".join(parts)
+
+
+@dataclass(frozen=True)
+class _Column:
+    """One column of a vendor table: index, header cell, name without unit, unit (None when not given), and the
+    label messages show (``NAME [UNIT]`` when the unit comes from a units row)."""
+
+    index: int
+    cell: str
+    name: str
+    unit: str | None
+    label: str
+
+
+def _split_cell(cell: str) -> tuple[str, str | None]:
+    """``"Magnitude [dB]"`` / ``"Magnitude (dB)"`` -> ``("Magnitude", "dB")``; else ``(cell, None)``."""
+    m = _CELL_UNIT_RE.match(cell.strip())
+    if m and m.group(1).strip():
+        return m.group(1).strip(), (m.group(2).strip() or None)
+    return cell.strip(), None
+
+
+def _tokens(text: str) -> list[str]:
+    return re.findall(r"[^\W_]+|°", text.lower())
+
+
+def _unit_hint(name: str) -> str | None:
+    """A unit written as the last word of a name: ``Magnitude_dB``, ``Phase deg``, ``freq_rad_s``."""
+    t = _tokens(name)
+    if len(t) > 2 and t[-2:] == ["rad", "s"]:
+        return "rad/s"
+    return t[-1] if len(t) > 1 and t[-1] in _UNIT_TOKENS else None
+
+
+def _columns(table: TextTable, units_row: list[str] | None) -> list[_Column]:
+    out = []
+    for j, cell in enumerate(table.columns):
+        name, unit = _split_cell(cell)
+        label = cell
+        if units_row is not None and j < len(units_row) and units_row[j]:
+            unit = units_row[j]
+            label = f"{name} [{unit}]"
+        out.append(_Column(j, cell, name, unit or _unit_hint(name), label))
+    return out
+
+
+def _header(cols: list[_Column]) -> str:
+    return ", ".join(c.label for c in cols)
+
+
+def _role(col: _Column) -> str | None:
+    """What a vendor column holds by its name: freq, coh, phase, re, im, mag, or None."""
+    low, t = col.name.lower(), _tokens(col.name)
+    if "coh" in low or "koh" in low:
+        return "coh"
+    if any(w.startswith("phas") for w in t) or any(w in ("phi", "angle", "arg", "winkel") for w in t):
+        return "phase"
+    if any(w == "re" or w.startswith("real") for w in t):
+        return "re"
+    if any(w == "im" or w.startswith("imag") for w in t):
+        return "im"
+    if any(w.startswith(("mag", "ampl")) or w in ("amp", "gain", "betrag", "abs") for w in t):
+        return "mag"
+    if "freq" in low or "frequenz" in low or t in (["f"], ["omega"]):
+        return "freq"
+    return None
+
+
+def _unit_key(unit: str | None) -> str:
+    return "" if unit is None else unit.lower().replace(" ", "")
+
+
+def _freq_key_of(col: _Column, name: str) -> str:
+    """``freq_hz``/``freq_khz``/``freq_rad_s`` from a frequency column's unit (Hz without a unit; omega: rad/s)."""
+    u = _unit_key(col.unit)
+    if not u:
+        return "freq_rad_s" if _tokens(col.name) == ["omega"] else "freq_hz"
+    if u not in _FREQ_UNITS:
+        raise DataError(f"{name}: frequency column {col.label!r}: unit {col.unit!r} not understood (expected Hz, "
+                        f"kHz or rad/s); map it as {MAP_OPTION} freq_hz=COLUMN, freq_khz=... or freq_rad_s=...")
+    return _FREQ_UNITS[u]
+
+
+def _magnitude_kind(col: _Column, name: str, channel: str) -> str:
+    u = _unit_key(col.unit)
+    if "db" in u:
+        return "mag_db"
+    if u:
+        return "mag"
+    raise DataError(f"{name}: magnitude column {col.label!r} gives no unit (dB or linear?); write it in the header "
+                    f"('{col.name} [dB]') or map it as {MAP_OPTION} {channel}.mag_db=COLUMN (or {channel}.mag)")
+
+
+def _phase_kind(col: _Column, name: str, channel: str) -> str:
+    u = _unit_key(col.unit)
+    if u in _DEG_UNITS:
+        return "phase_deg"
+    if u in _RAD_UNITS:
+        return "phase_rad"
+    what = f"unit {col.unit!r} not understood" if u else "gives no unit (deg or rad?)"
+    raise DataError(f"{name}: phase column {col.label!r} {what}; write deg or rad in the header "
+                    f"('{col.name} [deg]') or map it as {MAP_OPTION} {channel}.phase_deg=COLUMN (or .phase_rad)")
+
+
+def _check_unit(col: _Column, kind: str, key: str, name: str) -> None:
+    """DataError when a mapped column's own unit contradicts the KIND it is mapped as."""
+    u = _unit_key(col.unit)
+    if not u:
+        return
+    channel = key.rpartition(".")[0]
+    wrong = None
+    if kind == "mag" and "db" in u:
+        wrong = f"{channel}.mag_db"
+    elif kind == "mag_db" and "db" not in u:
+        wrong = f"{channel}.mag"
+    elif kind == "phase_deg" and u in _RAD_UNITS:
+        wrong = f"{channel}.phase_rad"
+    elif kind == "phase_rad" and u in _DEG_UNITS:
+        wrong = f"{channel}.phase_deg"
+    elif kind in FREQ_KEYS and u in _FREQ_UNITS and _FREQ_UNITS[u] != kind:
+        wrong = f"{_FREQ_UNITS[u]} (or freq)"
+    if wrong:
+        raise DataError(f"{name}: {MAP_OPTION} {key}={col.cell}: the column's unit is {col.unit}; map it as {wrong}")
+
+
+def _find_column(spec: str, cols: list[_Column], key: str, name: str) -> _Column:
+    """The column a map names: header cell, name without unit, either ignoring case, or ``colK``."""
+    candidates = (spec, _split_cell(spec)[0])
+    for match in (lambda c, s: c.cell == s, lambda c, s: c.cell.lower() == s.lower(),
+                  lambda c, s: c.name.lower() == s.lower()):
+        for s in candidates:
+            found = [c for c in cols if match(c, s)]
+            if len(found) == 1:
+                return found[0]
+            if len(found) > 1:
+                raise DataError(f"{name}: {MAP_OPTION} {key}={spec}: several columns are called that "
+                                f"({', '.join(f'col{c.index}' for c in found)}); name one as colK")
+    m = re.fullmatch(r"col(\d+)", spec)
+    if m and int(m.group(1)) < len(cols):
+        return cols[int(m.group(1))]
+    raise DataError(f"{name}: {MAP_OPTION} {key}={spec}: no such column; the header is: {_header(cols)}")
+
+
+def _auto_freq(cols: list[_Column], name: str) -> tuple[str, _Column]:
+    """The frequency column of a header: ``freq_hz`` itself, else the one column whose name says frequency."""
+    native = [c for c in cols if c.cell.lower() == "freq_hz"]
+    if native:
+        return "freq_hz", native[0]
+    found = [c for c in cols if _role(c) == "freq"]
+    if not found:
+        raise DataError(_no_freq_message(name, _header(cols)))
+    if len(found) > 1:
+        raise DataError(f"{name}: several frequency columns ({', '.join(c.label for c in found)}); pick one with "
+                        f"{MAP_OPTION} freq=COLUMN")
+    return _freq_key_of(found[0], name), found[0]
+
+
+def _auto_channel(cols: list[_Column], channel: str, name: str) -> dict[str, _Column]:
+    """``{KIND: column}`` of the single channel a vendor header holds (DataError when it is not unambiguous)."""
+    roles: dict[str, list[_Column]] = {}
+    for c in cols:
+        r = _role(c)
+        if r is not None and r != "freq":
+            roles.setdefault(r, []).append(c)
+    hint = f"map the columns with {MAP_OPTION} OUT/IN.KIND=COLUMN"
+    for r, found in roles.items():
+        if len(found) > 1:
+            what = {"coh": "coherence", "re": "real-part", "im": "imaginary-part", "mag": "magnitude"}.get(r, r)
+            raise DataError(f"{name}: several {what} columns ({', '.join(c.label for c in found)}), so more than "
+                            f"one channel or an ambiguous header; {hint} (the header is: {_header(cols)})")
+    polar, cartesian = {"mag", "phase"} & set(roles), {"re", "im"} & set(roles)
+    if polar and cartesian:
+        raise DataError(f"{name}: both magnitude/phase and real/imaginary columns; {hint}, e.g. "
+                        f"{channel}.re=COLUMN and {channel}.im=COLUMN (the header is: {_header(cols)})")
+    if polar == {"mag", "phase"}:
+        mag, ph = roles["mag"][0], roles["phase"][0]
+        out = {_magnitude_kind(mag, name, channel): mag, _phase_kind(ph, name, channel): ph}
+    elif cartesian == {"re", "im"}:
+        out = {"re": roles["re"][0], "im": roles["im"][0]}
+    else:
+        have = polar | cartesian
+        missing = {"mag": "phase", "phase": "magnitude", "re": "imaginary-part", "im": "real-part"}
+        what = (f"{missing[next(iter(have))]} column to go with {roles[next(iter(have))][0].label!r}" if have
+                else "response columns (magnitude + phase, or real + imaginary part)")
+        raise DataError(f"{name}: no {what}; the header is: {_header(cols)} (or {hint})")
+    if "coh" in roles:
+        out["coh"] = roles["coh"][0]
+    return out
+
+
+def frf_from_vendor_table(
+    table: TextTable,
+    quantity: str | None = None,
+    *,
+    columns: Mapping[str, str] | None = None,
+    units_row: list[str] | None = None,
+    auto_channel: str | None = None,
+) -> Frf:
+    """Build an :class:`Frf` from a table with a vendor header (see the module docstring).
+
+    Parameters
+    ----------
+    table : TextTable
+        The parsed file.
+    quantity : {"position", "velocity", "acceleration"}, optional
+        What the outputs measure; overrides the file's ``# quantity:`` line.
+    columns : mapping of str to str, optional
+        Column map (:func:`parse_column_map`); without it the header must be a recognisable single channel.
+    units_row : list of str, optional
+        Units of a second header row, one per column.
+    auto_channel : str, optional
+        Name ``OUT/IN`` of a recognised single channel (default :data:`DEFAULT_CHANNEL`).
+
+    Returns
+    -------
+    Frf
+        Frequencies in Hz; ``meta["columns"]`` records the columns used as ``NAME=COLUMN; ...`` and
+        ``meta["format"]`` is :data:`RECOGNISED_FORMAT` or :data:`MAPPED_FORMAT`.
+    """
+    name = table.name
+    cols = _columns(table, units_row)
+    if columns is not None:
+        cmap = parse_column_map(columns)
+        if cmap.freq_column is None:
+            freq_key, freq_col = _auto_freq(cols, name)
+        else:
+            freq_col = _find_column(cmap.freq_column, cols, cmap.freq_key, name)
+            freq_key = cmap.freq_key
+            if freq_key == "freq":
+                freq_key = _freq_key_of(freq_col, name)
+            else:
+                _check_unit(freq_col, freq_key, freq_key, name)
+        groups: dict[str, dict[str, _Column]] = {}
+        for channel, kinds in cmap.channels.items():
+            for kind, spec in kinds.items():
+                col = _find_column(spec, cols, f"{channel}.{kind}", name)
+                _check_unit(col, kind, f"{channel}.{kind}", name)
+                groups.setdefault(channel, {})[kind] = col
+    else:
+        channel = DEFAULT_CHANNEL if auto_channel is None else check_channel_name(auto_channel)
+        freq_key, freq_col = _auto_freq(cols, name)
+        groups = {channel: _auto_channel(cols, channel, name)}
+    used = [(freq_key, freq_col)] + [(f"{ch}.{k}", c) for ch, kinds in groups.items() for k, c in kinds.items()]
+    seen: dict[int, str] = {}
+    for key, col in used:
+        if col.index in seen:
+            raise UsageError(f"{name}: {MAP_OPTION}: column {col.label!r} is mapped twice ({seen[col.index]}, {key})")
+        seen[col.index] = key
+    f = table.data[:, freq_col.index] * FREQ_KEYS[freq_key]
+    index_groups = {ch: {k: c.index for k, c in kinds.items()} for ch, kinds in groups.items()}
+    channels = {ch: _channel_response(ch, cols_, table) for ch, cols_ in index_groups.items()}
+    coherence = {ch: _channel_coherence(ch, cols_["coh"], table)
+                 for ch, cols_ in index_groups.items() if "coh" in cols_}
+    meta = {"format": RECOGNISED_FORMAT if columns is None else MAPPED_FORMAT,
+            "columns": "; ".join(f"{key}={col.cell}" for key, col in used)}
+    ignored = [c.label for c in cols if c.index not in seen]
+    if ignored:
+        meta["columns_ignored"] = "; ".join(ignored)
+    return _assemble(table, f, channels, coherence, quantity, meta)
+
+
+def _delimiter(line: str) -> str:
+    counts = [line.count(d) for d in (",", ";", "\t")]
+    return (",", ";", "\t")[int(np.argmax(counts))] if max(counts) > 0 else ","
+
+
+def _cells(line: str, sep: str) -> list[str]:
+    try:
+        return [c.strip() for c in next(csv.reader([line], delimiter=sep))]
+    except csv.Error:  # a stray carriage return inside the line: parse_table reports the file
+        return [c.strip() for c in line.split(sep)]
+
+
+def _numberish(cell: str) -> bool:
+    for text in (cell, cell.replace(",", ".")):
+        try:
+            float(text)
+        except ValueError:
+            continue
+        return True
+    return False
+
+
+def _head_rows(data: str | bytes, skip_rows: int, n: int = 2) -> list[tuple[str, int]]:
+    """The first ``n`` lines after ``skip_rows`` that are neither blank nor ``#`` comments: ``(text, offset)``."""
+    is_bytes = isinstance(data, bytes)
+    nl = b"\n" if is_bytes else "\n"
+    pos = 3 if is_bytes and data.startswith(b"\xef\xbb\xbf") else 0
+    out: list[tuple[str, int]] = []
+    k = 0
+    while pos < len(data) and len(out) < n:
+        j = data.find(nl, pos)
+        end = len(data) if j < 0 else j
+        raw = data[pos:end]
+        if is_bytes:
+            try:
+                line = raw.decode("utf-8")
+            except UnicodeDecodeError:
+                line = raw.decode("latin-1")
+        else:
+            line = raw
+        line = line.rstrip("\r")
+        s = line.strip()
+        if k >= skip_rows and s and not s.startswith("#"):
+            out.append((line, pos))
+        k += 1
+        pos = end + 1
+    return out
+
+
+@dataclass(frozen=True)
+class _Head:
+    """What the header row says before the table is parsed."""
+
+    native: bool
+    units_row: list[str] | None
+    data: str | bytes
+
+
+def _inspect_head(data: str | bytes, skip_rows: int) -> _Head:
+    """Whether the header is feedtune's own, and a second header row of units (commented out of ``data``)."""
+    nl, cr = (b"\n", b"\r") if isinstance(data, bytes) else ("\n", "\r")
+    if cr in data[:1 << 16] and nl not in data[:1 << 16]:  # old Mac line endings, as parse_table reads them
+        data = data.replace(cr, nl)
+    rows = _head_rows(data, skip_rows)
+    if not rows or len(rows[0][0]) > MAX_HEADER_CHARS:
+        return _Head(True, None, data)  # parse_table reports it
+    sep = _delimiter(rows[0][0])
+    header = _cells(rows[0][0], sep)
+    if any(c.lower() == "freq_hz" or _NATIVE_COLUMN_RE.match(c) for c in header):
+        return _Head(True, None, data)
+    if all(_numberish(c) for c in header if c) or len(rows) < 2:
+        return _Head(False, None, data)
+    line, offset = rows[1]
+    units = _cells(line, sep)
+    given = [u for u in units if u]
+    if given and len(units) <= len(header) + 1 and len(line) <= MAX_HEADER_CHARS \
+            and not any(_numberish(u) for u in given) and all(len(u) <= _UNITS_ROW_MAX_CHARS for u in given):
+        units = [u.strip("[]() ") for u in units]
+        mark = b"#" if isinstance(data, bytes) else "#"
+        return _Head(False, units, data[:offset] + mark + data[offset:])  # line numbers stay those of the file
+    return _Head(False, None, data)
+
+
+def read_frf_csv(
+    source: str | os.PathLike[str] | IO[str],
+    *,
+    quantity: str | None = None,
+    columns: Mapping[str, str] | None = None,
+    skip_rows: int = 0,
+    auto_channel: str | None = None,
+) -> Frf:
+    """Read an FRF from a CSV file: feedtune's own header, a vendor header, or any header with a column map.
 
     Parameters
     ----------
@@ -143,20 +633,52 @@ def read_frf_csv(source: str | os.PathLike[str] | IO[str], *, quantity: str | No
         The CSV file.
     quantity : {"position", "velocity", "acceleration"}, optional
         What the outputs measure; overrides the file's ``# quantity:`` line (default position).
+    columns : mapping of str to str, optional
+        Column map ``{NAME: COLUMN}`` (CLI ``--frf-map NAME=COLUMN``): NAME ``freq`` (unit from the header, else
+        Hz), ``freq_hz``, ``freq_khz``, ``freq_rad_s`` or ``OUT/IN.KIND`` with KIND one of :data:`SUFFIXES`.
+        Only the mapped channels are read; without ``freq`` the frequency column is found as without a map.
+    skip_rows : int
+        Lines to skip before the header row (vendor preambles).
+    auto_channel : str, optional
+        Channel name ``OUT/IN`` given to a recognised single-channel vendor header (default ``x1/u``).
 
     Returns
     -------
     Frf
-        Response in ``output_unit / input_unit`` (default rad/V), frequencies in Hz.
+        Response in ``output_unit / input_unit`` (default rad/V), frequencies in Hz. A vendor or mapped header
+        records the columns used in ``meta["columns"]`` (and unused ones in ``meta["columns_ignored"]``).
 
     Raises
     ------
     DataError
-        The file is missing, unreadable or malformed (the message names the file, line and column).
+        The file is missing, unreadable or malformed (the message names the file, line and column), or its
+        header cannot be read without a column map.
+    UsageError
+        A malformed column map or channel name, or ``auto_channel`` for a file that names its channels.
     """
+    if isinstance(skip_rows, bool) or not isinstance(skip_rows, int) or skip_rows < 0:
+        raise UsageError(f"skip_rows (--frf-skip-rows) expects an integer >= 0, got {skip_rows!r}")
+    if columns is not None:
+        parse_column_map(columns)  # option errors before the file is read
+        if auto_channel is not None:
+            raise UsageError(f"{MAP_OPTION} names the channels itself; drop --frf-channel (auto_channel)")
+    if auto_channel is not None:
+        check_channel_name(auto_channel, "--frf-channel")
     text, name = read_table_data(source, "CSV")
-    table = parse_table(text, name, require_header=True)
-    return frf_from_table(table, quantity)
+    head = _inspect_head(text, skip_rows)
+    try:
+        table = parse_table(head.data, name, skip_rows=skip_rows, require_header=True)
+    except DataError as exc:
+        if head.native or "pass skip_rows" not in str(exc):
+            raise
+        raise DataError(str(exc).replace("pass skip_rows", "pass skip_rows (--frf-skip-rows N)")) from None
+    if head.native and columns is None:
+        if auto_channel is not None:
+            raise UsageError(f"{name}: --frf-channel (auto_channel) names the channel of a vendor header; this file's "
+                             "header names its channels (OUT/IN.KIND columns)")
+        return frf_from_table(table, quantity)
+    return frf_from_vendor_table(table, quantity, columns=columns, units_row=head.units_row,
+                                 auto_channel=auto_channel)
 
 
 def _single_line(value: object) -> str:

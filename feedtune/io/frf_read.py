@@ -35,6 +35,10 @@ def read_frf(
     freq_var: str | None = None,
     channels: Mapping[str, str] | None = None,
     coherence: Mapping[str, str] | None = None,
+    columns: Mapping[str, str] | None = None,
+    skip_rows: int = 0,
+    scale: Mapping[str, float] | None = None,
+    auto_channel: str | None = None,
 ) -> Frf:
     """Read an FRF from CSV (``.csv``/``.txt``), MATLAB (``.mat``) or UFF58 (``.uff``/``.unv``/``.uff58``).
 
@@ -48,6 +52,18 @@ def read_frf(
         MATLAB only: frequency variable name [Hz] and ``{"OUT/IN": variable}`` of coherences.
     channels : mapping of str to str, optional
         MATLAB: ``{"OUT/IN": variable}``; UFF: ``{"NODE:DIR/NODE:DIR": "OUT/IN"}``.
+    columns : mapping of str to str, optional
+        CSV only: column map ``{NAME: COLUMN}`` for vendor headers (CLI ``--frf-map``): NAME ``freq`` (unit from
+        the header, else Hz), ``freq_hz``, ``freq_khz``, ``freq_rad_s`` or ``OUT/IN.KIND`` with KIND one of ``re,
+        im, mag, mag_db, phase_deg, phase_rad, coh`` (see :func:`feedtune.io.frf_csv.read_frf_csv`).
+    skip_rows : int
+        CSV only: lines to skip before the header row (CLI ``--frf-skip-rows``).
+    scale : mapping of str to float, optional
+        ``{"OUT/IN": factor}`` multiplying a channel's response after reading, any format (CLI ``--frf-scale``),
+        e.g. ``{"x2/u": -1.0}`` for a load encoder counting the other way. Recorded in ``meta["scale"]``.
+    auto_channel : str, optional
+        CSV only: name ``OUT/IN`` of the channel of a recognised single-channel vendor header (default ``x1/u``;
+        CLI ``--frf-channel``).
 
     Returns
     -------
@@ -59,23 +75,67 @@ def read_frf(
     DataError
         Unknown extension or malformed file.
     UsageError
-        An option that the file's format does not use.
+        An option that the file's format does not use, a malformed column map or scale.
     """
     fmt = frf_format(path)
+    csv_only = {"columns (--frf-map)": columns, "skip_rows (--frf-skip-rows)": skip_rows,
+                "auto_channel (--frf-channel)": auto_channel}
     if fmt == "csv":
         _reject_options(path, "CSV", freq_var=freq_var, channels=channels, coherence=coherence)
         from .frf_csv import read_frf_csv
 
-        return read_frf_csv(path, quantity=quantity)
-    if fmt == "mat":
+        frf = read_frf_csv(path, quantity=quantity, columns=columns, skip_rows=skip_rows, auto_channel=auto_channel)
+    elif fmt == "mat":
+        _reject_options(path, "MATLAB", **csv_only)
         from .frf_mat import read_frf_mat
 
-        return read_frf_mat(path, freq_var=freq_var, channels=channels, coherence=coherence,
-                            quantity=quantity)
-    _reject_options(path, "UFF", freq_var=freq_var, coherence=coherence)
-    from .frf_uff import read_frf_uff
+        frf = read_frf_mat(path, freq_var=freq_var, channels=channels, coherence=coherence, quantity=quantity)
+    else:
+        _reject_options(path, "UFF", freq_var=freq_var, coherence=coherence, **csv_only)
+        from .frf_uff import read_frf_uff
 
-    return read_frf_uff(path, channels=channels, quantity=quantity)
+        frf = read_frf_uff(path, channels=channels, quantity=quantity)
+    return scale_channels(frf, scale) if scale else frf
+
+
+def scale_channels(frf: Frf, scale: Mapping[str, float]) -> Frf:
+    """Multiply channels of an FRF by constant factors (a sign flip, a unit conversion).
+
+    Parameters
+    ----------
+    frf : Frf
+        The response.
+    scale : mapping of str to float
+        ``{"OUT/IN": factor}``; factors must be finite and non-zero [-].
+
+    Returns
+    -------
+    Frf
+        A copy with the channels scaled (coherence unchanged) and ``meta["scale"]`` recording the factors.
+
+    Raises
+    ------
+    UsageError
+        A channel the FRF does not have, or a factor that is not a finite non-zero number.
+    """
+    import math
+    from dataclasses import replace
+
+    response = frf.response.copy()
+    for channel, factor in scale.items():
+        try:
+            value = float(factor)
+        except (TypeError, ValueError):
+            raise UsageError(f"--frf-scale {channel}={factor}: FACTOR must be a number") from None
+        if not math.isfinite(value) or value == 0:
+            raise UsageError(f"--frf-scale {channel}={factor}: FACTOR must be finite and non-zero")
+        if not frf.has(channel):
+            raise UsageError(f"--frf-scale {channel}={factor}: {frf.source} has no channel {channel!r}; "
+                             f"channels: {', '.join(frf.channels)}")
+        i, j = frf.index(channel)
+        response[i, j] *= value
+    record = "; ".join(f"{ch}={float(v):g}" for ch, v in scale.items())
+    return replace(frf, response=response, meta={**frf.meta, "scale": record})
 
 
 def _reject_options(path: str | os.PathLike[str], fmt: str, **options: object) -> None:

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import __version__
-from ..control.ballscrew_law import GAIN_NAMES, GAIN_UNITS, PPI_UNITS, BallScrewLaw
+from ..control.ballscrew_law import GAIN_NAMES, BallScrewLaw, gain_units, ppi_units
 from ..control.filters import FilterPack
 from ..control.friction import LEVELS, VELOCITY, FrictionFeedforward, friction_feedforward
 from ..control.prefilter import GAIN_NAMES as PREFILTER_GAIN_NAMES
@@ -23,7 +23,7 @@ from ..control.prefilter import GAIN_UNITS as PREFILTER_UNITS
 from ..control.prefilter import ORDERS as PREFILTER_ORDERS
 from ..control.prefilter import correction_sos, gain_vector
 from ..errors import DataError, UsageError
-from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel
+from ..models.ballscrew import PARAM_NAMES, BallScrewModel, param_units
 from ..models.friction import StribeckFriction
 from .document import strip_none
 
@@ -91,8 +91,8 @@ def model_section(model: BallScrewModel) -> dict:
     """The design model, so the gains file alone can be analysed again."""
     return {
         "kind": "ballscrew",
-        "params": {n: q(getattr(model, n), PARAM_UNITS[n]) for n in PARAM_NAMES},
-        "lead_m_per_rad": q(model.lead_m_per_rad, "m/rad"),
+        "params": {n: q(getattr(model, n), param_units(model.input_unit)[n]) for n in PARAM_NAMES},
+        **({"lead_m_per_rad": q(model.lead_m_per_rad, "m/rad")} if model.lead_given else {}),
     }
 
 
@@ -129,7 +129,7 @@ def gains_document(design, analysis: dict | None = None) -> dict:
             "integrator": "backward Euler",
             "discretization": "pole-zero matching",
         },
-        "gains": {n: q(design.gains[n], GAIN_UNITS[n]) for n in GAIN_NAMES},
+        "gains": {n: q(design.gains[n], gain_units(design.model.input_unit)[n]) for n in GAIN_NAMES},
         "filters": {
             "continuous": design.filters.to_dict(),
             "filter_pack_sos": _sos(fp_d),
@@ -145,7 +145,7 @@ def gains_document(design, analysis: dict | None = None) -> dict:
         "design": design.design_dict(),
     }
     if hasattr(design, "ppi_gains"):
-        doc["ppi_gains"] = {n: q(v, PPI_UNITS[n]) for n, v in design.ppi_gains.items()}
+        doc["ppi_gains"] = {n: q(v, ppi_units(design.model.input_unit)[n]) for n, v in design.ppi_gains.items()}
     else:
         doc["design"]["closed_loop_poles_rad_s"] = [[float(p.real), float(p.imag)] for p in design.poles]
     if analysis is not None:
@@ -198,8 +198,8 @@ def check_ballscrew_gains(doc: dict, where: str) -> None:
             raise DataError(f"{where}: gains file has no [{key}] section")
 
 
-def model_from_section(sec: dict, where: str) -> BallScrewModel:
-    """The BallScrewModel stored in a gains or model document section."""
+def model_from_section(sec: dict, where: str, input_unit: str = "V") -> BallScrewModel:
+    """The BallScrewModel stored in a gains or model document section, for a drive commanded in ``input_unit``."""
     params = sec.get("params", {})
     vals = {}
     for n in PARAM_NAMES:
@@ -208,13 +208,14 @@ def model_from_section(sec: dict, where: str) -> BallScrewModel:
         vals[n] = value(params[n], f"{where}: model.params.{n}")
     lead = sec.get("lead_m_per_rad")
     kw = {} if lead is None else {"lead_m_per_rad": value(lead, f"{where}: lead_m_per_rad")}
-    return BallScrewModel(**vals, **kw)
+    return BallScrewModel(**vals, **kw, input_unit=input_unit, lead_given=lead is not None)
 
 
 def law_from_document(doc: dict, where: str = "gains file") -> tuple[BallScrewLaw, BallScrewModel, str]:
     """Rebuild the continuous/discrete law, the design model and the controller kind from a gains document."""
     check_ballscrew_gains(doc, where)
-    model = model_from_section(doc["model"], where)
+    units = doc.get("units") if isinstance(doc.get("units"), Mapping) else {}
+    model = model_from_section(doc["model"], where, str(units.get("command", "V")))
     gains = {n: value(doc["gains"].get(n), f"{where}: gains.{n}") for n in GAIN_NAMES}
     filters = FilterPack.from_dict(doc["filters"].get("continuous", {}))
     fs = value(doc["sampling"].get("fs_hz"), f"{where}: sampling.fs_hz", "Hz")

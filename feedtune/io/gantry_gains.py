@@ -247,8 +247,9 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
 
 
 def axis_gains_document(design, analysis: dict | None = None) -> dict:
-    """The gains document of a loop-shaped axis (:class:`~feedtune.design.loopshape.LoopShapeDesign`)."""
-    unit = "V"
+    """The gains document of a loop-shaped axis (:class:`~feedtune.design.loopshape.LoopShapeDesign`), in the
+    command unit of its plant."""
+    unit = design.plant.command_unit
     pre = design.prefilter
     return strip_none({
         "schema": SCHEMA,

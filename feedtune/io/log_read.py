@@ -10,6 +10,12 @@ applies the user's options the same way for every format:
    the other columns keep their names;
 3. ``scale`` ``{NAME: factor}`` multiplies signals (or the time, key ``t`` or the time column's name);
 4. ``units`` ``{NAME: unit}`` sets units.
+
+A time column whose unit nobody states (no unit in the file, no ``scale`` of the time) must give a plausible
+sample rate, between :data:`FS_MIN_HZ` (10 Hz) and :data:`FS_MAX_HZ` (10 MHz); otherwise it is a
+:class:`~feedtune.errors.DataError` naming the file, the column and the fix (:func:`check_time_base`). Integer time
+stamps with a step of 100..10000 look like microseconds (``--scale t=1e-6``), with a step of 1..10 like
+milliseconds (``--scale t=1e-3``).
 """
 
 from __future__ import annotations
@@ -31,6 +37,11 @@ MDF_EXTENSIONS = (".mf4", ".mdf")
 LOG_EXTENSIONS = CSV_EXTENSIONS + MAT_EXTENSIONS + MDF_EXTENSIONS
 TIME_NAMES = ("t", "time")
 TIME_UNIT_FACTORS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "ns": 1e-9}
+#: Plausible sample rates [Hz] of a time base read from a time column; outside them the unit is wrong.
+FS_MIN_HZ = 10.0
+FS_MAX_HZ = 10e6
+#: Integer time-stamp steps (inclusive ranges) that look like a unit other than seconds, and the factor to seconds.
+INTEGER_STEP_UNITS = (((100.0, 10000.0), "microseconds", "1e-6"), ((1.0, 10.0), "milliseconds", "1e-3"))
 
 
 @dataclass
@@ -148,10 +159,12 @@ def assemble_log(
     mapped = {new: np.asarray(raw.get(col, "column for " + repr(new)), dtype=float).reshape(-1)
               for new, col in mapping.items()}
     sig_units = {new: raw.units.get(raw.canonical(col), "") for new, col in mapping.items()}
+    unstated = False  # a time column without a unit in the file
     if raw.time is not None:
         t = np.asarray(raw.time, dtype=float)
     elif fs is None and time_spec is not None:
         t = np.asarray(raw.get(time_spec, "time column"), dtype=float).reshape(-1)
+        unstated = not raw.units.get(raw.canonical(time_spec), "").strip()
         t = t * _time_factor(raw, time_spec)
     elif fs is not None:
         t = np.arange(_common_length(raw, mapped)) / fs
@@ -170,7 +183,8 @@ def assemble_log(
         if name not in used and name not in signals and x.size == n:
             signals[name] = np.asarray(x, dtype=float)
             sig_units[name] = raw.units.get(name, "")
-    t = _apply_scale(raw.name, signals, t, t_name, scale)
+    t_read = t
+    t = _apply_scale(raw.name, signals, t, t_name, scale)  # a new array when the time was scaled
     for name, unit in (units or {}).items():
         if name not in signals:
             raise UsageError(f"units: no signal {name!r}; signals: {', '.join(signals) or 'none'}")
@@ -181,7 +195,51 @@ def assemble_log(
         bad = int(np.flatnonzero(np.diff(t) <= 0)[0])
         raise DataError(f"{raw.name}: time column {t_name!r} is not strictly increasing at sample {bad + 1}; "
                         "pass --fs to use a uniform time base")
+    if unstated and t is t_read:  # neither the file nor the user said what unit the time stamps are in
+        check_time_base(raw.name, raw.canonical(time_spec), t_name, t)
     return Log(t, signals, sig_units, meta)
+
+
+def check_time_base(name: str, column: str, t_name: str, t: np.ndarray) -> None:
+    """DataError when time stamps taken as seconds give an implausible sample rate, naming the file, the column
+    and the fix.
+
+    Applied to a time column whose unit neither the file (a header unit) nor the user (``scale`` of the time)
+    states: integer stamps with a step of 100..10000 are diagnosed as microseconds, with a step of 1..10 as
+    milliseconds (:data:`INTEGER_STEP_UNITS`); other implausible rates get the general fix.
+
+    Parameters
+    ----------
+    name : str
+        File name for the message.
+    column : str
+        The file's time column.
+    t_name : str
+        The name the user calls the time by (the ``--scale`` key to suggest).
+    t : ndarray
+        The time stamps as read, taken as seconds, strictly increasing.
+
+    Raises
+    ------
+    DataError
+        The mean sample rate ``(n - 1) / (t[-1] - t[0])`` [Hz] lies outside ``FS_MIN_HZ .. FS_MAX_HZ``.
+    """
+    if t.size < 2:
+        return
+    fs = (t.size - 1) / float(t[-1] - t[0])
+    if FS_MIN_HZ <= fs <= FS_MAX_HZ:
+        return
+    where = f"{name}: column {column!r}"
+    step = float(np.median(np.diff(t)))
+    if np.all(t == np.round(t)) and step == round(step):
+        for (lo, hi), unit, factor in INTEGER_STEP_UNITS:
+            if lo <= step <= hi:
+                raise DataError(f"{where}: time stamps are integers with a step of {step:g} (fs would be {fs:.3g} "
+                                f"Hz); if they are {unit}, pass --scale {t_name}={factor}")
+    side = f"below {FS_MIN_HZ:g} Hz" if fs < FS_MIN_HZ else f"above {FS_MAX_HZ / 1e6:g} MHz"
+    raise DataError(f"{where}: the time stamps give fs = {fs:.3g} Hz, {side}; check the time unit: convert it to "
+                    f"seconds with --scale {t_name}=FACTOR (1e-3 for ms, 1e-6 for us), or give the sample rate "
+                    "with --fs")
 
 
 def _apply_scale(name: str, signals: dict[str, np.ndarray], t: np.ndarray, t_name: str,

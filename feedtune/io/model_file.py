@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import DataError
-from ..models.ballscrew import PARAM_NAMES, PARAM_UNITS, BallScrewModel
+from ..models.ballscrew import PARAM_NAMES, BallScrewModel, param_units
 from ..models.friction import StribeckFriction
 from ..models.gantry import GantryModel
 from ..models.rigid import RigidBodyModel
@@ -80,17 +80,13 @@ def model_kinds() -> list[str]:
 
 
 # ------------------------------------------------------------------------------------------- ball screw
-def _ballscrew_units(input_unit: str) -> dict[str, str]:
-    """Parameter units for a drive command in ``input_unit`` (PARAM_UNITS are given for volts)."""
-    return {k: u.replace("V", input_unit, 1) for k, u in PARAM_UNITS.items()}
-
-
 def ballscrew_to_doc(model: BallScrewModel) -> dict:
     """Document body of a :class:`BallScrewModel` (parameters, lead, modes, real pole)."""
-    units = _ballscrew_units(model.input_unit)
+    units = param_units(model.input_unit)
+    lead = {"lead_m_per_rad": quantity(model.lead_m_per_rad, "m/rad")} if model.lead_given else {}
     return {
         "input_unit": model.input_unit,
-        "lead_m_per_rad": quantity(model.lead_m_per_rad, "m/rad"),
+        **lead,
         "real_pole_hz": model.real_pole_hz(),
         "params": {k: quantity(v, units[k]) for k, v in model.params().items()},
         "modes": [{"freq_hz": m.freq_hz, "zeta": m.zeta} for m in model.modes()],
@@ -105,7 +101,7 @@ def ballscrew_from_doc(doc: Mapping[str, object], where: str) -> BallScrewModel:
     params = doc.get("params")
     if not isinstance(params, Mapping):
         raise DataError(f"{where}: missing [params] table with {', '.join(PARAM_NAMES)}")
-    units = _ballscrew_units(input_unit)
+    units = param_units(input_unit)
     values = {}
     for name in PARAM_NAMES:
         if name not in params:
@@ -120,7 +116,8 @@ def ballscrew_from_doc(doc: Mapping[str, object], where: str) -> BallScrewModel:
     if not (math.isfinite(lead) and lead > 0):
         raise DataError(f"{where}: lead_m_per_rad = {lead:g} must be > 0 m/rad")
     try:
-        return BallScrewModel(**values, lead_m_per_rad=lead, input_unit=input_unit)
+        return BallScrewModel(**values, lead_m_per_rad=lead, input_unit=input_unit,
+                              lead_given="lead_m_per_rad" in doc)
     except DataError as exc:
         raise DataError(f"{where}: {exc}") from None
 

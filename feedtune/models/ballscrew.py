@@ -19,15 +19,24 @@ import numpy as np
 
 from ..errors import DataError
 
-PARAM_UNITS = {
-    "m1": "V/(rad/s^2)",
-    "m2": "V/(rad/s^2)",
-    "b1": "V/(rad/s)",
-    "b2": "V/(rad/s)",
-    "k": "V/rad",
-    "c": "V/(rad/s)",
-}
 PARAM_NAMES = ("m1", "m2", "b1", "b2", "k", "c")
+
+
+def param_units(input_unit: str = "V") -> dict[str, str]:
+    """Units of ``m1, m2, b1, b2, k, c`` for a drive commanded in ``input_unit`` (V, A, N, N*m, %).
+
+    Examples
+    --------
+    >>> param_units("A")["m1"]
+    'A/(rad/s^2)'
+    """
+    u = input_unit
+    return {"m1": f"{u}/(rad/s^2)", "m2": f"{u}/(rad/s^2)", "b1": f"{u}/(rad/s)", "b2": f"{u}/(rad/s)",
+            "k": f"{u}/rad", "c": f"{u}/(rad/s)"}
+
+
+PARAM_UNITS = param_units("V")
+"""The units of the thesis' models (a drive commanded in V)."""
 
 
 @dataclass(frozen=True)
@@ -57,6 +66,9 @@ class BallScrewModel:
     c: float
     lead_m_per_rad: float = 0.02 / (2 * np.pi)
     input_unit: str = "V"
+    lead_given: bool = True
+    """False for a model identified on a rotary bench with no lead given: ``lead_m_per_rad`` is then the thesis'
+    placeholder, and reports show the axis in rad, its own unit, not in table travel."""
 
     def __post_init__(self) -> None:
         for name in PARAM_NAMES:

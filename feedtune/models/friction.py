@@ -13,6 +13,22 @@ Convention used throughout feedtune: ``d(v)`` is the friction force expressed in
 (N, N*m or V) that the drive must *supply* to overcome friction, i.e. the command of a rigid axis is
 ``u = m a + b v + d(v) + offset``. Friction feedforward is therefore ``+d(v_ref)`` (or the continuous
 :meth:`StribeckFriction.smoothed` version of it).
+
+Friction laws (:class:`FrictionLaw`, a choice of curve per direction, each with a viscous term ``Fv``). With
+``s = |v|`` and the signed levels of the direction (``dc = dc+`` for ``v > 0``, ``dc-`` for ``v < 0``; as
+magnitudes ``Fc = |dc|``, ``Fs = |ds|``), every law is ``d(v) = dc (1 - phi(s/vs)) + ds phi(s/vs) + Fv v``:
+
+* ``stribeck``: ``phi(x) = exp(-x)``, i.e. ``F = sign(v) [Fc + (Fs - Fc) exp(-|v|/vs)] + Fv v`` (eq. 2.1 plus
+  viscous friction; ``ds`` is the static level at ``v -> 0``);
+* ``hump``: ``phi(x) = x exp(1 - x)``, i.e. ``F = Fv v + Fc + v (Fs - Fc) e / vs exp(-v / vs)`` for ``v > 0``,
+  mirrored for ``v < 0`` (the exponential-hump law: ``F -> Fc`` at ``v -> 0``, ``ds`` is the peak ``Fmax``
+  reached at ``|v| = vs``);
+* ``lugre``: ``phi(x) = exp(-x^2)``, the LuGre model's steady-state curve
+  ``F = sign(v) [Fc + (Fs - Fc) exp(-(v/vs)^2)] + Fv v``.
+
+Physical signs (:meth:`StribeckFriction.sign_problems`): the levels have the sign of their direction (``dc+, ds+ >= 0``,
+``dc-, ds- <= 0``), ``vs > 0`` and ``Fv >= 0``; a level of the wrong sign comes from a mirrored or
+sign-inverted command (or from a constant offset such as gravity larger than the friction).
 """
 
 from __future__ import annotations
@@ -28,6 +44,15 @@ MODEL_KIND = "friction"
 """``kind`` of a friction model file (``feedtune identify friction --out friction.toml``)."""
 LEVEL_NAMES = ("dc_pos", "ds_pos", "dc_neg", "ds_neg")
 OMEGA_NAMES = ("omega_pos", "omega_neg")
+VISCOUS_NAMES = ("viscous_pos", "viscous_neg")
+LAWS = ("stribeck", "hump", "lugre")
+"""Friction laws of :class:`FrictionLaw` (module docstring)."""
+LAW_FORMULAS = {
+    "stribeck": "F = sign(v) [Fc + (Fs - Fc) exp(-|v|/vs)] + Fv v",
+    "hump": "F = sign(v) [Fc + |v| (Fs - Fc) e/vs exp(-|v|/vs)] + Fv v",
+    "lugre": "F = sign(v) [Fc + (Fs - Fc) exp(-(v/vs)^2)] + Fv v",
+}
+"""Each law per direction (``Fc, Fs`` magnitudes of the direction's levels ``dc, ds``; ``vs`` = ``omega``)."""
 
 
 @dataclass(frozen=True)
@@ -106,6 +131,21 @@ class StribeckFriction:
         neg = self.dc_neg + (self.ds_neg - self.dc_neg) * np.exp(-speed / self.omega_negative)
         return np.where(v > 0, pos, np.where(v < 0, neg, 0.0))
 
+    def sign_problems(self) -> list[tuple[str, str]]:
+        """Parameters with an unphysical sign, as ``(name, sentence)`` pairs (empty: all fine).
+
+        The levels must have the sign of their direction (``dc_pos, ds_pos >= 0``; ``dc_neg, ds_neg <= 0``: the
+        command a drive supplies against friction points the way it moves; :func:`level_sign_problem`); the
+        constructor accepts any sign (``omega > 0`` is checked there), fits and file loaders call this.
+
+        Returns
+        -------
+        list of (str, str)
+            Parameter name and what is wrong with it, in :data:`LEVEL_NAMES` order.
+        """
+        found = [(n, level_sign_problem(n, float(getattr(self, n)), self.command_unit)) for n in LEVEL_NAMES]
+        return [(n, text) for n, text in found if text]
+
     def smoothed(self, velocity, v_eps: float) -> np.ndarray:
         """Friction force made continuous through zero, for feedforward [command unit].
 
@@ -152,3 +192,174 @@ class StribeckFriction:
                 "omega_pos": self.velocity_unit, "omega_neg": self.velocity_unit,
             },
         }
+
+
+# ------------------------------------------------------------------------------------------- friction laws
+def check_law(law: str) -> str:
+    """``law`` if it is one of :data:`LAWS`, else a :class:`UsageError` listing them."""
+    if law not in LAWS:
+        raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
+    return law
+
+
+def law_shape(law: str, x) -> np.ndarray:
+    """The law's shape ``phi(x)`` of the normalised speed ``x = |v| / vs`` [-] (module docstring), vectorised.
+
+    Parameters
+    ----------
+    law : str
+        One of :data:`LAWS`.
+    x : array_like
+        Normalised speed ``|v| / vs`` [-], >= 0.
+
+    Returns
+    -------
+    ndarray
+        ``phi(x)`` [-]: the weight of the level ``ds`` (``1 - phi`` weighs ``dc``).
+    """
+    x = np.asarray(x, dtype=float)
+    if law == "stribeck":
+        return np.exp(-x)
+    if law == "hump":
+        return x * np.exp(1.0 - x)
+    if law == "lugre":
+        return np.exp(-(x**2))
+    raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
+
+
+def law_shape_slope(law: str, x) -> np.ndarray:
+    """Derivative ``phi'(x)`` of :func:`law_shape` [-] (for Jacobians), vectorised."""
+    x = np.asarray(x, dtype=float)
+    if law == "stribeck":
+        return -np.exp(-x)
+    if law == "hump":
+        return (1.0 - x) * np.exp(1.0 - x)
+    if law == "lugre":
+        return -2.0 * x * np.exp(-(x**2))
+    raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
+
+
+def level_sign_problem(name: str, value: float, unit: str) -> str | None:
+    """What is wrong with the sign of one friction parameter, or None.
+
+    Parameters
+    ----------
+    name : str
+        ``dc_pos``, ``ds_pos``, ``dc_neg``, ``ds_neg``, ``viscous_pos`` or ``viscous_neg``.
+    value : float
+        Its value [command unit, or command unit/(velocity unit) for a viscous coefficient].
+    unit : str
+        Its unit, for the sentence.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"ds_pos = -108 N must be >= 0 (the friction level for v > 0 has the sign of the motion)"``.
+    """
+    if name.startswith("viscous"):
+        return None if value >= 0 else f"{name} = {value:.4g} {unit} must be >= 0"
+    positive = name.endswith("_pos")
+    if (value >= 0) if positive else (value <= 0):
+        return None
+    way, need = ("v > 0", ">= 0") if positive else ("v < 0", "<= 0")
+    return f"{name} = {value:.4g} {unit} must be {need} (the friction level for {way} has the sign of the motion)"
+
+
+@dataclass(frozen=True)
+class FrictionLaw(StribeckFriction):
+    """Friction curve of a chosen law with a viscous term, per direction (module docstring).
+
+    Extends :class:`StribeckFriction` (same signed levels and characteristic velocities ``omega``, which are the
+    laws' ``vs``) by the law and the viscous coefficients; ``FrictionLaw(law="stribeck")`` with zero viscous
+    friction is eq. 2.1. For the ``hump`` law ``ds`` is the peak level reached at ``|v| = omega`` (not the level
+    at rest, which is ``dc``).
+
+    Parameters
+    ----------
+    dc_pos, ds_pos, dc_neg, ds_neg : float
+        Signed levels [command unit] (``>= 0`` for ``v > 0``, ``<= 0`` for ``v < 0``; :meth:`sign_problems`).
+    omega_pos, omega_neg : float
+        ``vs`` per direction [velocity unit], > 0 (``omega_neg=None`` uses ``omega_pos``).
+    command_unit, velocity_unit : str
+        As for :class:`StribeckFriction`.
+    law : str
+        ``"stribeck"``, ``"hump"`` or ``"lugre"`` (:data:`LAWS`).
+    viscous_pos : float
+        Viscous coefficient ``Fv`` for ``v > 0`` [command unit/(velocity unit)].
+    viscous_neg : float or None
+        ``Fv`` for ``v < 0``; ``None`` uses ``viscous_pos``.
+
+    Examples
+    --------
+    >>> f = FrictionLaw(dc_pos=20.0, ds_pos=30.0, dc_neg=-20.0, ds_neg=-30.0, omega_pos=0.01, law="hump",
+    ...                 viscous_pos=100.0)
+    >>> [round(float(x), 3) for x in f.force([0.01, 0.0, -0.01])]
+    [31.0, 0.0, -31.0]
+    """
+
+    law: str = "stribeck"
+    viscous_pos: float = 0.0
+    viscous_neg: float | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_law(self.law)
+        for name in VISCOUS_NAMES:
+            raw = getattr(self, name)
+            if raw is None:
+                continue
+            value = float(raw)
+            if not np.isfinite(value):
+                raise DataError(f"friction parameter {name} must be finite, got {value}")
+            object.__setattr__(self, name, value)
+
+    @property
+    def viscous_negative(self) -> float:
+        """Viscous coefficient used for ``v < 0`` [command unit/(velocity unit)]."""
+        return self.viscous_pos if self.viscous_neg is None else float(self.viscous_neg)
+
+    def force(self, velocity) -> np.ndarray:
+        """Friction force of the law [command unit] (vectorised; exactly 0 at ``v = 0``).
+
+        Parameters
+        ----------
+        velocity : array_like
+            Velocity [velocity unit].
+
+        Returns
+        -------
+        ndarray
+            ``dc (1 - phi) + ds phi + Fv v`` with the direction's parameters, same shape as ``velocity``.
+        """
+        v = np.asarray(velocity, dtype=float)
+        speed = np.abs(v)
+        phi_pos = law_shape(self.law, speed / self.omega_pos)
+        phi_neg = law_shape(self.law, speed / self.omega_negative)
+        pos = self.dc_pos + (self.ds_pos - self.dc_pos) * phi_pos + self.viscous_pos * v
+        neg = self.dc_neg + (self.ds_neg - self.dc_neg) * phi_neg + self.viscous_negative * v
+        return np.where(v > 0, pos, np.where(v < 0, neg, 0.0))
+
+    def sign_problems(self) -> list[tuple[str, str]]:
+        """As :meth:`StribeckFriction.sign_problems`, plus viscous coefficients that must be ``>= 0``."""
+        unit = f"{self.command_unit}/({self.velocity_unit})"
+        found = [(n, level_sign_problem(n, v, unit))
+                 for n, v in (("viscous_pos", self.viscous_pos), ("viscous_neg", self.viscous_negative))]
+        return super().sign_problems() + [(n, text) for n, text in found if text]
+
+    def without_viscous(self) -> StribeckFriction | FrictionLaw:
+        """The curve without its viscous term: a :class:`StribeckFriction` (eq. 2.1) for the ``stribeck`` law."""
+        levels = {n: getattr(self, n) for n in LEVEL_NAMES}
+        common = {**levels, "omega_pos": self.omega_pos, "omega_neg": self.omega_neg,
+                  "command_unit": self.command_unit, "velocity_unit": self.velocity_unit}
+        if self.law == "stribeck":
+            return StribeckFriction(**common)
+        return FrictionLaw(**common, law=self.law)
+
+    def to_dict(self) -> dict:
+        """JSON-ready parameters with their units (``model`` is the law)."""
+        d = super().to_dict()
+        vu = f"{self.command_unit}/({self.velocity_unit})"
+        d.update({"model": self.law, "formula": LAW_FORMULAS[self.law], "viscous_pos": self.viscous_pos,
+                  "viscous_neg": self.viscous_negative})
+        d["units"] = {**d["units"], "viscous_pos": vu, "viscous_neg": vu}
+        return d

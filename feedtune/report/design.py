@@ -218,16 +218,17 @@ def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
 
 def _disturbance(designs) -> FigureBlock:
     curves = []
+    linear = all(d.model.lead_given for d in designs)  # a rotary bench without a lead: in rad, its own unit
     for d in designs:
-        lead_um = d.model.lead_m_per_rad * 1e6
+        scale = d.model.lead_m_per_rad * 1e6 if linear else 1.0
         for case, style in (("ideal", "-"), ("ideal_discrete", "--")):
             c = d.analysis.cases.get(case)
             if c is not None and c.disturbance is not None:
                 suffix = "" if case == "ideal" else " (discrete)"
-                curves.append(Curve(c.freq_hz, c.disturbance * lead_um, d.label + suffix, d.color, style,
+                curves.append(Curve(c.freq_hz, c.disturbance * scale, d.label + suffix, d.color, style,
                                     1.5 if case == "ideal" else 1.0))
     unit = designs[0].model.input_unit
-    fig = magnitude_figure(curves, ylabel=f"|x2/d2| [µm/{unit}]")
+    fig = magnitude_figure(curves, ylabel=f"|x2/d2| [{'µm' if linear else 'rad'}/{unit}]")
     return FigureBlock("design-disturbance", "Disturbance transfer from a force d2 on the table to the table "
                        "position x2 (eq. 3.26/3.27), on the model; solid: continuous, dashed: discrete "
                        "controller (thesis Fig. 3.12).", fig)

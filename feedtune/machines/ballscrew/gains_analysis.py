@@ -28,13 +28,14 @@ def analyze_document(doc: Mapping, where: str, frf=None) -> GainsAnalysis:
         check).
     """
     from ...analysis.ballscrew import analyze_ballscrew, closed_loop_poles
-    from ...control.ballscrew_law import GAIN_UNITS, PPI_UNITS
+    from ...control.ballscrew_law import all_gain_units
     from ...io.gains import law_from_document
 
     law, model, kind = law_from_document(doc, where)
     analysis = analyze_ballscrew(law, model, frf)
     gains = {**plain_gains(doc.get("gains")), **plain_gains(doc.get("ppi_gains"))}
     poles = closed_loop_poles(law, model)
-    result = {"kind": kind, "controller": kind, "gains": gains, "gain_units": {**GAIN_UNITS, **PPI_UNITS},
+    result = {"kind": kind, "controller": kind, "gains": gains, "gain_units": all_gain_units(model.input_unit),
+              "command_unit": model.input_unit,
               "closed_loop_poles": [[float(p.real), float(p.imag)] for p in poles], "analysis": analysis.to_dict()}
     return GainsAnalysis(analysis=analysis, result=result, law=law, model=model)

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...control.ballscrew_law import GAIN_NAMES as GAIN_ORDER
-from ...control.ballscrew_law import GAIN_UNITS
+from ...control.ballscrew_law import gain_units
 from ...control.friction import FrictionFeedforward, reference_velocity
 from ...control.sos import SosCascade
 from ...errors import DataError
@@ -153,14 +153,15 @@ class GainsRuntime:
         sec = doc.get("gains")
         if not isinstance(sec, dict):
             raise DataError(f"{where}: gains file has no [gains] section")
+        unit = str(doc.get("units", {}).get("command", "V")) if isinstance(doc.get("units"), dict) else "V"
+        units = gain_units(unit)
         gains = {}
         for n in GAIN_ORDER:
             if n not in sec:
                 raise DataError(f"{where}: gains.{n} is missing")
-            gains[n] = value(sec[n], f"{where}: gains.{n}", GAIN_UNITS[n])
+            gains[n] = value(sec[n], f"{where}: gains.{n}", units[n])
         sos = {name: read_sos(_section(doc, path, where), f"{where}: {'.'.join(path)}")
                for name, path in SOS_KEYS.items()}
-        unit = str(doc.get("units", {}).get("command", "V")) if isinstance(doc.get("units"), dict) else "V"
         info = None
         if doc.get("prefilter") is not None:
             sos["prefilter"] = read_sos(_section(doc, ("prefilter", "prefilter_sos"), where),
@@ -307,7 +308,7 @@ class GainsRuntime:
             "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
             "prefilter": pre,
             "friction_feedforward": None if self.friction is None else self.friction.to_dict(),
-            "units": {**GAIN_UNITS, "fs_hz": "Hz", "command": self.command_unit},
+            "units": {**gain_units(self.command_unit), "fs_hz": "Hz", "command": self.command_unit},
         }
 
 

@@ -1,0 +1,771 @@
+"""Friction laws fitted per direction, and the steady-state friction curve from constant-velocity plateaus.
+
+Two tools share one least-squares core, :func:`fit_friction_law`:
+
+* the law (:data:`~feedtune.models.friction.LAWS`: ``stribeck``, ``hump``, ``lugre``, each with a viscous term;
+  :class:`~feedtune.models.friction.FrictionLaw`) fitted to speed/force samples, per direction, optionally with
+  a shared mass term ``m a`` (the joint fit of :func:`feedtune.identify.friction.identify_friction` and ramps);
+* the steady-state method (:func:`identify_friction_curve`), the way most engineers measure friction: the axis
+  moves at a series of constant speeds both ways; on every constant-velocity plateau the inertial term vanishes,
+  so the mean command is the friction at that speed; the law is fitted to those points.
+
+Plateau rule (:func:`find_plateaus`, defaults in brackets)
+-----------------------------------------------------------
+1. Velocity and acceleration from the position: zero-phase Butterworth low-pass (order 4, cut-off
+   ``cutoff_hz`` [the automatic rule of :func:`feedtune.identify.rigid.auto_cutoff_hz`]) and central
+   differences; ``5 / cutoff_hz`` seconds at each end of the log are dropped (filter edges).
+2. A sample is steady when ``|a| <= acc_tol`` [:data:`ACC_TOL_FRACTION` = 5 % of the 99th percentile of
+   ``|a|`` in the log] and ``|v| >= min_speed`` [:data:`MIN_SPEED_FRACTION` = 0.2 % of the peak speed].
+3. A run of consecutive steady samples moving the same way is cut wherever the velocity, averaged over
+   ``min_duration / 5``, leaves the band ``|v - v_ref| <= vel_tol |v_ref|`` [:data:`VEL_TOL` = 2 %] around the
+   median ``v_ref`` of the first ``min_duration`` of the piece; pieces of at least ``min_duration``
+   [:data:`MIN_DURATION_S` = 0.1 s] are plateaus.
+4. ``trim`` [:data:`TRIM_FRACTION` = 10 %] of each plateau is left out at both ends (the filter's and the
+   loop's settling); the point is the mean velocity and the mean command of the rest, with the command's
+   standard deviation over the plateau as its scatter.
+
+The law is then fitted to the points of each direction with its own parameters (levels, ``vs``, ``Fv``); a log
+that moves one way only gives the fit of that direction (and a warning) but no model file.
+
+Uncertainties: ``std = sqrt(diag(s^2 (J^T J)^-1))`` with ``s^2`` the residual variance of the points (so it
+includes the law's misfit); ``vs`` is bounded to ``[v_lo / 5, v_hi / 2]`` of the speeds of the direction
+(:data:`OMEGA_SPEED_LIMITS`), and a ``vs`` on a bound is reported (the data do not resolve it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import DataError, IllConditionedError, UsageError
+from ..log import Log
+from ..models.friction import FrictionLaw, check_law, law_shape, law_shape_slope, level_sign_problem
+
+DIRECTIONS = ("pos", "neg")
+DIRECTION_TEXT = {"pos": "v > 0", "neg": "v < 0"}
+OMEGA_SPEED_LIMITS = (5.0, 2.0)
+"""``vs`` is bounded to ``[v_lo / 5, v_hi / 2]`` (lowest and highest speed of a direction, 2nd and 98th percentile
+for dense samples)."""
+MIN_POINTS = 5
+"""Fewest points (plateaus or samples) a direction needs for a fit (the law has 4 parameters)."""
+FEW_POINTS = 8
+"""Fewer points than this in a fitted direction give a warning."""
+ACC_TOL_FRACTION = 0.05
+"""Default acceleration tolerance of a plateau, as a fraction of the 99th percentile of ``|a|`` [-]."""
+VEL_TOL = 0.02
+"""Default relative velocity tolerance of a plateau [-]."""
+MIN_DURATION_S = 0.1
+"""Default shortest plateau [s]."""
+TRIM_FRACTION = 0.1
+"""Default part of each plateau left out at each end [-]."""
+MIN_SPEED_FRACTION = 0.002
+"""Default slowest plateau speed, as a fraction of the peak speed [-]."""
+DRIFT_WINDOW_DIVISOR = 5
+"""The velocity band is tested on the velocity averaged over ``min_duration / 5`` (fast noise does not cut)."""
+STD_SIGMAS = 3.0
+"""A fitted viscous coefficient below zero by less than this many standard deviations is taken as 0."""
+
+
+# ------------------------------------------------------------------------------------------- helpers
+def _series(x, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise DataError(f"{name} must be numeric") from None
+    if a.ndim != 1:
+        raise DataError(f"{name} must be 1-D, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise DataError(f"{name} has a NaN or infinite value at sample {int(np.flatnonzero(~np.isfinite(a))[0])}")
+    return a
+
+
+def parameter_std(jac: np.ndarray, s2: float) -> np.ndarray:
+    """``sqrt(diag(s2 (J^T J)^-1))`` computed with column scaling; ``inf`` when not identifiable.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, p)
+        Jacobian of the residuals at the solution.
+    s2 : float
+        Residual variance ``||r||^2 / (n - p)`` [residual unit^2].
+
+    Returns
+    -------
+    ndarray, shape (p,)
+        Standard deviations in the parameters' units (``inf`` for all when ``J^T J`` is singular).
+    """
+    jtj = jac.T @ jac
+    scale = np.sqrt(np.diag(jtj))
+    if np.any(scale == 0):
+        return np.full(scale.size, np.inf)
+    normalised = jtj / np.outer(scale, scale)
+    if np.linalg.cond(normalised) > 1e12:
+        return np.full(scale.size, np.inf)
+    return np.sqrt(s2 * np.diag(np.linalg.inv(normalised)) / scale**2)
+
+
+SIGN_HINT = ("the command looks mirrored or sign-inverted against the velocity (check the sign of the command "
+             "column or its --scale), or a constant offset such as gravity is larger than the friction")
+
+
+def check_fitted_signs(friction, where: str) -> None:
+    """Raise a :class:`DataError` naming the first parameter of a fitted model with an unphysical sign.
+
+    Parameters
+    ----------
+    friction : StribeckFriction or FrictionLaw
+        The fitted model.
+    where : str
+        What was fitted, for the message.
+    """
+    problems = friction.sign_problems()
+    if problems:
+        raise DataError(f"{where}: {problems[0][1]}; {SIGN_HINT}")
+
+
+# ------------------------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class DirectionFit:
+    """The law fitted to one direction (signed levels as in :class:`~feedtune.models.friction.FrictionLaw`).
+
+    Attributes
+    ----------
+    direction : str
+        ``"pos"`` (``v > 0``) or ``"neg"`` (``v < 0``).
+    dc, ds : float
+        Levels [command unit] (``dc`` Coulomb, ``ds`` static level, or the hump's peak).
+    omega : float
+        ``vs`` [velocity unit].
+    viscous : float
+        ``Fv`` [command unit/(velocity unit)] (0 when not fitted).
+    std : dict of str to float
+        Standard deviations of ``dc, ds, omega`` (and ``viscous`` when fitted); ``inf`` when not identifiable.
+    n : int
+        Points (or samples) of the direction.
+    rms_error : float
+        RMS residual of the direction [command unit].
+    speed_range : (float, float)
+        Lowest and highest speed of the points [velocity unit].
+    omega_bounds : (float, float)
+        Bounds of ``vs`` [velocity unit].
+    """
+
+    direction: str
+    dc: float
+    ds: float
+    omega: float
+    viscous: float
+    std: dict[str, float]
+    n: int
+    rms_error: float
+    speed_range: tuple[float, float]
+    omega_bounds: tuple[float, float]
+
+    @property
+    def omega_at_bound(self) -> bool:
+        """True when ``vs`` ended on a bound (the data do not resolve it)."""
+        lo, hi = self.omega_bounds
+        return self.omega <= 1.001 * lo or self.omega >= 0.999 * hi
+
+    def to_dict(self) -> dict:
+        """JSON-ready values (``std`` None where not identifiable)."""
+        return {"dc": self.dc, "ds": self.ds, "omega": self.omega, "viscous": self.viscous,
+                "std": {k: (float(s) if np.isfinite(s) else None) for k, s in self.std.items()},
+                "n": self.n, "rms_error": self.rms_error, "speed_range": list(self.speed_range),
+                "omega_bounds": list(self.omega_bounds), "omega_at_bound": self.omega_at_bound}
+
+
+@dataclass(frozen=True)
+class FrictionLawFit:
+    """Result of :func:`fit_friction_law`.
+
+    Attributes
+    ----------
+    law : str
+        The law fitted.
+    directions : dict of str to DirectionFit
+        The fitted directions (``"pos"``, ``"neg"``; one of them for a one-direction log).
+    mass, mass_std : float or None
+        The shared mass term [command unit/(velocity unit/s)], e.g. kg = N/(m/s^2), and its std when an
+        acceleration was given.
+    rms_error : float
+        RMS residual over all samples [command unit].
+    relative_error_pct : float
+        ``100 ||r|| / ||F||`` [%].
+    command_unit, velocity_unit : str
+        Units.
+    warnings : tuple of str
+        ``vs`` on a bound, few points, a viscous coefficient set to 0, a direction left out.
+    """
+
+    law: str
+    directions: dict[str, DirectionFit]
+    mass: float | None
+    mass_std: float | None
+    rms_error: float
+    relative_error_pct: float
+    command_unit: str
+    velocity_unit: str
+    warnings: tuple = ()
+
+    @property
+    def model(self) -> FrictionLaw | None:
+        """The :class:`FrictionLaw` of both directions, or None when only one direction was fitted."""
+        if set(self.directions) != set(DIRECTIONS):
+            return None
+        p, n = self.directions["pos"], self.directions["neg"]
+        return FrictionLaw(dc_pos=p.dc, ds_pos=p.ds, dc_neg=n.dc, ds_neg=n.ds, omega_pos=p.omega, omega_neg=n.omega,
+                           command_unit=self.command_unit, velocity_unit=self.velocity_unit, law=self.law,
+                           viscous_pos=p.viscous, viscous_neg=n.viscous)
+
+    def direction_force(self, direction: str, velocity) -> np.ndarray:
+        """The fitted law of one direction at ``velocity`` [velocity unit] (signed as the direction) [command]."""
+        d = self.directions[direction]
+        v = np.asarray(velocity, dtype=float)
+        phi = law_shape(self.law, np.abs(v) / d.omega)
+        return d.dc + (d.ds - d.dc) * phi + d.viscous * v
+
+    def curve(self, n: int = 100) -> dict[str, dict[str, list[float]]]:
+        """The fitted curve of every direction on ``n`` log-spaced speeds from half the lowest to 1.1 x the
+        highest speed of its points: ``{"pos": {"velocity": [...], "force": [...]}, ...}`` (signed)."""
+        out = {}
+        for key, d in self.directions.items():
+            lo, hi = d.speed_range
+            speed = np.geomspace(max(lo / 2.0, 1e-12), max(1.1 * hi, lo), n)
+            v = speed if key == "pos" else -speed
+            out[key] = {"velocity": [float(x) for x in v], "force": [float(x) for x in self.direction_force(key, v)]}
+        return out
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary with units (the model's parameters when both directions were fitted)."""
+        c, v = self.command_unit, self.velocity_unit
+        model = self.model
+        return {
+            "law": self.law,
+            "friction": None if model is None else model.to_dict(),
+            "directions": {k: d.to_dict() for k, d in self.directions.items()},
+            "mass": self.mass,
+            "mass_std": self.mass_std,
+            "rms_error": self.rms_error,
+            "relative_error_pct": self.relative_error_pct,
+            "warnings": list(self.warnings),
+            "units": {"dc": c, "ds": c, "omega": v, "viscous": f"{c}/({v})", "rms_error": c,
+                      "relative_error_pct": "%", "mass": f"{c}/({v}^2)", "speed_range": v, "omega_bounds": v},
+        }
+
+
+# ------------------------------------------------------------------------------------------- the fit
+@dataclass
+class _Block:
+    """Samples of one direction and where its parameters sit in the parameter vector."""
+
+    key: str
+    speed: np.ndarray
+    v: np.ndarray
+    y: np.ndarray
+    a: np.ndarray | None
+    cols: list[int] = field(default_factory=list)  # dc, ds, omega(, viscous)
+
+
+def _linear_solve(block: _Block, law: str, omega: float, viscous: bool, with_mass: bool):
+    """Least-squares levels (and viscous, mass) of one direction for a fixed ``omega``; coefficients, RSS."""
+    phi = law_shape(law, block.speed / omega)
+    cols = [1.0 - phi, phi] + ([block.v] if viscous else []) + ([block.a] if with_mass else [])
+    A = np.column_stack(cols)
+    coef, *_ = np.linalg.lstsq(A, block.y, rcond=None)
+    r = A @ coef - block.y
+    return coef, float(r @ r)
+
+
+def _residual_jacobian(theta: np.ndarray, blocks: list[_Block], law: str, viscous: bool, with_mass: bool):
+    res, jac = [], []
+    for b in blocks:
+        dc, ds, w = theta[b.cols[0]], theta[b.cols[1]], theta[b.cols[2]]
+        x = b.speed / w
+        phi = law_shape(law, x)
+        J = np.zeros((b.y.size, theta.size))
+        model = dc + (ds - dc) * phi
+        J[:, b.cols[0]] = 1.0 - phi
+        J[:, b.cols[1]] = phi
+        J[:, b.cols[2]] = (ds - dc) * law_shape_slope(law, x) * (-x / w)
+        if viscous:
+            model = model + theta[b.cols[3]] * b.v
+            J[:, b.cols[3]] = b.v
+        if with_mass:
+            model = model + theta[0] * b.a
+            J[:, 0] = b.a
+        res.append(model - b.y)
+        jac.append(J)
+    return np.concatenate(res), np.vstack(jac)
+
+
+def _solve(blocks, law, start, lower, upper, viscous, with_mass):
+    from scipy.optimize import least_squares
+
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def evaluate(theta):
+        key = theta.tobytes()
+        if key not in cache:
+            cache.clear()
+            cache[key] = _residual_jacobian(theta, blocks, law, viscous, with_mass)
+        return cache[key]
+
+    start = np.clip(start, lower, upper)
+    return least_squares(lambda th: evaluate(th)[0], start, jac=lambda th: evaluate(th)[1], bounds=(lower, upper),
+                         x_scale="jac", method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=500)
+
+
+def _blocks(v: np.ndarray, y: np.ndarray, a: np.ndarray | None, min_speed: float, min_points: int,
+            notes: list[str]) -> list[_Block]:
+    blocks = []
+    for key, sel in (("pos", v > min_speed), ("neg", v < -min_speed)):
+        n = int(np.count_nonzero(sel))
+        if n >= min_points:
+            blocks.append(_Block(key, np.abs(v[sel]), v[sel], y[sel], None if a is None else a[sel]))
+        else:
+            other = DIRECTION_TEXT["neg" if key == "pos" else "pos"]
+            notes.append(f"no points with {DIRECTION_TEXT[key]}: fitted {other} only" if n == 0 else
+                         f"{n} point(s) with {DIRECTION_TEXT[key]} (need {min_points}): fitted {other} only")
+    return blocks
+
+
+def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=None, viscous: bool = True,
+                     min_speed: float = 0.0, min_points: int = MIN_POINTS, command_unit: str = "N",
+                     velocity_unit: str = "m/s", where: str = "friction fit") -> FrictionLawFit:
+    """Fit a friction law to ``(v, F)`` samples per direction by bounded nonlinear least squares.
+
+    Model per direction (signed levels, module docstring of :mod:`feedtune.models.friction`)::
+
+        F = dc (1 - phi(|v|/vs)) + ds phi(|v|/vs) + Fv v  [+ m a]
+
+    ``dc, ds, vs, Fv`` per direction, ``m`` shared (only with ``acceleration``). Started from the best ``vs``
+    of a log-spaced grid with the linear parameters solved exactly, then ``scipy.optimize.least_squares``
+    (trf, analytic Jacobian, ``vs`` bounded, see :data:`OMEGA_SPEED_LIMITS`).
+
+    Parameters
+    ----------
+    velocity : array_like, shape (n,)
+        Velocity [velocity unit].
+    force : array_like, shape (n,)
+        Friction force (or command) [command unit].
+    law : str
+        ``"stribeck"``, ``"hump"`` or ``"lugre"``.
+    acceleration : array_like or None
+        Acceleration [velocity unit/s]: adds a shared mass term ``m a`` (fit on ramps or whole tracking logs).
+    viscous : bool
+        Fit ``Fv`` per direction (False: ``Fv = 0``, the viscous friction is known elsewhere).
+    min_speed : float
+        Samples with ``|v| <= min_speed`` are left out [velocity unit].
+    min_points : int
+        A direction with fewer samples is not fitted (a warning says so); none left is an error.
+    command_unit, velocity_unit : str
+        Units recorded in the result.
+    where : str
+        What is fitted, for messages.
+
+    Returns
+    -------
+    FrictionLawFit
+        Parameters per direction with standard deviations, the mass term, residuals, warnings.
+
+    Raises
+    ------
+    IllConditionedError
+        No direction has ``min_points`` samples, or a direction's speeds span no range.
+    DataError
+        A fitted level has the sign opposite to its direction, or a viscous coefficient is clearly negative
+        (message names the parameter and the likely cause).
+    """
+    law = check_law(law)
+    v = _series(velocity, "velocity")
+    y = _series(force, "force")
+    a = None if acceleration is None else _series(acceleration, "acceleration")
+    if v.size != y.size or (a is not None and a.size != v.size):
+        raise DataError(f"{where}: velocity, force (and acceleration) must have the same length, got {v.size}, "
+                        f"{y.size}" + ("" if a is None else f", {a.size}"))
+    if not (np.isfinite(min_speed) and min_speed >= 0):
+        raise UsageError(f"min_speed must be >= 0 {velocity_unit}, got {min_speed!r}")
+    notes: list[str] = []
+    blocks = _blocks(v, y, a, float(min_speed), int(min_points), notes)
+    if not blocks:
+        raise IllConditionedError(f"{where}: fewer than {min_points} points move either way above "
+                                  f"{min_speed:g} {velocity_unit}")
+    with_mass = a is not None
+    n_dir = 4 if viscous else 3
+    col = 1 if with_mass else 0
+    starts, lowers, uppers = ([0.0] if with_mass else []), ([-np.inf] if with_mass else []), \
+        ([np.inf] if with_mass else [])
+    masses = []
+    for b in blocks:
+        lo, hi = (np.percentile(b.speed, [2.0, 98.0]) if b.speed.size > 50 else (b.speed.min(), b.speed.max()))
+        if not hi >= 1.5 * lo:
+            raise IllConditionedError(
+                f"{where}: the speeds with {DIRECTION_TEXT[b.key]} only span {lo:.4g} to {hi:.4g} {velocity_unit}; "
+                "a friction curve needs points over a range of speeds")
+        w_lo, w_hi = lo / OMEGA_SPEED_LIMITS[0], hi / OMEGA_SPEED_LIMITS[1]
+        thin = _Block(b.key, b.speed[:: max(1, b.speed.size // 5000)], b.v[:: max(1, b.v.size // 5000)],
+                      b.y[:: max(1, b.y.size // 5000)], None if a is None else b.a[:: max(1, b.a.size // 5000)])
+        grid = np.geomspace(w_lo, w_hi, 40)
+        costs = [_linear_solve(thin, law, w, viscous, with_mass)[1] for w in grid]
+        w0 = float(grid[int(np.argmin(costs))])
+        coef = _linear_solve(b, law, w0, viscous, with_mass)[0]
+        if with_mass:
+            masses.append(coef[-1])
+        b.cols = list(range(col, col + n_dir))
+        col += n_dir
+        starts += [coef[0], coef[1], w0] + ([coef[2]] if viscous else [])
+        lowers += [-np.inf, -np.inf, w_lo] + ([-np.inf] if viscous else [])
+        uppers += [np.inf, np.inf, w_hi] + ([np.inf] if viscous else [])
+    if with_mass:
+        starts[0] = float(np.mean(masses))
+    start, lower, upper = np.array(starts), np.array(lowers), np.array(uppers)
+    sol = _solve(blocks, law, start, lower, upper, viscous, with_mass)
+    theta, jac, res = sol.x, sol.jac, sol.fun
+    std = parameter_std(jac, float(res @ res) / max(res.size - theta.size, 1))
+    _check_levels(theta, blocks, command_unit, where)
+    if viscous:  # a slightly negative Fv (noise on a flat curve) is refitted at its physical bound 0
+        negative = [b for b in blocks if theta[b.cols[3]] < 0]
+        for b in negative:
+            value, sd = theta[b.cols[3]], std[b.cols[3]]
+            if value + STD_SIGMAS * sd < 0:
+                raise DataError(
+                    f"{where}: {level_sign_problem(f'viscous_{b.key}', value, f'{command_unit}/({velocity_unit})')}"
+                    f" (+/- {sd:.2g}): the law {law!r} does not describe these points (a friction that falls over "
+                    "the whole speed range; try another law, or check the velocity's and the command's units)")
+            notes.append(f"viscous_{b.key} came out {value:.3g} +/- {sd:.2g} {command_unit}/({velocity_unit}), "
+                         f"within {STD_SIGMAS:g} std of 0: fixed at 0")
+            lower[b.cols[3]] = 0.0
+            theta[b.cols[3]] = 0.0
+        if negative:
+            sol = _solve(blocks, law, theta, lower, upper, viscous, with_mass)
+            theta, jac, res = sol.x, sol.jac, sol.fun
+            std = parameter_std(jac, float(res @ res) / max(res.size - theta.size, 1))
+            _check_levels(theta, blocks, command_unit, where)
+    return _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, command_unit, velocity_unit,
+                   notes)
+
+
+def _check_levels(theta: np.ndarray, blocks: list[_Block], command_unit: str, where: str) -> None:
+    """DataError naming the first fitted level whose sign is opposite to its direction."""
+    for b in blocks:
+        for k, stem in enumerate(("dc", "ds")):
+            problem = level_sign_problem(f"{stem}_{b.key}", float(theta[b.cols[k]]), command_unit)
+            if problem:
+                raise DataError(f"{where}: {problem}; {SIGN_HINT}")
+
+
+def _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, command_unit, velocity_unit,
+            notes) -> FrictionLawFit:
+    dirs = {}
+    warnings = list(notes)
+    y_all = np.concatenate([b.y for b in blocks])
+    offset = 0
+    for b in blocks:
+        r = res[offset: offset + b.y.size]
+        offset += b.y.size
+        names = ("dc", "ds", "omega", "viscous") if viscous else ("dc", "ds", "omega")
+        fit = DirectionFit(
+            direction=b.key, dc=float(theta[b.cols[0]]), ds=float(theta[b.cols[1]]), omega=float(theta[b.cols[2]]),
+            viscous=float(theta[b.cols[3]]) if viscous else 0.0,
+            std={n: float(std[c]) for n, c in zip(names, b.cols, strict=True)}, n=int(b.y.size),
+            rms_error=float(np.sqrt(np.mean(r**2))), speed_range=(float(b.speed.min()), float(b.speed.max())),
+            omega_bounds=(float(lower[b.cols[2]]), float(upper[b.cols[2]])))
+        dirs[b.key] = fit
+        if fit.omega_at_bound:
+            warnings.append(f"vs for {DIRECTION_TEXT[b.key]} ended on its bound ({fit.omega:.4g} {velocity_unit}): "
+                            "the points do not resolve it (add speeds around the friction's low-speed change)")
+        if fit.n < FEW_POINTS:
+            warnings.append(f"only {fit.n} points with {DIRECTION_TEXT[b.key]} for a {len(names)}-parameter law: "
+                            "the parameters rest on few plateaus (add speeds)")
+    return FrictionLawFit(
+        law=law, directions=dirs, mass=float(theta[0]) if with_mass else None,
+        mass_std=float(std[0]) if with_mass and np.isfinite(std[0]) else None,
+        rms_error=float(np.sqrt(np.mean(res**2))),
+        relative_error_pct=float(100.0 * np.linalg.norm(res) / max(np.linalg.norm(y_all), 1e-300)),
+        command_unit=command_unit, velocity_unit=velocity_unit, warnings=tuple(dict.fromkeys(warnings)))
+
+
+# ------------------------------------------------------------------------------------------ plateaus
+@dataclass(frozen=True)
+class Plateau:
+    """One constant-velocity plateau and its friction point (module docstring: plateau rule).
+
+    Attributes
+    ----------
+    t_start, t_end : float
+        Time span averaged (after the trim) [s].
+    velocity, velocity_std : float
+        Mean and standard deviation of the filtered velocity over it [velocity unit].
+    force, force_std : float
+        Mean and standard deviation (scatter) of the command over it [command unit].
+    n : int
+        Samples averaged.
+    log : int
+        Index of the log it came from.
+    """
+
+    t_start: float
+    t_end: float
+    velocity: float
+    velocity_std: float
+    force: float
+    force_std: float
+    n: int
+    log: int = 0
+
+    @property
+    def direction(self) -> str:
+        """``"pos"`` or ``"neg"``."""
+        return "pos" if self.velocity > 0 else "neg"
+
+    def to_dict(self) -> dict:
+        """JSON-ready point."""
+        return {"direction": self.direction, "velocity": self.velocity, "velocity_std": self.velocity_std,
+                "force": self.force, "force_std": self.force_std, "n": self.n, "t_start": self.t_start,
+                "t_end": self.t_end, "duration_s": self.t_end - self.t_start, "log": self.log}
+
+
+@dataclass(frozen=True)
+class PlateauSettings:
+    """The plateau rule's settings (module docstring), resolved for one log where they depend on it.
+
+    Attributes
+    ----------
+    acc_tol : float or None
+        Acceleration tolerance [velocity unit/s]; None: :data:`ACC_TOL_FRACTION` of the log's ``|a|`` (99th pct).
+    vel_tol : float
+        Relative velocity tolerance [-].
+    min_duration : float
+        Shortest plateau [s].
+    min_speed : float or None
+        Slowest plateau [velocity unit]; None: :data:`MIN_SPEED_FRACTION` of the log's peak speed.
+    trim : float
+        Part left out at each end of a plateau [-], in ``[0, 0.5)``.
+    """
+
+    acc_tol: float | None = None
+    vel_tol: float = VEL_TOL
+    min_duration: float = MIN_DURATION_S
+    min_speed: float | None = None
+    trim: float = TRIM_FRACTION
+
+    def __post_init__(self) -> None:
+        for name in ("acc_tol", "min_speed"):
+            value = getattr(self, name)
+            if value is not None and not (np.isfinite(value) and value >= 0):
+                raise UsageError(f"plateau {name} must be >= 0, got {value!r}")
+        if not (np.isfinite(self.vel_tol) and 0 < self.vel_tol < 1):
+            raise UsageError(f"plateau vel_tol must be in (0, 1), got {self.vel_tol!r}")
+        if not (np.isfinite(self.min_duration) and self.min_duration > 0):
+            raise UsageError(f"plateau min_duration must be > 0 s, got {self.min_duration!r}")
+        if not (np.isfinite(self.trim) and 0 <= self.trim < 0.5):
+            raise UsageError(f"plateau trim must be in [0, 0.5), got {self.trim!r}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready settings (None: chosen per log)."""
+        return {"acc_tol": self.acc_tol, "vel_tol": self.vel_tol, "min_duration": self.min_duration,
+                "min_speed": self.min_speed, "trim": self.trim}
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``[start, stop)`` index ranges of the True runs of a boolean array."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(), strict=True))
+
+
+def find_plateaus(t, velocity, acceleration, force, *, settings: PlateauSettings | None = None,
+                  log_index: int = 0) -> tuple[list[Plateau], dict]:
+    """Constant-velocity plateaus of a motion and the mean command on each (module docstring: plateau rule).
+
+    Parameters
+    ----------
+    t : array_like
+        Time [s], uniform.
+    velocity, acceleration : array_like
+        Filtered velocity [velocity unit] and acceleration [velocity unit/s].
+    force : array_like
+        Command [command unit].
+    settings : PlateauSettings or None
+        The rule's tolerances (default :class:`PlateauSettings()`).
+    log_index : int
+        Recorded in each :class:`Plateau`.
+
+    Returns
+    -------
+    (list of Plateau, dict)
+        The plateaus in time order and the resolved ``acc_tol``, ``min_speed`` of this log.
+    """
+    settings = settings or PlateauSettings()
+    t, v, a, u = (_series(x, n) for x, n in ((t, "t"), (velocity, "velocity"), (acceleration, "acceleration"),
+                                             (force, "force")))
+    if not (t.size == v.size == a.size == u.size) or t.size < 2:
+        raise DataError("plateau search: time, velocity, acceleration and force must have the same length (>= 2)")
+    dt = float(t[1] - t[0])
+    acc_tol = (ACC_TOL_FRACTION * float(np.percentile(np.abs(a), 99.0)) if settings.acc_tol is None
+               else settings.acc_tol)
+    min_speed = (MIN_SPEED_FRACTION * float(np.max(np.abs(v))) if settings.min_speed is None
+                 else settings.min_speed)
+    n_min = max(2, int(np.ceil(settings.min_duration / dt)))
+    window = max(1, n_min // DRIFT_WINDOW_DIVISOR)
+    padded = np.pad(v, (window // 2, window - 1 - window // 2), mode="edge")  # centred, edges held
+    v_drift = np.convolve(padded, np.full(window, 1.0 / window), mode="valid")  # the band test ignores fast noise
+    steady = (np.abs(a) <= acc_tol) & (np.abs(v) >= max(min_speed, np.finfo(float).tiny))
+    plateaus = []
+    for sign in (1.0, -1.0):
+        for start, stop in _runs(steady & (sign * v > 0)):
+            s = start
+            while stop - s >= n_min:
+                ref = float(np.median(v[s: s + n_min]))
+                out = np.flatnonzero(np.abs(v_drift[s:stop] - ref) > settings.vel_tol * abs(ref))
+                end = stop if out.size == 0 else s + int(out[0])
+                if end - s >= n_min:
+                    cut = int(settings.trim * (end - s))
+                    i, j = s + cut, end - cut
+                    plateaus.append(Plateau(t_start=float(t[i]), t_end=float(t[j - 1]), velocity=float(np.mean(v[i:j])),
+                                            velocity_std=float(np.std(v[i:j])), force=float(np.mean(u[i:j])),
+                                            force_std=float(np.std(u[i:j])), n=j - i, log=log_index))
+                    s = end
+                else:
+                    s = max(end, s + max(1, n_min // 4))
+    plateaus.sort(key=lambda p: p.t_start)
+    return plateaus, {"acc_tol": acc_tol, "min_speed": min_speed}
+
+
+# ------------------------------------------------------------------------------------- steady state
+@dataclass(frozen=True)
+class SteadyStateFriction:
+    """Result of :func:`identify_friction_curve`.
+
+    Attributes
+    ----------
+    plateaus : tuple of Plateau
+        The friction points (every log), in time order per log.
+    fit : FrictionLawFit
+        The law fitted per direction to the points.
+    settings : PlateauSettings
+        The rule's settings as given.
+    resolved : list of dict
+        ``acc_tol`` [velocity unit/s] and ``min_speed`` [velocity unit] used per log.
+    cutoff_hz : list of float
+        Position filter cut-off per log [Hz].
+    n_logs : int
+        Logs searched.
+    warnings : tuple of str
+        Few plateaus, one direction only, ``vs`` on a bound, clipped or coarse data.
+    """
+
+    plateaus: tuple
+    fit: FrictionLawFit
+    settings: PlateauSettings
+    resolved: list
+    cutoff_hz: list
+    n_logs: int = 1
+    warnings: tuple = ()
+
+    @property
+    def friction(self) -> FrictionLaw | None:
+        """The fitted :class:`FrictionLaw` (both directions), or None for a one-direction log."""
+        return self.fit.model
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary: points, fit, fitted curve (for plots), settings, warnings, units."""
+        c, v = self.fit.command_unit, self.fit.velocity_unit
+        return {
+            "method": "steady-state",
+            "law": self.fit.law,
+            "points": [p.to_dict() for p in self.plateaus],
+            "fit": self.fit.to_dict(),
+            "friction": None if self.friction is None else self.friction.to_dict(),
+            "curve": self.fit.curve(),
+            "plateau_rule": {**self.settings.to_dict(), "resolved": self.resolved, "cutoff_hz": self.cutoff_hz},
+            "n_logs": self.n_logs,
+            "warnings": list(self.warnings),
+            "units": {"velocity": v, "force": c, "velocity_std": v, "force_std": c, "t_start": "s", "t_end": "s",
+                      "duration_s": "s", "acc_tol": f"{v}/s", "min_speed": v, "min_duration": "s", "vel_tol": "-",
+                      "trim": "-", "cutoff_hz": "Hz"},
+        }
+
+
+def identify_friction_curve(log: Log | Sequence[Log], *, position: str, command: str, law: str = "stribeck",
+                            command_scale: float = 1.0, command_unit: str | None = None,
+                            cutoff_hz: float | None = None, settings: PlateauSettings | None = None
+                            ) -> SteadyStateFriction:
+    """Steady-state friction curve: constant-velocity plateaus, the mean command on each, a law fitted per direction.
+
+    Parameters
+    ----------
+    log : Log or sequence of Log
+        Uniformly sampled log(s) holding constant-speed runs at many speeds (both ways for a model).
+    position, command : str
+        Position column [m or rad; mm, um, deg converted] and command column (times ``command_scale``).
+    law : str
+        ``"stribeck"``, ``"hump"`` or ``"lugre"`` (each with a viscous term, per direction).
+    command_scale : float
+        Multiplies the command (e.g. a drive gain in N/V).
+    command_unit : str or None
+        Unit of the scaled command (default as in :func:`~feedtune.identify.rigid.fit_rigid`).
+    cutoff_hz : float or None
+        Position filter cut-off [Hz]; None: :func:`~feedtune.identify.rigid.auto_cutoff_hz` per log.
+    settings : PlateauSettings or None
+        Plateau rule (module docstring).
+
+    Returns
+    -------
+    SteadyStateFriction
+        Points, fit (``fit.model`` is the :class:`FrictionLaw` when both directions were fitted), curve, warnings.
+
+    Raises
+    ------
+    IllConditionedError
+        Fewer than :data:`MIN_POINTS` plateaus in either direction, or their speeds span no range.
+    DataError
+        A fitted level or viscous coefficient has the wrong sign (named, with the likely cause).
+    """
+    from .rigid import _prepare, auto_cutoff_hz, data_warnings, position_si, uniform_sample_time
+
+    law = check_law(law)
+    settings = settings or PlateauSettings()
+    logs = [log] if isinstance(log, Log) else list(log)
+    if not logs:
+        raise UsageError("identify_friction_curve needs at least one log")
+    plateaus, resolved, cutoffs, units = [], [], [], None
+    for k, lg in enumerate(logs):
+        cut = cutoff_hz
+        if cut is None:
+            try:
+                cut = auto_cutoff_hz(position_si(lg, position)[0], uniform_sample_time(lg))[0]
+            except DataError as exc:
+                raise DataError(f"{lg.source}: {exc}") from None
+        smp = _prepare(lg, command, position, cut, 4, 1, command_scale, command_unit)
+        if units is None:
+            units = (smp.force_unit, smp.position_unit)
+        elif units != (smp.force_unit, smp.position_unit):
+            raise DataError(f"{lg.source}: command in {smp.force_unit} and position in {smp.position_unit}, but "
+                            f"{logs[0].source} has {units[0]} and {units[1]}")
+        border = (lg.n - smp.force.size) // 2
+        t = lg.t[border: border + smp.force.size]
+        found, res = find_plateaus(t, smp.velocity, smp.acceleration, smp.force, settings=settings, log_index=k)
+        plateaus += found
+        resolved.append(res)
+        cutoffs.append(smp.cutoff_hz)
+    force_unit, position_unit = units
+    velocity_unit = f"{position_unit}/s"
+    if not plateaus:
+        raise IllConditionedError(
+            "steady-state friction: no constant-velocity plateau found (|a| <= acc_tol and the velocity within "
+            f"{100 * settings.vel_tol:g} % for at least {settings.min_duration:g} s); the log needs runs at "
+            "constant speeds (or loosen the plateau tolerances)")
+    v = np.array([p.velocity for p in plateaus])
+    f = np.array([p.force for p in plateaus])
+    fit = fit_friction_law(v, f, law=law, viscous=True, min_points=MIN_POINTS, command_unit=force_unit,
+                           velocity_unit=velocity_unit, where=f"steady-state {law} fit")
+    warnings = list(fit.warnings)
+    if len(fit.directions) < 2:
+        warnings.append("one direction only: no friction model (a model file and a feedforward need both "
+                        "directions)")
+    warnings += [w for lg in logs for w in data_warnings(lg, command, position, force_unit)]
+    return SteadyStateFriction(plateaus=tuple(plateaus), fit=fit, settings=settings, resolved=resolved,
+                               cutoff_hz=cutoffs, n_logs=len(logs), warnings=tuple(dict.fromkeys(warnings)))
