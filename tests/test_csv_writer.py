@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 
 from feedtune.io import read_log, write_log_csv
-from feedtune.io._table import CSV_CHUNK_ROWS, csv_rows
+from feedtune.io.csv_text import CSV_CHUNK_ROWS, csv_rows
 from feedtune.log import Log
 
 

@@ -2,7 +2,8 @@
 
 A table file has optional leading lines to skip (vendor preambles), ``#`` comment lines whose leading
 ``# key: value`` lines are metadata, one header row of column names (optional for logs), then numeric rows.
-Numbers are parsed with pandas (C engine); errors name the file, the line number and the column.
+Numbers are parsed with pandas (C engine); errors name the file, the line number and the column. Large files are
+parsed straight from the file (:func:`read_table_file`). Writing: :mod:`feedtune.io.csv_text`.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import csv
 import io
 import os
 import re
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
@@ -35,67 +37,60 @@ class TextTable:
         ``# key: value`` lines before the header (keys lower-case, values in file order).
     columns : list of str
         Column names from the header row (``col0``, ``col1``... when the file has none).
-    data : ndarray, shape (n_rows, n_columns)
-        Numbers as float.
+    numbers : ndarray, shape (n_rows, n_columns), or tuple of ndarray
+        The numbers as parsed: one array, or one float vector per column (:func:`read_table_file`, which does not
+        copy them into one array); read them through :attr:`data` or :meth:`column_vector`.
     has_header : bool
         Whether the file had a header row.
+    comments : list of str
+        The other comment lines before the header.
+    text : str or bytes
+        The file's content (empty when it was parsed from ``path`` without reading it whole).
+    first_data_index : int
+        0-based index of the line of the first data row.
+    path : str or None
+        The file, when ``text`` is empty: :attr:`lines` reads it.
     """
 
     name: str
     metadata: dict[str, list[str]]
     columns: list[str]
-    data: np.ndarray
+    numbers: np.ndarray | tuple[np.ndarray, ...] = field(repr=False)
     has_header: bool = True
     comments: list[str] = field(default_factory=list)
     text: str | bytes = field(default="", repr=False)
     first_data_index: int = 0
+    path: str | None = None
+
+    @property
+    def data(self) -> np.ndarray:
+        """Numbers as float, shape (n_rows, n_columns), columns contiguous (column vectors are copied into one
+        array on first use)."""
+        if isinstance(self.numbers, tuple):
+            stacked = np.empty((len(self.numbers[0]), len(self.numbers)), dtype=float, order="F")
+            for j, c in enumerate(self.numbers):
+                stacked[:, j] = c
+            object.__setattr__(self, "numbers", stacked)  # a cache: the same numbers, stacked
+        return self.numbers
+
+    def column_vector(self, j: int) -> np.ndarray:
+        """Column ``j`` (0-based) as a contiguous float vector, without stacking column vectors into :attr:`data`."""
+        return self.numbers[j] if isinstance(self.numbers, tuple) else self.numbers[:, j]
 
     @property
     def lines(self) -> list[str]:
-        """The file's lines (decoded and split on demand: only error messages need them)."""
-        return _decoded(self.text, None).splitlines()
+        """The file's lines (decoded and split on demand: only error messages need them; read again from
+        ``path`` when the table was parsed without the text in memory)."""
+        text = read_bytes(self.path) if self.path is not None and not self.text else self.text
+        return _decoded(text, None).splitlines()
 
     def column(self, name: str) -> np.ndarray:
         """One column as a float vector."""
-        return self.data[:, self.columns.index(name)]
+        return self.column_vector(self.columns.index(name))
 
     def line_number(self, row: int) -> int:
         """1-based file line number of data row ``row`` (0-based), for messages."""
         return int(_data_line_numbers(self.lines, self.first_data_index)[row])
-
-
-CSV_CHUNK_ROWS = 65536
-"""Rows formatted per chunk by :func:`csv_rows` (bounds the temporary memory)."""
-
-
-def csv_rows(columns) -> str:
-    """Rows of comma-separated numbers, one line per row, in the text ``pandas.DataFrame.to_csv`` writes.
-
-    Floats are written as ``repr`` (the shortest text that reads back to the same value; float32 columns in their
-    own precision), integers and booleans as ``str``, NaN as an empty field. One ``%`` formatting per chunk of
-    :data:`CSV_CHUNK_ROWS` rows instead of a writer per row: about 3x ``to_csv``.
-
-    Parameters
-    ----------
-    columns : sequence of ndarray
-        Equal-length 1-D columns.
-    """
-    cols = [np.asarray(c) for c in columns]
-    n, k = (len(cols[0]), len(cols)) if cols else (0, 0)
-    if n == 0 or k == 0:
-        return ""
-    cells = np.empty((n, k), dtype=object)
-    for j, c in enumerate(cols):
-        vals = c.astype(str).tolist() if c.dtype.kind == "f" and c.dtype != np.float64 else c.tolist()
-        if c.dtype.kind == "f" and np.isnan(c).any():
-            vals = ["" if np.isnan(x) else v for x, v in zip(c.tolist(), vals, strict=True)]
-        cells[:, j] = vals
-    row = ",".join(["%s"] * k) + "\n"
-    out = []
-    for a in range(0, n, CSV_CHUNK_ROWS):
-        part = cells[a:a + CSV_CHUNK_ROWS]
-        out.append((row * part.shape[0]) % tuple(part.ravel().tolist()))
-    return "".join(out)
 
 
 def source_name(source: str | os.PathLike[str] | IO[str]) -> str:
@@ -235,11 +230,49 @@ def parse_table(
         When true, a first row of numbers is an error; otherwise columns are named ``col0``, ``col1``...
     what : str
         Kind of file, for messages.
+
+    Returns
+    -------
+    TextTable
+        The table.
+    """
+    head = _parse_head(text, name, skip_rows, require_header, what)
+    assert head is not None  # only a partial text has no answer
+    data = _parse_numbers(_Body(head.text, head.start, head.encoding), head.text, head.first, head.columns,
+                          head.sep, name)
+    return TextTable(name, head.metadata, head.columns, data, head.has_header, head.comments, head.text, head.first)
+
+
+@dataclass(frozen=True)
+class _Head:
+    """What the lines above the numbers of a table say (see :func:`_parse_head`)."""
+
+    text: str | bytes
+    encoding: str | None
+    metadata: dict[str, list[str]]
+    comments: list[str]
+    columns: list[str]
+    has_header: bool
+    first: int
+    start: int
+    sep: str
+
+
+def _parse_head(text: str | bytes, name: str, skip_rows: int, require_header: bool, what: str,
+                partial: bool = False) -> _Head | None:
+    """Metadata, comments, column names, delimiter and where the numbers start (``first``: 0-based line index,
+    ``start``: offset in ``text``).
+
+    With ``partial``, ``text`` is only the beginning of a longer file: None when the answer needs more of it
+    (the header row or the first row of numbers is not complete in ``text``) or when the file must be read whole
+    (old Mac line endings); the errors raised are those of the whole file.
     """
     if skip_rows < 0:
         raise DataError(f"{name}: skip_rows must be >= 0, got {skip_rows}")
     nl, cr = (b"\n", b"\r") if isinstance(text, bytes) else ("\n", "\r")
     if cr in text[:1 << 16] and nl not in text[:1 << 16]:  # old Mac line endings (CR only)
+        if partial:
+            return None
         text = text.replace(cr, nl)
     encoding = _encoding_of(text)
     metadata: dict[str, list[str]] = {}
@@ -259,7 +292,12 @@ def parse_table(
         elif s:
             comments.append(s.lstrip("#").strip())
     else:
+        if partial:
+            return None
         raise DataError(f"{name}: empty {what} file (no header and no data rows)")
+    next_line = text.find(nl, offset)
+    if partial and next_line < 0:
+        return None
     if len(line) > MAX_HEADER_CHARS:
         raise DataError(f"{name}: line {k + 1} is {len(line):,} characters long; expected a header row of column "
                         f"names or a row of numbers (at most {MAX_HEADER_CHARS:,} characters)")
@@ -272,10 +310,191 @@ def parse_table(
         has_header, first, start = False, k, offset
     else:
         columns = _unique_names(cells)
-        next_line = text.find(b"\n" if isinstance(text, bytes) else "\n", offset)
         has_header, first, start = True, k + 1, (len(text) if next_line < 0 else next_line + 1)
-    data = _parse_numbers(_Body(text, start, encoding), text, first, columns, sep, name)
-    return TextTable(name, metadata, columns, data, has_header, comments, text, first)
+    return _Head(text, encoding, metadata, comments, columns, has_header, first, start, sep)
+
+
+READ_HEAD_BYTES = 1 << 16
+"""Bytes :func:`read_table_file` reads first to find the header (the size of the encoding sample); smaller files
+are read whole."""
+
+
+def read_table_file(path: str | os.PathLike[str], what: str = "CSV", *, skip_rows: int = 0,
+                    require_header: bool = True) -> TextTable:
+    """:func:`parse_table` of a file, without holding the file in memory.
+
+    The same table and the same errors as ``parse_table(*read_table_data(path, what), ...)``. The first
+    :data:`READ_HEAD_BYTES` give the metadata and the header; pandas then parses the numbers from the file
+    itself, from the first row on (in two halves on two threads for a large file when a core is free, see
+    :data:`READ_PARTS_MIN_BYTES`), and the column vectors it makes are the table's (:attr:`TextTable.numbers`; no
+    copy into one array unless :attr:`TextTable.data` is asked for). Whatever that fast path does not take as it is
+    (a cell that is not a number, a decimal comma, NaN or inf, a Latin-1 character past the sample, a malformed
+    row, old Mac line endings, a small file) goes through :func:`parse_table` on the whole file, which gives the
+    result or the error message with its line number.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    what : str
+        Kind of file, for messages.
+    skip_rows : int
+        Lines to skip at the top before anything else (vendor preambles).
+    require_header : bool
+        When true, a first row of numbers is an error; otherwise columns are named ``col0``, ``col1``...
+
+    Returns
+    -------
+    TextTable
+        The table (its :attr:`~TextTable.lines` read the file again when an error message needs them).
+    """
+    table = _read_table_fast(path, what, skip_rows, require_header)
+    if table is None:
+        raw, name = read_table_data(path, what)
+        table = parse_table(raw, name, skip_rows=skip_rows, require_header=require_header, what=what)
+    return table
+
+
+def _read_table_fast(path: str | os.PathLike[str], what: str, skip_rows: int,
+                     require_header: bool) -> TextTable | None:
+    """The fast path of :func:`read_table_file`; None when the whole file must go through :func:`parse_table`."""
+    name = source_name(path)
+    try:
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            head = fh.read(READ_HEAD_BYTES)
+    except OSError:
+        return None
+    if len(head) < READ_HEAD_BYTES or size <= len(head) or b"\x00" in head:
+        return None
+    h = _parse_head(head, name, skip_rows, require_header, what, partial=True)
+    if h is None:
+        return None
+    data = _read_numbers_fast(path, h.start, len(h.columns), h.sep, h.encoding)
+    if data is None:
+        return None
+    return TextTable(name, h.metadata, h.columns, data, h.has_header, h.comments, b"", h.first, str(path))
+
+
+class _FileRange(io.RawIOBase):
+    """Bytes ``start`` to ``stop`` of a file, read as a stream (what pandas reads a table body from)."""
+
+    def __init__(self, path: str | os.PathLike[str], start: int, stop: int) -> None:
+        super().__init__()
+        self._fh = open(path, "rb", buffering=0)  # closed by close()
+        self._fh.seek(start)
+        self._left = stop - start
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:
+        n = min(len(buffer), self._left)
+        if n <= 0:
+            return 0
+        with memoryview(buffer) as view:
+            got = self._fh.readinto(view[:n]) or 0
+        self._left -= got
+        return got
+
+    def close(self) -> None:
+        self._fh.close()
+        super().close()
+
+
+READ_PARTS_MIN_BYTES = 8 << 20
+"""Table bodies at least this large are parsed in two parts on two threads by :func:`read_table_file` when a
+second core is at least half idle (:func:`_idle_cores`); the parts then cost one copy of the numbers."""
+
+
+def _idle_cores() -> float:
+    """Cores this process may run on minus the machine's 1-minute load average (the cores minus one where the load
+    is unknown): a second parsing thread only pays when it gets most of a core."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    try:
+        return cores - os.getloadavg()[0]
+    except (AttributeError, OSError):  # no load average (Windows)
+        return cores - 1.0
+
+
+def _plain_row(line: bytes, sep: bytes, n_columns: int) -> bool:
+    """Whether a line is a whole row of ``n_columns`` unquoted fields: where pandas may start parsing a second part
+    (it takes the first row of a stream more leniently than the others: an extra trailing field is dropped)."""
+    cells = line.split(b"#", 1)[0]
+    return line.endswith(b"\n") and b'"' not in line and cells.count(sep) == n_columns - 1 and bool(cells.strip())
+
+
+def _read_numbers_fast(path: str | os.PathLike[str], start: int, n_columns: int, sep: str,
+                       encoding: str | None) -> tuple[np.ndarray, ...] | None:
+    """The numbers of a table from byte ``start`` on, one float vector per column, parsed by pandas as
+    :func:`_read_frame` does, when they are all finite numbers (else None).
+
+    Unlike :func:`_read_frame`, pandas does not look for NaN markers (``na_filter=False``: a cell such as ``NA`` or
+    an empty one is then not a number, and the file goes to :func:`parse_table`, which names it); the vectors pandas
+    parsed are kept as they are, not copied into one array.
+    """
+    import warnings
+
+    import pandas as pd
+
+    enc = "latin-1" if encoding == "latin-1" else "utf-8"
+    cuts = [start]
+    try:
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size - start >= READ_PARTS_MIN_BYTES and _idle_cores() >= 0.5:
+                fh.seek(start + (size - start) // 2)
+                rest = fh.readline(MAX_HEADER_CHARS)  # the parts split between two lines
+                cut = fh.tell()
+                if rest.endswith(b"\n") and _plain_row(fh.readline(MAX_HEADER_CHARS), sep.encode(), n_columns):
+                    cuts.append(cut)
+    except OSError:
+        return None
+    cuts.append(size)
+
+    def part(i: int) -> list[np.ndarray]:
+        with io.BufferedReader(_FileRange(path, cuts[i], cuts[i + 1]), 1 << 18) as fh:
+            frame = pd.read_csv(fh, sep=sep, header=None, names=range(n_columns), comment="#",
+                                skip_blank_lines=True, index_col=False, engine="c", decimal=".", encoding=enc,
+                                na_filter=False)
+        return [frame.iloc[:, j].to_numpy() for j in range(n_columns)]
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", pd.errors.DtypeWarning)
+            if len(cuts) == 2:
+                parts = [part(0)]
+            else:
+                with ThreadPoolExecutor(max_workers=len(cuts) - 1) as pool:
+                    parts = list(pool.map(part, range(len(cuts) - 1)))
+    except (ValueError, OSError):  # pandas' parser and decoding errors are ValueErrors
+        return None
+    if any(c.dtype.kind not in "iuf" for p in parts for c in p) or sum(len(p[0]) for p in parts) == 0:
+        return None
+    if len(parts) == 1:
+        columns = tuple(_own_float_vector(c) for c in parts[0])
+    else:
+        columns = tuple(np.concatenate([p[j] for p in parts]).astype(float, copy=False) for j in range(n_columns))
+    del parts
+    if not all(np.isfinite(c).all() for c in columns):
+        return None
+    return columns
+
+
+def _own_float_vector(c: np.ndarray) -> np.ndarray:
+    """A column pandas parsed as a writable float vector: the array itself when pandas only lent it read-only
+    (the frame that held it is gone), else a float copy."""
+    if c.dtype != np.float64 or not c.flags.c_contiguous:
+        return np.ascontiguousarray(c, dtype=float)
+    if not c.flags.writeable:
+        try:
+            c.flags.writeable = True  # pandas (copy-on-write) hands out read-only views of its own arrays
+        except ValueError:
+            return c.copy()
+    return c
 
 
 def _encoding_of(text: str | bytes) -> str | None:

@@ -40,8 +40,9 @@ import numpy as np
 
 from ..errors import DataError, UsageError
 from ..frf import Frf, normalize_quantity
-from ._table import MAX_HEADER_CHARS, TextTable, csv_rows, parse_table, read_table_data
+from ._table import MAX_HEADER_CHARS, TextTable, parse_table, read_table_data
 from .atomic import atomic_write_text
+from .csv_text import csv_rows
 
 SUFFIXES = ("re", "im", "mag", "mag_db", "phase_deg", "phase_rad", "coh")
 FREQ_KEYS = {"freq_hz": 1.0, "freq_khz": 1e3, "freq_rad_s": 1.0 / (2.0 * math.pi)}

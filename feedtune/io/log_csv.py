@@ -22,8 +22,9 @@ import numpy as np
 
 from ..errors import DataError
 from ..log import Log
-from ._table import csv_rows, parse_table, read_table_data
-from .atomic import atomic_write_text
+from ._table import parse_table, read_table_data, read_table_file
+from .atomic import atomic_output
+from .csv_text import csv_row_chunks, csv_rows
 from .log_read import RawLog
 
 _HEADER_UNIT_RE = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]*)[\])]\s*$")
@@ -39,9 +40,30 @@ def _split_header(name: str) -> tuple[str, str | None]:
 
 
 def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int = 0) -> RawLog:
-    """Parse a log CSV into a :class:`RawLog` (columns by header name, units from headers/metadata)."""
-    text, name = read_table_data(source, "CSV")
-    table = parse_table(text, name, skip_rows=skip_rows, require_header=False)
+    """Parse a log CSV into a :class:`RawLog` (columns by header name, units from headers/metadata).
+
+    A path is parsed by :func:`~feedtune.io._table.read_table_file` (the numbers straight from the file, without
+    its text in memory), an open file by :func:`~feedtune.io._table.parse_table`; both give the same log and the
+    same errors.
+
+    Parameters
+    ----------
+    source : path-like or file object
+        The CSV file.
+    skip_rows : int
+        Lines to skip before anything else (vendor preambles).
+
+    Returns
+    -------
+    RawLog
+        The columns, units and metadata.
+    """
+    if isinstance(source, (str, os.PathLike)):
+        table = read_table_file(source, "CSV", skip_rows=skip_rows, require_header=False)
+    else:
+        text, name = read_table_data(source, "CSV")
+        table = parse_table(text, name, skip_rows=skip_rows, require_header=False)
+    name = table.name
     columns: dict[str, np.ndarray] = {}
     units: dict[str, str] = {}
     aliases: dict[str, str] = {}
@@ -49,7 +71,7 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
         sig, unit = _split_header(header)
         if sig in columns:
             sig = header
-        columns[sig] = table.data[:, j]
+        columns[sig] = table.column_vector(j)
         aliases[header] = sig
         aliases[f"col{j}"] = sig
         if unit is not None:
@@ -73,8 +95,8 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
     return RawLog(name, columns, units, meta, resolve, aliases={k: v for k, v in aliases.items() if k != v})
 
 
-def log_to_csv_text(log: Log) -> str:
-    """CSV text of a log: ``# source:`` metadata, header ``t [s],NAME [UNIT],...``, full float precision."""
+def _csv_head(log: Log) -> str:
+    """The lines above the numbers: ``# feedtune log``, ``# source:`` and other metadata, the header row."""
     for key in log.signals:
         if any(c in key for c in ',"[]#') or key != key.strip() or not key:
             raise DataError(f"{log.source}: signal name {key!r} cannot be a CSV column name "
@@ -89,13 +111,30 @@ def log_to_csv_text(log: Log) -> str:
                 and re.fullmatch(r"[A-Za-z_]\w*", key):
             lines.append(f"# {key}: {' '.join(str(value).split())}")
     header = ["t [s]"] + [f"{k} [{log.units.get(k, '')}]" if log.units.get(k) else k for k in log.signals]
-    cols = {"t": log.t, **log.signals}
-    body = csv_rows(list(cols.values()))
-    return "\n".join([*lines, ",".join(header)]) + "\n" + body
+    return "\n".join([*lines, ",".join(header)]) + "\n"
+
+
+def log_to_csv_text(log: Log) -> str:
+    """CSV text of a log: ``# source:`` metadata, header ``t [s],NAME [UNIT],...``, full float precision.
+
+    Parameters
+    ----------
+    log : Log
+        The log.
+
+    Returns
+    -------
+    str
+        The text :func:`write_log_csv` writes.
+    """
+    return _csv_head(log) + csv_rows([log.t, *log.signals.values()])
 
 
 def write_log_csv(log: Log, path: str | os.PathLike[str], *, force: bool = False) -> None:
     """Write a log as CSV (time [s] first, full precision) atomically.
+
+    The text is that of :func:`log_to_csv_text`, written a chunk of rows at a time (see
+    :func:`~feedtune.io.csv_text.csv_row_chunks`): the text of the whole log is never in memory.
 
     Parameters
     ----------
@@ -106,4 +145,11 @@ def write_log_csv(log: Log, path: str | os.PathLike[str], *, force: bool = False
     force : bool
         Replace an existing file.
     """
-    atomic_write_text(path, log_to_csv_text(log), force=force)
+    head = _csv_head(log).encode("utf-8")
+    with atomic_output(path, force=force) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(head)
+            for chunk in csv_row_chunks([log.t, *log.signals.values()]):
+                fh.write(chunk)
+            fh.flush()
+            os.fsync(fh.fileno())
