@@ -339,3 +339,34 @@ def test_rack_pinion_hump_law(real_data_dir):
     # measured RMS 3.4 N (4.2 %) of a 100 N peak force; the author's published coefficients (Fc 10 N,
     # Fv 67.4 N/(m/s), Fmax 29.6 N, vs 0.0135 m/s, m 24.7 kg) leave 6.5 N (8.1 %) on the same samples
     assert fit.rms_error < 5.0 and fit.relative_error_pct < 6.0
+
+
+def test_joint_fit_of_a_one_way_run_gives_the_mass_and_that_direction(tmp_path, capsys, monkeypatch):
+    import sys
+
+    from feedtune.cli.main import main
+    from feedtune.identify.friction import OneDirectionError, fit_joint_friction
+    from feedtune.io import write_log_csv
+
+    truth = _truth("hump")
+    log = _plateau_log(truth, both=False, mass=25.0, noise=0.02)
+    with pytest.raises(OneDirectionError, match="both directions"):
+        fit_joint_friction(log, position="x", command="u", law="hump")
+    fit = fit_joint_friction(log, position="x", command="u", law="hump", one_direction=True)
+    assert fit.mass == pytest.approx(25.0, rel=0.02)
+    assert set(fit.law_fit.directions) == {"pos"} and any("one way only" in w for w in fit.warnings)
+    d = fit.law_fit.directions["pos"]
+    assert d.dc == pytest.approx(truth.dc_pos, rel=0.05) and d.viscous == pytest.approx(40.0, rel=0.1)
+    # the command line falls back to it (no model file: it would need both directions)
+    write_log_csv(log, tmp_path / "oneway.csv")
+    for extra, code in (([], 0), (["--out", str(tmp_path / "f.toml")], 1)):
+        monkeypatch.setattr(sys, "argv", ["feedtune", "identify", "friction", str(tmp_path / "oneway.csv"),
+                                          "--position", "x", "--input", "u", "--law", "hump", *extra])
+        try:
+            main()
+            got = 0
+        except SystemExit as exc:
+            got = exc.code
+        out, err = capsys.readouterr()
+        assert got == code, err
+    assert "one way only" in err or "one way only" in out

@@ -100,3 +100,19 @@ def test_cli_convert_and_merge(tmp_path):
     with pytest.raises(UsageError, match="two or more logs"):  # exit 2 through main()
         run.invoke(app, ["log", "merge", str(tmp_path / "daq.csv"), "--out", str(tmp_path / "x.csv")],
                    catch_exceptions=False)
+
+
+def test_a_vendor_log_with_a_units_row_under_the_names(tmp_path):
+    from feedtune.io import read_log
+
+    # an amplifier trace: a preamble, the names, a row of units and descriptions, then numbers (time in ms)
+    text = ("Axis1\nSampling time interval(ms),0.5\nTime,Analog 1,Analog 2\nms,Servo motor speed,V\n"
+            + "".join(f"{0.5 * k},{10.0 * k},{0.1 * k}\n" for k in range(40)))
+    (tmp_path / "amp.csv").write_text(text)
+    log = read_log(tmp_path / "amp.csv", skip_rows=2, time="Time", mapping={"n": "Servo motor speed"})
+    assert log.fs == pytest.approx(2000.0)  # ms converted: the units row is read
+    assert log.unit("Analog 2") == "V" and log["n"][3] == 30.0
+    # the first data row is line 5 of the file: a bad cell there is named with its line
+    (tmp_path / "bad.csv").write_text(text.replace("1.5,30.0,0.3", "1.5,x,0.3"))
+    with pytest.raises(DataError, match="line 8"):
+        read_log(tmp_path / "bad.csv", skip_rows=2, time="Time")

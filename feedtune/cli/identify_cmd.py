@@ -278,6 +278,29 @@ def _friction_steady_state_text(result: dict, log_file: Path | str) -> None:
         typer.echo(f"wrote {p}")
 
 
+def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: bool) -> None:
+    """Print the joint fit of data that move one way (a one-way friction run): mass, the law of that direction."""
+    result = {"log": str(log_file), **({"logs": [str(p) for p in log_files]} if len(log_files) > 1 else {}),
+              "method": "joint, one direction", "law": joint.law_fit.law, "joint_fit": joint.to_dict(),
+              "warnings": list(joint.warnings)}
+    if as_json:
+        print_json(result)
+        return
+    jf = result["joint_fit"]
+    fu = jf["law_fit"]["units"]
+    typer.echo(f"Friction ({joint.law_fit.law} law, joint fit with the mass, one direction) from {log_file}:")
+    typer.echo(f"  mass {_std_text(jf['mass'], jf['mass_std'], jf['units']['mass'])}")
+    for key, d in jf["law_fit"]["directions"].items():
+        typer.echo(f"  {'v > 0' if key == 'pos' else 'v < 0'}: "
+                   + ", ".join(f"{name} = {_std_text(d[name], d['std'].get(name), fu[name])}"
+                               for name in ("dc", "ds", "omega", "viscous")))
+    typer.echo(f"  fit RMS {fmt(jf['law_fit']['rms_error'], fu['rms_error'])} "
+               f"({fmt(jf['law_fit']['relative_error_pct'], '%')}), {jf['n_samples']} samples, filter "
+               f"{fmt(jf['cutoff_hz'], 'Hz')}")
+    for w in result["warnings"]:
+        typer.echo(f"  warning: {w}")
+
+
 @app.command("friction")
 def friction(
     log_files: list[Path] = typer.Argument(..., help="Tracking log(s) (.csv, .mat, .mf4) moving both ways at "
@@ -338,7 +361,7 @@ def friction(
     """Friction per direction: Stribeck eq. 2.1 (or --law hump|lugre) from the Kalman-filter equivalent disturbance,
     or with --steady-state from constant-velocity plateaus."""
     from ..errors import DataError
-    from ..identify.friction import identify_friction
+    from ..identify.friction import OneDirectionError, fit_joint_friction, identify_friction
     from ..identify.friction_curve import PlateauSettings, identify_friction_curve
     from ..io import save_model
     from ..models.friction import check_law
@@ -364,10 +387,21 @@ def friction(
             raise DataError(f"--out {out}: only {way} has plateaus, and a friction model file needs both directions; "
                             "run without --out to see the one-direction fit, or add runs the other way")
     else:
-        ident = identify_friction(logs, position=position, command=input_, model=model, mass=mass, viscous=viscous,
-                                  bandwidth_hz=bandwidth_hz, method=method or "steady-state", min_speed=min_speed,
-                                  per_direction_omega=per_direction_omega, reversal_guard_s=reversal_guard_s,
-                                  law=law, joint=not rigid_first, cutoff_hz=lpf_hz)
+        try:
+            ident = identify_friction(logs, position=position, command=input_, model=model, mass=mass,
+                                      viscous=viscous, bandwidth_hz=bandwidth_hz, method=method or "steady-state",
+                                      min_speed=min_speed, per_direction_omega=per_direction_omega,
+                                      reversal_guard_s=reversal_guard_s, law=law, joint=not rigid_first,
+                                      cutoff_hz=lpf_hz)
+        except OneDirectionError:
+            if out is not None:
+                raise DataError(f"--out {out}: the data move one way only, and a friction model file needs both "
+                                "directions; run without --out to see the one-direction fit, or add runs the other "
+                                "way") from None
+            joint = fit_joint_friction(logs, position=position, command=input_, law=law, cutoff_hz=lpf_hz,
+                                       min_speed=min_speed, one_direction=True)
+            _friction_one_direction(joint, log_files, log_file, as_json)
+            return
     result = {"log": str(log_file), **({"logs": [str(p) for p in log_files]} if len(log_files) > 1 else {}),
               **ident.to_dict()}
     if out is not None:

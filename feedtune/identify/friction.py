@@ -161,6 +161,11 @@ class StribeckFit:
         }
 
 
+class OneDirectionError(IllConditionedError):
+    """The data move one way only: a friction model of both directions cannot be identified (the joint fit of the
+    moving direction can, ``fit_joint_friction(..., one_direction=True)``)."""
+
+
 @dataclass(frozen=True)
 class JointFit:
     """Result of :func:`fit_joint_friction`: mass, viscous friction and a friction law fitted together.
@@ -186,6 +191,8 @@ class JointFit:
         Decimated samples in the fit.
     force_unit, position_unit : str
         Units of the command and of the position.
+    warnings : tuple of str
+        One direction only (the other's law is not identified), and the law fit's own warnings.
     """
 
     law_fit: FrictionLawFit
@@ -198,6 +205,7 @@ class JointFit:
     n_samples: int
     force_unit: str
     position_unit: str
+    warnings: tuple = ()
 
     @property
     def mass(self) -> float:
@@ -205,10 +213,10 @@ class JointFit:
         return float(self.law_fit.mass)
 
     @property
-    def viscous_pair(self) -> tuple[float, float]:
-        """Viscous coefficients ``(Fv+, Fv-)`` [command unit/(position unit/s)]."""
+    def viscous_pair(self) -> tuple[float | None, float | None]:
+        """Viscous coefficients ``(Fv+, Fv-)`` [command unit/(position unit/s)]; None for a direction without data."""
         d = self.law_fit.directions
-        return d["pos"].viscous, d["neg"].viscous
+        return tuple(d[k].viscous if k in d else None for k in ("pos", "neg"))
 
     def to_dict(self) -> dict:
         """JSON-ready summary with units."""
@@ -220,7 +228,7 @@ class JointFit:
             "law_fit": self.law_fit.to_dict(),
             "cutoff_hz": self.cutoff_hz, "cutoff_rule": self.cutoff_rule, "decimate": self.decimate,
             "dc_gain": self.dc_gain, "guard_s": self.guard_s, "min_speed": self.min_speed,
-            "n_samples": self.n_samples,
+            "n_samples": self.n_samples, "curve": self.law_fit.curve(), "warnings": list(self.warnings),
             "units": {"mass": f"{f}/({p}/s^2)", "mass_std": f"{f}/({p}/s^2)", "viscous_pos": f"{f}/({p}/s)",
                       "viscous_neg": f"{f}/({p}/s)", "cutoff_hz": "Hz", "guard_s": "s", "min_speed": f"{p}/s"},
         }
@@ -499,7 +507,7 @@ def _fit_result(theta, residual, jac, dirs, threshold, viscous, shared, omega_bo
 def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str, law: str = "stribeck",
                        command_scale: float = 1.0, command_unit: str | None = None, cutoff_hz: float | None = None,
                        filter_order: int = 4, decimate: int | None = None, min_speed: float | None = None,
-                       guard_s: float | None = None) -> JointFit:
+                       guard_s: float | None = None, one_direction: bool = False) -> JointFit:
     """Fit mass, viscous friction per direction and a friction law per direction together (module docstring).
 
     ``u = M a + Fv v + law(v)`` by nonlinear least squares
@@ -525,6 +533,9 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
         Samples slower than this are left out [velocity unit]; default 2 % of the peak speed.
     guard_s : float or None
         Time left out after every reversal [s]; default ``5 / cutoff_hz`` (:data:`JOINT_GUARD_CUTOFFS`).
+    one_direction : bool
+        Accept data that move one way (a one-way friction run): the law of that direction, with a warning.
+        Without it such data raise :class:`OneDirectionError`.
 
     Returns
     -------
@@ -580,15 +591,19 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
             f"joint friction fit: the acceleration carries no usable information (mass = {mass:.4g} +/- "
             f"{mass_std:.2g} {first.force_unit}/({first.position_unit}/s^2)); the log needs clear acceleration "
             "phases (or check the sign of the command scale)")
+    warnings: list[str] = []
     if len(fit.directions) < 2:
         missing = "v < 0" if "pos" in fit.directions else "v > 0"
-        raise IllConditionedError(f"joint friction fit: too few samples with {missing} above min_speed (need at least "
-                                  f"{MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions")
+        if not one_direction:
+            raise OneDirectionError(f"joint friction fit: too few samples with {missing} above min_speed (need at "
+                                    f"least {MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions")
+        warnings.append(f"the data move one way only (no samples with {missing} above min_speed): the friction law "
+                        "of the other direction is not identified")
     return JointFit(law_fit=fit, cutoff_hz=max(c[0] for c in cutoffs),
                     cutoff_rule="given" if cutoff_hz is not None else "; ".join(rules),
                     decimate=max(c[1] for c in cutoffs), dc_gain=cutoffs[0][2], guard_s=cutoffs[0][3],
                     min_speed=threshold, n_samples=int(v.size), force_unit=first.force_unit,
-                    position_unit=first.position_unit)
+                    position_unit=first.position_unit, warnings=tuple(warnings) + tuple(fit.warnings))
 
 
 # ------------------------------------------------------------------------------------- full procedure

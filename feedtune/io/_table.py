@@ -1,7 +1,8 @@
 """Shared parsing of numeric text tables (FRF and log CSV files).
 
 A table file has optional leading lines to skip (vendor preambles), ``#`` comment lines whose leading
-``# key: value`` lines are metadata, one header row of column names (optional for logs), then numeric rows.
+``# key: value`` lines are metadata, one header row of column names (optional for logs), optionally a second
+header row under it (units or descriptions: a row with a cell per column and no number), then numeric rows.
 Numbers are parsed with pandas (C engine); errors name the file, the line number and the column. Large files are
 parsed straight from the file (:func:`read_table_file`). Writing: :mod:`feedtune.io.csv_text`.
 """
@@ -50,6 +51,9 @@ class TextTable:
         0-based index of the line of the first data row.
     path : str or None
         The file, when ``text`` is empty: :attr:`lines` reads it.
+    unit_row : list of str or None
+        A second header row under the names, one cell per column (units such as ``ms`` or ``rpm``, or
+        descriptions such as ``Servo motor speed``), as written by many vendor tools; None without one.
     """
 
     name: str
@@ -61,6 +65,7 @@ class TextTable:
     text: str | bytes = field(default="", repr=False)
     first_data_index: int = 0
     path: str | None = None
+    unit_row: list[str] | None = None
 
     @property
     def data(self) -> np.ndarray:
@@ -240,7 +245,8 @@ def parse_table(
     assert head is not None  # only a partial text has no answer
     data = _parse_numbers(_Body(head.text, head.start, head.encoding), head.text, head.first, head.columns,
                           head.sep, name)
-    return TextTable(name, head.metadata, head.columns, data, head.has_header, head.comments, head.text, head.first)
+    return TextTable(name, head.metadata, head.columns, data, head.has_header, head.comments, head.text, head.first,
+                     unit_row=head.unit_row)
 
 
 @dataclass(frozen=True)
@@ -256,6 +262,28 @@ class _Head:
     first: int
     start: int
     sep: str
+    unit_row: list[str] | None = None
+
+
+def _unit_row(text: str | bytes, start: int, encoding: str | None, sep: str, n_columns: int,
+              partial: bool) -> tuple[list[str] | None, int] | None:
+    """A second header row under the names (units such as ``ms, V, rpm`` or descriptions; no cell a number, with a
+    decimal point or a decimal comma) and the
+    offset after it; ``(None, start)`` when the next line is not one, None when ``partial`` text ends inside it."""
+    nl = b"\n" if isinstance(text, bytes) else "\n"
+    end = text.find(nl, start)
+    if end < 0:
+        if partial:
+            return None
+        end = len(text)
+    raw = text[start:end]
+    line = _decoded(raw, encoding).rstrip("\r") if isinstance(raw, bytes) else raw.rstrip("\r")
+    if not _is_data_line(line):
+        return None, start
+    cells = _split_cells(line, sep)
+    if len(cells) != n_columns or not any(cells) or any(_is_number(c.replace(",", ".")) for c in cells if c):
+        return None, start
+    return cells, min(end + 1, len(text))
 
 
 def _parse_head(text: str | bytes, name: str, skip_rows: int, require_header: bool, what: str,
@@ -311,7 +339,15 @@ def _parse_head(text: str | bytes, name: str, skip_rows: int, require_header: bo
     else:
         columns = _unique_names(cells)
         has_header, first, start = True, k + 1, (len(text) if next_line < 0 else next_line + 1)
-    return _Head(text, encoding, metadata, comments, columns, has_header, first, start, sep)
+    unit_row = None
+    if has_header:
+        found = _unit_row(text, start, encoding, sep, len(columns), partial)
+        if found is None:
+            return None
+        unit_row, after = found
+        if unit_row is not None:
+            first, start = first + 1, after
+    return _Head(text, encoding, metadata, comments, columns, has_header, first, start, sep, unit_row)
 
 
 READ_HEAD_BYTES = 1 << 16
@@ -373,7 +409,8 @@ def _read_table_fast(path: str | os.PathLike[str], what: str, skip_rows: int,
     data = _read_numbers_fast(path, h.start, len(h.columns), h.sep, h.encoding)
     if data is None:
         return None
-    return TextTable(name, h.metadata, h.columns, data, h.has_header, h.comments, b"", h.first, str(path))
+    return TextTable(name, h.metadata, h.columns, data, h.has_header, h.comments, b"", h.first, str(path),
+                     unit_row=h.unit_row)
 
 
 class _FileRange(io.RawIOBase):

@@ -31,6 +31,18 @@ _HEADER_UNIT_RE = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]*)[\])]\s*$")
 _UNIT_META_RE = re.compile(r"^\s*([^=]+?)\s*=\s*(.*?)\s*$")
 
 
+_UNIT_TOKENS = frozenset("""s ms us µs ns min h m mm um µm nm km rad mrad urad deg ° rev rpm rps Hz kHz V mV kV A mA N
+kN mN Nm W kW g kg bar mbar Pa kPa MPa % pls pulse pulses count counts cnt inc K degC""".split())
+"""Unit symbols a second header row may hold (combined with ``/ * ^``, powers and spaces: ``N m``, ``m/s^2``)."""
+
+
+def looks_like_unit(cell: str) -> bool:
+    """True for a cell of a units row that is a unit (``ms``, ``m/s^2``, ``N m``), not a description
+    (``Servo motor speed``, ``Not selected``)."""
+    tokens = [t for t in re.split(r"[/*^()\s.·-]+|\d+", cell.strip()) if t]
+    return bool(tokens) and all(t in _UNIT_TOKENS for t in tokens)
+
+
 def _split_header(name: str) -> tuple[str, str | None]:
     """``"x2 [m]"`` -> ``("x2", "m")``; ``"x2"`` -> ``("x2", None)``."""
     m = _HEADER_UNIT_RE.match(name)
@@ -74,6 +86,11 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
         columns[sig] = table.column_vector(j)
         aliases[header] = sig
         aliases[f"col{j}"] = sig
+        below = table.unit_row[j].strip() if table.unit_row else ""
+        if unit is None and below and looks_like_unit(below):
+            unit = below
+        elif below and below not in aliases and below not in table.columns:
+            aliases[below] = sig  # a description under the name (``Servo motor speed``): --map may use it
         if unit is not None:
             units[sig] = unit
     for line in table.metadata.get("unit", []):
