@@ -25,6 +25,7 @@ from feedtune.io.gains import gains_document
 from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.machines import load_runtime
 from feedtune.models import THESIS_TABLE_3_1
+from feedtune.models.friction import StribeckFriction
 from feedtune.models.gantry import THESIS_GANTRY
 
 GCC = shutil.which("gcc")
@@ -41,6 +42,12 @@ PID = gantry_gains_document(design_gantry_pid(THESIS_GANTRY, kp=(4e3, 3e3), kd=(
 AXIS = axis_gains_document(design_loopshape(0.6977, crossover_hz=130, pm_deg=35,
                                             filters=FilterPack([Notch(186, 0.6, 0.7)], 1200.0),
                                             prefilter=PrefilterGains(1e-3, 1e-6, 0, 0)))
+AXIS_FRICTION_MODEL = StribeckFriction(0.05, 0.09, -0.06, -0.1, 2e-3, 3e-3, command_unit="V", velocity_unit="m/s")
+"""An asymmetric friction of the x axis [V, m/s], fed forward with a 2e-4 m/s band."""
+AXIS_FRICTION = axis_gains_document(design_loopshape(0.6977, crossover_hz=130, pm_deg=35,
+                                                     filters=FilterPack([Notch(186, 0.6, 0.7)], 1200.0),
+                                                     prefilter=PrefilterGains(1e-3, 1e-6, 0, 0),
+                                                     friction=AXIS_FRICTION_MODEL, friction_band=2e-4))
 BALLSCREW = gains_document(design_mcppc(THESIS_TABLE_3_1, filters=FilterPack([Notch(420.0, 0.55, 0.7)], 2000.0)))
 
 GANTRY_MAIN = r"""
@@ -111,13 +118,31 @@ def test_gantry_header_matches_the_runtime_sample_by_sample(tmp_path, doc):
     assert np.max(np.abs(got - ref) / scale) < 1e-9
 
 
+def _axis_inputs(n=3000, seed=5):
+    """A random-walk reference (steps of 1e-5 m) and an encoder 1e-6 m off it."""
+    rng = np.random.default_rng(seed)
+    r = np.cumsum(rng.standard_normal(n)) * 1e-5
+    return np.column_stack([r, r + rng.standard_normal(n) * 1e-6])
+
+
+def _axis_friction_inputs(n=3000, seed=6, fs=15000.0):
+    """A reference whose velocity swings through zero, +-8 mm/s at 10 Hz with 1e-4 m/s of noise: it crosses the
+    friction band of AXIS_FRICTION (2e-4 m/s) and its Stribeck region (2e-3, 3e-3 m/s) in both directions; an
+    encoder 1e-6 m off it."""
+    rng = np.random.default_rng(seed)
+    v = 8e-3 * np.sin(2 * np.pi * 10.0 * np.arange(n) / fs) + 1e-4 * rng.standard_normal(n)
+    r = np.cumsum(v) / fs
+    return np.column_stack([r, r + rng.standard_normal(n) * 1e-6])
+
+
 @needs_gcc
-def test_axis_header_matches_the_runtime_sample_by_sample(tmp_path):
-    rng = np.random.default_rng(5)
-    r = np.cumsum(rng.standard_normal(3000)) * 1e-5
-    inputs = np.column_stack([r, r + rng.standard_normal(3000) * 1e-6])
-    got = _run_c(tmp_path, c_header(AXIS), AXIS_MAIN, inputs)[:, 0]
-    rt = load_runtime(AXIS)
+@pytest.mark.parametrize(("doc", "make_inputs"), [(AXIS, _axis_inputs), (AXIS_FRICTION, _axis_inputs),
+                                                  (AXIS_FRICTION, _axis_friction_inputs)],
+                         ids=["axis", "axis+friction", "axis+friction-slow"])
+def test_axis_header_matches_the_runtime_sample_by_sample(tmp_path, doc, make_inputs):
+    inputs = make_inputs()
+    got = _run_c(tmp_path, c_header(doc), AXIS_MAIN, inputs)[:, 0]
+    rt = load_runtime(doc)
     rt.reset()
     ref = np.array([rt.step(*row) for row in inputs])
     assert np.max(np.abs(got - ref)) / np.max(np.abs(ref)) < 1e-9

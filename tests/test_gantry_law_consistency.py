@@ -1,6 +1,6 @@
 """One gantry law (issue 11): the compiled twin loop, the Python loop and the runtime replayed on a recorded run give
 the same commands sample by sample, for the MIMO law (with its pre-filter and the schedule across the table's
-travel), the independent PIDs and the x axis.
+travel), the independent PIDs and the x axis (with and without its Stribeck friction feedforward).
 
 The laws themselves are checked against independent descriptions elsewhere: the runtime against the designed transfer
 functions with scipy (tests/test_gantry_runtime.py) and the C header against the runtime (tests/test_export_c_kinds.py).
@@ -19,6 +19,7 @@ from feedtune.design.loopshape import design_loopshape
 from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.machines import load_runtime
 from feedtune.machines.gantry.twin import GantryTwin, GantryTwinParams
+from feedtune.models.friction import StribeckFriction
 from feedtune.models.gantry import THESIS_GANTRY
 from feedtune.sim.engine import numba_available
 from feedtune.sim.trajectory import multi_segment
@@ -30,10 +31,13 @@ MIMO = load_runtime(gantry_gains_document(design_gantry_mimo(THESIS_GANTRY, filt
                                                              prefilter2=PRE2)))
 PID = load_runtime(gantry_gains_document(design_gantry_pid(THESIS_GANTRY, kp=(6e3, 5e3), kd=(40.0, 35.0),
                                                            ki=(3e4, 2.5e4), filters=FilterPack([], 900.0))))
-AXIS = load_runtime(axis_gains_document(design_loopshape(
+AXIS_DESIGN = design_loopshape(
     THESIS_GANTRY.m_x, crossover_hz=130.0, pm_deg=35.0,
     filters=FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0),
-    prefilter=PrefilterGains(1e-3, 1e-6, 0.0, 0.0))))
+    prefilter=PrefilterGains(1e-3, 1e-6, 0.0, 0.0))
+AXIS = load_runtime(axis_gains_document(AXIS_DESIGN))
+AXIS_FRICTION = load_runtime(axis_gains_document(AXIS_DESIGN.with_friction(
+    StribeckFriction(0.2, 0.35, -0.25, -0.4, 0.01, 0.02, command_unit="V", velocity_unit="m/s"), v_band=1e-3)))
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
 
 
@@ -45,14 +49,15 @@ def _references(fs: float, n: int):
 
 
 @needs_numba
-@pytest.mark.parametrize("gantry", [MIMO, PID], ids=["mimo", "pid"])
-def test_compiled_loop_python_loop_and_replay_give_the_same_commands(gantry):
+@pytest.mark.parametrize(("gantry", "axis"), [(MIMO, AXIS), (PID, AXIS), (MIMO, AXIS_FRICTION)],
+                         ids=["mimo", "pid", "mimo+axis-friction"])
+def test_compiled_loop_python_loop_and_replay_give_the_same_commands(gantry, axis):
     # no clamp and no overload trip: the recorded commands are the laws' outputs over the whole run
     twin = GantryTwin(GantryTwinParams(u_max=None, overload_rms=None, envelope_m=0.05))
     n = int(1.2 * twin.fs)
     y, x = _references(twin.fs, n)
-    fast = twin.simulate(gantry, AXIS, y, x_ref=x, engine="numba")
-    slow = twin.simulate(gantry, AXIS, y, x_ref=x, engine="python")
+    fast = twin.simulate(gantry, axis, y, x_ref=x, engine="numba")
+    slow = twin.simulate(gantry, axis, y, x_ref=x, engine="python")
     assert not fast.tripped and not slow.tripped
     assert np.ptp(fast.x) > 0.4  # the schedule is interpolated across most of the table's travel
     for name in ("u1", "u2", "ux", "y1", "y2", "x"):
@@ -61,7 +66,7 @@ def test_compiled_loop_python_loop_and_replay_give_the_same_commands(gantry):
     # open-loop replay: the runtime, given the recorded readings, computes the recorded commands
     y0, x0 = fast.y_ref[0], fast.x_ref[0]
     u1, u2 = gantry.replay(fast.y_ref - y0, fast.y1 - y0, fast.y2 - y0, fast.x)
-    ux = AXIS.replay(fast.x_ref - x0, fast.x - x0)
+    ux = axis.replay(fast.x_ref - x0, fast.x - x0)
     for got, rec in ((u1, fast.u1), (u2, fast.u2), (ux, fast.ux)):
         assert np.max(np.abs(got - rec)) <= 1e-9 * np.max(np.abs(rec))
 

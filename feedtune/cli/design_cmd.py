@@ -127,8 +127,9 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
 
 def _friction_summary(ff: dict) -> None:
     levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg"))
-    typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], 'rad/s')} / "
-               f"{fmt(ff['omega_neg']['value'], 'rad/s')}, linear band +-{fmt(ff['v_band']['value'], 'rad/s')}")
+    vu = ff["v_band"].get("unit", "rad/s")  # rad/s (ball screw) or m/s (a linear axis)
+    typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], vu)} / "
+               f"{fmt(ff['omega_neg']['value'], vu)}, linear band +-{fmt(ff['v_band']['value'], vu)}")
 
 
 def _load_model(path: Path):

@@ -19,7 +19,15 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, print_json
-from .design_cmd import ALLOW_OPTION, DELAY_OPTION, NOTCH_OPTION, OUT_OPTION, QUANTITY_OPTION
+from .design_cmd import (
+    ALLOW_OPTION,
+    DELAY_OPTION,
+    FRICTION_BAND_OPTION,
+    FRICTION_OPTION,
+    NOTCH_OPTION,
+    OUT_OPTION,
+    QUANTITY_OPTION,
+)
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .limits_options import (
     DM_MIN_OPTION,
@@ -100,6 +108,10 @@ def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, 
     else:
         print_design_summary(result)
         print_check(result["check"])
+        if "friction_feedforward" in result:
+            from .design_cmd import _friction_summary
+
+            _friction_summary(result["friction_feedforward"])
         if written:
             typer.echo(f"wrote {out}")
     if violations:
@@ -161,6 +173,8 @@ def loopshape(
     prefilter: str = typer.Option(None, "--prefilter", help="Pre-filter gains VEL,ACC,JERK,SNAP "
                                                             "[s, s^2, s^3, s^4] (eq. 4.20)."),
     prefilter_hz: float = PREFILTER_HZ_OPTION,
+    friction: Path = FRICTION_OPTION,
+    friction_band: float = FRICTION_BAND_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     fs_override: bool = FS_OVERRIDE_OPTION,
@@ -180,15 +194,19 @@ def loopshape(
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20), designed or tuned."""
+    """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20), designed or tuned; optionally with
+    the Stribeck friction feedforward of an identified friction model (--friction, levels in the axis' command unit,
+    velocities in m/s)."""
     from ..analysis.gantry import analyze_axis, target_violations
     from ..analysis.limits import check_analysis
+    from ..control.friction import friction_feedforward
     from ..control.prefilter import PrefilterGains
-    from ..design.loopshape import design_loopshape
+    from ..design.loopshape import _command_unit_of, design_loopshape
     from ..errors import UsageError
     from ..frf import Frf
     from ..io.gantry_gains import axis_gains_document
     from ..tune.loopshape import tune_loopshape
+    from .design_cmd import _load_friction
     from .frf_options import FrfReadOptions, read_optional_frf
 
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
@@ -198,6 +216,13 @@ def loopshape(
         plant = load_model(plant_file)
     else:
         plant = read_optional_frf(plant_file, quantity, options=frf_options)
+    if friction_band is not None and friction is None:
+        raise UsageError("--friction-band needs --friction")
+    friction_model = _load_friction(friction)
+    if friction_model is not None:  # refuse a unit mismatch before designing (with_friction checks it again)
+        unit = plant.input_unit if isinstance(plant, Frf) else _command_unit_of(plant)
+        friction_feedforward(friction_model, command_unit=unit, lead_m_per_rad=None, v_band=friction_band,
+                             where=str(friction), command_where=str(plant_file))
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(plant_file, plant if isinstance(plant, Frf) else None),
@@ -219,6 +244,9 @@ def loopshape(
                                 pi_lag_bounds=None if pi_lag_deg is None else (pi_lag_deg, pi_lag_deg), **common)
         if not as_json:
             _print_tuning(design.tuning)
+    if friction_model is not None:
+        design = design.with_friction(friction_model, v_band=friction_band, where=str(friction),
+                                      plant_where=str(plant_file))
     full = analyze_axis(design, measured, channel=channel if measured is not None else None)
     analysis = full.to_dict()
     check, checked = check_analysis(full, policy)
@@ -230,6 +258,8 @@ def loopshape(
               "gain_units": {k: v["unit"] for k, v in doc["gains"].items()},
               "lead_stages": [s.to_dict() for s in design.lead_stages], "design": doc["design"],
               "analysis": analysis, "check": {"checked_case": checked}, **rate.to_json()}
+    if "friction_feedforward" in doc:
+        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
     _write_and_report(result, doc, check, extra, out=out, force=force, allow_unstable=allow_unstable,
                       as_json=as_json)
 

@@ -17,7 +17,9 @@ Stribeck velocity ``Omega`` (where the friction changes fastest anyway).
 
 Units: the ball-screw law's positions are rad of screw rotation, so a friction model identified on the table
 in m/s is converted with the screw lead ``lead_m_per_rad`` (from the gains file's ``[model]``): the Stribeck
-velocities and the band are stored in rad/s. The friction levels must be in the gains file's command unit.
+velocities and the band are stored in rad/s. A linear axis (the loop-shaped x axis, ``lead_m_per_rad=None``) runs
+in m and m/s: its model must be in m/s and is stored as it is. The friction levels must be in the gains file's
+command unit.
 
 Friction laws (:class:`~feedtune.models.friction.FrictionLaw`): a ``stribeck`` law is fed forward as eq. 2.1
 without its viscous term (the design's own feedforward ``(b1 + b2) s`` carries the viscous friction; the dropped
@@ -38,6 +40,10 @@ from ..models.friction import FrictionLaw, StribeckFriction
 
 LEVELS = ("dc_pos", "ds_pos", "dc_neg", "ds_neg")
 VELOCITY = "rad/s"
+"""Velocity unit of a rotary law (the ball screw's) [rad/s]."""
+LINEAR_VELOCITY = "m/s"
+"""Velocity unit of a linear axis' law (the loop-shaped x axis) [m/s]."""
+VELOCITY_UNITS = (VELOCITY, LINEAR_VELOCITY)
 BAND_FRACTION = 0.1
 """Default ``v_band`` as a fraction of the smaller Stribeck velocity [-]."""
 VELOCITY_TEXT = ("v_r[k] = (x_r'[k+P] - x_r'[k+P-1]) * fs (backward difference of the previewed, pre-filtered "
@@ -46,14 +52,15 @@ VELOCITY_TEXT = ("v_r[k] = (x_r'[k+P] - x_r'[k+P-1]) * fs (backward difference o
 
 @dataclass(frozen=True)
 class FrictionFeedforward:
-    """Stribeck friction feedforward in the law's units (command unit, rad/s of screw rotation).
+    """Stribeck friction feedforward in the law's units (command unit; rad/s of screw rotation or m/s of a linear
+    axis).
 
     Attributes
     ----------
     friction : StribeckFriction
-        Eq. 2.1 with velocities in rad/s and levels in the command unit.
+        Eq. 2.1 with velocities in the law's velocity unit (:data:`VELOCITY_UNITS`) and levels in the command unit.
     v_band : float
-        Half-width of the linear band around ``v = 0`` [rad/s], > 0.
+        Half-width of the linear band around ``v = 0`` [velocity unit], > 0.
     source : dict
         The model as given (its own units) and the lead used to convert it (information only).
     """
@@ -63,18 +70,24 @@ class FrictionFeedforward:
     source: dict | None = None
 
     def __post_init__(self) -> None:
-        if self.friction.velocity_unit != VELOCITY:
-            raise DataError(f"friction feedforward needs velocities in {VELOCITY}, got {self.friction.velocity_unit}")
+        if self.friction.velocity_unit not in VELOCITY_UNITS:
+            raise DataError(f"friction feedforward needs velocities in {' or '.join(VELOCITY_UNITS)}, got "
+                            f"{self.friction.velocity_unit}")
         if not (math.isfinite(self.v_band) and self.v_band > 0):
-            raise UsageError(f"friction band must be > 0 {VELOCITY}, got {self.v_band!r}")
+            raise UsageError(f"friction band must be > 0 {self.velocity_unit}, got {self.v_band!r}")
 
     @property
     def command_unit(self) -> str:
         """Unit of the feedforward command (the friction levels)."""
         return self.friction.command_unit
 
+    @property
+    def velocity_unit(self) -> str:
+        """Unit of the reference velocity (rad/s or m/s)."""
+        return self.friction.velocity_unit
+
     def command(self, velocity) -> np.ndarray:
-        """Feedforward ``d(v)`` [command unit] for reference velocities ``velocity`` [rad/s] (vectorised)."""
+        """Feedforward ``d(v)`` [command unit] for reference velocities ``velocity`` [velocity unit] (vectorised)."""
         return self.friction.smoothed(velocity, self.v_band)
 
     def edges(self) -> tuple[float, float]:
@@ -82,16 +95,16 @@ class FrictionFeedforward:
         pos, neg = self.friction.force(np.array([self.v_band, -self.v_band]))
         return float(pos), float(neg)
 
-    def section(self) -> dict:
-        """The ``[friction_feedforward]`` section of a gains file."""
-        f, u = self.friction, self.command_unit
+    def section(self, velocity_text: str = VELOCITY_TEXT) -> dict:
+        """The ``[friction_feedforward]`` section of a gains file (``velocity_text``: how the law forms ``v_r``)."""
+        f, u, vu = self.friction, self.command_unit, self.velocity_unit
         sec = {
             "model": "stribeck",
-            "velocity": VELOCITY_TEXT,
+            "velocity": velocity_text,
             **{n: {"value": getattr(f, n), "unit": u} for n in LEVELS},
-            "omega_pos": {"value": f.omega_pos, "unit": VELOCITY},
-            "omega_neg": {"value": f.omega_negative, "unit": VELOCITY},
-            "v_band": {"value": float(self.v_band), "unit": VELOCITY},
+            "omega_pos": {"value": f.omega_pos, "unit": vu},
+            "omega_neg": {"value": f.omega_negative, "unit": vu},
+            "v_band": {"value": float(self.v_band), "unit": vu},
         }
         if self.source:
             sec["source"] = copy.deepcopy(self.source)
@@ -101,12 +114,13 @@ class FrictionFeedforward:
         """JSON-ready parameters with units."""
         d = self.friction.to_dict()
         d["v_band"] = float(self.v_band)
-        d["units"] = {**d["units"], "v_band": VELOCITY}
+        d["units"] = {**d["units"], "v_band": self.velocity_unit}
         return d
 
 
-def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_m_per_rad: float,
-                         v_band: float | None = None, where: str = "friction model") -> FrictionFeedforward:
+def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_m_per_rad: float | None,
+                         v_band: float | None = None, where: str = "friction model",
+                         command_where: str = "the gains file") -> FrictionFeedforward:
     """Convert an identified friction model to the law's units.
 
     Parameters
@@ -116,18 +130,23 @@ def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_
         :class:`FrictionLaw` is fed forward without its viscous term (module docstring).
     command_unit : str
         The gains file's command unit; the model's levels must be in it.
-    lead_m_per_rad : float
-        Screw lead [m/rad] (table travel per rad of screw rotation), used for an m/s model.
+    lead_m_per_rad : float or None
+        Screw lead [m/rad] (table travel per rad of screw rotation), used for an m/s model of a rotary law
+        (velocities stored in rad/s). ``None``: a linear axis whose law runs in m/s; the model must be in m/s and
+        is not converted.
     v_band : float, optional
         Half-width of the linear band around zero velocity, in the MODEL's velocity unit (m/s or rad/s);
         default :data:`BAND_FRACTION` times the smaller Stribeck velocity.
     where : str
         Name of the friction model for messages.
+    command_where : str
+        Name of what fixes ``command_unit`` (the gains file, the plant's file) for messages.
 
     Raises
     ------
     DataError
-        The model's command unit differs from ``command_unit``, a bad lead, or a law other than ``stribeck``.
+        The model's command unit differs from ``command_unit``, a bad lead, a rad/s model for a linear axis, or a
+        law other than ``stribeck``.
     UsageError
         ``v_band`` not > 0.
     """
@@ -142,26 +161,33 @@ def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_
                                                "neg": {"value": friction.viscous_negative, "unit": unit}}}
         friction = friction.without_viscous()
     if friction.command_unit != command_unit:
-        raise DataError(f"{where}: friction levels are in {friction.command_unit!r} but the gains file's command is "
+        raise DataError(f"{where}: friction levels are in {friction.command_unit!r} but {command_where}'s command is "
                         f"in {command_unit!r}; identify the friction from the drive command in {command_unit}")
-    if not (isinstance(lead_m_per_rad, (int, float)) and math.isfinite(lead_m_per_rad) and lead_m_per_rad > 0):
-        raise DataError(f"{where}: the screw lead must be > 0 m/rad, got {lead_m_per_rad!r}")
-    per_rad = lead_m_per_rad if friction.velocity_unit == "m/s" else 1.0  # model velocity per rad/s
+    if lead_m_per_rad is None:  # a linear axis: the law's velocities are m/s, the model's must be too
+        if friction.velocity_unit != LINEAR_VELOCITY:
+            raise DataError(f"{where}: friction velocities are in {friction.velocity_unit!r} but the linear axis of "
+                            f"{command_where} moves in {LINEAR_VELOCITY!r}; identify the friction from the axis "
+                            "position in m")
+        per_rad, law_unit = 1.0, LINEAR_VELOCITY
+    else:
+        if not (isinstance(lead_m_per_rad, (int, float)) and math.isfinite(lead_m_per_rad) and lead_m_per_rad > 0):
+            raise DataError(f"{where}: the screw lead must be > 0 m/rad, got {lead_m_per_rad!r}")
+        per_rad, law_unit = (lead_m_per_rad if friction.velocity_unit == "m/s" else 1.0), VELOCITY  # model v per law v
     if v_band is None:
         v_band = BAND_FRACTION * min(friction.omega_pos, friction.omega_negative)
     if isinstance(v_band, bool) or not isinstance(v_band, (int, float)) or not (math.isfinite(v_band) and v_band > 0):
         raise UsageError(f"friction band must be > 0 {friction.velocity_unit}, got {v_band!r}")
     converted = StribeckFriction(friction.dc_pos, friction.ds_pos, friction.dc_neg, friction.ds_neg,
                                  friction.omega_pos / per_rad, friction.omega_negative / per_rad,
-                                 command_unit=command_unit, velocity_unit=VELOCITY)
-    source = {**friction.to_dict(), "velocity_unit": friction.velocity_unit,
-              "lead_m_per_rad": {"value": float(lead_m_per_rad), "unit": "m/rad"},
+                                 command_unit=command_unit, velocity_unit=law_unit)
+    lead = {} if lead_m_per_rad is None else {"lead_m_per_rad": {"value": float(lead_m_per_rad), "unit": "m/rad"}}
+    source = {**friction.to_dict(), "velocity_unit": friction.velocity_unit, **lead,
               "v_band": {"value": float(v_band), "unit": friction.velocity_unit}, **dropped}
     return FrictionFeedforward(converted, float(v_band) / per_rad, source)
 
 
 def reference_velocity(x_ref, fs: float) -> np.ndarray:
-    """Backward difference ``(x[k] - x[k-1]) fs`` with 0 on the first sample [rad/s for x in rad]."""
+    """Backward difference ``(x[k] - x[k-1]) fs`` with 0 on the first sample [rad/s for x in rad, m/s for x in m]."""
     x = np.asarray(x_ref, dtype=float)
     return np.diff(x, prepend=x[:1]) * float(fs)
 

@@ -19,6 +19,10 @@ pole-zero-matched controller, are all counted: the lead and the gain are iterate
 phase margin hold there. Feedforward is ``u_ff = m_x x_r''`` (eq. 4.19) and the trajectory pre-filter
 (eq. 4.20) ``x_r' = x_r + sum_n k_n s^n G_lpf^(n+1) x_r`` with ``G_lpf = w_f/(s + w_f)`` (80 Hz in the
 thesis) for ``n = 1..4`` (velocity, acceleration, jerk, snap).
+
+Optionally an identified Stribeck friction model (eq. 2.1, in the command unit and m/s) is fed forward from the
+reference velocity ``v_r = (x_r[k+P] - x_r[k+P-1]) fs`` (0 on the first sample), linear through zero inside a small
+band, as on the ball screw (:mod:`feedtune.control.friction`, :meth:`LoopShapeDesign.with_friction`).
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from ..control.filters import (
     _positive,
     split_lead,
 )
+from ..control.friction import FrictionFeedforward, friction_feedforward
 from ..control.prefilter import (
     PrefilterGains,
 )
@@ -201,6 +206,8 @@ class LoopShapeDesign:
         Largest phase of one lead stage [deg].
     tuning : dict
         How the targets were chosen (:func:`feedtune.tune.loopshape.tune_loopshape`); empty when given.
+    friction : FrictionFeedforward or None
+        Stribeck friction feedforward from the reference velocity [command unit, m/s] (:meth:`with_friction`).
     """
 
     plant: AxisPlant
@@ -218,8 +225,38 @@ class LoopShapeDesign:
     iterations: int
     max_stage_deg: float = 70.0
     tuning: dict = field(default_factory=dict)
+    friction: FrictionFeedforward | None = None
 
     kind = "loopshape"
+
+    def with_friction(self, friction, *, v_band: float | None = None, where: str = "friction model",
+                      plant_where: str | None = None) -> LoopShapeDesign:
+        """A copy with a Stribeck friction feedforward (replacing any; ``None`` removes it).
+
+        Parameters
+        ----------
+        friction : StribeckFriction, FrictionLaw or None
+            Identified model (``feedtune identify friction``): levels in the plant's command unit, velocities in
+            m/s. A ``stribeck`` law is fed forward without its viscous term.
+        v_band : float, optional
+            Half-width of the linear band around zero velocity [m/s]; default 0.1 x the smaller Stribeck velocity.
+        where : str
+            Name of the friction model for messages.
+        plant_where : str, optional
+            Name of the plant's file for messages (default: the plant's source).
+
+        Raises
+        ------
+        DataError
+            The model's levels are not in the plant's command unit, or its velocities are not in m/s.
+        UsageError
+            ``v_band`` not > 0.
+        """
+        if friction is None:
+            return replace(self, friction=None)
+        ff = friction_feedforward(friction, command_unit=self.plant.command_unit, lead_m_per_rad=None,
+                                  v_band=v_band, where=where, command_where=plant_where or self.plant.source)
+        return replace(self, friction=ff)
 
     @property
     def law(self) -> AxisLaw:
@@ -305,6 +342,8 @@ def design_loopshape(
     mass: float | None = None,
     channel: str | None = None,
     stages: int | None = None,
+    friction=None,
+    friction_band: float | None = None,
 ) -> LoopShapeDesign:
     """Double-lead-and-integral loop shaping of an axis (thesis eq. 4.17-4.18), see the module docstring.
 
@@ -336,6 +375,11 @@ def design_loopshape(
         FRF channel when the FRF has several.
     stages : int, optional
         Number of equal lead stages (each below 90 deg); default ``ceil(lead / max_stage_deg)``.
+    friction : StribeckFriction or FrictionLaw, optional
+        Friction model to feed forward from the reference velocity (:meth:`LoopShapeDesign.with_friction`):
+        levels in the plant's command unit, velocities in m/s.
+    friction_band : float, optional
+        Half-width of the friction feedforward's linear band around zero velocity [m/s].
 
     Returns
     -------
@@ -391,5 +435,7 @@ def design_loopshape(
                               "lower --crossover-hz or --pm-deg, or change the filters")
     else:
         raise DesignError(f"loop shaping did not converge at {wc_hz:g} Hz (phase error {err:.3g} deg)")
+    if friction is not None:
+        design = design.with_friction(friction, v_band=friction_band)
     return design
 

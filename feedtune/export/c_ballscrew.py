@@ -25,6 +25,8 @@ from .c_common import (
     COptions,
     filter_step_function,
     filter_type,
+    friction_constants,
+    friction_function,
     integrate_line,
     limit_lines,
     output_line,
@@ -72,7 +74,7 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
         f" * Ball-screw controller '{doc.get('controller')}' at fs = {fs:g} Hz, computational delay "
         f"{doc['sampling'].get('delay_samples', 1)} sample(s), reference preview "
         f"{doc['sampling'].get('preview_samples', 0)} sample(s).",
-        " * Positions in rad of screw rotation, command in the drive's unit "
+        " * Positions in rad of screw (or motor) rotation, command in the drive's unit "
         f"({doc.get('units', {}).get('command', 'V')}).",
         f" * Call {prefix}_init() once, then {prefix}_step() every sample with the reference "
         f"x_r[k + {P}_PREVIEW_SAMPLES] and the measured x1[k], x2[k];",
@@ -96,7 +98,7 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
     out += ["", *filter_type(opts)]
     for f in flt.values():
         out += f.arrays()
-    out += _friction_constants(friction, opts)
+    out += friction_constants(friction, opts)
     if opts.single:  # the pre-filtered reference in two parts, x_r_preview + pf (docstring)
         ref, corr, vel = "x_r_preview", ("pf" if pre else None), ("((x_r_preview - s->xp_prev) + (pf - s->pf_prev))"
                                                                   if pre else "(x_r_preview - s->xp_prev)")
@@ -119,7 +121,7 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
         f"static inline void {prefix}_init({prefix}_state *s) {{ memset(s, 0, sizeof(*s)); }}",
         "",
         *filter_step_function(opts),
-        *_friction_function(friction, opts),
+        *friction_function(friction, opts),
         f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [rad]; x1, x2 = measured positions at k [rad];",
         "   returns u [command unit] */",
         f"static inline {R} {prefix}_step({prefix}_state *s, {R} x_r_preview, {R} x1, {R} x2) {{",
@@ -154,41 +156,3 @@ def _friction(doc: dict, where: str):
 
     unit = doc.get("units", {}).get("command", "V") if isinstance(doc.get("units"), dict) else "V"
     return friction_from_section(doc["friction_feedforward"], str(unit), where)
-
-
-def _friction_constants(ff, opts: COptions) -> list[str]:
-    if ff is None:
-        return []
-    P, R, num = opts.P, opts.real, opts.num
-    f = ff.friction
-    edge_pos, edge_neg = ff.edges()
-    unit = ff.command_unit
-    return [
-        "/* Stribeck friction feedforward (eq. 2.1), reference velocity in rad/s, linear inside +-V_BAND */",
-        f"static const {R} {P}_FR_DC_POS = {num(f.dc_pos)}; /* {unit} */",
-        f"static const {R} {P}_FR_DS_POS = {num(f.ds_pos)}; /* {unit} */",
-        f"static const {R} {P}_FR_DC_NEG = {num(f.dc_neg)}; /* {unit} */",
-        f"static const {R} {P}_FR_DS_NEG = {num(f.ds_neg)}; /* {unit} */",
-        f"static const {R} {P}_FR_OMEGA_POS = {num(f.omega_pos)}; /* rad/s */",
-        f"static const {R} {P}_FR_OMEGA_NEG = {num(f.omega_negative)}; /* rad/s */",
-        f"static const {R} {P}_FR_V_BAND = {num(ff.v_band)}; /* rad/s */",
-        f"static const {R} {P}_FR_EDGE_POS = {num(edge_pos)}; /* {unit}, friction at +V_BAND */",
-        f"static const {R} {P}_FR_EDGE_NEG = {num(edge_neg)}; /* {unit}, friction at -V_BAND */",
-        "",
-    ]
-
-
-def _friction_function(ff, opts: COptions) -> list[str]:
-    if ff is None:
-        return []
-    prefix, P, R, zero, exp = opts.prefix, opts.P, opts.real, opts.num(0.0), opts.math("exp")
-    return [
-        "/* friction feedforward d(v) [command unit] for the reference velocity v [rad/s] */",
-        f"static inline {R} {prefix}_friction({R} v) {{",
-        f"    {R} a = {opts.math('fabs')}(v);",
-        f"    if (a < {P}_FR_V_BAND) return (v >= {zero} ? {P}_FR_EDGE_POS : {P}_FR_EDGE_NEG) * a / {P}_FR_V_BAND;",
-        f"    if (v > {zero}) return {P}_FR_DC_POS + ({P}_FR_DS_POS - {P}_FR_DC_POS) * {exp}(-a / {P}_FR_OMEGA_POS);",
-        f"    return {P}_FR_DC_NEG + ({P}_FR_DS_NEG - {P}_FR_DC_NEG) * {exp}(-a / {P}_FR_OMEGA_NEG);",
-        "}",
-        "",
-    ]

@@ -9,6 +9,10 @@ In ``float`` precision the filters are in difference form (:func:`~feedtune.expo
 pre-filtered reference is carried in two parts, the reference and the pre-filter's small correction, which the
 filters difference apart: their float sum would be rounded at the position's resolution, and the acceleration
 feedforward's second difference would multiply that rounding.
+
+An axis document with a ``[friction_feedforward]`` adds Stribeck eq. 2.1 of the previewed reference's backward
+difference velocity [m/s] to the feedforward (:func:`~feedtune.export.c_common.friction_function`, as
+:class:`~feedtune.machines.gantry.runtime.AxisRuntime`); the header then includes ``<math.h>`` (link with ``-lm``).
 """
 
 from __future__ import annotations
@@ -19,6 +23,8 @@ from .c_common import (
     banner,
     filter_step_function,
     filter_type,
+    friction_constants,
+    friction_function,
     integrate_line,
     limit_lines,
     output_line,
@@ -174,18 +180,22 @@ def axis_header(doc: dict, rt, opts: COptions) -> str:
     """
     prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
     pre = rt._prefilter_on
-    out = banner("Loop-shaped x-axis controller (eq. 4.18-4.20) with mass feedforward and trajectory pre-filter.",
+    fr = rt.friction
+    out = banner("Loop-shaped x-axis controller (eq. 4.18-4.20) with mass feedforward"
+                 + (", Stribeck friction feedforward (eq. 2.1)" if fr is not None else "")
+                 + " and trajectory pre-filter.",
                  doc, opts, [
                      f"fs = {rt.fs:g} Hz, computational delay {rt.delay_samples} sample(s), reference preview "
                      f"{rt.preview_samples} sample(s). Positions in m, command u_x in {unit}.",
                      f"Call {prefix}_init() once, then {prefix}_step() every sample with x_r[k + "
                      f"{P}_PREVIEW_SAMPLES] and the encoder x[k]; apply u_x with the delay the design assumed."])
-    out += ["", *_sampling(rt, opts), *limit_lines(opts, unit),
+    out += [*(["#include <math.h>"] if fr is not None else []), "", *_sampling(rt, opts), *limit_lines(opts, unit),
             f"static const {R} {P}_MASS = {num(rt.mass)}; /* {unit}/(m/s^2), feedforward mass */"]
     if pre:
         out += [f"static const {R} {P}_K_{t.upper()} = {num(k)}; /* s^{i + 1} */"
                 for i, (t, k) in enumerate(zip(("vel", "acc", "jerk", "snap"), rt.prefilter_gains, strict=True))]
     out.append("")
+    out += friction_constants(fr, opts)
     names = ["C", "POS", "ACC"] + (["PV", "PA", "PJ", "PS"] if pre else [])
     keys = {"C": "controller", "POS": "position", "ACC": "acceleration", "PV": PREFILTER[0], "PA": PREFILTER[1],
             "PJ": PREFILTER[2], "PS": PREFILTER[3]}
@@ -199,11 +209,14 @@ def axis_header(doc: dict, rt, opts: COptions) -> str:
         "typedef struct {",
         *_state_arrays(flt, names, opts),
         f"    {R} u_prev;",
+        *([f"    {R} r_prev;  /* previous x_r_preview [m]: the friction's reference velocity */",
+           "    int started;"] if fr is not None else []),
         f"}} {prefix}_state;",
         "",
         f"static inline void {prefix}_init({prefix}_state *s) {{ memset(s, 0, sizeof(*s)); }}",
         "",
         *filter_step_function(opts),
+        *friction_function(fr, opts),
         f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [m]; x = encoder at k [m]; returns u_x [{unit}] */",
         f"static inline {R} {prefix}_step({prefix}_state *s, {R} x_r_preview, {R} x) {{",
         "    float r = x_r_preview, rc = 0.0f;  /* the pre-filtered reference r + rc */" if opts.single
@@ -214,6 +227,8 @@ def axis_header(doc: dict, rt, opts: COptions) -> str:
                 f"           + {P}_K_JERK * {flt['PJ'].call('pj', 'r')} + {P}_K_SNAP * {flt['PS'].call('ps', 'r')};"]
     out += [
         f"    {R} uff = {P}_MASS * {flt['ACC'].call('acc', 'r')};",
+        *([f"    uff += {prefix}_friction(s->started ? (r - s->r_prev) * {P}_FS_HZ : {num(0.0)});",
+           "    s->r_prev = r; s->started = 1;"] if fr is not None else []),
         f"    {R} e = {flt['POS'].call('pos', ra, corr)} - x;",
         *output_line(opts, "u", f"{flt['C'].call('c', 'e')} + uff"),
         "    s->u_prev = u;",

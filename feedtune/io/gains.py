@@ -273,8 +273,12 @@ def with_friction_feedforward(doc: Mapping, friction: StribeckFriction, *, v_ban
     return refresh_law_text(out)
 
 
-def friction_from_section(sec, command_unit: str, where: str = "gains file") -> FrictionFeedforward:
-    """Read a ``[friction_feedforward]`` section; DataError naming the key when missing or inconsistent."""
+def friction_from_section(sec, command_unit: str, where: str = "gains file",
+                          velocity_unit: str = VELOCITY) -> FrictionFeedforward:
+    """Read a ``[friction_feedforward]`` section; DataError naming the key when missing or inconsistent.
+
+    ``velocity_unit`` is the law's: rad/s for the ball screw, m/s for a linear axis (``kind = "axis"``).
+    """
 
     if not isinstance(sec, Mapping):
         raise DataError(f"{where}: [friction_feedforward] must be a table")
@@ -284,10 +288,10 @@ def friction_from_section(sec, command_unit: str, where: str = "gains file") -> 
     for n in LEVELS:
         vals[n] = value(sec.get(n), f"{where}: friction_feedforward.{n}", command_unit)
     for n in ("omega_pos", "omega_neg", "v_band"):
-        vals[n] = value(sec.get(n), f"{where}: friction_feedforward.{n}", VELOCITY)
+        vals[n] = value(sec.get(n), f"{where}: friction_feedforward.{n}", velocity_unit)
     band = vals.pop("v_band")
     try:
-        model = StribeckFriction(**vals, command_unit=command_unit, velocity_unit=VELOCITY)
+        model = StribeckFriction(**vals, command_unit=command_unit, velocity_unit=velocity_unit)
         return FrictionFeedforward(model, band, sec.get("source"))
     except (DataError, UsageError) as exc:
         raise DataError(f"{where}: friction_feedforward: {exc}") from None

@@ -82,6 +82,17 @@ AXIS_LAW_TEXT = (
     "u is applied delay_samples after x[k] was sampled"
 )
 
+AXIS_FRICTION_LAW_TEXT = (
+    "every sample k, r = x_r[k+P]: d_n = prefilter_n(r); ra = r + sum_n k_n d_n; xr = position(ra); "
+    "uff = mass * acceleration(r); v_r = (r - r_prev) fs (0 on the first sample); r_prev = r; uff += friction(v_r); "
+    "e = xr - x[k]; u = controller(e) + uff; u is applied delay_samples after x[k] was sampled"
+)
+"""The axis law with a ``[friction_feedforward]`` (Stribeck eq. 2.1 of the reference velocity, m/s)."""
+
+AXIS_FRICTION_VELOCITY_TEXT = (
+    "v_r[k] = (x_r[k+P] - x_r[k+P-1]) * fs (backward difference of the previewed reference, not pre-filtered; 0 on "
+    "the first sample) [m/s]; uff += d(v_r), linear through 0 for |v_r| < v_band")
+
 SCHEDULE_TEXT = "linear interpolation in the table position x, clamped to the first/last row outside the table"
 
 
@@ -117,6 +128,17 @@ def entry(sec: dict, sec_name: str, key: str, where: str):
     if key not in sec:
         raise DataError(f"{where}: gains file has no {sec_name}.{key}")
     return sec[key]
+
+
+def axis_friction(doc: dict, where: str):
+    """The :class:`~feedtune.control.friction.FrictionFeedforward` of an axis document's ``[friction_feedforward]``
+    (velocities in m/s, levels in the command unit), or None without one."""
+    if doc.get("friction_feedforward") is None:
+        return None
+    from ..control.friction import LINEAR_VELOCITY
+    from .gains import friction_from_section
+
+    return friction_from_section(doc["friction_feedforward"], command_unit(doc), where, LINEAR_VELOCITY)
 
 
 def command_unit(doc: dict) -> str:
@@ -248,9 +270,20 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
 
 def axis_gains_document(design, analysis: dict | None = None) -> dict:
     """The gains document of a loop-shaped axis (:class:`~feedtune.design.loopshape.LoopShapeDesign`), in the
-    command unit of its plant."""
+    command unit of its plant.
+
+    With the design's friction feedforward (``design.friction``) the document has a ``[friction_feedforward]``
+    section (the ball screw's format, velocities in m/s) and the law's execution text includes it.
+
+    Parameters
+    ----------
+    design : LoopShapeDesign
+    analysis : dict, optional
+        ``AxisAnalysis.to_dict()`` to store for information.
+    """
     unit = design.plant.command_unit
     pre = design.prefilter
+    friction = getattr(design, "friction", None)
     return strip_none({
         "schema": SCHEMA,
         "kind": AXIS_KIND,
@@ -258,7 +291,7 @@ def axis_gains_document(design, analysis: dict | None = None) -> dict:
         "created_by": f"feedtune {__version__}",
         "sampling": _sampling(design.fs, design.delay_samples, design.preview_samples),
         "units": {"position": "m", "command": unit, "time": "s"},
-        "law": _law_section(AXIS_LAW_TEXT),
+        "law": _law_section(AXIS_LAW_TEXT if friction is None else AXIS_FRICTION_LAW_TEXT),
         "gains": {"K": q(design.gain, f"{unit}/(m*s)"), "Ti": q(design.ti_s, "s")},
         "filters": {
             "continuous": design.filters.to_dict(),
@@ -268,6 +301,7 @@ def axis_gains_document(design, analysis: dict | None = None) -> dict:
         "reference": _reference_section(design.prefilter_hz, design.fs),
         "feedforward": {"mass": q(design.plant.mass, f"{unit}/(m/s^2)")},
         "prefilter": {f"k_{t}": q(v, PREFILTER_UNITS[t]) for t, v in zip(PREFILTER_TERMS, pre.values(), strict=True)},
+        "friction_feedforward": None if friction is None else friction.section(AXIS_FRICTION_VELOCITY_TEXT),
         "model": {"kind": AXIS_KIND, "mass": q(design.plant.mass, f"{unit}/(m/s^2)"), "source": design.plant.source,
                   "mass_method": design.plant.mass_method},
         "design": design.design_dict(),

@@ -14,11 +14,16 @@ Data layout (built by :func:`gantry_law_data` / :func:`axis_law_data` from a run
   :data:`A_FILTERS`);
 * ``w``: ``(n, 2)`` states of the filter instances (:data:`G_STATES`: the gantry runs the filter pack, position and
   acceleration filters once per side);
-* ``par``: gains and flags (:data:`G_PAR`, :data:`A_PAR`); ``st``: the scalar states (:data:`G_ST`).
+* ``par``: gains and flags (:data:`G_PAR`, :data:`A_PAR`); ``st``: the scalar states (:data:`G_ST`, :data:`A_ST`).
+
+The axis law's optional friction feedforward (``[friction_feedforward]``, :mod:`feedtune.control.friction`) is
+eq. 2.1 of the backward-difference velocity of the previewed reference, linear through zero inside ``+-v_band``
+(:func:`friction_command`, the formula of :meth:`feedtune.models.friction.StribeckFriction.smoothed`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -38,8 +43,16 @@ G_ST = 5 + 13
 A_FILTERS = ("controller", "position", "acceleration", "prefilter_vel", "prefilter_acc", "prefilter_jerk",
              "prefilter_snap")
 """Filters of the axis law, in the order of ``seg`` (one instance each)."""
-AP_MASS, AP_KVEL, AP_KACC, AP_KJERK, AP_KSNAP, AP_PRE = range(6)
-A_PAR = 6
+AP_MASS, AP_KVEL, AP_KACC, AP_KJERK, AP_KSNAP, AP_PRE, AP_FS, AP_FRICTION = range(8)
+(AP_DC_POS, AP_DS_POS, AP_DC_NEG, AP_DS_NEG, AP_OMEGA_POS, AP_OMEGA_NEG, AP_V_BAND, AP_EDGE_POS,
+ AP_EDGE_NEG) = range(8, 17)
+A_PAR = 17
+"""Length of the axis ``par`` vector: mass [U/(m/s^2)], pre-filter gains [s..s^4], pre-filter flag, fs [Hz], friction
+flag, then the friction feedforward: levels dc+, ds+, dc-, ds- [U], Stribeck velocities omega+, omega- [m/s], band
+v_band [m/s] and the friction at +-v_band [U] (U the command unit)."""
+AS_STARTED, AS_R_PREV = range(2)
+A_ST = 2
+"""Length of the axis ``st`` vector: started flag, previous previewed reference [m] (the friction's velocity)."""
 
 
 def sos_run(sos, first, count, w, wfirst, x):
@@ -122,9 +135,25 @@ def gantry_law_step(sos, seg, w, wofs, par, st, sched_x, sched, r, y1, y2, x, ou
     out[1] = _sos(sos, seg[0, 0], seg[0, 1], w, wofs[1], w2) + row[3] * acc1 + row[4] * acc2
 
 
-def axis_law_step(sos, seg, w, par, r, x):
+def friction_command(par, v):
+    """The friction feedforward ``d(v)`` [command unit] of the reference velocity ``v`` [m/s]: eq. 2.1 outside
+    ``+-v_band``, the straight line through zero to the band's edges inside (``par`` of :data:`A_PAR`)."""
+    a = abs(v)
+    if a < par[AP_V_BAND]:
+        return (par[AP_EDGE_POS] if v >= 0.0 else par[AP_EDGE_NEG]) * a / par[AP_V_BAND]
+    if v > 0.0:
+        return par[AP_DC_POS] + (par[AP_DS_POS] - par[AP_DC_POS]) * math.exp(-a / par[AP_OMEGA_POS])
+    return par[AP_DC_NEG] + (par[AP_DS_NEG] - par[AP_DC_NEG]) * math.exp(-a / par[AP_OMEGA_NEG])
+
+
+_fric = friction_command
+
+
+def axis_law_step(sos, seg, w, par, st, r, x):
     """One sample of the x-axis law: reference ``r = x_r[k+P]`` and encoder ``x`` [m] -> ``u_x`` [command unit]
-    (one state instance per filter: the states of filter ``i`` start at ``seg[i, 0]``)."""
+    (one state instance per filter: the states of filter ``i`` start at ``seg[i, 0]``; ``st``: :data:`A_ST`).
+
+    With the friction flag, ``uff += d(v_r)`` with ``v_r = (r - r_prev) fs`` [m/s] (0 on the first sample)."""
     ra = r
     if par[AP_PRE] != 0.0:
         ra = (r + par[AP_KVEL] * _sos(sos, seg[3, 0], seg[3, 1], w, seg[3, 0], r)
@@ -132,6 +161,11 @@ def axis_law_step(sos, seg, w, par, r, x):
               + par[AP_KJERK] * _sos(sos, seg[5, 0], seg[5, 1], w, seg[5, 0], r)
               + par[AP_KSNAP] * _sos(sos, seg[6, 0], seg[6, 1], w, seg[6, 0], r))
     uff = par[AP_MASS] * _sos(sos, seg[2, 0], seg[2, 1], w, seg[2, 0], r)
+    if par[AP_FRICTION] != 0.0:
+        v = (r - st[AS_R_PREV]) * par[AP_FS] if st[AS_STARTED] != 0.0 else 0.0
+        st[AS_R_PREV] = r
+        st[AS_STARTED] = 1.0
+        uff += _fric(par, v)
     e = _sos(sos, seg[1, 0], seg[1, 1], w, seg[1, 0], ra) - x
     return _sos(sos, seg[0, 0], seg[0, 1], w, seg[0, 0], e) + uff
 
@@ -191,24 +225,50 @@ class GantryLawData:
 
 
 class AxisLawData:
-    """The arrays :func:`axis_law_step` runs on, built from an axis runtime."""
+    """The arrays :func:`axis_law_step` runs on, built from an axis runtime.
 
-    def __init__(self, sos: dict, mass: float, prefilter_gains, prefilter_on: bool) -> None:
+    Parameters
+    ----------
+    sos : dict of ndarray
+        The runtime's sections by name (:data:`A_FILTERS`).
+    mass : float
+        Feedforward mass [command unit/(m/s^2)].
+    prefilter_gains : sequence of float
+        ``k_vel .. k_snap`` [s .. s^4].
+    prefilter_on : bool
+        Whether the pre-filter runs.
+    fs : float
+        Sample rate [Hz] (the friction's velocity).
+    friction : FrictionFeedforward, optional
+        Friction feedforward [command unit, m/s].
+    """
+
+    def __init__(self, sos: dict, mass: float, prefilter_gains, prefilter_on: bool, fs: float = 1.0,
+                 friction=None) -> None:
         self.sos, self.seg = _stack(sos, A_FILTERS)
         self.w = np.zeros((max(self.sos.shape[0], 1), 2))
         par = np.zeros(A_PAR)
         par[AP_MASS] = mass
         par[AP_KVEL:AP_KSNAP + 1] = prefilter_gains
         par[AP_PRE] = 1.0 if prefilter_on else 0.0
+        par[AP_FS] = fs
+        if friction is not None:
+            f = friction.friction
+            par[AP_FRICTION] = 1.0
+            par[AP_DC_POS:AP_OMEGA_NEG + 1] = (f.dc_pos, f.ds_pos, f.dc_neg, f.ds_neg, f.omega_pos, f.omega_negative)
+            par[AP_V_BAND] = friction.v_band
+            par[AP_EDGE_POS], par[AP_EDGE_NEG] = friction.edges()
         self.par = par
+        self.st = np.zeros(A_ST)
 
     def reset(self) -> None:
         """Every state to rest."""
         self.w[:] = 0.0
+        self.st[:] = 0.0
 
     def args(self) -> tuple:
         """The array arguments of :func:`axis_law_step` before the signals."""
-        return self.sos, self.seg, self.w, self.par
+        return self.sos, self.seg, self.w, self.par, self.st
 
 
 _LAWS: list = []
@@ -234,8 +294,9 @@ def compiled_laws() -> tuple:
     """``(gantry_law_step, axis_law_step)`` compiled by numba (once per process, cached on disk), inlined into the
     compiled twin loop that calls them, with the sections and the schedule inlined into them."""
     if not _LAWS:
-        global _sos, _row
+        global _sos, _row, _fric
         _sos = compiled_inline(sos_run)
         _row = compiled_inline(schedule_row)
+        _fric = compiled_inline(friction_command)
         _LAWS.extend([compiled_inline(gantry_law_step), compiled_inline(axis_law_step)])
     return tuple(_LAWS)

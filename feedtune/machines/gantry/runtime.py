@@ -23,6 +23,10 @@ cascade in transposed direct form II (as ``scipy.signal.sosfilt``), states zero 
 normalised by its ``a0`` when the file is read. The schedule is interpolated linearly in ``x`` and clamped
 at the first and last row.
 
+:class:`AxisRuntime` adds the optional friction feedforward (``[friction_feedforward]``) to ``uff``: Stribeck eq. 2.1
+of the previewed reference's backward-difference velocity ``v_r = (r - r_prev) fs`` [m/s] (0 on the first sample),
+linear through zero inside ``+-v_band`` (:mod:`feedtune.control.friction`).
+
 :meth:`GantryRuntime.replay` and :meth:`AxisRuntime.replay` evaluate the same law for recorded signals
 without a per-sample loop (``sosfilt``); :func:`feedtune.machines.load_runtime` dispatches on the file's ``kind``.
 
@@ -302,11 +306,13 @@ class AxisRuntime:
     sos : dict of ndarray
         ``controller`` (K (Ti s + 1)/s x leads x filters, matched), ``position``, ``acceleration``,
         ``prefilter_vel`` .. ``prefilter_snap``.
+    friction : FrictionFeedforward or None
+        Friction feedforward (``[friction_feedforward]``) [command unit, m/s].
     """
 
     def __init__(self, *, sos: dict, mass: float, prefilter_gains, fs: float, delay_samples: int,
                  preview_samples: int, controller: str = "loopshape", command_unit: str = "V",
-                 source: str = "gains document") -> None:
+                 source: str = "gains document", friction=None) -> None:
         self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
         self.mass = float(mass)
         self.prefilter_gains = tuple(float(v) for v in prefilter_gains)
@@ -316,8 +322,12 @@ class AxisRuntime:
         self.controller = controller
         self.command_unit = command_unit
         self.source = source
+        if friction is not None and (friction.command_unit != command_unit or friction.velocity_unit != "m/s"):
+            raise DataError(f"{source}: friction feedforward is in {friction.command_unit!r} and "
+                            f"{friction.velocity_unit!r}, the axis in {command_unit!r} and 'm/s'")
+        self.friction = friction
         self._prefilter_on = any(v != 0.0 for v in self.prefilter_gains)
-        self.law = AxisLawData(self.sos, self.mass, self.prefilter_gains, self._prefilter_on)
+        self.law = AxisLawData(self.sos, self.mass, self.prefilter_gains, self._prefilter_on, self.fs, friction)
         self._step = compiled_laws()[1]
         self._args = self.law.args()
         self.reset()
@@ -325,7 +335,14 @@ class AxisRuntime:
     @classmethod
     def from_document(cls, doc: dict, where: str = "gains document") -> AxisRuntime:
         """Read an axis gains document; DataError names the missing or invalid entry."""
-        from ...io.gantry_gains import AXIS_KIND, PREFILTER_TERMS, PREFILTER_UNITS, check_header, command_unit
+        from ...io.gantry_gains import (
+            AXIS_KIND,
+            PREFILTER_TERMS,
+            PREFILTER_UNITS,
+            axis_friction,
+            check_header,
+            command_unit,
+        )
         from ...io.gantry_gains import entry as get
         from ...io.gantry_gains import section as sec
 
@@ -341,7 +358,8 @@ class AxisRuntime:
         gains = [value(get(pre, "prefilter", f"k_{t}", where), f"{where}: prefilter.k_{t}", PREFILTER_UNITS[t])
                  for t in PREFILTER_TERMS]
         return cls(sos=sos, mass=mass, prefilter_gains=gains, fs=fs, delay_samples=delay, preview_samples=preview,
-                   controller=str(doc.get("controller", "loopshape")), command_unit=unit, source=where)
+                   controller=str(doc.get("controller", "loopshape")), command_unit=unit, source=where,
+                   friction=axis_friction(doc, where))
 
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> AxisRuntime:
@@ -372,7 +390,19 @@ class AxisRuntime:
             for k, key in zip(self.prefilter_gains, _PREFILTER_KEYS, strict=True):
                 ra = ra + k * sos_filter(self.sos[key[:-4]], r)
         e = sos_filter(self.sos["position"], ra) - xm
-        return sos_filter(self.sos["controller"], e) + self.mass * sos_filter(self.sos["acceleration"], r)
+        return sos_filter(self.sos["controller"], e) + self.feedforward(x_ref)
+
+    def feedforward(self, x_ref) -> np.ndarray:
+        """The feedforward ``uff`` [command unit] per sample for a reference ``x_r[k]`` [m]: the mass times the
+        acceleration filter of the previewed reference, plus the friction of its backward-difference velocity
+        [m/s] when the file has a ``[friction_feedforward]``."""
+        from ...control.friction import reference_velocity
+
+        r = self.previewed(x_ref)
+        uff = self.mass * sos_filter(self.sos["acceleration"], r)
+        if self.friction is not None:
+            uff = uff + self.friction.command(reference_velocity(r, self.fs))
+        return uff
 
     def check_target(self, fs: float, where: str | None = None) -> None:
         """DataError unless the file was made for sample rate ``fs`` [Hz]."""
@@ -390,6 +420,7 @@ class AxisRuntime:
             "delay_samples": self.delay_samples,
             "preview_samples": self.preview_samples,
             "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
+            "friction_feedforward": None if self.friction is None else self.friction.to_dict(),
             "units": {"mass": f"{self.command_unit}/(m/s^2)", "k_vel": "s", "k_acc": "s^2", "k_jerk": "s^3",
                       "k_snap": "s^4", "fs_hz": "Hz", "command": self.command_unit},
         }

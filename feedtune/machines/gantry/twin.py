@@ -1108,7 +1108,7 @@ _m = _s = _g = _a = None  # the compiled callees of _closed_loop, set by _compil
 
 def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, par, nz, ex, rf, rec, cptr, ccol, cval, vptr,
                  vcol, vtab, vdif, g_sos, g_seg, g_w, g_wofs, g_par, g_st, g_sx, g_sched, g_out, a_sos, a_seg,
-                 a_w, a_par):
+                 a_w, a_par, a_st):
     """Plant and both control laws, one sample per iteration (the loop of :meth:`GantryTwin._run` with the laws of
     :mod:`feedtune.machines.gantry.law`); returns ``(last sample, status)``."""
     y1, y2, x = _m(0, z, par, nz, rec)
@@ -1116,7 +1116,7 @@ def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, par, nz, ex,
     k = 0
     for k in range(total):
         _g(g_sos, g_seg, g_w, g_wofs, g_par, g_st, g_sx, g_sched, yr[k + pg], y1 - y0, y2 - y0, x, g_out)
-        ux = _a(a_sos, a_seg, a_w, a_par, xr[k + pa], x - x0)
+        ux = _a(a_sos, a_seg, a_w, a_par, a_st, xr[k + pa], x - x0)
         status = _s(k, g_out[0], g_out[1], ux, z, znew, buf, work, par, nz, ex, rf, rec, cptr, ccol, cval, vptr,
                     vcol, vtab, vdif)
         if status != 0:
