@@ -66,6 +66,11 @@ def test_emps_published_values_and_friction(real_data_dir, tmp_path, capsys, mon
     fr = run_json(["identify", "friction", emps, *opts, "--out", tmp_path / "emps_friction.toml"], capsys, monkeypatch)
     assert fr["mass"] == pytest.approx(published["mass"], rel=0.02)
     assert fr["friction"]["coulomb"] == pytest.approx(published["coulomb"], rel=0.15)
+    axis = tmp_path / "emps_axis.toml"
+    run_json(["design", "loopshape", tmp_path / "emps.toml", "--crossover-hz", "30", "--pm-deg", "35", "--fs", "1000",
+              "--friction", tmp_path / "emps_friction.toml", "--out", axis], capsys, monkeypatch)
+    text = axis.read_text()
+    assert 'command = "N"' in text and "[friction_feedforward]" in text and '"V' not in text
 
 
 def test_hsm150_inertia_and_damping_from_all_twelve_files(real_data_dir, capsys, monkeypatch):
