@@ -15,6 +15,15 @@ from .limits_options import (
     PM_MIN_OPTION,
     limits_from_options,
 )
+from .log_options import (
+    FS_OPTION,
+    MAP_OPTION,
+    SCALE_OPTION,
+    SKIP_ROWS_OPTION,
+    TIME_OPTION,
+    UNIT_OPTION,
+    LogOptions,
+)
 
 HTML_SUFFIXES = (".html", ".htm")
 
@@ -45,6 +54,12 @@ def report(
     strict: bool = typer.Option(
         False, "--strict", help="Files in a folder that cannot be read or classified are errors, not warnings."
     ),
+    map_: list[str] = MAP_OPTION,
+    fs: float = FS_OPTION,
+    time: str = TIME_OPTION,
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    skip_rows: int = SKIP_ROWS_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -53,15 +68,20 @@ def report(
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Build a report: summary, identification, design and time-domain sections for the files given."""
+    """Build a report: summary, identification, design and time-domain sections for the files given.
+
+    The log options (--map, --scale, --unit, --time, --fs, --skip-rows) apply to the log files named on the command
+    line, as for 'feedtune analyze track' (e.g. --map x_ref=cmd --map x2_table=pos for a foreign tracking log);
+    logs inside folders are read as feedtune logs."""
     from ..report.build import build_report, write_report
     from ..report.collect import parse_log_kinds
     from ..report.sections import ReportLimits
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_report_paths(out, pdf, force)
+    options = LogOptions.from_cli(map_, fs, time, scale, unit, skip_rows)
     built = build_report(inputs, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict,
-                         limits=ReportLimits(policy))
+                         limits=ReportLimits(policy), log_reader=options.read)
     written = write_report(built, out, pdf=pdf, force=force)
     result = report_summary(built, written)
     if as_json:

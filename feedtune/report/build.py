@@ -67,7 +67,7 @@ def _sections(inputs: Inputs, limits: ReportLimits, strict: bool) -> tuple[list[
 
 def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None = None,
                  log_kinds: Mapping[str, str] | None = None, strict: bool = False,
-                 limits: ReportLimits | None = None, render: bool = True) -> Report:
+                 limits: ReportLimits | None = None, render: bool = True, log_reader=None) -> Report:
     """Build the report of the given files and folders.
 
     Parameters
@@ -85,6 +85,9 @@ def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None =
         Warning thresholds (Ms, margins, coherence, fit error, saturation).
     render : bool
         Render the HTML (``Report.html``); False leaves it empty (sections, figures and data only).
+    log_reader : callable, optional
+        ``log_reader(path)`` -> Log for the log files named in ``paths``
+        (:func:`~feedtune.report.collect.collect_inputs`).
 
     Returns
     -------
@@ -101,7 +104,7 @@ def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None =
     from .. import __version__
 
     limits = limits or ReportLimits()
-    inputs = collect_inputs(paths, log_kinds=log_kinds, strict=strict)
+    inputs = collect_inputs(paths, log_kinds=log_kinds, strict=strict, log_reader=log_reader)
     sections, data, warnings = _sections(inputs, limits, strict)
     data = plain({"schema": REPORT_SCHEMA, "created_by": f"feedtune {__version__}", "title": title or DEFAULT_TITLE,
                   "inputs": inputs.to_dict(), **data, "warnings": warnings})

@@ -221,30 +221,30 @@ def csv_is_frf(path: Path) -> bool:
     return False
 
 
-def _read_log_input(path: Path, log_kinds: Mapping[str, str]) -> LogInput:
+def _read_log_input(path: Path, log_kinds: Mapping[str, str], log_reader=None) -> LogInput:
     from ..io import read_log
 
-    log = read_log(path)
+    log = (log_reader or read_log)(path)
     kind, origin = log_kind(log, path, log_kinds)
     return LogInput(path, kind, log, origin)
 
 
-def _classify_table(path: Path, log_kinds: Mapping[str, str]) -> FrfInput | LogInput:
+def _classify_table(path: Path, log_kinds: Mapping[str, str], log_reader=None) -> FrfInput | LogInput:
     from ..io import read_frf
 
     if csv_is_frf(path):
         return FrfInput(path, read_frf(path))
-    return _read_log_input(path, log_kinds)
+    return _read_log_input(path, log_kinds, log_reader)
 
 
-def _classify_mat(path: Path, log_kinds: Mapping[str, str]) -> FrfInput | LogInput:
+def _classify_mat(path: Path, log_kinds: Mapping[str, str], log_reader=None) -> FrfInput | LogInput:
     from ..io import read_frf
 
     try:
         return FrfInput(path, read_frf(path))
     except DataError as frf_error:
         try:
-            return _read_log_input(path, log_kinds)
+            return _read_log_input(path, log_kinds, log_reader)
         except DataError as log_error:
             raise DataError(f"{path}: neither an FRF ({_tail(frf_error, path)}) nor a log "
                             f"({_tail(log_error, path)})") from None
@@ -256,8 +256,11 @@ def _tail(exc: Exception, path: Path) -> str:
     return msg[len(str(path)) + 2:] if msg.startswith(f"{path}: ") else msg
 
 
-def classify_file(path: Path, log_kinds: Mapping[str, str] | None = None):
+def classify_file(path: Path, log_kinds: Mapping[str, str] | None = None, log_reader=None):
     """Read one file and return what it is (ModelInput, GainsInput, FrfInput, LogInput or OtherInput).
+
+    ``log_reader(path)`` reads a log (default :func:`feedtune.io.read_log`; the command line passes one with its
+    log options, ``--map`` and so on, for the logs named on it).
 
     Raises
     ------
@@ -269,15 +272,15 @@ def classify_file(path: Path, log_kinds: Mapping[str, str] | None = None):
     if ext in DOCUMENT_EXTENSIONS:
         return _classify_document(path)
     if ext in TABLE_EXTENSIONS:
-        return _classify_table(path, log_kinds)
+        return _classify_table(path, log_kinds, log_reader)
     if ext in MAT_EXTENSIONS:
-        return _classify_mat(path, log_kinds)
+        return _classify_mat(path, log_kinds, log_reader)
     if ext in UFF_EXTENSIONS:
         from ..io import read_frf
 
         return FrfInput(path, read_frf(path))
     if ext in MDF_EXTENSIONS:
-        return _read_log_input(path, log_kinds)
+        return _read_log_input(path, log_kinds, log_reader)
     raise DataError(f"{path}: not a file feedtune reports on; expected model or gains files (.toml, .json), "
                     f"FRFs (.csv, .mat, .uff) or logs (.csv, .mat, .mf4)")
 
@@ -352,7 +355,7 @@ def _drop_json_twins(items: list) -> tuple[list, list[Skipped]]:
 
 
 def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mapping[str, str] | None = None,
-                   strict: bool = False) -> Inputs:
+                   strict: bool = False, log_reader=None) -> Inputs:
     """Read and classify the report's input files (see the module docstring).
 
     Parameters
@@ -363,6 +366,9 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
         ``{file name or path: kind}`` overrides of the kind of run of a log (kinds :data:`LOG_KINDS`).
     strict : bool
         Make an unreadable or unclassifiable file inside a folder an error (named files always are).
+    log_reader : callable, optional
+        ``log_reader(path)`` -> Log for the log files named in ``paths`` (a foreign log's column map, scales,
+        units); logs found in folders are read as feedtune logs.
 
     Returns
     -------
@@ -389,7 +395,7 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
     items, skipped = [], []
     for path, named in files:
         try:
-            item = classify_file(path, log_kinds)
+            item = classify_file(path, log_kinds, log_reader if named else None)
             items.append(item if named or not isinstance(item, LogInput) else replace(item, named=False))
         except DataError as exc:
             if named or strict:
