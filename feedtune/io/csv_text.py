@@ -8,6 +8,7 @@ from __future__ import annotations
 import collections
 import functools
 import itertools
+import sys
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -20,6 +21,9 @@ COMPILED_MIN_CELLS = 500_000
 """Smallest table (rows x columns) of float64 columns that :func:`csv_row_chunks` formats with the compiled
 kernel; smaller ones take the ``%`` formatting path (about 0.7 us a number: quicker than loading numba and the cached
 kernel, about 0.4 s once per process)."""
+COMPILED_MIN_CELLS_LOADED = 20_000
+"""The same threshold once numba is loaded in the process (a twin ran, as in the demos): only the cached kernel's
+load is left to pay (a few ms)."""
 
 _CELL_BYTES = 25
 """Longest cell the compiled kernel writes, with its separator (``-1.2345678901234567e-308,``)."""
@@ -48,7 +52,8 @@ def csv_row_chunks(columns: Sequence[np.ndarray], chunk_rows: int | None = None)
     """The text of :func:`csv_rows` as UTF-8 bytes, ``chunk_rows`` rows at a time (for writing without the text
     of the whole table in memory).
 
-    Tables of float64 columns only (logs, FRFs) with at least :data:`COMPILED_MIN_CELLS` cells are formatted by a
+    Tables of float64 columns only (logs, FRFs) with at least :data:`COMPILED_MIN_CELLS` cells
+    (:data:`COMPILED_MIN_CELLS_LOADED` when numba is loaded already) are formatted by a
     compiled kernel (:func:`format_float_rows`: the text of ``repr``, about 5x the ``%`` path on one thread, with
     two chunks at a time on two threads); other tables by one ``%`` formatting per chunk.
 
@@ -71,7 +76,8 @@ def csv_row_chunks(columns: Sequence[np.ndarray], chunk_rows: int | None = None)
     if any(len(c) != n for c in cols):
         raise ValueError(f"columns of different lengths: {[len(c) for c in cols]}")
     chunk_rows = chunk_rows or CSV_CHUNK_ROWS
-    if n * k >= COMPILED_MIN_CELLS and all(c.dtype == np.float64 and c.ndim == 1 for c in cols) \
+    min_cells = COMPILED_MIN_CELLS_LOADED if "numba" in sys.modules else COMPILED_MIN_CELLS
+    if n * k >= min_cells and all(c.dtype == np.float64 and c.ndim == 1 for c in cols) \
             and _row_kernel() is not None:
         yield from _compiled_chunks(cols, chunk_rows)
         return
