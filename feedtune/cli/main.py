@@ -92,8 +92,22 @@ class _Signalled(BaseException):
         self.signum = signum
 
 
+_RECEIVED: list[int] = []
+"""Signals received in this run: a library that swallows the exception (numba compiling inside a ctypes callback)
+fails later with an error of its own, which is then reported as the interruption it is."""
+
+
 def _on_signal(signum, frame):
+    _RECEIVED.append(signum)
     raise _Signalled(signum)
+
+
+def _exit_signalled(signum: int):
+    import signal
+
+    interrupted = signum == signal.SIGINT
+    typer.echo(f"feedtune: {'interrupted' if interrupted else 'terminated'}", err=True)
+    sys.exit(130 if interrupted else 143)
 
 
 def _quiet_stdout() -> None:
@@ -116,6 +130,7 @@ def main() -> None:
 
     for name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
+    _RECEIVED.clear()
     handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGINT)}
     signal.signal(signal.SIGTERM, _on_signal)
     signal.signal(signal.SIGINT, _on_signal)
@@ -131,26 +146,27 @@ def main() -> None:
 
 def _run() -> None:
     """Run the command line and turn its outcome into an exit code (:func:`main`)."""
-    import signal
 
     from ..errors import FeedtuneError
 
     try:
         code = app(standalone_mode=False)
     except FeedtuneError as exc:
+        if _RECEIVED:
+            _exit_signalled(_RECEIVED[0])
         typer.echo(f"feedtune: error: {exc}", err=True)
         sys.exit(exc.exit_code)
     except (KeyboardInterrupt, typer.Abort):
         typer.echo("feedtune: interrupted", err=True)
         sys.exit(130)
     except _Signalled as sig:
-        interrupted = sig.signum == signal.SIGINT
-        typer.echo(f"feedtune: {'interrupted' if interrupted else 'terminated'}", err=True)
-        sys.exit(130 if interrupted else 143)
+        _exit_signalled(sig.signum)
     except BrokenPipeError:
         _quiet_stdout()
         sys.exit(141)
     except Exception as exc:  # the parser's usage errors (click's, or typer's copy of click), or a bug
+        if _RECEIVED:  # the signal's exception was swallowed and this is what followed
+            _exit_signalled(_RECEIVED[0])
         if hasattr(exc, "show") and isinstance(getattr(exc, "exit_code", None), int):
             exc.show()
             sys.exit(exc.exit_code)
