@@ -96,6 +96,7 @@ def test_temporary_files_of_a_killed_process_are_swept_by_the_next_write(tmp_pat
     assert sweep_stale_temps(tmp_path) == []  # once per folder and process
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
 def test_a_signal_stops_the_demo_with_a_message_and_leaves_no_temporary_file(sig, code, word, tmp_path):
     """Before: SIGINT exited 130 without a word (typer swallowed it), SIGTERM left temporary files, and a kill in

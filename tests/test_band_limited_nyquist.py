@@ -229,6 +229,7 @@ def test_ballscrew_verdicts_on_a_band_limited_model_frf_equal_the_closed_loop_po
 
 
 # ------------------------------------------------------------------------------------ PID tuner
+@pytest.mark.slow
 @pytest.mark.parametrize("ms", [1.5, 2.2, 3.0])
 def test_pid_tuner_reaches_the_requested_ms_on_the_model(ms):
     pid = tune_gantry_pid(MODEL, ms_max=ms, filters=NOTCH_LPF)
@@ -237,6 +238,7 @@ def test_pid_tuner_reaches_the_requested_ms_on_the_model(ms):
     assert m.stable and eig_stable(pid.law, True) and eig_stable(pid.law, False)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ms", [1.5, 2.2, 3.0])
 def test_pid_tuner_reaches_the_requested_ms_on_a_measured_twin_frf(ms, measured_frf, twin):
     pid = tune_gantry_pid(MODEL, ms_max=ms, filters=NOTCH_LPF, frf=measured_frf)
@@ -275,6 +277,7 @@ def test_a_low_bandwidth_pid_between_its_asymptotes_is_counted_right_without_the
 
 
 # ------------------------------------------------------------------------------------ P-PI tuner
+@pytest.mark.slow
 def test_ppi_tuning_on_a_band_limited_frf_does_not_depend_on_its_lowest_line():
     # the tuner's candidate check continues each loop below the FRF with the scaled model, like the analysis
     found = {}

@@ -115,6 +115,7 @@ def _judged(design, frf=None) -> float:
 
 
 # -------------------------------------------------------------------------------------------- the tests
+@pytest.mark.slow
 def test_quick_brute_force_on_the_double_integrator():
     d, xo = _tuned(M_X, AXIS_FILTERS)
     assert _judged(d) == pytest.approx(xo, rel=1e-9)
@@ -151,6 +152,7 @@ def test_measured_frf_with_a_mode_is_checked_on_the_discrete_case():
     assert abs((pc.plant(top) * pc.hold(top) * d.controller_discrete().freqresp(top))[0]) <= 1 - 1 / POLICY.ms_max
 
 
+@pytest.mark.slow
 def test_tuning_record_and_bounds():
     d, _ = _tuned(M_X, AXIS_FILTERS)
     t = d.tuning

@@ -144,6 +144,7 @@ def _tuned(**kw):
 
 
 # -------------------------------------------------------------------------------------------- the tests
+@pytest.mark.slow
 def test_quick_brute_force_on_the_model():
     d, xo = _tuned(filters=NOTCH_LPF)
     bf = brute_force(MODEL, NOTCH_LPF, POLICY, zetas=ZETA_BOUNDS, rhos=RHO_BOUNDS)  # the corners of the box
@@ -207,6 +208,7 @@ def test_own_notch_at_a_lightly_damped_mode_raises_the_crossover(mode_plant):
     assert verdict.ok, verdict.violations
 
 
+@pytest.mark.slow
 def test_own_filters_equal_the_identical_search_with_the_same_filters(mode_plant):
     frf, own, x_own, _ = mode_plant
     _, x_same = _tuned(frf=frf, filters=own.law.filters, filter_choice="identical")
@@ -255,6 +257,7 @@ def test_bad_input_and_infeasible_limits():
 
 
 # ------------------------------------------------------------------------------------------------ CLI
+@pytest.mark.slow
 def test_cli_pid_filters_option(tmp_path, capsys, monkeypatch):
     import json
     import sys

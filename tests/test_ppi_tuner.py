@@ -196,6 +196,7 @@ def bench(real_data_dir, tmp_path_factory):
 
 
 # ------------------------------------------------------------------------------------------ brute force (quick)
+@pytest.mark.slow
 def test_example_frf_against_a_coarse_brute_force_and_the_previous_tuner(example):
     model, frf = example
     t0 = time.perf_counter()

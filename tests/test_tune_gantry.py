@@ -92,6 +92,7 @@ def independent_figures(doc: dict, frf, x: float, weights) -> tuple[float, float
     return ms, crossover
 
 
+@pytest.mark.slow
 def test_the_mimo_tuned_on_three_positions_meets_the_limits_on_each_by_an_independent_computation(mimo, frfs):
     doc = gantry_gains_document(mimo)
     t = mimo.extra["tuning"]
@@ -150,6 +151,7 @@ def test_positions_are_read_from_the_frfs_and_a_missing_one_is_refused(frfs):
         frf_positions(frfs, [0.0], 0.0)
 
 
+@pytest.mark.slow
 def test_tune_gantry_cli_certifies_each_position_and_analyze_agrees(frfs, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     save_model(tmp_path / "model.toml", MODEL)

@@ -58,6 +58,7 @@ def test_tuned_mcppc_reaches_the_best_of_a_dense_brute_force_search(example_frf)
     assert tuned.tuning["active_limit"]["name"] in ("ms", "pm_deg", "gm_db")
 
 
+@pytest.mark.slow
 def test_thesis_mcppc_does_not_beat_the_tuned_one_under_the_same_limits(example_frf):
     """On the twin's example FRF the thesis' manual MC-PPC (beta 4, 50 Hz, zeta 0.7) crosses over near 100 Hz but
     its loop crosses again near 160 Hz with 21 deg of phase margin: it fails the thesis' own PM limit. The tuned one
@@ -74,6 +75,7 @@ def test_thesis_mcppc_does_not_beat_the_tuned_one_under_the_same_limits(example_
     assert best.ms <= manual.ms
 
 
+@pytest.mark.slow
 def test_tuned_mcppc_reaches_the_manual_crossover_at_the_manual_ms_by_an_independent_computation():
     """Better than hand tuning, recomputed with python-control (the sampled loop of the Table 3.1 model, the
     controller's discrete transfer functions, one sample of delay): tuned at the thesis' PM limit and at the Ms of the

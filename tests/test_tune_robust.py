@@ -69,6 +69,7 @@ def designs():
     return tune_mcppc(MODEL, frf=FAMILY[1]), tune_mcppc(MODEL, frf=FAMILY)
 
 
+@pytest.mark.slow
 def test_the_design_tuned_on_every_frf_meets_the_limits_on_each_by_an_independent_computation(designs):
     _, robust = designs
     for model in MEMBERS:
@@ -79,6 +80,7 @@ def test_the_design_tuned_on_every_frf_meets_the_limits_on_each_by_an_independen
     assert robust.tuning["frfs"] == 3
 
 
+@pytest.mark.slow
 def test_the_design_tuned_on_the_middle_frf_alone_violates_the_limits_on_another(designs):
     middle, robust = designs
     verdicts = [_independent(middle.law(), m) for m in MEMBERS]
@@ -105,6 +107,7 @@ def _with_mode(frf):
     return Frf(F, frf.response * m, frf.outputs, frf.inputs, "position", None, "V", "rad", {"source": "mode"})
 
 
+@pytest.mark.slow
 def test_a_lightly_damped_mode_between_lines_gets_a_notch_there_and_the_design_meets_the_limits():
     assert not np.any(np.isclose(F, MODE_HZ, rtol=1e-3))
     d = tune_mcppc(MODEL, frf=_with_mode(FAMILY[1]), filter_choice="own")
