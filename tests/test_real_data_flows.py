@@ -4,25 +4,13 @@ them): each ends in numbers checked against what the data's owners published or 
 from __future__ import annotations
 
 import json
-import sys
 
 import pytest
-
-from feedtune.cli.main import main
+from cli_run import run
 
 pytestmark = pytest.mark.slow
 
 
-def run(args, capsys, monkeypatch):
-    """``feedtune ARGS`` in-process; (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def run_json(args, capsys, monkeypatch) -> dict:

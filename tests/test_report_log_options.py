@@ -3,22 +3,11 @@
 from __future__ import annotations
 
 import json
-import sys
 
-from feedtune.cli.main import main
+from cli_run import run
+
 from feedtune.io import read_log, write_log_csv
 from feedtune.log import Log
-
-
-def _run(args, capsys, monkeypatch):
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_report_maps_the_columns_of_a_foreign_tracking_log(examples_dir, tmp_path, capsys, monkeypatch):
@@ -29,9 +18,9 @@ def test_report_maps_the_columns_of_a_foreign_tracking_log(examples_dir, tmp_pat
                   {"source": "a drive's trace"})
     write_log_csv(foreign, tmp_path / "trace.csv")
     args = ["report", tmp_path / "trace.csv", "--log-kind", "trace.csv=track", "--out", tmp_path / "r.html", "--json"]
-    code, _, err = _run(args, capsys, monkeypatch)
+    code, _, err = run(args, capsys, monkeypatch)
     assert code == 1 and "no tracking error 'e2' and no reference 'x_ref'" in err  # without the map
-    code, out, err = _run([*args, "--map", "x_ref=cmd", "--map", "x2_table=pos", "--force"], capsys, monkeypatch)
+    code, out, err = run([*args, "--map", "x_ref=cmd", "--map", "x2_table=pos", "--force"], capsys, monkeypatch)
     assert code == 0, err
     summary = json.loads(out)
     assert any("Time" in s for s in summary["sections"]), summary

@@ -8,13 +8,12 @@ The rule lives in :mod:`feedtune.cli.sampling_options` (docs/commands.md, "Sampl
 from __future__ import annotations
 
 import json
-import sys
 from dataclasses import replace
 
 import numpy as np
 import pytest
+from cli_run import run
 
-from feedtune.cli.main import main
 from feedtune.errors import DataError, UsageError
 from feedtune.models import THESIS_TABLE_3_1
 
@@ -22,16 +21,6 @@ PPI_GAINS = ["--kpx", "60", "--kpv", "0.8", "--kiv", "100", "--allow-unstable"]
 """Fixed P-PI gains: no tuning, so every run is quick and the figures depend on fs and the delay alone."""
 
 
-def run(args, capsys, monkeypatch):
-    """Run ``feedtune ARGS`` in-process; return (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def run_json(args, capsys, monkeypatch) -> tuple[dict, str]:

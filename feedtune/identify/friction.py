@@ -57,7 +57,7 @@ from ..models.ballscrew import BallScrewModel
 from ..models.friction import StribeckFriction, check_law
 from ..models.rigid import RigidBodyModel
 from .data_quality import POOR_FIT_PCT
-from .friction_curve import FrictionLawFit, check_fitted_signs, fit_friction_law, parameter_std
+from .friction_curve import FrictionLawFit, as_series, check_fitted_signs, fit_friction_law, parameter_std
 from .kalman import DisturbanceEstimate, estimate_disturbance
 from .rigid import RigidFit, fit_rigid, position_si
 
@@ -302,19 +302,6 @@ class FrictionIdentification:
 
 
 # ------------------------------------------------------------------------------------- Stribeck fitting
-def _as_series(x, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise DataError(f"{name} must be numeric") from None
-    if a.ndim != 1:
-        raise DataError(f"{name} must be 1-D, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        bad = int(np.flatnonzero(~np.isfinite(a))[0])
-        raise DataError(f"{name} has a NaN or infinite value at sample {bad}")
-    return a
-
-
 def _viscous_pair(viscous) -> tuple[float, float]:
     pair = viscous if isinstance(viscous, (tuple, list)) else (viscous, viscous)
     try:
@@ -436,8 +423,8 @@ def fit_stribeck(velocity, disturbance, *, min_speed: float | None = None, per_d
         A fitted level has the sign opposite to its direction (``dc_pos, ds_pos >= 0``, ``dc_neg, ds_neg <= 0``;
         the message names it: a mirrored or sign-inverted command, or an offset larger than the friction).
     """
-    v = _as_series(velocity, "velocity")
-    d = _as_series(disturbance, "disturbance")
+    v = as_series(velocity, "velocity")
+    d = as_series(disturbance, "disturbance")
     if v.size != d.size:
         raise DataError(f"velocity has {v.size} samples but disturbance has {d.size}")
     if v.size == 0 or not np.any(v != 0):

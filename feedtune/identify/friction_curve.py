@@ -69,7 +69,8 @@ STD_SIGMAS = 3.0
 
 
 # ------------------------------------------------------------------------------------------- helpers
-def _series(x, name: str) -> np.ndarray:
+def as_series(x, name: str) -> np.ndarray:
+    """A finite 1-D float series (DataError naming ``name`` otherwise)."""
     try:
         a = np.asarray(x, dtype=float)
     except (TypeError, ValueError):
@@ -380,9 +381,9 @@ def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=Non
         (message names the parameter and the likely cause).
     """
     law = check_law(law)
-    v = _series(velocity, "velocity")
-    y = _series(force, "force")
-    a = None if acceleration is None else _series(acceleration, "acceleration")
+    v = as_series(velocity, "velocity")
+    y = as_series(force, "force")
+    a = None if acceleration is None else as_series(acceleration, "acceleration")
     if v.size != y.size or (a is not None and a.size != v.size):
         raise DataError(f"{where}: velocity, force (and acceleration) must have the same length, got {v.size}, "
                         f"{y.size}" + ("" if a is None else f", {a.size}"))
@@ -599,7 +600,7 @@ def find_plateaus(t, velocity, acceleration, force, *, settings: PlateauSettings
         The plateaus in time order and the resolved ``acc_tol``, ``min_speed`` of this log.
     """
     settings = settings or PlateauSettings()
-    t, v, a, u = (_series(x, n) for x, n in ((t, "t"), (velocity, "velocity"), (acceleration, "acceleration"),
+    t, v, a, u = (as_series(x, n) for x, n in ((t, "t"), (velocity, "velocity"), (acceleration, "acceleration"),
                                              (force, "force")))
     if not (t.size == v.size == a.size == u.size) or t.size < 2:
         raise DataError("plateau search: time, velocity, acceleration and force must have the same length (>= 2)")
