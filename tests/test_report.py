@@ -108,6 +108,7 @@ def test_demo_report_has_every_section_with_content(report):
         assert any(needle in t for t in titles), needle
 
 
+@pytest.mark.slow
 def test_every_figure_is_a_non_empty_image(report):
     import matplotlib.image as mpimg
 
@@ -124,6 +125,7 @@ def test_every_figure_is_a_non_empty_image(report):
         assert axes and all(ax.get_ylabel() for ax in axes) and any(ax.get_xlabel() for ax in axes), fig_id
 
 
+@pytest.mark.slow
 def test_html_embeds_every_figure_and_opens_without_network(report):
     text = report.html
     assert text.startswith("<!DOCTYPE html>") and len(text) < 10e6
@@ -136,6 +138,7 @@ def test_html_embeds_every_figure_and_opens_without_network(report):
 
 
 # ------------------------------------------------------------------------------------------ numbers
+@pytest.mark.slow
 def test_design_numbers_equal_analyze_json(report, demo_dir):
     for gains in ("mcppc_gains.toml", "ppi_gains.toml"):
         expected = cli_json("analyze", demo_dir / gains, "--frf", demo_dir / "frf.csv")
@@ -145,6 +148,7 @@ def test_design_numbers_equal_analyze_json(report, demo_dir):
         assert got["frf"] == "frf.csv"
 
 
+@pytest.mark.slow
 def test_time_domain_numbers_equal_analyze_track_and_ropesnap_json(report, demo_dir):
     tracks = sorted(p.name for p in demo_dir.glob("track_*.csv")) + sorted(p.name for p in demo_dir.glob("cut_*.csv"))
     assert sorted(report.data["tracking"]) == sorted(tracks)
@@ -155,6 +159,7 @@ def test_time_domain_numbers_equal_analyze_track_and_ropesnap_json(report, demo_
         assert report.data["ropesnap"][name]["metrics"] == expected
 
 
+@pytest.mark.slow
 def test_visible_tables_show_the_embedded_numbers(report):
     data = embedded_data(report.html)
     assert data == json.loads(json.dumps(report.data))
@@ -175,6 +180,7 @@ def test_visible_tables_show_the_embedded_numbers(report):
             assert n == pytest.approx(v * scale, rel=6e-4, abs=1e-300), (key, shown, v)
 
 
+@pytest.mark.slow
 def test_comparison_is_table_3_2_with_reductions_from_the_logs(report, demo_result):
     rows = report.data["comparison"]["tracking"]["rows"]
     assert report.data["comparison"]["tracking"]["baseline"] == "P-PI"
@@ -198,6 +204,7 @@ def test_comparison_is_table_3_2_with_reductions_from_the_logs(report, demo_resu
     assert any(isinstance(b, Paragraph) and "Against P-PI, MC-PPC reduces" in b.text for b in summary.blocks)
 
 
+@pytest.mark.slow
 def test_summary_flags_ms_above_the_limit(demo_dir):
     ms = cli_json("analyze", demo_dir / "ppi_gains.toml")["analysis"]["ideal_discrete"]["ms"]
     assert ms > 1.5
@@ -218,6 +225,7 @@ def test_summary_flags_ms_above_the_limit(demo_dir):
         (("track_200mm_s_mcppc.csv", "ropesnap_ppi.csv"), ["summary", "time", "inputs"]),
     ],
 )
+@pytest.mark.slow
 def test_partial_inputs_give_a_partial_report_without_empty_sections(demo_dir, files, expected):
     rep = build_report([demo_dir / f for f in files], render=False)
     assert [s.key for s in rep.sections] == expected
@@ -233,6 +241,7 @@ def test_partial_inputs_give_a_partial_report_without_empty_sections(demo_dir, f
         assert set(rep.data["ropesnap"]) == {"ropesnap_ppi.csv"}
 
 
+@pytest.mark.slow
 def test_partial_report_command_writes_html_without_empty_sections(demo_dir, tmp_path):
     out = tmp_path / "r.html"
     res = cli("report", demo_dir / "model.toml", demo_dir / "frf.csv", "--out", out, "--title", "Axis X", "--json")
@@ -246,6 +255,7 @@ def test_partial_report_command_writes_html_without_empty_sections(demo_dir, tmp
 
 
 # ------------------------------------------------------------------------------------------ bad input
+@pytest.mark.slow
 def test_unrecognised_file_is_a_one_line_error_and_writes_nothing(demo_dir, tmp_path):
     junk = tmp_path / "notes.txt"
     junk.write_text("these are my notes\nnot a table at all\n")
@@ -260,6 +270,7 @@ def test_unrecognised_file_is_a_one_line_error_and_writes_nothing(demo_dir, tmp_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["image.png", "notes.txt"]
 
 
+@pytest.mark.slow
 def test_existing_output_needs_force_and_is_left_untouched(demo_dir, tmp_path):
     out = tmp_path / "r.html"
     out.write_text("mine")
@@ -273,6 +284,7 @@ def test_existing_output_needs_force_and_is_left_untouched(demo_dir, tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.html", "r.pdf"]  # no temporary files left
 
 
+@pytest.mark.slow
 def test_folder_members_that_cannot_be_read_are_skipped_with_a_warning_or_refused_when_strict(demo_dir, tmp_path):
     folder = tmp_path / "in"
     folder.mkdir()
@@ -301,6 +313,7 @@ def test_a_log_without_metadata_needs_its_kind(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------ no recomputation
+@pytest.mark.slow
 def test_report_does_not_identify_or_design_again(demo_dir, monkeypatch):
     import feedtune.design.mcppc
     import feedtune.design.prefilter
@@ -391,6 +404,7 @@ def test_plot_decimation_keeps_extremes():
 
 
 # ------------------------------------------------------------------------------------------ demo command
+@pytest.mark.slow
 def test_demo_command_ends_with_the_report(demo_result, tmp_path, monkeypatch, report):
     import feedtune.report.html
     import feedtune.workflows.ballscrew_demo
@@ -408,6 +422,7 @@ def test_demo_command_ends_with_the_report(demo_result, tmp_path, monkeypatch, r
     assert data["tracking"] == json.loads(json.dumps(report.data["tracking"]))
 
 
+@pytest.mark.slow
 def test_tables_and_blocks_are_well_formed(report):
     for top in report.sections:
         for s in top.walk():
