@@ -278,11 +278,16 @@ def _friction_steady_state_text(result: dict, log_file: Path | str) -> None:
         typer.echo(f"wrote {p}")
 
 
-def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: bool) -> None:
-    """Print the joint fit of data that move one way (a one-way friction run): mass, the law of that direction."""
+def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: bool, curve_out: Path | None = None,
+                            force: bool = False) -> None:
+    """Print the joint fit of data that move one way (a one-way friction run): mass, the law of that direction;
+    with ``curve_out``, write its friction curve document first."""
     result = {"log": str(log_file), **({"logs": [str(p) for p in log_files]} if len(log_files) > 1 else {}),
               "method": "joint, one direction", "law": joint.law_fit.law, "joint_fit": joint.to_dict(),
               "warnings": list(joint.warnings)}
+    files = _joint_curve_files(joint, curve_out, log_file, joint.warnings, force)
+    if files:
+        result["files"] = files
     if as_json:
         print_json(result)
         return
@@ -299,6 +304,54 @@ def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: boo
                f"{fmt(jf['cutoff_hz'], 'Hz')}")
     for w in result["warnings"]:
         typer.echo(f"  warning: {w}")
+    for p in files:
+        typer.echo(f"wrote {p}")
+
+
+CURVE_METHODS = {"steady-state": "steady-state: mean command on constant-velocity plateaus, law fitted per direction",
+                 "joint": "joint fit of the mass and the law per direction: u = m a + law(v)"}
+"""The ``method`` line of a friction curve document, per source of the fit."""
+
+
+def _check_curve_out(curve_out: Path | None, out: Path | None, force: bool, joint: bool) -> None:
+    """Fail before any work when ``--curve-out`` cannot be written or has no fit with points to hold."""
+    from ..errors import UsageError
+    from ..io import ensure_writable
+
+    if curve_out is None:
+        return
+    suffix = curve_out.suffix.lower()
+    if suffix not in (".toml", ".json"):
+        raise UsageError(f"--curve-out {curve_out}: friction curve documents are written as .toml (with a .json "
+                         "twin) or .json")
+    if not joint:
+        raise UsageError("--curve-out needs --steady-state or the joint fit (not with --model, --mass or "
+                         "--rigid-first: the Kalman disturbance fit keeps no law fit with points)")
+    targets = {curve_out.resolve()} | ({curve_out.with_suffix(".json").resolve()} if suffix == ".toml" else set())
+    if out is not None and targets & {out.resolve(), out.with_suffix(".json").resolve()}:
+        raise UsageError(f"--curve-out {curve_out} and --out {out} name the same file")
+    ensure_writable(curve_out, force)
+    if suffix == ".toml":
+        ensure_writable(curve_out.with_suffix(".json"), force)
+
+
+def _write_friction_curve(curve_out: Path, law_fit, points, *, method: str, points_what: str, log_file,
+                          warnings, force: bool) -> list[str]:
+    """Write the friction curve document (:mod:`feedtune.io.friction_curve_file`); the files written."""
+    from ..io.friction_curve_file import friction_curve_document, write_friction_curve
+
+    doc = friction_curve_document(law_fit, points, method=method, source=str(log_file), points_what=points_what,
+                                  warnings=list(warnings))
+    return [str(p) for p in write_friction_curve(curve_out, doc, force=force)]
+
+
+def _joint_curve_files(joint, curve_out: Path | None, log_file, warnings, force: bool) -> list[str]:
+    """The friction curve document of a joint fit (``F - m a`` binned by speed as its points), if asked."""
+    if curve_out is None:
+        return []
+    return _write_friction_curve(curve_out, joint.law_fit, joint.points, method=CURVE_METHODS["joint"],
+                                 points_what="friction F - m a of the joint fit's samples, mean per speed bin",
+                                 log_file=log_file, warnings=warnings, force=force)
 
 
 @app.command("friction")
@@ -354,7 +407,13 @@ def friction(
     scale: list[str] = SCALE_OPTION,
     unit: list[str] = UNIT_OPTION,
     skip_rows: int = SKIP_ROWS_OPTION,
-    out: Path = typer.Option(None, "--out", "-o", help="Friction model file (.toml with a .json twin)."),
+    out: Path = typer.Option(None, "--out", "-o", help="Friction model file (.toml with a .json twin; needs both "
+                                                        "directions)."),
+    curve_out: Path = typer.Option(
+        None, "--curve-out", help="Friction curve document (.toml with a .json twin, or .json) for the report: the "
+                                  "law per direction with std, the measured points and the fitted curve; one "
+                                  "direction is enough (--steady-state or the joint fit)."
+    ),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
@@ -374,6 +433,7 @@ def friction(
         "--rigid-first": rigid_first, "--plateau-acc-tol": plateau_acc_tol, "--plateau-vel-tol": plateau_vel_tol,
         "--plateau-min-duration": plateau_min_duration}, steady_state)
     _check_model_out(out, force)
+    _check_curve_out(curve_out, out, force, steady_state or (model_file is None and mass is None and not rigid_first))
     model = _friction_model_source(model_file)
     logs = [read_log_with_options(p, map_, fs, time, scale, unit, skip_rows) for p in log_files]
     log_file = log_files[0] if len(log_files) == 1 else f"{len(log_files)} logs ({log_files[0]}, ...)"
@@ -400,13 +460,22 @@ def friction(
                                 "way") from None
             joint = fit_joint_friction(logs, position=position, command=input_, law=law, cutoff_hz=lpf_hz,
                                        min_speed=min_speed, one_direction=True)
-            _friction_one_direction(joint, log_files, log_file, as_json)
+            _friction_one_direction(joint, log_files, log_file, as_json, curve_out, force)
             return
     result = {"log": str(log_file), **({"logs": [str(p) for p in log_files]} if len(log_files) > 1 else {}),
               **ident.to_dict()}
     if out is not None:
         record = _friction_record(result, log_file)
         result["files"] = [str(p) for p in save_model(out, ident.friction, fit=record, force=force)]
+    if curve_out is not None:
+        if steady_state:
+            files = _write_friction_curve(curve_out, ident.fit, [p.to_dict() for p in ident.plateaus],
+                                          method=CURVE_METHODS["steady-state"],
+                                          points_what="mean command on each constant-velocity plateau",
+                                          log_file=log_file, warnings=ident.warnings, force=force)
+        else:
+            files = _joint_curve_files(ident.joint_fit, curve_out, log_file, ident.warnings, force)
+        result["files"] = result.get("files", []) + files
     if as_json:
         print_json(result)
         return

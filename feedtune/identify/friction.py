@@ -57,7 +57,14 @@ from ..models.ballscrew import BallScrewModel
 from ..models.friction import StribeckFriction, check_law
 from ..models.rigid import RigidBodyModel
 from .data_quality import POOR_FIT_PCT
-from .friction_curve import FrictionLawFit, as_series, check_fitted_signs, fit_friction_law, parameter_std
+from .friction_curve import (
+    FrictionLawFit,
+    as_series,
+    bin_by_speed,
+    check_fitted_signs,
+    fit_friction_law,
+    parameter_std,
+)
 from .kalman import DisturbanceEstimate, estimate_disturbance
 from .rigid import RigidFit, fit_rigid, position_si
 
@@ -193,6 +200,10 @@ class JointFit:
         Units of the command and of the position.
     warnings : tuple of str
         One direction only (the other's law is not identified), and the law fit's own warnings.
+    points : tuple of dict
+        The measured friction ``F - M a`` of the fitted samples binned by speed
+        (:func:`~feedtune.identify.friction_curve.bin_by_speed`): ``direction``, ``velocity`` [position unit/s],
+        ``force``, ``force_std`` [command unit], ``n``.
     """
 
     law_fit: FrictionLawFit
@@ -206,6 +217,7 @@ class JointFit:
     force_unit: str
     position_unit: str
     warnings: tuple = ()
+    points: tuple = ()
 
     @property
     def mass(self) -> float:
@@ -590,7 +602,8 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
                     cutoff_rule="given" if cutoff_hz is not None else "; ".join(rules),
                     decimate=max(c[1] for c in cutoffs), dc_gain=cutoffs[0][2], guard_s=cutoffs[0][3],
                     min_speed=threshold, n_samples=int(v.size), force_unit=first.force_unit,
-                    position_unit=first.position_unit, warnings=tuple(warnings) + tuple(fit.warnings))
+                    position_unit=first.position_unit, warnings=tuple(warnings) + tuple(fit.warnings),
+                    points=tuple(bin_by_speed(v, u - mass * a, min_speed=threshold)))
 
 
 # ------------------------------------------------------------------------------------- full procedure

@@ -489,6 +489,58 @@ def _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, comm
         command_unit=command_unit, velocity_unit=velocity_unit, warnings=tuple(dict.fromkeys(warnings)))
 
 
+# ------------------------------------------------------------------------------------------ binned points
+SPEED_BINS = 30
+"""Most speed bins per direction of the binned friction points of dense samples (:func:`bin_by_speed`)."""
+SAMPLES_PER_BIN = 10
+"""Fewer bins are used when a direction has fewer than this many samples per bin on average."""
+
+
+def bin_by_speed(velocity, force, *, min_speed: float = 0.0, n_bins: int = SPEED_BINS) -> list[dict]:
+    """Friction points of dense samples: the mean force in equal-width speed bins, per direction.
+
+    Parameters
+    ----------
+    velocity : array_like
+        Velocity samples [velocity unit].
+    force : array_like
+        Friction force samples, e.g. ``F - m a`` of a joint fit [command unit].
+    min_speed : float
+        Samples slower than this are left out [velocity unit].
+    n_bins : int
+        Most bins per direction between the slowest and the fastest kept speed (fewer when a direction has less
+        than :data:`SAMPLES_PER_BIN` samples per bin).
+
+    Returns
+    -------
+    list of dict
+        Per non-empty bin, slow to fast, ``v > 0`` first: ``direction`` (``"pos"``/``"neg"``), ``velocity`` and
+        ``force`` (means, signed) [velocity unit], [command unit], ``force_std`` [command unit] and ``n``.
+    """
+    v = as_series(velocity, "velocity")
+    f = as_series(force, "force")
+    if v.size != f.size:
+        raise DataError(f"velocity and force have different lengths ({v.size}, {f.size})")
+    if n_bins < 1:
+        raise UsageError(f"n_bins must be >= 1, got {n_bins!r}")
+    points = []
+    for key, sign in (("pos", 1.0), ("neg", -1.0)):
+        sel = (sign * v > 0) & (np.abs(v) >= min_speed)
+        if not np.any(sel):
+            continue
+        speed, force_d = np.abs(v[sel]), f[sel]
+        bins = int(np.clip(speed.size // SAMPLES_PER_BIN, 1, n_bins))
+        edges = np.linspace(float(speed.min()), float(speed.max()), bins + 1)
+        index = np.clip(np.searchsorted(edges, speed, side="right") - 1, 0, bins - 1)
+        for k in range(bins):
+            m = index == k
+            if np.any(m):
+                points.append({"direction": key, "velocity": float(sign * np.mean(speed[m])),
+                               "force": float(np.mean(force_d[m])), "force_std": float(np.std(force_d[m])),
+                               "n": int(np.count_nonzero(m))})
+    return points
+
+
 # ------------------------------------------------------------------------------------------ plateaus
 @dataclass(frozen=True)
 class Plateau:

@@ -3,7 +3,9 @@
 Rules (see ``docs/report.md``):
 
 * ``.toml`` / ``.json``: a feedtune document; ``schema = "feedtune.model/1"`` is a model file,
-  ``"feedtune.gains/1"`` a gains file. The summary JSON of ``feedtune demo`` is recognised and listed.
+  ``"feedtune.gains/1"`` a gains file, ``"feedtune.friction_curve/1"`` (kind ``friction_curve``, from
+  ``feedtune identify friction --curve-out``) a friction curve. The summary JSON of ``feedtune demo`` is
+  recognised and listed.
   When both ``x.toml`` and its JSON twin ``x.json`` hold the same document, the JSON twin is not used twice.
 * ``.csv`` / ``.txt``: an FRF when its header row has a ``freq_hz`` column, else a log.
 * ``.mat``: an FRF when :func:`feedtune.io.read_frf` accepts it, else a log.
@@ -93,6 +95,15 @@ class OtherInput:
 
 
 @dataclass(frozen=True)
+class FrictionCurveInput:
+    """A friction curve document (``schema = "feedtune.friction_curve/1"``, ``kind = "friction_curve"``, written by
+    ``feedtune identify friction --curve-out``): the law fitted per direction, its points and curve, validated."""
+
+    path: Path
+    doc: dict
+
+
+@dataclass(frozen=True)
 class Skipped:
     """A file left out, with the reason (``warning`` False for expected cases such as JSON twins)."""
 
@@ -111,6 +122,7 @@ class Inputs:
     logs: list = field(default_factory=list)
     others: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
+    curves: list = field(default_factory=list)
 
     def logs_of(self, *kinds: str) -> list[LogInput]:
         """Logs of the given kinds."""
@@ -118,7 +130,7 @@ class Inputs:
 
     def is_empty(self) -> bool:
         """True when nothing usable was found."""
-        return not (self.models or self.gains or self.frfs or self.logs)
+        return not (self.models or self.gains or self.frfs or self.logs or self.curves)
 
     def to_dict(self) -> dict:
         """JSON-ready list of the files and what they were taken for."""
@@ -129,6 +141,8 @@ class Inputs:
             "logs": [{"file": str(x.path), "kind": x.kind, "kind_from": x.kind_from, "n_samples": int(x.log.n)}
                      for x in self.logs],
             "others": [{"file": str(o.path), "description": o.description} for o in self.others],
+            "curves": [{"file": str(c.path), "kind": c.doc.get("kind"), "law": c.doc.get("law"),
+                        "directions": list(c.doc.get("directions") or [])} for c in self.curves],
             "skipped": [{"file": str(s.path), "reason": s.reason} for s in self.skipped],
         }
 
@@ -180,8 +194,9 @@ def _model_input(path: Path, doc: dict) -> ModelInput:
     return ModelInput(path, kind, doc, model)
 
 
-def _classify_document(path: Path) -> ModelInput | GainsInput | OtherInput:
+def _classify_document(path: Path) -> ModelInput | GainsInput | OtherInput | FrictionCurveInput:
     from ..io import read_document
+    from ..io.friction_curve_file import FRICTION_CURVE_SCHEMA, check_friction_curve
 
     doc = read_document(path)
     if _is_demo_summary(doc):
@@ -192,6 +207,8 @@ def _classify_document(path: Path) -> ModelInput | GainsInput | OtherInput:
     prefix, _, version = schema.partition("/")
     if prefix == "feedtune.mass":
         return OtherInput(path, "gantry mass distribution per table position (shown with the gantry model)", doc)
+    if prefix == FRICTION_CURVE_SCHEMA:
+        return FrictionCurveInput(path, check_friction_curve(doc, str(path)))
     if prefix not in ("feedtune.model", "feedtune.gains"):
         raise DataError(f"{path}: schema {schema!r} is neither a model (feedtune.model/1) nor a gains file "
                         "(feedtune.gains/1)")
@@ -409,6 +426,7 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
         logs=[i for i in items if isinstance(i, LogInput)],
         others=[i for i in items if isinstance(i, OtherInput)],
         skipped=skipped + twins,
+        curves=[i for i in items if isinstance(i, FrictionCurveInput)],
     )
     if inputs.is_empty():
         raise DataError("no model, gains, FRF or log file among the inputs "

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .collect import FrfInput, Inputs, LogInput, ModelInput
+from .collect import FrfInput, FrictionCurveInput, Inputs, LogInput, ModelInput
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
 from .figures import PALETTE, Curve, frf_figure, friction_figure, gantry_mass_figure
 from .sections import ReportLimits, parameter_table
@@ -212,14 +212,97 @@ def _scatter_of(li: LogInput) -> tuple[np.ndarray, np.ndarray, str, str] | None:
     return None
 
 
+DIRECTION_TEXT = {"pos": "v > 0", "neg": "v < 0"}
+
+
+def _curve_name(ci: FrictionCurveInput, names: Mapping) -> str:
+    return str(names.get(ci.path, ci.path.name))
+
+
+def _flat_quantities(per_direction: Mapping) -> dict:
+    """``{"pos": {"dc": q, ...}, ...}`` -> ``{"dc_pos": q, ...}``."""
+    return {f"{name}_{key}": q for key, table in per_direction.items() if isinstance(table, Mapping)
+            for name, q in table.items()}
+
+
+def _friction_curve_blocks(ci: FrictionCurveInput, name: str, k: int, data: dict) -> tuple[list, list, list, str, str]:
+    """Text, parameter table and warnings of a friction curve document, with its fitted curves and points.
+
+    Returns
+    -------
+    (blocks, curves, points, velocity_unit, command_unit)
+        Report blocks, the fitted curve per direction and the measured points (figure lines), and the units.
+    """
+    doc = ci.doc
+    vel_unit, cmd_unit = str(doc["velocity_unit"]), str(doc["command_unit"])
+    law, color = str(doc["law"]), PALETTE[(k + 1) % len(PALETTE)]
+    directions = [d for d in ("pos", "neg") if d in doc["params"]]
+    params = _flat_quantities(doc["params"])
+    std = {n: q.get("value") if isinstance(q, Mapping) else q
+           for n, q in _flat_quantities(doc.get("std") or {}).items()}
+    for extra in ("mass", "rms_error", "relative_error_pct"):
+        if extra in doc:
+            params[extra] = doc[extra]
+    if isinstance(doc.get("mass_std"), Mapping):
+        std["mass"] = doc["mass_std"].get("value")
+    data.setdefault("identification", {})[name] = {
+        "kind": doc["kind"], "law": law, "method": doc.get("method"), "source": doc.get("source"),
+        "directions": directions, "params": params, "std": std, "warnings": list(doc.get("warnings") or []),
+        "velocity_unit": vel_unit, "command_unit": cmd_unit}
+    fitted = " and ".join(DIRECTION_TEXT[d] for d in directions)
+    text = (f"{name}: {law} law fitted to {fitted} of {doc.get('source', 'the log')} ({doc.get('method', '')}); "
+            f"points: {doc['points'].get('what', 'measured friction')}.")
+    if "mass" in doc:
+        text += f" Mass fitted with the law: {quantity_text(doc['mass'])}."
+    blocks: list = [Paragraph(text)]
+    if len(directions) < 2:
+        missing = "v < 0" if directions == ["pos"] else "v > 0"
+        blocks.append(Alert(f"{name}: one direction only ({fitted}); the friction of {missing} is not identified, "
+                            "so this curve is no friction model (a model file and a feedforward need both "
+                            "directions)"))
+    blocks.extend(Alert(f"{name}: {w}") for w in doc.get("warnings") or [])
+    std_table = dict(std, __key__=["identification", name, "std"])
+    blocks.append(parameter_table(f"Friction law ({law}) per direction: {name}", params,
+                                  ["identification", name, "params"], std=std_table,
+                                  note="dc: Coulomb level, ds: static level (hump: peak), omega: Stribeck "
+                                       "velocity vs, viscous: Fv; levels signed as their direction."))
+    curves, points = [], []
+    for d in directions:
+        c = doc["curve"].get(d)
+        if isinstance(c, Mapping):
+            curves.append(Curve(np.asarray(c["velocity"], float), np.asarray(c["force"], float),
+                                f"{law} law {DIRECTION_TEXT[d]} [{cmd_unit}], {name}", color, "-", 2.0))
+    pts = doc["points"]
+    if pts.get("velocity"):
+        points.append(Curve(np.asarray(pts["velocity"], float), np.asarray(pts["force"], float),
+                            f"measured friction [{cmd_unit}], {name}", color, "o", 1.0))
+    return blocks, curves, points, vel_unit, cmd_unit
+
+
+def quantity_text(q) -> str:
+    """``{value, unit}`` (or a number) as short text, e.g. ``25.2 N/(m/s^2)``."""
+    if isinstance(q, Mapping):
+        return f"{float(q['value']):.4g} {q.get('unit', '')}".strip()
+    return f"{float(q):.4g}"
+
+
 def friction_section(inputs: Inputs, names: Mapping, data: dict) -> Section | None:
     """Friction curves of friction and rigid-body model files over the disturbance estimates of friction
-    logs (None when there is neither)."""
+    logs, and the fitted curves of friction curve documents over their measured points (None when there is
+    none of these)."""
     models = friction_curves(inputs)
     scatters = [(names[li.path], sc) for li in inputs.logs_of("friction") if (sc := _scatter_of(li)) is not None]
-    if not models and not scatters:
+    curve_docs = list(getattr(inputs, "curves", []))
+    if not models and not scatters and not curve_docs:
         return None
     blocks: list = []
+    doc_curves, doc_points, doc_units = [], [], None
+    for k, ci in enumerate(curve_docs):
+        b, c, p, vu, cu = _friction_curve_blocks(ci, _curve_name(ci, names), len(models) + k, data)
+        blocks += b
+        doc_curves += c
+        doc_points += p
+        doc_units = doc_units or (vu, cu)
     vmax = max([float(np.max(np.abs(sc[0]))) for _, sc in scatters] + [0.0])
     vel_unit, cmd_unit = (scatters[0][1][2], scatters[0][1][3]) if scatters else ("m/s", "V")
     curves = []
@@ -233,12 +316,22 @@ def friction_section(inputs: Inputs, names: Mapping, data: dict) -> Section | No
         blocks.append(parameter_table(f"{fc.title[0].upper()}{fc.title[1:]}: {name}", fc.mi.doc.get("params", {}),
                                       ["identification", name, "params"]))
     pts = [Curve(sc[0], sc[1], f"disturbance estimate {n}", PALETTE[0]) for n, sc in scatters]
-    fig = friction_figure(curves, pts, velocity_unit=vel_unit, command_unit=cmd_unit,
-                          title="Friction versus velocity")
-    caption = "Friction model" if curves else "Estimated disturbance versus velocity"
-    if curves and pts:
-        caption = "Friction model over the Kalman-filter disturbance estimate"
-    blocks.append(FigureBlock("friction", caption + " (thesis eq. 2.1, §2.1.3).", fig))
+    if doc_units is not None and not curves and not pts:
+        vel_unit, cmd_unit = doc_units
+    if curves or pts:
+        fig = friction_figure(curves, pts, velocity_unit=vel_unit, command_unit=cmd_unit,
+                              title="Friction versus velocity")
+        caption = "Friction model" if curves else "Estimated disturbance versus velocity"
+        if curves and pts:
+            caption = "Friction model over the Kalman-filter disturbance estimate"
+        blocks.append(FigureBlock("friction", caption + " (thesis eq. 2.1, §2.1.3).", fig))
+    if doc_curves or doc_points:
+        vu, cu = doc_units
+        fig = friction_figure([*doc_points, *doc_curves], [], velocity_unit=vu, command_unit=cu,
+                              title="Fitted friction law over the measured friction")
+        blocks.append(FigureBlock("friction-curve", "Friction law fitted per direction (lines) over the measured "
+                                  f"friction (points) [{cu} versus {vu}]: plateau means of a steady-state run, or "
+                                  "F - m a of a joint fit binned by speed.", fig))
     return Section("friction", "Friction", blocks)
 
 
