@@ -12,10 +12,9 @@ The library is the product; the ``feedtune`` command line is a thin layer over i
 
 import os as _os
 
-# numba caches compiled kernels beside the source unless told otherwise: never into the installed package
-_os.environ.setdefault("NUMBA_CACHE_DIR", _os.path.join(_os.environ.get("XDG_CACHE_HOME")
-                                                        or _os.path.join(_os.path.expanduser("~"), ".cache"),
-                                                        "feedtune", "numba"))
+from ._kernel_cache import kernel_cache_dir
+
+_os.environ.setdefault("NUMBA_CACHE_DIR", kernel_cache_dir())
 
 from .errors import DataError, DesignError, FeedtuneError, UsageError
 from .frf import Frf
@@ -23,4 +22,4 @@ from .log import Log
 
 __version__ = "0.1.0"
 
-__all__ = ["DataError", "DesignError", "FeedtuneError", "Frf", "Log", "UsageError", "__version__"]
+__all__ = ["DataError", "DesignError", "FeedtuneError", "Frf", "Log", "UsageError", "__version__", "kernel_cache_dir"]

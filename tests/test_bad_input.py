@@ -160,3 +160,19 @@ def test_main_in_process_leaves_the_callers_signal_handlers_as_they_were(capsys,
     code, _, _ = run(["--help"], capsys, monkeypatch)
     assert code == 0
     assert {s: signal.getsignal(s) for s in before} == before
+
+
+def test_the_kernel_cache_folder_follows_every_source_file(tmp_path):
+    """numba keys a cached kernel on its own file; the twins inline laws from other files: the folder must change
+    when any source does (a stale loop would run the old law)."""
+    import feedtune
+
+    pkg = tmp_path / "pkg"
+    (pkg / "machines").mkdir(parents=True)
+    (pkg / "machines" / "law.py").write_text("K = 1\n")
+    (pkg / "twin.py").write_text("from .machines.law import K\n")
+    before = feedtune.kernel_cache_dir(str(pkg))
+    assert feedtune.kernel_cache_dir(str(pkg)) == before
+    (pkg / "machines" / "law.py").write_text("K = 2\n")
+    assert feedtune.kernel_cache_dir(str(pkg)) != before
+    assert not before.startswith(str(pkg))
