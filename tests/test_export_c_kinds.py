@@ -48,6 +48,15 @@ AXIS_FRICTION = axis_gains_document(design_loopshape(0.6977, crossover_hz=130, p
                                                      filters=FilterPack([Notch(186, 0.6, 0.7)], 1200.0),
                                                      prefilter=PrefilterGains(1e-3, 1e-6, 0, 0),
                                                      friction=AXIS_FRICTION_MODEL, friction_band=2e-4))
+GANTRY_FRICTION_MODEL = StribeckFriction(0.3, 0.5, -0.35, -0.55, 2e-3, 3e-3, command_unit="V", velocity_unit="m/s")
+"""An asymmetric friction of the gantry's travel [V, m/s], fed forward with a 2e-4 m/s band."""
+MIMO_FRICTION = gantry_gains_document(design_gantry_mimo(THESIS_GANTRY, filters=H, prefilter1=PRE1, prefilter2=PRE2,
+                                                         x_grid=X_GRID).with_friction(GANTRY_FRICTION_MODEL,
+                                                                                      v_band=2e-4))
+PID_FRICTION = gantry_gains_document(design_gantry_pid(THESIS_GANTRY, kp=(4e3, 3e3), kd=(60.0, 50.0), ki=(4e4, 3e4),
+                                                       filters=FilterPack([Notch(320, 0.2, 0.9)], 900.0),
+                                                       x_grid=X_GRID).with_friction(GANTRY_FRICTION_MODEL,
+                                                                                    v_band=2e-4))
 BALLSCREW = gains_document(design_mcppc(THESIS_TABLE_3_1, filters=FilterPack([Notch(420.0, 0.55, 0.7)], 2000.0)))
 
 GANTRY_MAIN = r"""
@@ -105,11 +114,27 @@ def _gantry_inputs(n=3000, seed=4):
     return np.column_stack([r, y1, y2, x])
 
 
+def _gantry_friction_inputs(n=3000, seed=7, fs=15000.0):
+    """A gantry reference whose velocity swings through zero, +-8 mm/s at 10 Hz with 1e-4 m/s of noise: it crosses
+    the friction band of MIMO_FRICTION and PID_FRICTION (2e-4 m/s) and their Stribeck region (2e-3, 3e-3 m/s) in both
+    directions; encoders 2e-6 m off it; the table across the schedule as in _gantry_inputs."""
+    rng = np.random.default_rng(seed)
+    v = 8e-3 * np.sin(2 * np.pi * 10.0 * np.arange(n) / fs) + 1e-4 * rng.standard_normal(n)
+    r = np.cumsum(v) / fs
+    x = 0.4 * np.sin(np.linspace(0, 3 * np.pi, n))
+    return np.column_stack([r, r + rng.standard_normal(n) * 2e-6, r + rng.standard_normal(n) * 2e-6, x])
+
+
 # ------------------------------------------------------------------ the header executes the runtime's law
 @needs_gcc
-@pytest.mark.parametrize("doc", [MIMO, PID], ids=["mimo", "pid"])
-def test_gantry_header_matches_the_runtime_sample_by_sample(tmp_path, doc):
-    inputs = _gantry_inputs()
+@pytest.mark.parametrize(("doc", "make_inputs"), [(MIMO, _gantry_inputs), (PID, _gantry_inputs),
+                                                  (MIMO_FRICTION, _gantry_inputs), (PID_FRICTION, _gantry_inputs),
+                                                  (MIMO_FRICTION, _gantry_friction_inputs),
+                                                  (PID_FRICTION, _gantry_friction_inputs)],
+                         ids=["mimo", "pid", "mimo+friction", "pid+friction", "mimo+friction-slow",
+                              "pid+friction-slow"])
+def test_gantry_header_matches_the_runtime_sample_by_sample(tmp_path, doc, make_inputs):
+    inputs = make_inputs()
     got = _run_c(tmp_path, c_header(doc), GANTRY_MAIN, inputs)
     rt = load_runtime(doc)
     rt.reset()

@@ -1,6 +1,6 @@
 """One gantry law (issue 11): the compiled twin loop, the Python loop and the runtime replayed on a recorded run give
 the same commands sample by sample, for the MIMO law (with its pre-filter and the schedule across the table's
-travel), the independent PIDs and the x axis (with and without its Stribeck friction feedforward).
+travel), the independent PIDs and the x axis, each with and without its Stribeck friction feedforward.
 
 The laws themselves are checked against independent descriptions elsewhere: the runtime against the designed transfer
 functions with scipy (tests/test_gantry_runtime.py) and the C header against the runtime (tests/test_export_c_kinds.py).
@@ -27,10 +27,15 @@ from feedtune.sim.trajectory import multi_segment
 H = FilterPack([Notch(110, 0.5, 0.7), Notch(320, 0.2, 0.9), Notch(400, 0.15, 1.0), Notch(940, 0.6, 0.75)], 450.0, 2,
                0.7, [LeadStage(154.0, 70.0)])
 PRE1, PRE2 = PrefilterGains(2e-3, 1e-5, 1e-8, 0.0), PrefilterGains(-1e-3, 2e-5, 0.0, 1e-10)
-MIMO = load_runtime(gantry_gains_document(design_gantry_mimo(THESIS_GANTRY, filters=H, prefilter1=PRE1,
-                                                             prefilter2=PRE2)))
-PID = load_runtime(gantry_gains_document(design_gantry_pid(THESIS_GANTRY, kp=(6e3, 5e3), kd=(40.0, 35.0),
-                                                           ki=(3e4, 2.5e4), filters=FilterPack([], 900.0))))
+MIMO_DESIGN = design_gantry_mimo(THESIS_GANTRY, filters=H, prefilter1=PRE1, prefilter2=PRE2)
+PID_DESIGN = design_gantry_pid(THESIS_GANTRY, kp=(6e3, 5e3), kd=(40.0, 35.0), ki=(3e4, 2.5e4),
+                               filters=FilterPack([], 900.0))
+MIMO = load_runtime(gantry_gains_document(MIMO_DESIGN))
+PID = load_runtime(gantry_gains_document(PID_DESIGN))
+GANTRY_FRICTION_MODEL = StribeckFriction(0.3, 0.5, -0.35, -0.55, 0.01, 0.02, command_unit="V", velocity_unit="m/s")
+"""An asymmetric friction of the gantry's travel [V, m/s], fed forward with a 1e-3 m/s band."""
+MIMO_FRICTION = load_runtime(gantry_gains_document(MIMO_DESIGN.with_friction(GANTRY_FRICTION_MODEL, v_band=1e-3)))
+PID_FRICTION = load_runtime(gantry_gains_document(PID_DESIGN.with_friction(GANTRY_FRICTION_MODEL, v_band=1e-3)))
 AXIS_DESIGN = design_loopshape(
     THESIS_GANTRY.m_x, crossover_hz=130.0, pm_deg=35.0,
     filters=FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0),
@@ -49,8 +54,9 @@ def _references(fs: float, n: int):
 
 
 @needs_numba
-@pytest.mark.parametrize(("gantry", "axis"), [(MIMO, AXIS), (PID, AXIS), (MIMO, AXIS_FRICTION)],
-                         ids=["mimo", "pid", "mimo+axis-friction"])
+@pytest.mark.parametrize(("gantry", "axis"), [(MIMO, AXIS), (PID, AXIS), (MIMO, AXIS_FRICTION),
+                                             (MIMO_FRICTION, AXIS_FRICTION), (PID_FRICTION, AXIS)],
+                         ids=["mimo", "pid", "mimo+axis-friction", "mimo-friction+axis-friction", "pid-friction"])
 def test_compiled_loop_python_loop_and_replay_give_the_same_commands(gantry, axis):
     # no clamp and no overload trip: the recorded commands are the laws' outputs over the whole run
     twin = GantryTwin(GantryTwinParams(u_max=None, overload_rms=None, envelope_m=0.05))

@@ -5,6 +5,8 @@
   (:func:`feedtune.tune.loopshape.tune_loopshape`).
 * ``gantry``: the MIMO law of eq. 4.30 (sensor/actuator averaging, lead, active damping, actuator-level
   integral) with feedforward and pre-filters scheduled in the table position.
+* ``gantry`` and ``pid`` take ``--friction F.toml [--friction-band V]``: the Stribeck friction feedforward of the
+  gantry's travel (command unit, m/s), split ``alpha1 : alpha2`` between the drives like the inertia feedforward.
 * ``pid``: the independent-PID baseline tuned for the highest crossover under the limits
   (:func:`feedtune.tune.pid.tune_gantry_pid`), with ``--match`` to the Ms of a MIMO gains file and its filters;
   ``--filters own|identical`` says whether the tuner may choose its own notches and low-pass.
@@ -85,6 +87,29 @@ def _x_grid(model, x_min: float, x_max: float, x_points: int):
     return default_x_grid(model, x_min, x_max, x_points)
 
 
+def _gantry_friction_model(friction: Path | None, friction_band: float | None, model, model_file: Path):
+    """The friction model of ``--friction`` (None without), its units checked against the gantry model's before
+    designing: UsageError for ``--friction-band`` alone, DataError naming both files for a unit mismatch."""
+    from ..design.gantry_mimo import gantry_friction
+    from ..errors import UsageError
+    from .design_cmd import _load_friction
+
+    if friction_band is not None and friction is None:
+        raise UsageError("--friction-band needs --friction")
+    friction_model = _load_friction(friction)
+    if friction_model is not None:
+        gantry_friction(model, friction_model, v_band=friction_band, where=str(friction), model_where=str(model_file))
+    return friction_model
+
+
+def _with_friction(design, friction_model, friction: Path | None, friction_band: float | None, model_file: Path):
+    """``design`` with the friction feedforward of ``friction_model`` (unchanged without one)."""
+    if friction_model is None:
+        return design
+    return design.with_friction(friction_model, v_band=friction_band, where=str(friction),
+                                model_where=str(model_file))
+
+
 def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, force, allow_unstable,
                       as_json) -> None:
     """Write the gains file unless a limit is violated, print the result, raise DesignError on violations.
@@ -143,6 +168,8 @@ def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, 
     if design.controller == "mimo":
         result["gains"]["lead_gain"] = design.law.lead_gain
         result["gain_units"]["lead_gain"] = f"{unit}/m"
+    if "friction_feedforward" in doc:
+        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
     result_check = {"checked_case": checked}
     _write_and_report(result | {"check": result_check}, doc, check, extra, out=out, force=force,
                       allow_unstable=allow_unstable, as_json=as_json)
@@ -286,6 +313,8 @@ def gantry(
     prefilter1: str = PRE1_OPTION,
     prefilter2: str = PRE2_OPTION,
     prefilter_hz: float = PREFILTER_HZ_OPTION,
+    friction: Path = FRICTION_OPTION,
+    friction_band: float = FRICTION_BAND_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     fs_override: bool = FS_OVERRIDE_OPTION,
@@ -305,7 +334,9 @@ def gantry(
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
 ) -> None:
-    """Gantry MIMO control: averaging, lead, active damping, actuator-level integral (eq. 4.22-4.33)."""
+    """Gantry MIMO control: averaging, lead, active damping, actuator-level integral (eq. 4.22-4.33); optionally with
+    the Stribeck friction feedforward of the gantry's travel (--friction, levels in the model's command unit,
+    velocities in m/s), split alpha1 : alpha2 between the drives."""
     from ..control.prefilter import PrefilterGains
     from ..design.gantry_mimo import design_gantry_mimo
     from .frf_options import FrfReadOptions, read_optional_frf
@@ -313,6 +344,7 @@ def gantry(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _gantry_model(model_file)
+    friction_model = _gantry_friction_model(friction, friction_band, model, model_file)
     measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
     rate.report(as_json, "design gantry")
@@ -323,6 +355,7 @@ def gantry(
         delay_samples=delay_samples, x=x, x_grid=_x_grid(model, x_min, x_max, x_points),
         prefilter1=PrefilterGains.parse(prefilter1, "--prefilter1"),
         prefilter2=PrefilterGains.parse(prefilter2, "--prefilter2"), prefilter_hz=prefilter_hz)
+    design = _with_friction(design, friction_model, friction, friction_band, model_file)
     _gantry_finish(design, measured, limits=policy, targets=(crossover_hz, pm_deg), out=out,
                    force=force, allow_unstable=allow_unstable, as_json=as_json, sampling=rate)
 
@@ -408,6 +441,8 @@ def pid(
     prefilter1: str = PRE1_OPTION,
     prefilter2: str = PRE2_OPTION,
     prefilter_hz: float = PREFILTER_HZ_OPTION,
+    friction: Path = FRICTION_OPTION,
+    friction_band: float = FRICTION_BAND_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     fs_override: bool = FS_OVERRIDE_OPTION,
@@ -423,7 +458,8 @@ def pid(
     as_json: bool = JSON_OPTION,
 ) -> None:
     """Independent PID per side behind notches and low-pass, tuned for the highest crossover under the limits
-    (thesis baseline)."""
+    (thesis baseline); optionally with the friction feedforward of the gantry's travel (--friction), split
+    alpha1 : alpha2 between the sides like the inertia feedforward."""
     from ..control.prefilter import PrefilterGains
     from ..design.gantry_pid import design_gantry_pid
     from ..errors import UsageError
@@ -435,6 +471,7 @@ def pid(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _gantry_model(model_file)
+    friction_model = _gantry_friction_model(friction, friction_band, model, model_file)
     measured = read_optional_frf(frf, quantity, options=frf_options)
     filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
     rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
@@ -461,5 +498,6 @@ def pid(
                                  **common)
         if not as_json:
             _print_tuning(design.tuning)
+    design = _with_friction(design, friction_model, friction, friction_band, model_file)
     _gantry_finish(design, measured, limits=policy.override(ms_max=ms_max), targets=None, out=out, force=force,
                    allow_unstable=allow_unstable, as_json=as_json, sampling=rate)  # --match: the MIMO design's Ms

@@ -16,6 +16,13 @@ turn the 2x2 plant into ``Gbar = alpha^T G alpha = 1/(m s^2)`` whatever the yaw 
 
 Feedforward ``u_ff = M(x) [y_r1'', y_r2'']`` (eq. 4.31) and per-side pre-filters (eq. 4.32) use the tables of
 :class:`GantrySchedule`, scheduled in the table position ``x`` (eq. 4.33).
+
+Optionally an identified Stribeck friction model of the gantry's travel (eq. 2.1, in the command unit and m/s) is fed
+forward from the reference velocity ``v_r = (y_r[k+P] - y_r[k+P-1]) fs`` (0 on the first sample), linear through
+zero inside a small band (:mod:`feedtune.control.friction`, :meth:`GantryMimoDesign.with_friction`). The friction
+force ``d(v_r)`` of the moving gantry is split between the drives as the inertia feedforward splits a rigid
+acceleration: ``M(x) [a, a]^T = a m [alpha1, alpha2]^T`` (the row sums of ``M(x)`` are ``alpha_i m``, eq. 4.3), so
+``u_i += alpha_i(x) d(v_r)`` with ``alpha(x)`` from the schedule; the PID baseline splits it the same way.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ import numpy as np
 
 from ..control.discretize import backward_euler_integrator, check_sampling, matched
 from ..control.filters import TWO_PI, FilterPack, LeadStage, split_lead
+from ..control.friction import FrictionFeedforward, friction_feedforward
 from ..control.gantry import GantrySchedule, MimoLaw
 from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import DesignError, UsageError
@@ -105,6 +113,37 @@ def gantry_schedule(model: GantryModel, x_grid, prefilter1: PrefilterGains | Non
     return GantrySchedule(xs, alphas[:, 0], alphas[:, 1], Ms[:, 0, 0], Ms[:, 0, 1], Ms[:, 1, 1], p1, p2)
 
 
+# ------------------------------------------------------------------------------ friction feedforward
+def gantry_friction(model: GantryModel, friction, *, v_band: float | None = None, where: str = "friction model",
+                    model_where: str = "the gantry model") -> FrictionFeedforward | None:
+    """The friction feedforward of the gantry's travel (y), in the model's command unit and m/s (None for None).
+
+    Parameters
+    ----------
+    model : GantryModel
+        Its ``input_unit`` is the command unit the friction levels must be in.
+    friction : StribeckFriction, FrictionLaw or None
+        Identified model (``feedtune identify friction``) of the moving gantry: the total friction force of both
+        drives [command unit] over the travel velocity [m/s]. A ``stribeck`` law is fed forward without its viscous
+        term.
+    v_band : float, optional
+        Half-width of the linear band around zero velocity [m/s]; default 0.1 x the smaller Stribeck velocity.
+    where, model_where : str
+        Names of the friction model and of the gantry model's file for messages.
+
+    Raises
+    ------
+    DataError
+        The levels are not in the model's command unit, or the velocities not in m/s (message naming both).
+    UsageError
+        ``v_band`` not > 0.
+    """
+    if friction is None:
+        return None
+    return friction_feedforward(friction, command_unit=model.input_unit, lead_m_per_rad=None, v_band=v_band,
+                                where=where, command_where=model_where)
+
+
 # ----------------------------------------------------------------------------------------- design
 @dataclass(frozen=True)
 class GantryMimoDesign:
@@ -126,6 +165,11 @@ class GantryMimoDesign:
     prefilter_hz : float
         Pre-filter low-pass [Hz].
     iterations : int
+    extra : dict
+        Further design records (tuning).
+    friction : FrictionFeedforward or None
+        Friction feedforward of the gantry's travel [command unit, m/s], split ``alpha1 : alpha2``
+        (:meth:`with_friction`).
     """
 
     model: GantryModel
@@ -139,9 +183,17 @@ class GantryMimoDesign:
     prefilter_hz: float
     iterations: int
     extra: dict = field(default_factory=dict)
+    friction: FrictionFeedforward | None = None
 
     kind = "gantry"
     controller = "mimo"
+
+    def with_friction(self, friction, *, v_band: float | None = None, where: str = "friction model",
+                      model_where: str = "the gantry model") -> GantryMimoDesign:
+        """A copy with the friction feedforward of ``friction`` (replacing any; ``None`` removes it); see
+        :func:`gantry_friction` for the parameters [command unit, m/s] and errors."""
+        return replace(self, friction=gantry_friction(self.model, friction, v_band=v_band, where=where,
+                                                      model_where=model_where))
 
     @property
     def fs(self) -> float:

@@ -11,20 +11,25 @@ has the characteristic polynomial ``(s^2 + 2 zeta w s + w^2)(s + w/rho)``, i.e.
 ``kd_i = m_i w (2 zeta + 1/rho)``, ``kp_i = m_i w^2 (1 + 2 zeta/rho)``, ``ki_i = m_i w^3 / rho``.
 
 The tuner that finds the best such pair under the limits policy is :func:`feedtune.tune.pid.tune_gantry_pid`.
+
+Each side gets its own row of the inertia feedforward ``M(x) [y_r1'', y_r2'']`` (eq. 4.31, as the MIMO law); an
+optional friction feedforward of the gantry's travel (:meth:`GantryPidDesign.with_friction`) is split by the same
+weights, ``u_i += alpha_i(x) d(v_r)`` (:mod:`feedtune.design.gantry_mimo`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ..control.discretize import check_sampling
 from ..control.filters import TWO_PI, FilterPack
+from ..control.friction import FrictionFeedforward
 from ..control.gantry import GantrySchedule, PidLaw
 from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import UsageError
 from ..models.gantry import GantryModel
-from .gantry_mimo import default_x_grid, gantry_schedule
+from .gantry_mimo import default_x_grid, gantry_friction, gantry_schedule
 
 
 @dataclass(frozen=True)
@@ -42,6 +47,9 @@ class GantryPidDesign:
     prefilter_hz : float
     tuning : dict
         How the gains were obtained.
+    friction : FrictionFeedforward or None
+        Friction feedforward of the gantry's travel [command unit, m/s], split ``alpha1 : alpha2`` like the inertia
+        feedforward (:meth:`with_friction`).
     """
 
     model: GantryModel
@@ -50,9 +58,17 @@ class GantryPidDesign:
     schedule: GantrySchedule
     prefilter_hz: float
     tuning: dict = field(default_factory=dict)
+    friction: FrictionFeedforward | None = None
 
     kind = "gantry"
     controller = "pid"
+
+    def with_friction(self, friction, *, v_band: float | None = None, where: str = "friction model",
+                      model_where: str = "the gantry model") -> GantryPidDesign:
+        """A copy with the friction feedforward of ``friction`` (replacing any; ``None`` removes it); see
+        :func:`feedtune.design.gantry_mimo.gantry_friction` for the parameters [command unit, m/s] and errors."""
+        return replace(self, friction=gantry_friction(self.model, friction, v_band=v_band, where=where,
+                                                      model_where=model_where))
 
     @property
     def fs(self) -> float:

@@ -10,9 +10,11 @@ pre-filtered reference is carried in two parts, the reference and the pre-filter
 filters difference apart: their float sum would be rounded at the position's resolution, and the acceleration
 feedforward's second difference would multiply that rounding.
 
-An axis document with a ``[friction_feedforward]`` adds Stribeck eq. 2.1 of the previewed reference's backward
-difference velocity [m/s] to the feedforward (:func:`~feedtune.export.c_common.friction_function`, as
-:class:`~feedtune.machines.gantry.runtime.AxisRuntime`); the header then includes ``<math.h>`` (link with ``-lm``).
+An axis or gantry document with a ``[friction_feedforward]`` adds Stribeck eq. 2.1 of the previewed reference's
+backward difference velocity [m/s] to the feedforward (:func:`~feedtune.export.c_common.friction_function`, as
+:class:`~feedtune.machines.gantry.runtime.AxisRuntime` and :class:`~feedtune.machines.gantry.runtime.GantryRuntime`;
+the gantry splits it ``alpha1 d, alpha2 d`` between the drives with the schedule's ``alpha`` at ``x``); the header
+then includes ``<math.h>`` (link with ``-lm``).
 """
 
 from __future__ import annotations
@@ -59,16 +61,19 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
     """The header of a gantry gains document executed by ``rt`` (a ``GantryRuntime``)."""
     prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
     mimo = rt.controller == "mimo"
+    fr = rt.friction
     ncol = rt.schedule.shape[1] if rt._prefilter_on else 5
     law = ("MIMO law of section 4.4.2 (lead on the CoM error, damping of the yaw error, integral action, CoM "
            "feedforward)" if mimo else "independent PIDs on each side with the CoM feedforward")
+    if fr is not None:
+        law += " and Stribeck friction feedforward (eq. 2.1) split alpha1 : alpha2"
     out = banner(f"Gantry controller '{rt.controller}': {law}.", doc, opts, [
         f"fs = {rt.fs:g} Hz, computational delay {rt.delay_samples} sample(s), reference preview "
         f"{rt.preview_samples} sample(s). Positions in m, commands u1, u2 in {unit}.",
         f"Call {prefix}_init() once, then {prefix}_step() every sample with the gantry reference y_r[k + "
         f"{P}_PREVIEW_SAMPLES], the encoders y1[k], y2[k] and the table position x[k] [m] (schedule);",
         "apply u1, u2 with the computational delay the design assumed. A NaN x uses the first schedule row."])
-    out += ["", *_sampling(rt, opts), *limit_lines(opts, unit)]
+    out += [*(["#include <math.h>"] if fr is not None else []), "", *_sampling(rt, opts), *limit_lines(opts, unit)]
     g = rt.gains
     if mimo:
         out += [f"static const {R} {P}_BETA = {num(g['beta'])}; /* {unit}/(m/s), yaw damping */",
@@ -82,6 +87,7 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
     out += table_array(f"{P}_SCHED", rt.schedule[:, :ncol],
                        "schedule rows: alpha1, alpha2 [-], m11, m12, m22 [" + unit + "/(m/s^2)]"
                        + (", k_vel..k_snap side 1 then side 2 [s..s^4]" if ncol > 5 else ""), R)
+    out += ["", *friction_constants(fr, opts)] if fr is not None else []
     names = ["H", "POS", "ACC"] + (["LEAD"] if mimo else []) + (["PV", "PA", "PJ", "PS"] if ncol > 5 else [])
     keys = {"H": "filter_pack", "POS": "position", "ACC": "acceleration", "LEAD": "lead", "PV": PREFILTER[0],
             "PA": PREFILTER[1], "PJ": PREFILTER[2], "PS": PREFILTER[3]}
@@ -97,12 +103,15 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
         *[f"    {R} {flt[n].state(n.lower() + '1')}, {flt[n].state(n.lower() + '2')};" for n in twice],
         *_state_arrays(flt, [n for n in names if n not in twice], opts),
         f"    {R} e1_prev, e2_prev, ie1, ie2, u1_prev, u2_prev;",
+        *([f"    {R} r_prev;  /* previous y_r_preview [m]: the friction's reference velocity */"] if fr is not None
+          else []),
         "    int started;",
         f"}} {prefix}_state;",
         "",
         f"static inline void {prefix}_init({prefix}_state *s) {{ memset(s, 0, sizeof(*s)); }}",
         "",
         *filter_step_function(opts),
+        *friction_function(fr, opts),
         "/* the schedule row at table position x [m]: linear interpolation, clamped at the ends */",
         f"static inline void {prefix}_schedule({R} x, {R} *row) {{",
         "    int i = 0;",
@@ -140,6 +149,9 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
         f"    {R} acc2 = {flt['ACC'].call('acc2', ra2, c2)};",
         f"    {R} e1 = {flt['POS'].call('pos1', ra1, c1)} - y1;",
         f"    {R} e2 = {flt['POS'].call('pos2', ra2, c2)} - y2;",
+        *([f"    {R} fr = {prefix}_friction(s->started ? (r - s->r_prev) * {P}_FS_HZ : {opts.num(0.0)});"
+           "  /* split alpha1 : alpha2 */",
+           "    s->r_prev = r;"] if fr is not None else []),
         "    if (!s->started) { s->e1_prev = e1; s->e2_prev = e2; s->started = 1; }",
         integrate_line(opts, "s->ie1", "e1", f"{P}_FS_HZ", "s->u1_prev"),
         integrate_line(opts, "s->ie2", "e2", f"{P}_FS_HZ", "s->u2_prev"),
@@ -160,8 +172,10 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
         ]
     out += [
         "    s->e1_prev = e1; s->e2_prev = e2;",
-        *output_line(opts, "u1", f"{flt['H'].call('h1', 'w1')} + sr[2] * acc1 + sr[3] * acc2"),
-        *output_line(opts, "u2", f"{flt['H'].call('h2', 'w2')} + sr[3] * acc1 + sr[4] * acc2"),
+        *output_line(opts, "u1", f"{flt['H'].call('h1', 'w1')} + sr[2] * acc1 + sr[3] * acc2"
+                     + (" + sr[0] * fr" if fr is not None else "")),
+        *output_line(opts, "u2", f"{flt['H'].call('h2', 'w2')} + sr[3] * acc1 + sr[4] * acc2"
+                     + (" + sr[1] * fr" if fr is not None else "")),
         "    s->u1_prev = u1; s->u2_prev = u2;",
         "    u[0] = u1; u[1] = u2;",
         "}",

@@ -76,6 +76,23 @@ PID_LAW_TEXT = (
     "u is applied delay_samples after y_1[k], y_2[k] were sampled"
 )
 
+GANTRY_FRICTION_TEXT = ("v_r = (r - r_prev) fs (0 on the first sample); r_prev = r; d = friction(v_r); "
+                        "uff_1 += alpha1 d; uff_2 += alpha2 d; ")
+"""What a ``[friction_feedforward]`` adds to a gantry law (after the inertia feedforward)."""
+
+GANTRY_FRICTION_VELOCITY_TEXT = (
+    "v_r[k] = (y_r[k+P] - y_r[k+P-1]) * fs (backward difference of the previewed gantry reference, not pre-filtered; "
+    "0 on the first sample) [m/s]; d = d(v_r), linear through 0 for |v_r| < v_band; u_1 += alpha1(x) d, "
+    "u_2 += alpha2(x) d (the split of the inertia feedforward: alpha_i m = row sums of M(x))")
+
+
+def gantry_law_text(controller: str, friction: bool = False) -> str:
+    """The execution text of a gantry law (``"mimo"`` or ``"pid"``), with the friction feedforward's terms."""
+    text = MIMO_LAW_TEXT if controller == "mimo" else PID_LAW_TEXT
+    anchor = "uff = [[m11, m12], [m12, m22]] [acc_1, acc_2]; "
+    return text.replace(anchor, anchor + GANTRY_FRICTION_TEXT) if friction else text
+
+
 AXIS_LAW_TEXT = (
     "every sample k, r = x_r[k+P]: d_n = prefilter_n(r); ra = r + sum_n k_n d_n; xr = position(ra); "
     "uff = mass * acceleration(r); e = xr - x[k]; u = controller(e) + uff; "
@@ -131,8 +148,8 @@ def entry(sec: dict, sec_name: str, key: str, where: str):
 
 
 def axis_friction(doc: dict, where: str):
-    """The :class:`~feedtune.control.friction.FrictionFeedforward` of an axis document's ``[friction_feedforward]``
-    (velocities in m/s, levels in the command unit), or None without one."""
+    """The :class:`~feedtune.control.friction.FrictionFeedforward` of an axis or gantry document's
+    ``[friction_feedforward]`` (velocities in m/s, levels in the command unit), or None without one."""
     if doc.get("friction_feedforward") is None:
         return None
     from ..control.friction import LINEAR_VELOCITY
@@ -221,6 +238,10 @@ def _sampling(fs: float, delay: int, preview: int) -> dict:
 def gantry_gains_document(design, analysis: dict | None = None) -> dict:
     """The gains document of a :class:`GantryMimoDesign` or :class:`GantryPidDesign`.
 
+    With the design's friction feedforward (``design.friction``, command unit and m/s of the gantry's travel) the
+    document has a ``[friction_feedforward]`` section (the axis' format) and the law's execution text includes it:
+    ``d(v_r)`` split ``alpha1 d, alpha2 d`` between the drives.
+
     Parameters
     ----------
     design : GantryMimoDesign or GantryPidDesign
@@ -239,14 +260,14 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
         filters["lead_sos"] = _sos(law.lead_discrete())
         filters["lead"] = {"gain": q(law.lead_gain, f"{unit}/m"),
                            "stages": [{"center_hz": s.center_hz, "phase_deg": s.phase_deg} for s in law.lead_stages]}
-        text = MIMO_LAW_TEXT
     else:
         units = pid_gain_units(unit)
         gains = {}
         for i, side in enumerate((1, 2)):
             gains.update({f"kp{side}": q(law.kp[i], units[f"kp{side}"]), f"kd{side}": q(law.kd[i], units[f"kd{side}"]),
                           f"ki{side}": q(law.ki[i], units[f"ki{side}"])})
-        text = PID_LAW_TEXT
+    friction = getattr(design, "friction", None)
+    text = gantry_law_text(law.controller, friction is not None)
     doc = {
         "schema": SCHEMA,
         "kind": GANTRY_KIND,
@@ -263,6 +284,8 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
         "model": gantry_model_to_doc(design.model),
         "design": strip_none(design.design_dict()),
     }
+    if friction is not None:
+        doc["friction_feedforward"] = friction.section(GANTRY_FRICTION_VELOCITY_TEXT)
     if analysis is not None:
         doc["analysis"] = strip_none(analysis)
     return doc

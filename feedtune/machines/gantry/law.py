@@ -16,9 +16,11 @@ Data layout (built by :func:`gantry_law_data` / :func:`axis_law_data` from a run
   acceleration filters once per side);
 * ``par``: gains and flags (:data:`G_PAR`, :data:`A_PAR`); ``st``: the scalar states (:data:`G_ST`, :data:`A_ST`).
 
-The axis law's optional friction feedforward (``[friction_feedforward]``, :mod:`feedtune.control.friction`) is
+The optional friction feedforward of both laws (``[friction_feedforward]``, :mod:`feedtune.control.friction`) is
 eq. 2.1 of the backward-difference velocity of the previewed reference, linear through zero inside ``+-v_band``
-(:func:`friction_command`, the formula of :meth:`feedtune.models.friction.StribeckFriction.smoothed`).
+(:func:`friction_command`, the formula of :meth:`feedtune.models.friction.StribeckFriction.smoothed`). The gantry
+law splits it between the drives as its inertia feedforward splits a rigid acceleration: ``u_i += alpha_i(x) d``
+(``alpha_i m`` is the row sum of ``M(x)``).
 """
 
 from __future__ import annotations
@@ -33,20 +35,33 @@ G_FILTERS = ("filter_pack", "position", "acceleration", "lead", "prefilter_vel",
 """Filters of the gantry law, in the order of ``seg``."""
 G_STATES = (0, 0, 1, 1, 2, 2, 3, 4, 5, 6, 7)
 """Filter of each state instance: h1, h2, pos1, pos2, acc1, acc2, lead, the four pre-filter terms."""
-(GP_FS, GP_BETA, GP_KI, GP_KP1, GP_KD1, GP_KI1, GP_KP2, GP_KD2, GP_KI2, GP_MIMO, GP_PRE, GP_NCOL) = range(12)
-G_PAR = 12
+(GP_FS, GP_BETA, GP_KI, GP_KP1, GP_KD1, GP_KI1, GP_KP2, GP_KD2, GP_KI2, GP_MIMO, GP_PRE, GP_NCOL,
+ GP_FRICTION) = range(13)
+FR_DC_POS, FR_DS_POS, FR_DC_NEG, FR_DS_NEG, FR_OMEGA_POS, FR_OMEGA_NEG, FR_V_BAND, FR_EDGE_POS, FR_EDGE_NEG = range(9)
+"""Offsets of the friction feedforward's numbers in a ``par`` vector from its first (:func:`friction_command`):
+levels dc+, ds+, dc-, ds- [U], Stribeck velocities omega+, omega- [m/s], band v_band [m/s], the friction at
++-v_band [U] (U the command unit)."""
+FR_N = 9
+GP_FR = 13
+"""First friction number (:data:`FR_DC_POS` ..) in the gantry ``par`` vector."""
+G_PAR = GP_FR + FR_N
 """Length of the gantry ``par`` vector: fs [Hz], beta, ki (MIMO), kp1, kd1, ki1, kp2, kd2, ki2 (PID), MIMO flag,
-pre-filter flag, schedule columns used."""
-GS_STARTED, GS_E1, GS_E2, GS_IE1, GS_IE2 = range(5)
-G_ST = 5 + 13
-"""Length of the gantry ``st`` vector: started, previous errors, integrals, then the schedule row (13)."""
+pre-filter flag, schedule columns used, friction flag, then the friction feedforward (:data:`FR_DC_POS` ..)."""
+GS_STARTED, GS_E1, GS_E2, GS_IE1, GS_IE2, GS_R_PREV = range(6)
+GS_ROW = 6
+"""First entry of the schedule row in the gantry ``st`` vector."""
+G_ST = GS_ROW + 13
+"""Length of the gantry ``st`` vector: started, previous errors, integrals, previous previewed reference [m] (the
+friction's velocity), then the schedule row (13)."""
 A_FILTERS = ("controller", "position", "acceleration", "prefilter_vel", "prefilter_acc", "prefilter_jerk",
              "prefilter_snap")
 """Filters of the axis law, in the order of ``seg`` (one instance each)."""
 AP_MASS, AP_KVEL, AP_KACC, AP_KJERK, AP_KSNAP, AP_PRE, AP_FS, AP_FRICTION = range(8)
+AP_FR = 8
+"""First friction number (:data:`FR_DC_POS` ..) in the axis ``par`` vector."""
 (AP_DC_POS, AP_DS_POS, AP_DC_NEG, AP_DS_NEG, AP_OMEGA_POS, AP_OMEGA_NEG, AP_V_BAND, AP_EDGE_POS,
- AP_EDGE_NEG) = range(8, 17)
-A_PAR = 17
+ AP_EDGE_NEG) = range(AP_FR, AP_FR + FR_N)
+A_PAR = AP_FR + FR_N
 """Length of the axis ``par`` vector: mass [U/(m/s^2)], pre-filter gains [s..s^4], pre-filter flag, fs [Hz], friction
 flag, then the friction feedforward: levels dc+, ds+, dc-, ds- [U], Stribeck velocities omega+, omega- [m/s], band
 v_band [m/s] and the friction at +-v_band [U] (U the command unit)."""
@@ -95,9 +110,11 @@ def gantry_law_step(sos, seg, w, wofs, par, st, sched_x, sched, r, y1, y2, x, ou
     """One sample of the gantry law: reference ``r = y_r[k+P]``, encoders ``y1, y2`` [m], table ``x`` [m] ->
     ``out[0], out[1]`` = ``u1, u2`` [command unit].
 
-    ``wofs[i]``: first state row of instance ``i`` of :data:`G_STATES`.
+    ``wofs[i]``: first state row of instance ``i`` of :data:`G_STATES`. With the friction flag, ``d = d(v_r)`` with
+    ``v_r = (r - r_prev) fs`` [m/s] (0 on the first sample) is added to the commands as ``alpha1 d`` and ``alpha2 d``
+    (``alpha_i`` of the schedule row at ``x``).
     """
-    row = st[5:]
+    row = st[GS_ROW:]
     _row(sched_x, sched, int(par[GP_NCOL]), x, row)
     ra1 = r
     ra2 = r
@@ -112,6 +129,11 @@ def gantry_law_step(sos, seg, w, wofs, par, st, sched_x, sched, r, y1, y2, x, ou
     acc2 = _sos(sos, seg[2, 0], seg[2, 1], w, wofs[5], ra2)
     e1 = _sos(sos, seg[1, 0], seg[1, 1], w, wofs[2], ra1) - y1
     e2 = _sos(sos, seg[1, 0], seg[1, 1], w, wofs[3], ra2) - y2
+    fr = 0.0
+    if par[GP_FRICTION] != 0.0:
+        v = (r - st[GS_R_PREV]) * par[GP_FS] if st[GS_STARTED] != 0.0 else 0.0
+        st[GS_R_PREV] = r
+        fr = _fric(par, GP_FR, v)
     if st[GS_STARTED] == 0.0:
         st[GS_E1] = e1
         st[GS_E2] = e2
@@ -131,19 +153,28 @@ def gantry_law_step(sos, seg, w, wofs, par, st, sched_x, sched, r, y1, y2, x, ou
         w2 = par[GP_KP2] * e2 + par[GP_KD2] * (e2 - st[GS_E2]) * fs + par[GP_KI2] * st[GS_IE2]
     st[GS_E1] = e1
     st[GS_E2] = e2
-    out[0] = _sos(sos, seg[0, 0], seg[0, 1], w, wofs[0], w1) + row[2] * acc1 + row[3] * acc2
-    out[1] = _sos(sos, seg[0, 0], seg[0, 1], w, wofs[1], w2) + row[3] * acc1 + row[4] * acc2
+    out[0] = _sos(sos, seg[0, 0], seg[0, 1], w, wofs[0], w1) + row[2] * acc1 + row[3] * acc2 + row[0] * fr
+    out[1] = _sos(sos, seg[0, 0], seg[0, 1], w, wofs[1], w2) + row[3] * acc1 + row[4] * acc2 + row[1] * fr
 
 
-def friction_command(par, v):
+def friction_command(par, f, v):
     """The friction feedforward ``d(v)`` [command unit] of the reference velocity ``v`` [m/s]: eq. 2.1 outside
-    ``+-v_band``, the straight line through zero to the band's edges inside (``par`` of :data:`A_PAR`)."""
+    ``+-v_band``, the straight line through zero to the band's edges inside; its numbers are ``par[f + FR_*]``
+    (:data:`FR_DC_POS` .., ``f`` = :data:`AP_FR` for the axis, :data:`GP_FR` for the gantry)."""
     a = abs(v)
-    if a < par[AP_V_BAND]:
-        return (par[AP_EDGE_POS] if v >= 0.0 else par[AP_EDGE_NEG]) * a / par[AP_V_BAND]
+    if a < par[f + FR_V_BAND]:
+        return (par[f + FR_EDGE_POS] if v >= 0.0 else par[f + FR_EDGE_NEG]) * a / par[f + FR_V_BAND]
     if v > 0.0:
-        return par[AP_DC_POS] + (par[AP_DS_POS] - par[AP_DC_POS]) * math.exp(-a / par[AP_OMEGA_POS])
-    return par[AP_DC_NEG] + (par[AP_DS_NEG] - par[AP_DC_NEG]) * math.exp(-a / par[AP_OMEGA_NEG])
+        return par[f + FR_DC_POS] + (par[f + FR_DS_POS] - par[f + FR_DC_POS]) * math.exp(-a / par[f + FR_OMEGA_POS])
+    return par[f + FR_DC_NEG] + (par[f + FR_DS_NEG] - par[f + FR_DC_NEG]) * math.exp(-a / par[f + FR_OMEGA_NEG])
+
+
+def friction_par(friction) -> np.ndarray:
+    """The :data:`FR_N` numbers of a :class:`~feedtune.control.friction.FrictionFeedforward` (command unit, m/s) in
+    the order :data:`FR_DC_POS` .. :data:`FR_EDGE_NEG`."""
+    f = friction.friction
+    return np.array([f.dc_pos, f.ds_pos, f.dc_neg, f.ds_neg, f.omega_pos, f.omega_negative, friction.v_band,
+                     *friction.edges()], dtype=float)
 
 
 _fric = friction_command
@@ -165,7 +196,7 @@ def axis_law_step(sos, seg, w, par, st, r, x):
         v = (r - st[AS_R_PREV]) * par[AP_FS] if st[AS_STARTED] != 0.0 else 0.0
         st[AS_R_PREV] = r
         st[AS_STARTED] = 1.0
-        uff += _fric(par, v)
+        uff += _fric(par, AP_FR, v)
     e = _sos(sos, seg[1, 0], seg[1, 1], w, seg[1, 0], ra) - x
     return _sos(sos, seg[0, 0], seg[0, 1], w, seg[0, 0], e) + uff
 
@@ -182,7 +213,8 @@ def _stack(sos: dict, names) -> tuple[np.ndarray, np.ndarray]:
 
 
 class GantryLawData:
-    """The arrays :func:`gantry_law_step` runs on, built from a gantry runtime's sections, gains and schedule.
+    """The arrays :func:`gantry_law_step` runs on, built from a gantry runtime's sections, gains, schedule and
+    optional friction feedforward (a :class:`~feedtune.control.friction.FrictionFeedforward` [command unit, m/s]).
 
     Attributes
     ----------
@@ -191,7 +223,7 @@ class GantryLawData:
     """
 
     def __init__(self, controller: str, gains: dict, sos: dict, schedule_x, schedule, fs: float,
-                 prefilter_on: bool) -> None:
+                 prefilter_on: bool, friction=None) -> None:
         self.sos, self.seg = _stack(sos, G_FILTERS)
         counts = [int(self.seg[f, 1]) for f in G_STATES]
         self.wofs = np.cumsum([0, *counts[:-1]]).astype(np.int64)
@@ -205,6 +237,9 @@ class GantryLawData:
         par[GP_MIMO] = 1.0 if controller == "mimo" else 0.0
         par[GP_PRE] = 1.0 if prefilter_on else 0.0
         par[GP_NCOL] = 13 if prefilter_on else 5
+        if friction is not None:
+            par[GP_FRICTION] = 1.0
+            par[GP_FR:GP_FR + FR_N] = friction_par(friction)
         self.par = par
         self.st = np.zeros(G_ST)
         self.sched_x = np.ascontiguousarray(schedule_x, float)
@@ -253,11 +288,8 @@ class AxisLawData:
         par[AP_PRE] = 1.0 if prefilter_on else 0.0
         par[AP_FS] = fs
         if friction is not None:
-            f = friction.friction
             par[AP_FRICTION] = 1.0
-            par[AP_DC_POS:AP_OMEGA_NEG + 1] = (f.dc_pos, f.ds_pos, f.dc_neg, f.ds_neg, f.omega_pos, f.omega_negative)
-            par[AP_V_BAND] = friction.v_band
-            par[AP_EDGE_POS], par[AP_EDGE_NEG] = friction.edges()
+            par[AP_FR:AP_FR + FR_N] = friction_par(friction)
         self.par = par
         self.st = np.zeros(A_ST)
 
@@ -281,9 +313,9 @@ def compiled_inline(func: Callable) -> Callable:
     A call between compiled functions passes every array as a structure of seven or more words, which costs as much
     as a second-order section: the twin's closed loop inlines the laws, their sections and the plant step.
 
-    numba's disk cache of the twin's loop is keyed on ``twin.py`` alone: after editing this module in a working copy,
-    touch ``machines/gantry/twin.py`` (or clear the numba cache) so the loop is compiled again (an installed release
-    rewrites every file, so users are not affected).
+    numba keys the twin loop's disk cache on ``twin.py`` alone, so feedtune's cache folder is named after a digest
+    of all its sources (:func:`feedtune.kernel_cache_dir`): an edit here compiles the loop again. A fixed
+    ``NUMBA_CACHE_DIR`` set by the user opts out of that (clear it after editing this module).
     """
     import numba
 

@@ -23,9 +23,12 @@ cascade in transposed direct form II (as ``scipy.signal.sosfilt``), states zero 
 normalised by its ``a0`` when the file is read. The schedule is interpolated linearly in ``x`` and clamped
 at the first and last row.
 
-:class:`AxisRuntime` adds the optional friction feedforward (``[friction_feedforward]``) to ``uff``: Stribeck eq. 2.1
-of the previewed reference's backward-difference velocity ``v_r = (r - r_prev) fs`` [m/s] (0 on the first sample),
-linear through zero inside ``+-v_band`` (:mod:`feedtune.control.friction`).
+Both runtimes add the optional friction feedforward (``[friction_feedforward]``) to ``uff``: Stribeck eq. 2.1 of the
+previewed reference's backward-difference velocity ``v_r = (r - r_prev) fs`` [m/s] (0 on the first sample), linear
+through zero inside ``+-v_band`` (:mod:`feedtune.control.friction`). :class:`GantryRuntime` splits it between the
+drives as the inertia feedforward splits a rigid acceleration (``alpha_i m`` are the row sums of ``M(x)``)::
+
+    d = friction(v_r);  uff_1 += alpha1 d;  uff_2 += alpha2 d          (alpha_i from the schedule row at x[k])
 
 :meth:`GantryRuntime.replay` and :meth:`AxisRuntime.replay` evaluate the same law for recorded signals
 without a per-sample loop (``sosfilt``); :func:`feedtune.machines.load_runtime` dispatches on the file's ``kind``.
@@ -73,6 +76,32 @@ def _finite_position(x: float) -> float:
     return x
 
 
+def _check_friction(friction, command_unit: str, source: str) -> None:
+    """DataError unless a friction feedforward is in the law's units (command unit, m/s)."""
+    if friction.command_unit != command_unit or friction.velocity_unit != "m/s":
+        raise DataError(f"{source}: friction feedforward is in {friction.command_unit!r} and "
+                        f"{friction.velocity_unit!r}, the law in {command_unit!r} and 'm/s'")
+
+
+SPLIT_TOL = 1e-6
+"""Absolute tolerance [-] of the friction split's check: ``alpha1 + alpha2 = 1`` and ``alpha_i`` = row sum of ``M(x)``
+over its total, in every schedule row [-]."""
+
+
+def _check_split(schedule: np.ndarray, source: str) -> None:
+    """DataError unless every schedule row's ``alpha1, alpha2`` split a force as ``M(x)`` splits a rigid acceleration
+    (``alpha_i = (M 1)_i / (1^T M 1)``, summing to 1): the friction feedforward is split by ``alpha``."""
+    a1, a2, m11, m12, m22 = (schedule[:, i] for i in range(5))
+    total = m11 + 2.0 * m12 + m22
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r1, r2 = (m11 + m12) / total, (m12 + m22) / total
+    ok = (np.all(total > 0) and np.allclose(a1 + a2, 1.0, rtol=0.0, atol=SPLIT_TOL)
+          and np.allclose(a1, r1, rtol=0.0, atol=SPLIT_TOL) and np.allclose(a2, r2, rtol=0.0, atol=SPLIT_TOL))
+    if not ok:
+        raise DataError(f"{source}: the friction feedforward is split alpha1 : alpha2 between the drives, but the "
+                        "schedule's alpha1, alpha2 are not the row sums of M(x) over its total (summing to 1)")
+
+
 # ------------------------------------------------------------------------------------------ gantry
 class GantryRuntime:
     """Executes a gantry gains document (``kind = "gantry"``, ``controller`` ``"mimo"`` or ``"pid"``).
@@ -104,11 +133,14 @@ class GantryRuntime:
         Table positions [m] of the schedule.
     schedule : ndarray, shape (n_x, 13)
         Rows of :data:`feedtune.io.gantry_gains.SCHEDULE_COLUMNS`.
+    friction : FrictionFeedforward or None
+        Friction feedforward of the gantry's travel (``[friction_feedforward]``) [command unit, m/s], split
+        ``alpha1 : alpha2`` between the drives.
     """
 
     def __init__(self, *, controller: str, gains: dict, sos: dict, schedule_x, schedule, fs: float,
                  delay_samples: int, preview_samples: int, command_unit: str = "V",
-                 source: str = "gains document") -> None:
+                 source: str = "gains document", friction=None) -> None:
         self.controller = controller
         self.gains = {k: float(v) for k, v in gains.items()}
         self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
@@ -120,8 +152,12 @@ class GantryRuntime:
         self.command_unit = command_unit
         self.source = source
         self._prefilter_on = bool(np.any(self.schedule[:, 5:] != 0.0))
+        if friction is not None:
+            _check_friction(friction, command_unit, source)
+            _check_split(self.schedule, source)
+        self.friction = friction
         self.law = GantryLawData(controller, self.gains, self.sos, self.schedule_x, self.schedule, self.fs,
-                                 self._prefilter_on)
+                                 self._prefilter_on, friction)
         self._step = compiled_laws()[0]
         self._args = self.law.args()
         self._out = self.law.out
@@ -141,6 +177,7 @@ class GantryRuntime:
         from ...io.gantry_gains import (
             GANTRY_CONTROLLERS,
             GANTRY_KIND,
+            axis_friction,
             check_header,
             command_unit,
             mimo_gain_units,
@@ -164,7 +201,8 @@ class GantryRuntime:
             sos[key[:-4]] = _sos(doc, "reference", key, where)
         x, table = read_schedule(doc, where)
         return cls(controller=str(controller), gains=gains, sos=sos, schedule_x=x, schedule=table, fs=fs,
-                   delay_samples=delay, preview_samples=preview, command_unit=unit, source=where)
+                   delay_samples=delay, preview_samples=preview, command_unit=unit, source=where,
+                   friction=axis_friction(doc, where))
 
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> GantryRuntime:
@@ -262,8 +300,20 @@ class GantryRuntime:
             w1 = g["kp1"] * e1 + g["kd1"] * np.diff(e1, prepend=e1[0]) * fs + g["ki1"] * ie1
             w2 = g["kp2"] * e2 + g["kd2"] * np.diff(e2, prepend=e2[0]) * fs + g["ki2"] * ie2
         h = self.sos["filter_pack"]
-        return (sos_filter(h, w1) + s[:, 2] * acc1 + s[:, 3] * acc2,
-                sos_filter(h, w2) + s[:, 3] * acc1 + s[:, 4] * acc2)
+        fr = self.friction_feedforward(y_ref)
+        return (sos_filter(h, w1) + s[:, 2] * acc1 + s[:, 3] * acc2 + s[:, 0] * fr,
+                sos_filter(h, w2) + s[:, 3] * acc1 + s[:, 4] * acc2 + s[:, 1] * fr)
+
+    def friction_feedforward(self, y_ref) -> np.ndarray:
+        """The friction feedforward ``d(v_r)`` [command unit] per sample for a gantry reference ``y_r[k]`` [m], before
+        its split (``u_i`` gets ``alpha_i d``): Stribeck eq. 2.1 of the previewed reference's backward-difference
+        velocity [m/s]; zeros without a ``[friction_feedforward]``."""
+        from ...control.friction import reference_velocity
+
+        r = self.previewed(y_ref)
+        if self.friction is None:
+            return np.zeros(r.size)
+        return self.friction.command(reference_velocity(r, self.fs))
 
     # ------------------------------------------------------------------ checks and description
     def check_target(self, fs: float, where: str | None = None) -> None:
@@ -287,6 +337,7 @@ class GantryRuntime:
             "schedule_x_m": [float(self.schedule_x[0]), float(self.schedule_x[-1])],
             "schedule_rows": int(self.schedule_x.size),
             "prefilter_active": self._prefilter_on,
+            "friction_feedforward": None if self.friction is None else self.friction.to_dict(),
             "units": {**units, "fs_hz": "Hz", "schedule_x_m": "m", "command": self.command_unit},
         }
 
@@ -322,9 +373,8 @@ class AxisRuntime:
         self.controller = controller
         self.command_unit = command_unit
         self.source = source
-        if friction is not None and (friction.command_unit != command_unit or friction.velocity_unit != "m/s"):
-            raise DataError(f"{source}: friction feedforward is in {friction.command_unit!r} and "
-                            f"{friction.velocity_unit!r}, the axis in {command_unit!r} and 'm/s'")
+        if friction is not None:
+            _check_friction(friction, command_unit, source)
         self.friction = friction
         self._prefilter_on = any(v != 0.0 for v in self.prefilter_gains)
         self.law = AxisLawData(self.sos, self.mass, self.prefilter_gains, self._prefilter_on, self.fs, friction)
