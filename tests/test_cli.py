@@ -3,27 +3,14 @@
 from __future__ import annotations
 
 import json
-import sys
 
 import numpy as np
 import pytest
+from cli_run import run
 
-from feedtune.cli.main import main
 from feedtune.models import THESIS_TABLE_3_1
 
 FILTERS = ["--notch", "420,0.55,0.7", "--notch", "1080,0.05,0.7", "--lpf", "2000"]
-
-
-def run(args, capsys, monkeypatch):
-    """Run ``feedtune ARGS`` in-process; return (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")

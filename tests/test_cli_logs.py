@@ -9,6 +9,7 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+from cli_run import run
 
 from feedtune.cli.main import main
 from feedtune.log import Log
@@ -21,18 +22,6 @@ EMPS_SYMMETRIC = {"mass": 95.1089, "viscous": 203.5034, "coulomb": 20.3935, "off
 EMPS_ASYMMETRIC = {"mass": 95.1540, "viscous_pos": 166.7061, "coulomb_pos": 20.1440, "viscous_neg": 240.4236,
                    "coulomb_neg": 20.6277}
 EMPS_OPTIONS = ["--position", "qm", "--input", "vir", "--scale", f"vir={GTAU}", "--unit", "vir=N"]
-
-
-def run(args, capsys, monkeypatch):
-    """Run ``feedtune ARGS`` in-process through main(); return (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def run_json(args, capsys, monkeypatch) -> dict:

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import sys
 
 import numpy as np
 import pytest
+from cli_run import run
 
 from feedtune.analysis.ballscrew import analyze_ballscrew
-from feedtune.cli.main import main
 from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.design.mcppc import design_mcppc
 from feedtune.errors import DataError, UsageError
@@ -30,18 +29,6 @@ WARNING = "counts them twice"
 
 def _frf(f, h, meta=None) -> Frf:
     return Frf(f, np.asarray(h)[None, None, :], ("x",), ("u",), meta=meta or {"source": "test"})
-
-
-def run(args, capsys, monkeypatch):
-    """Run ``feedtune ARGS`` in-process; return (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 # ------------------------------------------------------------------------------------------ library

@@ -7,23 +7,12 @@ import sys
 
 import numpy as np
 import pytest
+from cli_run import run
 
 from feedtune.cli.main import main
 from feedtune.models.gantry import THESIS_GANTRY as MODEL
 
 XS = ("-0.4", "0", "0.4")
-
-
-def run(args, capsys, monkeypatch):
-    """Run ``feedtune ARGS`` in-process; return (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def _x_options(xs=XS) -> list[str]:

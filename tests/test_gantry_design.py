@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 
 import numpy as np
 import pytest
+from cli_run import run
 
 from feedtune.analysis.gantry import analyze_gantry
-from feedtune.cli.main import main
 from feedtune.control.filters import FilterPack, LeadStage, Notch
 from feedtune.control.gantry import reference_from_schedule
 from feedtune.design.gantry_mimo import (
@@ -148,15 +147,6 @@ def test_pid_tuning_gives_up_below_ms_one():
 
 
 # ---------------------------------------------------------------------------------------------- CLI
-def run(args, capsys, monkeypatch):
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 
 import numpy as np
 import pytest
+from cli_run import run
 from scipy.signal import cont2discrete, freqz_zpk, sosfilt, ss2tf
 
 from feedtune.analysis.gantry import analyze_axis
 from feedtune.analysis.loop import analyze_loop
-from feedtune.cli.main import main
 from feedtune.control.filters import FilterPack, LeadStage, Notch, split_lead, thesis_gamma
 from feedtune.control.prefilter import PrefilterGains, prefilter_terms, reference_filters
 from feedtune.design.loopshape import design_loopshape
@@ -140,15 +139,6 @@ def test_unusable_plants():
 
 
 # ---------------------------------------------------------------------------------------------- CLI
-def run(args, capsys, monkeypatch):
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_cli_loopshape_from_a_gantry_model_writes_and_analyzes(tmp_path, capsys, monkeypatch):

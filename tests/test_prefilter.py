@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 
 import numpy as np
 import pytest
+from cli_run import run
 from scipy.signal import bilinear, lfilter, lsim
 
-from feedtune.cli.main import main
 from feedtune.control.filters import THESIS_FILTER_PACK
 from feedtune.control.friction import friction_feedforward
 from feedtune.control.prefilter import ORDERS, correction_sos, prefilter_response
@@ -245,16 +244,6 @@ def test_friction_units_must_match_the_gains_file():
 
 
 # ------------------------------------------------------------------------------------------ command line
-def run(args, capsys, monkeypatch):
-    """Run ``feedtune ARGS`` in-process; return (exit code, stdout, stderr)."""
-    monkeypatch.setattr(sys, "argv", ["feedtune", *map(str, args)])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_cli_prefilter_writes_a_gains_file_the_runtime_executes(twin_runs, tmp_path, capsys, monkeypatch):

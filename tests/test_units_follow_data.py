@@ -58,7 +58,8 @@ def test_a_ball_screw_model_in_amperes_gives_gains_in_amperes_everywhere(structu
     result = analyze_gains(doc, "gains").result
     assert result["command_unit"] == "A" and result["gain_units"] == all_gain_units("A")
     header = c_header(doc)
-    assert "(A)" in header and not VOLT.search(header.split("*/", 1)[0].replace("Vel", "")), header[:600]
+    comments = " ".join(re.findall(r"/\*(.*?)\*/", header, flags=re.S))
+    assert "(A)" in header and "A/rad" in comments and not VOLT.search(comments), header[:600]
 
 
 def test_a_rigid_body_model_in_newtons_gives_an_axis_in_newtons():
