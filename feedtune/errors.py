@@ -2,31 +2,62 @@
 
 The command line turns every :class:`FeedtuneError` into one line on stderr and the exit code it carries:
 2 for usage errors (bad options, unknown commands), 1 for data errors (bad files, failed fits, unstable
-designs). Library users catch them like ordinary exceptions.
+designs). Library users catch them like ordinary exceptions: :class:`DataError`, :class:`UsageError` and
+:class:`DesignError` are also :class:`ValueError` s, as scipy's and numpy's errors about bad values are.
+
+Library messages speak of parameters (``lpf_hz``, ``filters.notches``), not of command-line flags. An error about
+a parameter names it in ``parameter``; the command line prints the message with each such name replaced by its
+option (:func:`cli_message`, :data:`CLI_OPTIONS`), so the same error reads ``--lpf-hz`` there.
+
+Examples
+--------
+>>> err = UsageError("beta must be >= 1, got 0.5", parameter="beta")
+>>> isinstance(err, ValueError), err.parameter
+(True, 'beta')
+>>> cli_message(err)
+'--beta must be >= 1, got 0.5'
 """
 
 from __future__ import annotations
 
+import re
+from collections.abc import Iterable, Mapping
+
 
 class FeedtuneError(Exception):
-    """Base class: a problem the user can act on, described in one line."""
+    """Base class: a problem the user can act on, described in one line.
+
+    Parameters
+    ----------
+    *args
+        The message (and, rarely, more arguments, as for :class:`Exception`).
+    parameter : str or sequence of str, optional
+        The library parameter(s) the message is about, spelled as in the message (``"lpf_hz"``,
+        ``"filters.notches"``); the first is :attr:`parameter`, all are :attr:`parameters`.
+    """
 
     exit_code = 1
 
+    def __init__(self, *args: object, parameter: str | Iterable[str] | None = None) -> None:
+        super().__init__(*args)
+        names = (parameter,) if isinstance(parameter, str) else tuple(parameter or ())
+        self.parameters: tuple[str, ...] = tuple(str(n) for n in names)
+        self.parameter: str | None = self.parameters[0] if self.parameters else None
 
-class DataError(FeedtuneError):
+
+class DataError(FeedtuneError, ValueError):
     """Input data are missing, malformed or unusable (exit code 1)."""
 
     exit_code = 1
 
 
-class UsageError(FeedtuneError):
+class UsageError(FeedtuneError, ValueError):
     """An option or parameter has an invalid value (exit code 2)."""
 
     exit_code = 2
 
 
-class DesignError(FeedtuneError):
+class DesignError(FeedtuneError, ValueError):
     """A design is unstable or violates the requested limits (exit code 1)."""
 
     exit_code = 1
@@ -34,3 +65,65 @@ class DesignError(FeedtuneError):
 
 class IllConditionedError(DataError):
     """A least-squares problem has no reliable solution (reason in the message)."""
+
+
+# ------------------------------------------------------------------------------ command-line spelling
+CLI_OPTIONS: dict[str, str] = {
+    "Kpx": "--kpx",
+    "Kpv": "--kpv",
+    "Kiv": "--kiv",
+    "FilterPack.lpf_hz": "--lpf",
+    "positions": "--x",
+    "out_dir": "--out",
+    "fit_ballscrew.lead_m_per_rad": "--lead",
+    "read_log.mapping": "--map",
+}
+"""How the command line spells a library parameter where it is not ``--`` plus the name with dashes for
+underscores (``lpf_hz`` -> ``--lpf-hz``). Keys are the parameters errors carry, qualified by their owner where one
+name has two spellings (``FilterPack.lpf_hz`` is ``--lpf``, ``fit_prefilter``'s ``lpf_hz`` is ``--lpf-hz``)."""
+
+
+def option_name(parameter: str, options: Mapping[str, str] | None = None) -> str:
+    """The command-line option of a library parameter (:data:`CLI_OPTIONS`, else ``--name-with-dashes``).
+
+    Examples
+    --------
+    >>> option_name("crossover_hz"), option_name("FilterPack.lpf_hz")
+    ('--crossover-hz', '--lpf')
+    """
+    table = CLI_OPTIONS if options is None else {**CLI_OPTIONS, **options}
+    word = parameter.rsplit(".", 1)[-1]
+    for key in (parameter, word):
+        if key in table:
+            return table[key]
+    return "--" + word.lower().replace("_", "-")
+
+
+def cli_message(exc: BaseException, options: Mapping[str, str] | None = None) -> str:
+    """The message of ``exc`` as the command line prints it, each of its :attr:`~FeedtuneError.parameters` named by
+    its option (:func:`option_name`).
+
+    A parameter ``owner.name`` appears in the message as ``name``. Where the message writes it as a keyword,
+    ``name=`` (``name one with error= or position=``, ``identify it with law=stribeck``), only those occurrences
+    are replaced (``--error``, ``--law stribeck``), so the same word can stay plain English elsewhere; otherwise
+    every whole-word occurrence is.
+
+    Parameters
+    ----------
+    exc : BaseException
+        Usually a :class:`FeedtuneError`; other exceptions give ``str(exc)``.
+    options : dict, optional
+        Spellings that override :data:`CLI_OPTIONS`.
+    """
+    text = str(exc)
+    names = getattr(exc, "parameters", ()) or ()
+    for name in sorted(names, key=lambda n: len(n.rsplit(".", 1)[-1]), reverse=True):
+        word = re.escape(name.rsplit(".", 1)[-1])
+        option = option_name(name, options).replace("\\", r"\\")
+        keyword = rf"(?<![\w.\-/\\]){word}="
+        if re.search(keyword, text):
+            text = re.sub(keyword + r"(?=[\s,.;:)\]]|$)", option, text)
+            text = re.sub(keyword, option + " ", text)
+        else:
+            text = re.sub(rf"(?<![\w.\-/\\]){word}(?![\w\-/\\])", option, text)  # not inside a path
+    return text

@@ -230,3 +230,73 @@ class Frf:
             )
         # channels without a coherence column keep NaN ("not measured")
         return cls(f, h, tuple(outs), tuple(ins), quantity, coh, input_unit, output_unit, meta)
+
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from .display import call, frf_parts
+
+        return call("Frf", frf_parts(self))
+
+    def _repr_html_(self) -> str:
+        from .display import frf_html
+
+        return frf_html(self)
+
+    def plot(self, channels: Sequence[str] | None = None, *, model=None, title: str | None = None):
+        """Magnitude [dB], phase [deg] and coherence [-] per channel (``feedtune.report`` figure).
+
+        Parameters
+        ----------
+        channels : sequence of str, optional
+            Channels ``"OUT/IN"`` to draw (default all).
+        model : object, optional
+            A model with ``frf(freq_hz, quantity)`` (ball screw) or an :class:`Frf`, drawn dashed on this grid.
+        title : str, optional
+            Figure title (default the source).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from .plotting import plot_frf
+
+        return plot_frf(self, channels, model=model, title=title)
+
+    def to_dataframe(self):
+        """A pandas DataFrame: index ``freq_hz`` [Hz], one complex column per channel ``OUT/IN`` [response unit],
+        and ``coherence OUT/IN`` [-] columns when measured; units in ``attrs["units"]``."""
+        import pandas as pd
+
+        from .display import frf_unit
+
+        data = {ch: self.channel(ch) for ch in self.channels}
+        if self.coherence is not None:
+            data.update({f"coherence {ch}": self.channel_coherence(ch) for ch in self.channels})
+        frame = pd.DataFrame(data, index=pd.Index(self.freq_hz, name="freq_hz"))
+        unit = frf_unit(self)
+        frame.attrs["units"] = {"freq_hz": "Hz", **{ch: unit for ch in self.channels},
+                                **{f"coherence {ch}": "-" for ch in self.channels}}
+        frame.attrs["source"] = self.source
+        return frame
+
+    def to_control(self):
+        """This FRF as a python-control ``FrequencyResponseData`` (frequencies in rad/s; needs ``control``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> f = Frf(np.array([1.0, 10.0]), np.ones((1, 1, 2)), ("x1",), ("u",))
+        >>> f.to_control().omega.tolist() == (2 * np.pi * f.freq_hz).tolist()
+        True
+        """
+        from .interop_control import frf_to_control
+
+        return frf_to_control(self)
+
+    @classmethod
+    def from_control(cls, sys, **kwargs) -> Frf:
+        """An :class:`Frf` from a python-control system: a ``FrequencyResponseData`` on its own grid, or an LTI
+        system evaluated on ``freq_hz`` (keyword, [Hz]); see :func:`feedtune.interop_control.frf_from_control`."""
+        from .interop_control import frf_from_control
+
+        return frf_from_control(sys, **kwargs)

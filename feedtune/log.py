@@ -6,7 +6,7 @@ same length as the time vector.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -121,6 +121,44 @@ class Log:
         if t1 is not None:
             m &= self.t <= t1
         return replace(self, t=self.t[m], signals={k: v[m] for k, v in self.signals.items()})
+
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from .display import call, log_parts
+
+        return call("Log", log_parts(self))
+
+    def _repr_html_(self) -> str:
+        from .display import log_html
+
+        return log_html(self)
+
+    def plot(self, signals: Sequence[str] | None = None, *, title: str | None = None):
+        """Signals over time [s], one panel each (long logs as a min/max envelope per pixel column).
+
+        Parameters
+        ----------
+        signals : sequence of str, optional
+            Signals to draw (default all, at most 8).
+        title : str, optional
+            Figure title (default the source).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from .plotting import plot_log
+
+        return plot_log(self, signals, title=title)
+
+    def to_dataframe(self):
+        """A pandas DataFrame: index ``t`` [s], one column per signal; units in ``attrs["units"]``."""
+        import pandas as pd
+
+        frame = pd.DataFrame(dict(self.signals), index=pd.Index(self.t, name="t"))
+        frame.attrs["units"] = {"t": "s", **self.units}
+        frame.attrs["source"] = self.source
+        return frame
 
 
 _LOG_LETTERS = ("v", "a", "j", "s")

@@ -75,7 +75,8 @@ def _collect(logs: Sequence[Log], shift_s: Mapping[str, float]) -> list[_Signal]
         for name, x in log.signals.items():
             if name in signals:
                 raise DataError(f"signal {name!r} is in {signals[name].source} and in {log.source}; rename one "
-                                "(--map) so every signal of the merged log has one source")
+                                "when reading it (mapping=) so every signal of the merged log has one source",
+                                parameter="read_log.mapping")
             shift = float(shift_s.get(name, 0.0))
             signals[name] = _Signal(name, log.t + shift, x, log.unit(name), log.fs, log.source)
     for name in shift_s:

@@ -37,7 +37,7 @@ def test_frf_to_gains_to_header(ext, frf_files, tmp_path, capsys, monkeypatch):
     assert set(res) >= {"kind", "params", "modes", "fit"}
     for name, true in THESIS_TABLE_3_1.params().items():
         if name in ("m1", "m2", "k", "c"):
-            assert res["params"][name] == pytest.approx(true, rel=0.01)
+            assert res["params"][name]["value"] == pytest.approx(true, rel=0.01)
     assert res["modes"][0]["freq_hz"] == pytest.approx(130.0, abs=0.5)
     gains = tmp_path / "mcppc.toml"
     code, out, err = run(
@@ -78,7 +78,7 @@ def test_ppi_user_gains_and_tuning(frf_files, tmp_path, capsys, monkeypatch):
     )
     assert code == 0, err
     res = json.loads(out)
-    assert res["gains"]["Kpx"] == 60.0 and res["gains"]["Kx2"] == pytest.approx(0.8 * 60.0)
+    assert res["gains"]["Kpx"]["value"] == 60.0 and res["gains"]["Kx2"]["value"] == pytest.approx(0.8 * 60.0)
     code, out, err = run(["design", "ppi", model, "--ms-max", "2.5", *FILTERS, "--json"], capsys, monkeypatch)
     assert code == 0, err
     assert json.loads(out)["analysis"]["ideal_discrete"]["ms"] <= 2.5

@@ -75,8 +75,8 @@ def twin_files(tmp_path_factory):
 def test_analyze_track_twin_log_is_numpy_max_and_rms(twin_files, capsys, monkeypatch):
     path = twin_files / "track.csv"
     res = run_json(["analyze", "track", path], capsys, monkeypatch)
-    assert set(res) == {"log", "kind", "metrics", "units"}
-    assert res["log"] == str(path) and res["kind"] == "track" and res["units"]["max_m"] == "m"
+    assert set(res) == {"kind", "feedtune_version", "inputs", "log", "metrics", "units", "warnings"}
+    assert res["log"] == str(path) and res["kind"] == "analyze.track" and res["units"]["max_m"] == "m"
     df = _csv(path)
     e = df["x_ref"].to_numpy() - df["x2_table"].to_numpy()
     v, a = np.abs(df["v_ref"].to_numpy()), np.abs(df["a_ref"].to_numpy())
@@ -120,7 +120,7 @@ def test_analyze_gains_file_still_works_both_ways(twin_files, capsys, monkeypatc
     gains = twin_files / "gains.toml"
     short = run_json(["analyze", gains], capsys, monkeypatch)
     long = run_json(["analyze", "gains", gains], capsys, monkeypatch)
-    assert short == long and short["kind"] == "mcppc" and short["analysis"]["ideal"]["stable"]
+    assert short == long and short["controller"] == "mcppc" and short["analysis"]["ideal"]["stable"]
     code, _, err = run(["analyze", "trak", gains], capsys, monkeypatch)
     assert code == 2 and "No such command 'trak'" in err
 

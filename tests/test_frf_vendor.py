@@ -307,7 +307,7 @@ def test_cli_identify_reads_each_example_like_the_model(name, capsys, monkeypatc
     assert code == 0, err
     params = json.loads(out)["params"]
     for key, rel in (("m1", 1e-6), ("m2", 1e-6), ("k", 1e-6), ("c", 1e-5), ("b1", 1e-4)):
-        assert params[key] == pytest.approx(getattr(MODEL, key), rel=rel), (key, params[key])
+        assert params[key]["value"] == pytest.approx(getattr(MODEL, key), rel=rel), (key, params[key])
     recognised = not any(o == "--frf-map" for o in options)
     assert ("feedtune: note:" in err) == recognised
     if recognised:

@@ -169,7 +169,7 @@ def test_cli_design_gantry_and_pid_then_analyze(model_file, tmp_path, capsys, mo
     assert mimo_file.with_suffix(".json").exists()
     d = res["analysis"]["ideal_discrete"]
     assert d["crossovers_hz"][0] == pytest.approx(60, abs=1) and d["stable"]
-    assert res["gains"]["beta"] == pytest.approx(5.9 * MODEL.c / (2 * 0.742**2), rel=1e-9)
+    assert res["gains"]["beta"]["value"] == pytest.approx(5.9 * MODEL.c / (2 * 0.742**2), rel=1e-9)
     code, out, err = run(["design", "pid", model_file, "--match", mimo_file, "--out", pid_file, "--json"], capsys,
                          monkeypatch)
     assert code == 0, err
@@ -183,7 +183,7 @@ def test_cli_design_gantry_and_pid_then_analyze(model_file, tmp_path, capsys, mo
         code, out, err = run(["analyze", f, "--json"], capsys, monkeypatch)
         assert code == 0, err
         again = json.loads(out)
-        assert again["kind"] == "gantry"
+        assert again["gains_kind"] == "gantry"
         assert again["analysis"]["ideal_discrete"]["ms"] == pytest.approx(
             (d if f == mimo_file else pid["analysis"]["ideal_discrete"])["ms"], rel=1e-9)
     code, out, err = run(["analyze", mimo_file], capsys, monkeypatch)

@@ -153,14 +153,14 @@ def test_cli_loopshape_from_a_gantry_model_writes_and_analyzes(tmp_path, capsys,
                            "--lpf", "1200", "--fs", "15000", "--out", out, "--json"], capsys, monkeypatch)
     assert code == 0, err
     res = json.loads(text)
-    assert res["kind"] == "axis" and res["check"]["ok"] and out.exists()
+    assert res["gains_kind"] == "axis" and res["check"]["ok"] and out.exists()
     assert res["design"]["plant"]["mass"] == pytest.approx(THESIS_GANTRY.m_x)
     d = res["analysis"]["ideal_discrete"]
     assert d["crossovers_hz"][0] == pytest.approx(130, abs=1) and d["phase_margin_deg"] == pytest.approx(35, abs=1)
     code, text, err = run(["analyze", out, "--json"], capsys, monkeypatch)
     assert code == 0, err
     again = json.loads(text)
-    assert again["kind"] == "axis"
+    assert again["gains_kind"] == "axis"
     assert again["analysis"]["ideal_discrete"]["crossovers_hz"][0] == pytest.approx(d["crossovers_hz"][0], rel=1e-9)
     code, text, err = run(["design", "loopshape", model, "--crossover-hz", "130", "--pm-deg", "35", "--out", out],
                           capsys, monkeypatch)

@@ -256,7 +256,7 @@ def test_cli_prefilter_writes_a_gains_file_the_runtime_executes(twin_runs, tmp_p
     res = json.loads(text)
     fit = twin_runs["fit"]
     for name, value in fit.gains.items():
-        assert res["gains"][name] == pytest.approx(value, rel=1e-6, abs=1e-12 * abs(value) + 1e-20)
+        assert res["gains"][name]["value"] == pytest.approx(value, rel=1e-6, abs=1e-12 * abs(value) + 1e-20)
     rt = GainsRuntime.from_file(out)
     assert rt.to_dict()["prefilter"]["gains"]["K_acc"] == pytest.approx(fit.gains["K_acc"], rel=1e-6)
     assert (tmp_path / "mcppc_pf.json").exists() and "prefilter" in read_document(tmp_path / "mcppc_pf.json")

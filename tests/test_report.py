@@ -142,6 +142,8 @@ def test_html_embeds_every_figure_and_opens_without_network(report):
 def test_design_numbers_equal_analyze_json(report, demo_dir):
     for gains in ("mcppc_gains.toml", "ppi_gains.toml"):
         expected = cli_json("analyze", demo_dir / gains, "--frf", demo_dir / "frf.csv")
+        expected = {**expected, "kind": expected["controller"],  # the --json envelope's spelling (docs/json.md)
+                    "gains": {k: q["value"] for k, q in expected["gains"].items()}}
         got = report.data["design"][gains]
         for key in ("kind", "gains", "closed_loop_poles", "analysis"):
             assert got[key] == expected[key], (gains, key)
@@ -444,7 +446,10 @@ def test_gantry_and_axis_gains_are_analysed_as_the_analyze_command_does(tmp_path
         assert res.exit_code == 0, res.output
     rep = build_report([tmp_path / "gantry.toml", tmp_path / "mimo.toml", tmp_path / "axis.toml"], render=False)
     for name in ("mimo.toml", "axis.toml"):
-        expected = cli_json("analyze", tmp_path / name)
+        envelope = cli_json("analyze", tmp_path / name)  # the results inside the --json envelope (docs/json.md)
+        expected = {k: v for k, v in envelope.items()
+                    if k not in ("kind", "feedtune_version", "inputs", "warnings", "gains_kind")}
+        expected.update(kind=envelope["gains_kind"], gains={k: q["value"] for k, q in envelope["gains"].items()})
         got = rep.data["design"][name]
         assert {k: got[k] for k in expected} == expected, name
     assert {"design-gantry", "design-axis", "model-gantry.toml"} <= section_keys(rep)
@@ -501,3 +506,86 @@ def test_summary_names_every_figure_a_baseline_wins():
     data["comparison"]["tracking"]["rows"][0]["runs"]["PID (pid_own_gains)"]["max_m"] = 3e-6
     data["comparison"]["ropesnap"]["rope snap"]["PID (pid_own_gains)"]["peak"] = 40.0
     assert _baseline_wins(data) is None
+
+
+# ------------------------------------------------------------------------------------------ what the reader sees
+def _frf_coherence(path):
+    """Lowest coherence of x1/u and x2/u per line, read from the FRF file with numpy alone."""
+    lines = [line for line in path.read_text().splitlines() if line and not line.startswith("#")]
+    names = [c.strip() for c in lines[0].split(",")]
+    table = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
+    cols = [names.index("x1/u.coh"), names.index("x2/u.coh")]
+    return table[:, names.index("freq_hz")], table[:, cols].min(axis=1)
+
+
+@pytest.mark.slow
+def test_curves_drawn_from_the_frf_leave_out_lines_of_low_coherence(report, demo_dir):
+    f_line, coh = _frf_coherence(demo_dir / "frf.csv")
+    assert (coh < 0.5).any() and (coh >= 0.5).any()
+    fig = next(f for f in report.figures() if f.name == "design-loop")
+    assert "coherence" in fig.caption and "below 0.5" in fig.caption
+    phase_ax = fig.figure.axes[1]
+    solid = [ln for ln in phase_ax.get_lines() if ln.get_linestyle() == "-" and len(ln.get_xdata()) > 100
+             and ln.get_transform() == phase_ax.transData]  # the curves, not the minor grid
+    assert solid  # the measured-FRF cases
+    for ln in solid:
+        x, y = np.asarray(ln.get_xdata(), float), np.asarray(ln.get_ydata(), float)
+        drawn = x[np.isfinite(y)]
+        low = np.interp(drawn, f_line, coh) < 0.5
+        assert not low.any(), drawn[low][:5]
+        assert np.isfinite(y).sum() < y.size  # some lines were left out
+
+
+@pytest.mark.slow
+def test_legends_never_cover_the_axes(report):
+    for block in report.figures():
+        fig = block.figure
+        renderer = fig.canvas.get_renderer()
+        boxes = [ax.get_window_extent(renderer) for ax in fig.axes]
+        legend_texts = [t for t in fig.texts if t.get_fontsize() < 8]
+        assert legend_texts or not any(ax.get_legend_handles_labels()[1] for ax in fig.axes), block.name
+        for t in legend_texts:
+            bb = t.get_window_extent(renderer)
+            assert not any(bb.overlaps(b) for b in boxes), (block.name, t.get_text())
+        assert not any(ax.get_legend() for ax in fig.axes), block.name  # no legend box inside an axes
+
+
+@pytest.mark.slow
+def test_every_design_has_a_verdict_line_a_controller_bode_plot_and_a_supported_bandwidth(report):
+    summary = [b.text for b in report.section("summary").blocks if isinstance(b, (Paragraph, Alert))]
+    for name in ("mcppc_gains.toml", "ppi_gains.toml"):
+        line = next(t for t in summary if f"({name})" in t)
+        assert ": PASS under textbook: Ms <= 2.5, PM >= 30 deg, GM >= 6 dB" in line and "stable in 4 of 4" in line
+    figs = {f.name for f in report.figures()}
+    assert {"design-controller-mcppc_gains.toml", "design-controller-ppi_gains.toml"} <= figs
+    bode = next(f for f in report.figures() if f.name == "design-controller-mcppc_gains.toml").figure
+    assert "V/rad" in bode.axes[0].get_ylabel() and len(bode.axes) == 4
+    for name in ("mcppc_gains.toml", "ppi_gains.toml"):
+        bw = report.data["design"][name]["tracking_bandwidth"]["cases"]
+        assert bw["discrete"]["shown"] and bw["discrete"]["value_hz"] <= bw["discrete"]["supported_to_hz"]
+        for entry in bw.values():
+            assert not entry["shown"] or entry["value_hz"] <= entry["supported_to_hz"]
+
+
+@pytest.mark.slow
+def test_time_figures_zoom_on_the_events_beside_the_whole_run(report):
+    track = next(f for f in report.figures() if f.name.startswith("time-track-"))
+    axes = track.figure.axes
+    whole, zooms = axes[0], [axes[1]]
+    lo, hi = whole.get_xlim()
+    for z in zooms:
+        z0, z1 = z.get_xlim()
+        assert lo <= z0 < z1 <= hi and (z1 - z0) < 0.4 * (hi - lo)
+    snap = next(f for f in report.figures() if f.name.startswith("time-ropesnap"))
+    z0, z1 = snap.figure.axes[1].get_xlim()
+    assert z0 < 0 < z1 < 0.2  # around the release, tens of ms
+
+
+@pytest.mark.slow
+def test_the_pdf_is_compact(report):
+    from feedtune.report.pdf import layout_pages
+
+    pages = layout_pages(report)
+    assert len(pages) <= 20 < len(report.tables()) + len(report.figures())
+    title = " ".join(t.get_text() for t in pages[0].texts)
+    assert report.title in title and "Contents" in title and "PASS under" in title

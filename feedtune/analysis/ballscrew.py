@@ -18,10 +18,20 @@ Nyquist counts: each case extends its loop below its grid with the model
 ``G ~ 1/(b s)``): the model in ``ideal``, the continuous model times the hold ``(1 - e^{-sT})/(sT)`` in
 ``ideal_discrete``, and in ``measured``/``discrete`` the model scaled by one complex factor fitted to the
 FRF's ``x1/u`` and ``x2/u`` over its first octave, with the case's hold, delay and controller.
+
+Evaluation: ``K1 = G_fp P1`` and ``K2 = G_fp P2`` with ``P1 = Kx1 + Kv1 d``, ``P2 = Kx2 + Kv2 d + Ki2 / d`` (``d = s``
+or the backward difference), so that a case's loop is ``G_fp`` times five fixed responses weighted by the gains.
+:func:`analyze_case` keeps those responses, the extension and the filter pack's response on the plant case (a
+tuner's hundreds of laws on the same plant cases pay for them once); :func:`analyze_ballscrew` forms each case's
+loop directly and keeps nothing. The four cases are refined together, every model, FRF, hold and controller
+evaluated once per round for all of them (:func:`feedtune.analysis.loop.analyze_loops`). The exact ZOH model is
+evaluated as ``N(z) / D(z)`` with its exact poles (:class:`_SampledModel`), not from expanded polynomials.
 """
 
 from __future__ import annotations
 
+import functools
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -33,8 +43,8 @@ from ..errors import DataError
 from ..frf import Frf
 from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
-from .cases import PlantCase, measured_cases, model_cases
-from .loop import LoopMetrics, analyze_loop, model_extension
+from .cases import PlantCase, analysis_scope, measured_cases, model_cases, unit_circle, work_array
+from .loop import LoopCase, LoopExtension, LoopMetrics, analyze_loops, extension_grid, junction_scale
 from .resolution import lightly_damped
 
 
@@ -87,6 +97,30 @@ class CaseResponse:
         d["tracking_max_phase_lag_deg_below_100hz"] = _max_lag(self.freq_hz, self.tracking, 100.0)
         return d
 
+    # --------------------------------------------------------------- notebooks
+    def __getattr__(self, name: str):
+        """A figure by name: ``case.ms``, ``case.gain_margin_db`` (the metrics', then ``to_dict()``'s)."""
+        from ..display import case_attribute
+
+        return case_attribute(self, name)
+
+    def __dir__(self) -> list[str]:
+        from ..display import case_dir
+
+        return case_dir(self)
+
+    def __repr__(self) -> str:
+        from ..display import case_repr
+
+        return case_repr(self)
+
+    def plot(self, kind: str = "loop"):
+        """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
+        (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        from ..plotting import plot_analysis
+
+        return plot_analysis(self, kind)
+
 
 def _max_lag(f, t, f_max):
     m = f <= f_max
@@ -103,6 +137,39 @@ class BallScrewAnalysis:
         """``{case: figures or None}``."""
         return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
 
+    # --------------------------------------------------------------- notebooks
+    def __getattr__(self, name: str):
+        """A case by name: ``analysis.discrete`` is ``analysis.cases["discrete"]``."""
+        from ..display import analysis_case
+
+        return analysis_case(self, name)
+
+    def __dir__(self) -> list[str]:
+        return sorted(set(object.__dir__(self)) | set(self.__dict__.get("cases", {})))
+
+    def __repr__(self) -> str:
+        from ..display import analysis_repr
+
+        return analysis_repr(self)
+
+    def _repr_html_(self) -> str:
+        from ..display import analysis_html
+
+        return analysis_html(self)
+
+    def to_dataframe(self):
+        """The scalar figures of ``to_dict()`` as a pandas DataFrame, one row per case."""
+        from ..display import analysis_frame
+
+        return analysis_frame(self)
+
+    def plot(self, kind: str = "loop", *, cases=None):
+        """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
+        ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        from ..plotting import plot_analysis
+
+        return plot_analysis(self, kind, cases=cases)
+
 
 def default_grid(fs: float, n: int = 4000) -> np.ndarray:
     """Analysis grid for the model cases [Hz]: 0.5 Hz to just below ``fs/2``, log-spaced (measured cases use
@@ -110,20 +177,26 @@ def default_grid(fs: float, n: int = 4000) -> np.ndarray:
     return np.logspace(np.log10(0.5), np.log10(fs / 2 * 0.999), n)
 
 
-def _plant_from_frf(frf: Frf) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """Lines [Hz], ``x1/u`` and ``x2/u`` [rad/V] and their coherence (None when not measured) of a measured FRF."""
+def _plant_from_frf(frf: Frf) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Lines [Hz], ``[x1/u, x2/u]`` [rad/V] (shape ``(2, n)``; rows of the FRF's own array when they are, not a copy)
+    and their coherence (None when not measured) of a measured FRF."""
     pos = frf.as_quantity("position")
     if not (pos.has("x1/u") and pos.has("x2/u")):
         raise DataError(
             f"{frf.source}: the analysis needs both channels x1/u and x2/u; found {', '.join(frf.channels)}"
         )
     f = pos.freq_hz
-    keep = f > 0
+    keep = slice(None) if np.all(f > 0) else f > 0
+    (i1, j1), (i2, j2) = pos.index("x1/u"), pos.index("x2/u")
+    if isinstance(keep, slice) and (i1, i2) == (0, 1) and j1 == j2:
+        plant = pos.response[0:2, j1]
+    else:
+        plant = np.array([pos.response[i1, j1][keep], pos.response[i2, j2][keep]])
     coh = None
     if pos.coherence is not None:
         c = np.array([pos.channel_coherence("x1/u")[keep], pos.channel_coherence("x2/u")[keep]])
         coh = c if np.all(np.isfinite(c)) else None
-    return f[keep], pos.channel("x1/u")[keep], pos.channel("x2/u")[keep], coh
+    return f[keep], plant, coh
 
 
 def _rhp(z: Zpk) -> int:
@@ -140,26 +213,116 @@ def zoh_plant(model: BallScrewModel, fs: float, freq_hz: np.ndarray) -> dict[str
     return _zoh_tf(model, fs)(freq_hz)
 
 
-@blas_single_threaded
-def _zoh_tf(model: BallScrewModel, fs: float):
-    """A function evaluating :func:`zoh_plant` on any grid (the discretization computed once)."""
-    from scipy.signal import cont2discrete, ss2tf
+def _horner(coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``numpy.polyval(coeffs, x)`` (the same operations), in place in one array."""
+    out = np.full(x.shape, coeffs[0], complex)
+    for c in coeffs[1:]:
+        out *= x
+        out += c
+    return out
 
-    A, B, C = model.state_space()
-    Ad, Bd, Cd, Dd, _ = cont2discrete((A, B, C, np.zeros((2, 3))), 1.0 / fs, method="zoh")
-    polys = {}
-    for j, inp in ((0, "1"), (2, "3")):
-        num, den = ss2tf(Ad, Bd, Cd, Dd, input=j)
-        for i, outp in ((0, "G1"), (1, "G2")):
-            polys[outp + inp] = (num[i], den)
 
-    def evaluate(freq_hz, keys=None) -> dict[str, np.ndarray]:
-        z = np.exp(2j * np.pi * np.asarray(freq_hz, float) / fs)
+class _Rational:
+    """Responses ``num_k(x) / den(x)`` sharing one denominator, ``x`` from frequency [Hz] (``s``, or ``z`` at
+    ``fs``)."""
+
+    def __init__(self, nums: dict[str, np.ndarray], den: np.ndarray, fs: float | None) -> None:
+        self.nums = {k: np.asarray(v, float) for k, v in nums.items()}
+        self.den = np.asarray(den, float)
+        self.fs = fs
+
+    def _x(self, f: np.ndarray) -> np.ndarray:
+        return 2j * np.pi * f if self.fs is None else unit_circle(f, self.fs)
+
+    def _inverse_denominator(self, x: np.ndarray) -> np.ndarray:
         with np.errstate(divide="ignore", invalid="ignore"):
-            inv_den = 1.0 / np.polyval(den, z)  # one denominator (ss2tf of one system)
-        return {k: np.polyval(polys[k][0], z) * inv_den for k in (polys if keys is None else keys)}
+            return 1.0 / _horner(self.den, x)
 
-    return evaluate
+    def stacked(self, freq_hz, keys: tuple[str, ...]) -> np.ndarray:
+        """The responses ``keys`` as rows of one array (shape ``(len(keys), len(f))``), one denominator for all."""
+        x = self._x(np.asarray(freq_hz, float))
+        inv_den = self._inverse_denominator(x)
+        out = np.empty((len(keys), x.size), complex)
+        for row, k in zip(out, keys, strict=True):
+            c = self.nums[k]
+            row[...] = c[0]
+            for ci in c[1:]:
+                row *= x
+                row += ci
+            row *= inv_den
+        return out
+
+    def __call__(self, freq_hz, keys=None) -> dict[str, np.ndarray]:
+        keys = tuple(self.nums if keys is None else keys)
+        return dict(zip(keys, self.stacked(freq_hz, keys), strict=True))
+
+    def pair(self, a: str, b: str) -> Callable[[np.ndarray], np.ndarray]:
+        """``f -> [num_a / den, num_b / den]`` (shape ``(2, len(f))``); the function carries ``source`` and ``keys``
+        so that an analysis can evaluate several pairs of one model with one denominator."""
+
+        def evaluate(freq_hz):
+            return self.stacked(freq_hz, (a, b))
+
+        evaluate.source, evaluate.keys, evaluate.fresh = self, (a, b), True
+        return evaluate
+
+
+@functools.lru_cache(maxsize=16)
+def _model_tf(model: BallScrewModel) -> _Rational:
+    """The continuous model as :class:`_Rational` (G11, G13, G21, G23 [rad/V])."""
+    return _Rational(model.numerators(), model.denominator(), None)
+
+
+@functools.lru_cache(maxsize=16)
+def _model_features(model: BallScrewModel) -> np.ndarray:
+    """Lightly damped poles and zeros of the model (Hz, damping)."""
+    return np.vstack([lightly_damped(model.poles()),
+                      *[lightly_damped(np.roots(n)) for n in model.numerators().values() if np.size(n) > 1]])
+
+
+class _SampledModel(_Rational):
+    """The model discretized exactly with a zero-order hold, as ``N(z) / D(z)`` evaluated at ``z = exp(j w T)``.
+
+    ``D(z) = prod(z - exp(p T))`` over the continuous poles ``p``, the exact poles of the discretization, in product
+    form; ``N(z) = D(z) Cd (z I - Ad)^-1 Bd`` is a polynomial of degree ``n - 1``, its coefficients taken from
+    ``2 n`` points on the unit circle away from the poles (an exact discrete Fourier transform, perfectly
+    conditioned; the state space solved with pivoting there). The expanded polynomials of ``scipy.signal.ss2tf``
+    lose up to 1e-5 of the response near the double pole at ``z = 1`` (rigid body and friction pole); this agrees
+    with python-control's state-space evaluation of the same ``(Ad, Bd)`` to about 1e-12 (``G11``, ``G21``).
+    """
+
+    def __init__(self, model: BallScrewModel, fs: float) -> None:
+        from scipy.signal import cont2discrete
+
+        A, B, C = model.state_space()
+        Ad, Bd, Cd, _, _ = cont2discrete((A, B, C, np.zeros((C.shape[0], B.shape[1]))), 1.0 / fs, method="zoh")
+        n = A.shape[0]
+        self.poles = np.exp(model.poles() / fs)
+        zk = np.exp(2j * np.pi * (np.arange(2 * n) + 0.5) / (2 * n))
+        N = np.array([np.prod(z - self.poles) * (Cd @ np.linalg.solve(z * np.eye(n) - Ad, Bd)) for z in zk])
+        c = np.einsum("kij,km->mij", N, np.conj(zk)[:, None] ** np.arange(n)[None, :]) / (2 * n)
+        self.nums = {f"G{o + 1}{i + 1}": c[::-1, o, i].real.copy() for o in range(C.shape[0]) for i in (0, 2)}
+        self.fs = float(fs)
+
+    def _x(self, f: np.ndarray) -> np.ndarray:
+        return unit_circle(f, self.fs)
+
+    def _inverse_denominator(self, z: np.ndarray) -> np.ndarray:
+        den = np.ones(z.shape, complex)
+        tmp = np.empty(z.shape, complex)
+        for p in self.poles:
+            np.subtract(z, p, out=tmp)
+            den *= tmp
+        with np.errstate(divide="ignore", invalid="ignore"):
+            np.divide(1.0, den, out=den)
+        return den
+
+
+@functools.lru_cache(maxsize=16)
+@blas_single_threaded
+def _zoh_tf(model: BallScrewModel, fs: float) -> _SampledModel:
+    """A function evaluating :func:`zoh_plant` on any grid (the discretization computed once per model and rate)."""
+    return _SampledModel(model, fs)
 
 
 # ------------------------------------------------------------------------------------------- plant cases
@@ -182,27 +345,17 @@ def plant_cases(model: BallScrewModel, fs: float, delay_samples: float, frf: Frf
         Base grid of the model cases [Hz] (default :func:`default_grid`).
     """
     f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
-    feats = np.vstack([lightly_damped(model.poles()),
-                       *[lightly_damped(np.roots(n)) for n in model.numerators().values() if np.size(n) > 1]])
-    zoh_tf = _zoh_tf(model, fs)
-
-    def pick(fn, a, b):
-        def out(fr):
-            g = fn(fr, (a, b))
-            return np.array([g[a], g[b]])
-
-        return out
-
+    tf, zoh_tf = _model_tf(model), _zoh_tf(model, fs)
+    model_plant = tf.pair("G11", "G21")  # one function object: the analysis evaluates it once for all its cases
     cases: dict[str, PlantCase | None] = dict(model_cases(
-        f, fs, delay_samples, model_plant=pick(model.frequency_response, "G11", "G21"),
-        zoh_plant=pick(zoh_tf, "G11", "G21"), features=feats,
-        disturbance=pick(model.frequency_response, "G13", "G23"), zoh_disturbance=pick(zoh_tf, "G13", "G23")))
+        f, fs, delay_samples, model_plant=model_plant, zoh_plant=zoh_tf.pair("G11", "G21"),
+        features=_model_features(model), disturbance=tf.pair("G13", "G23"),
+        zoh_disturbance=zoh_tf.pair("G13", "G23")))
     if frf is None:
         cases["measured"] = cases["discrete"] = None
         return cases
-    fm, G11, G21, coh = _plant_from_frf(frf)
-    cases.update(measured_cases(fm, np.array([G11, G21]), fs, delay_samples,
-                                model_plant=pick(model.frequency_response, "G11", "G21"), coherence=coh))
+    fm, plant, coh = _plant_from_frf(frf)
+    cases.update(measured_cases(fm, plant, fs, delay_samples, model_plant=model_plant, coherence=coh))
     return cases
 
 
@@ -228,46 +381,541 @@ def loop_function(paths: tuple[Zpk, Zpk], pc: PlantCase) -> Callable[[np.ndarray
     return evaluate
 
 
-def analyze_case(law: BallScrewLaw, pc: PlantCase, *, responses: bool = True) -> CaseResponse:
-    """One analysis case of a law on a plant case: the figures (refined) and, with ``responses``, the curves on the
-    case's base grid (without: ``L`` only, for searches)."""
+_BLOCK = 8
+"""Roots multiplied together before one division (as :meth:`feedtune.lti.Zpk.evaluate`)."""
+
+
+def _zpk_at(z: Zpk, x: np.ndarray) -> np.ndarray:
+    """``z`` at the complex points ``x``: :meth:`~feedtune.lti.Zpk.evaluate` (roots in blocks of :data:`_BLOCK`, one
+    division per block) with two work arrays besides the result."""
+    n_roots = max(z.zeros.size, z.poles.size)
+    if x.size * max(n_roots, 1) <= 4096:
+        return z.evaluate(x)
+    out = np.full(x.shape, z.gain, complex)
+    if n_roots == 0:
+        return out
+    den, tmp = work_array(x.size, 0).reshape(x.shape), work_array(x.size, 1).reshape(x.shape)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for k in range(0, n_roots, _BLOCK):
+            den.fill(1.0)
+            for r in z.zeros[k:k + _BLOCK]:
+                np.subtract(x, r, out=tmp)
+                out *= tmp
+            for r in z.poles[k:k + _BLOCK]:
+                np.subtract(x, r, out=tmp)
+                den *= tmp
+            out /= den
+    return out
+
+
+def _zpk_key(z: Zpk) -> tuple:
+    return z.zeros.tobytes(), z.poles.tobytes(), z.gain, z.dt
+
+
+_MATCHED: dict[tuple, Zpk] = {}
+
+
+def _matched_filter(law: BallScrewLaw) -> Zpk:
+    """``law.filter_pack_discrete()``, computed once per filter pack and rate (a tuner changes the gains only)."""
+    key = (_zpk_key(law.filter_pack), float(law.fs))
+    out = _MATCHED.get(key)
+    if out is None:
+        if len(_MATCHED) > 64:
+            _MATCHED.clear()
+        out = _MATCHED[key] = law.filter_pack_discrete()
+    return out
+
+
+class _Controller:
+    """The feedback paths of a law as ``K1 = G_fp P1``, ``K2 = G_fp P2`` (:class:`BallScrewLaw`).
+
+    Continuous: ``P1 = Kx1 + Kv1 s``, ``P2 = Kx2 + Kv2 s + Ki2 / s``; discrete: ``s`` is replaced by the backward
+    difference ``d = fs (1 - z^-1)`` and ``G_fp`` by its matched discretization. The loop is then
+    ``L = H G_fp (Kx1 [H G11] + Kv1 [d H G11] + Kx2 [H G21] + Kv2 [d H G21] + Ki2 [H G21 / d]) / H``: a fixed basis
+    of five responses per plant case (:class:`_CaseParts`) weighted by the gains.
+    """
+
+    def __init__(self, law: BallScrewLaw, discrete: bool) -> None:
+        g = law.gains
+        self.discrete = discrete
+        self.fs = float(law.fs)
+        self.gains = np.array([g["Kx1"], g["Kv1"], g["Kx2"], g["Kv2"], g["Ki2"]], float)
+        self.filter = _matched_filter(law) if discrete else law.filter_pack
+        self.key = _zpk_key(self.filter)
+        self.rhp = 2 * _rhp(self.filter)  # G_fp in K1 and in K2 (the sum of their counts, as the paths give it)
+        kx1, kv1, kx2, kv2, ki2 = self.gains
+        dt = 1.0 / self.fs if discrete else None
+        if discrete:
+            fs = self.fs
+            p_zeros = [np.roots([kx1 + kv1 * fs, -kv1 * fs]),
+                       np.roots([kx2 + kv2 * fs + ki2 / fs, -(kx2 + 2 * kv2 * fs), kv2 * fs])]
+        else:
+            p_zeros = [np.roots([kv1, kx1]), np.roots([kv2, kx2, ki2])]
+        self.features = np.vstack([lightly_damped(self.filter.poles, dt), lightly_damped(self.filter.zeros, dt),
+                                   *[lightly_damped(r, dt) for r in p_zeros]])
+
+    def at(self, freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(G_fp, P1, P2)`` at frequencies [Hz]."""
+        x = _variable(freq_hz, self.fs, self.discrete)
+        d, d_inv = _difference(x, self.fs, self.discrete)
+        kx1, kv1, kx2, kv2, ki2 = self.gains
+        p1 = d * kv1
+        p1 += kx1
+        p2 = d * kv2
+        p2 += kx2
+        d_inv *= ki2
+        p2 += d_inv
+        return _zpk_at(self.filter, x), p1, p2
+
+
+_CONTROLLERS: dict[tuple, tuple] = {}
+
+
+def _controller(law: BallScrewLaw, discrete: bool) -> _Controller:
+    """The :class:`_Controller` of a law, made once per law (a tuner analyses each candidate in several cases)."""
+    g = law.gains
+    check = (tuple(g[k] for k in ("Kx1", "Kv1", "Kx2", "Kv2", "Ki2")), id(law.filter_pack), float(law.fs))
+    key = (id(law), bool(discrete))
+    hit = _CONTROLLERS.get(key)
+    if hit is not None and hit[0]() is law and hit[1] == check:
+        return hit[2]
+    ctrl = _Controller(law, discrete)
+    if len(_CONTROLLERS) >= 32:
+        _CONTROLLERS.clear()
+    _CONTROLLERS[key] = (weakref.ref(law), check, ctrl)
+    return ctrl
+
+
+def _variable(freq_hz: np.ndarray, fs: float, discrete: bool) -> np.ndarray:
+    """``s`` or ``z`` on a grid [Hz]."""
+    return unit_circle(freq_hz, fs) if discrete else 2j * np.pi * np.asarray(freq_hz, float)
+
+
+def _difference(x: np.ndarray, fs: float, discrete: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``(d, 1 / d)`` for ``d = s = j w`` or the backward difference ``d = fs (1 - z^-1)`` [1/s] on the unit circle,
+    without a complex division: ``1 / (j w) = -j / w`` and ``1 / (1 - z^-1) = 1/2 - (j/2) cot(theta / 2)`` with
+    ``cot(theta / 2) = (1 + cos theta) / sin theta`` (``z = exp(j theta)``)."""
+    d_inv = np.empty(x.shape, complex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if not discrete:
+            d_inv.real = 0.0
+            np.divide(-1.0, x.imag, out=d_inv.imag)
+            return x, d_inv
+        d = np.conj(x)
+        np.subtract(1.0, d, out=d)
+        d *= fs
+        d_inv.real = 0.5 / fs
+        np.add(x.real, 1.0, out=d_inv.imag)
+        d_inv.imag /= x.imag
+        d_inv.imag *= -0.5 / fs
+    return d, d_inv
+
+
+def _combine(gains: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """``sum_k gains[k] basis[k]`` (element-wise, without BLAS: no thread pool for a sum of five arrays)."""
+    out = np.zeros(basis.shape[1:], complex)
+    tmp = np.empty_like(out)
+    for k, b in zip(gains, basis, strict=True):
+        if k != 0.0:
+            np.multiply(b, k, out=tmp)
+            out += tmp
+    return out
+
+
+def _basis(d: tuple[np.ndarray, np.ndarray], Hg: np.ndarray) -> np.ndarray:
+    """``[H G11, d H G11, H G21, d H G21, H G21 / d]`` (shape ``(5, n)``) from ``Hg = H [G11, G21]`` and
+    ``(d, 1 / d)`` (:func:`_difference`)."""
+    d, d_inv = d
+    out = np.empty((5, d.size), complex)
+    out[0] = Hg[0]
+    np.multiply(Hg[0], d, out=out[1])
+    out[2] = Hg[1]
+    np.multiply(Hg[1], d, out=out[3])
+    np.multiply(Hg[1], d_inv, out=out[4])
+    return out
+
+
+def _extension(pc: PlantCase, g: np.ndarray) -> tuple | None:
+    """The model below the case's grid (:func:`~feedtune.analysis.loop.model_extension`): ``(f_ext [Hz], scale,
+    junction band [Hz], H * scale * model plant on f_ext)``, or None when the grid starts at its lowest frequency;
+    ``g`` is the plant on the grid."""
     f = pc.freq_hz
-    paths = feedback_paths(law, pc.discrete)
-    K = tuple(k.freqresp(f) for k in paths)
-    rhp = _rhp(paths[0]) + _rhp(paths[1])
-    g = pc.plant(f)
-    H = pc.hold(f)
-    L = H * (K[0] * g[0] + K[1] * g[1])
+    f_ext = extension_grid(float(f[0]))
+    if not f_ext.size:
+        return None
+    m = int(np.searchsorted(f, f[0] * 2.0, side="right"))  # the first octave
+    scale, band = junction_scale(f[:m], g[..., :m], pc.model_plant(f[:m]))
+    return f_ext, scale, band, scale * pc.model_plant(f_ext) * pc.hold(f_ext)
 
-    def ext_loop(fe, ge):
-        return pc.hold(fe) * (paths[0].freqresp(fe) * ge[0] + paths[1].freqresp(fe) * ge[1])
 
-    extension = model_extension(f, g, pc.model_plant, ext_loop)
-    feats = np.vstack([pc.features, controller_features(paths)])
-    metrics = analyze_loop(f, L, evaluate=loop_function(paths, pc), features=feats, open_loop_rhp_poles=rhp,
-                           extension=extension, noise_db=pc.noise_db, measured=pc.measured)
-    S = 1.0 / (1.0 + L)
-    if not responses:
-        return CaseResponse(pc.name, f, L, S, None, None, None, metrics)
-    ref = law.reference_paths()
-    if pc.discrete:
-        zP = np.exp(2j * np.pi * f / law.fs) ** ref["feedforward"].preview_samples
-        ff, R1 = ref["feedforward"].discrete.freqresp(f) * zP, ref["rotary"].discrete.freqresp(f) * zP
+class _CaseParts:
+    """What a ball-screw analysis case needs of its plant for any law at one sample rate, computed once: the
+    gains' basis on the base grid and on the model extension below it (:class:`_Controller`), the
+    extension's junction factor, and the filter pack's response per filter pack (the last few)."""
+
+    FILTERS_KEPT = 4
+
+    def __init__(self, pc: PlantCase, fs: float, discrete: bool) -> None:
+        f = pc.freq_hz
+        g = pc.plant(f)
+        x = _variable(f, fs, discrete)
+        Hg = g * pc.hold(f)
+        self.basis = _basis(_difference(x, fs, discrete), Hg)
+        del Hg
+        self.x = x
+        ext = _extension(pc, g)
+        self.ext = None
+        if ext is not None:
+            f_ext, scale, band, He_ge = ext
+            xe = _variable(f_ext, fs, discrete)
+            self.ext = (f_ext, scale, band, xe, _basis(_difference(xe, fs, discrete), He_ge))
+        self.filters: dict[tuple, tuple] = {}
+
+    def filter_response(self, ctrl: _Controller) -> tuple[np.ndarray, np.ndarray | None]:
+        """``G_fp`` of the controller on the grid and on the extension."""
+        out = self.filters.get(ctrl.key)
+        if out is None:
+            if len(self.filters) >= self.FILTERS_KEPT:
+                self.filters.pop(next(iter(self.filters)))
+            out = self.filters[ctrl.key] = (_zpk_at(ctrl.filter, self.x),
+                                            None if self.ext is None else _zpk_at(ctrl.filter, self.ext[3]))
+        return out
+
+
+def _case_parts(pc: PlantCase, fs: float, keep: bool) -> _CaseParts:
+    """The :class:`_CaseParts` of ``pc`` at ``fs`` [Hz]: kept on the plant case when ``keep`` (the tuners evaluate
+    hundreds of laws on the same plant cases), else made for this call."""
+    if not keep:
+        return _CaseParts(pc, fs, pc.discrete)
+    store = pc.__dict__.setdefault("_ballscrew_parts", {})
+    parts = store.get(float(fs))
+    if parts is None:
+        parts = store[float(fs)] = _CaseParts(pc, fs, pc.discrete)
+    return parts
+
+
+class _CaseLoop:
+    """One case of a law on a plant case, evaluated anywhere: the grid's plant above its first line, the scaled model
+    below it (:func:`~feedtune.analysis.loop.model_extension`)."""
+
+    __slots__ = ("ctrl", "first", "pc", "scale")
+
+    def __init__(self, pc: PlantCase, ctrl: _Controller, scale: complex | None) -> None:
+        self.pc, self.ctrl, self.scale = pc, ctrl, scale
+        self.first = float(pc.freq_hz[0])
+
+
+def _evaluate_batch(loops: list[_CaseLoop]):
+    """``evaluate_batch`` of :func:`~feedtune.analysis.loop.analyze_loops` for ball-screw cases: every plant, hold
+    and controller that several cases share is evaluated once per round for all their points."""
+
+    def evaluate_batch(requests):
+        if len(requests) == 1:  # one case: its parts directly
+            k, fq = requests[0]
+            return [_evaluate_one(loops[k], np.asarray(fq, float))]
+        jobs: dict[int, tuple] = {}
+
+        def add(key, fn, fq, sink):
+            job = jobs.get(key)
+            if job is None:
+                job = jobs[key] = (fn, [], [])
+            job[1].append(fq)
+            job[2].append(sink)
+
+        plants, holds, ctrls = [], [], []
+        for i, (k, fq) in enumerate(requests):
+            c = loops[k]
+            fq = np.asarray(fq, float)
+            plants.append(np.empty((2, fq.size), complex))
+            holds.append(None)
+            ctrls.append(None)
+            lo = fq < c.first if c.scale is not None else None
+            if lo is not None and lo.any():
+                add(id(c.pc.model_plant), c.pc.model_plant, fq[lo], ("ext", i, lo, c.scale))
+                hi = ~lo
+                if hi.any():
+                    add(id(c.pc.plant), c.pc.plant, fq[hi], ("plant", i, hi, None))
+            else:
+                add(id(c.pc.plant), c.pc.plant, fq, ("plant", i, None, None))
+            add(id(c.pc.hold), c.pc.hold, fq, ("hold", i, None, None))
+            add(id(c.ctrl), c.ctrl.at, fq, ("ctrl", i, None, None))
+        for fn, pieces, sinks in jobs.values():
+            sizes = [p.size for p in pieces]
+            res = fn(np.concatenate(pieces) if len(pieces) > 1 else pieces[0])
+            ends = np.cumsum(sizes)
+            for (kind, i, sel, scale), e, n in zip(sinks, ends, sizes, strict=True):
+                if kind == "ctrl":
+                    ctrls[i] = tuple(r[e - n:e] for r in res)
+                elif kind == "hold":
+                    holds[i] = res[..., e - n:e]
+                else:
+                    v = res[..., e - n:e]
+                    if scale is not None:
+                        v = v * scale
+                    if sel is None:
+                        plants[i][...] = v
+                    else:
+                        plants[i][:, sel] = v
+        out = []
+        for g, H, (gfp, p1, p2) in zip(plants, holds, ctrls, strict=True):
+            L = p1 * g[0]
+            L += p2 * g[1]
+            L *= gfp
+            L *= H
+            out.append(L)
+        return out
+
+    return evaluate_batch
+
+
+def _evaluate_one(c: _CaseLoop, fq: np.ndarray) -> np.ndarray:
+    """The loop of one case at ``fq`` [Hz] (the scaled model below the grid's first line)."""
+    lo = fq < c.first if c.scale is not None else None
+    if lo is not None and lo.any():
+        g = np.empty((2, fq.size), complex)
+        g[:, lo] = c.scale * c.pc.model_plant(fq[lo])
+        hi = ~lo
+        if hi.any():
+            g[:, hi] = c.pc.plant(fq[hi])
     else:
-        ff, R1 = law.feedforward.freqresp(f), law.rotary_reference.freqresp(f)
-    tracking = g[1] * H * (ff + K[0] * R1 + K[1]) * S
-    tracking_no_ff = g[1] * H * (K[0] + K[1]) * S
+        g = c.pc.plant(fq)
+    gfp, L, p2 = c.ctrl.at(fq)
+    L *= g[0]
+    p2 *= g[1]
+    L += p2
+    L *= gfp
+    L *= c.pc.hold(fq)
+    return L
+
+
+def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: bool) -> list[CaseResponse]:
+    """Every case of ``law`` on the plant cases ``pcs``: each resolved on its own, all refined together
+    (:func:`~feedtune.analysis.loop.analyze_loops`). With ``keep`` the fixed parts are kept on the plant cases
+    (:class:`_CaseParts`: the loop is then five scaled sums), else the loop is formed directly and nothing is kept."""
+    loops: list[_CaseLoop] = []
+    partial: list[tuple] = []
+
+    def loop_cases():
+        for pc in pcs:
+            ctrl = _controller(law, pc.discrete)
+            if keep:
+                parts = _case_parts(pc, law.fs, keep)
+                gfp, gfp_ext = parts.filter_response(ctrl)
+                L = _combine(ctrl.gains, parts.basis)
+                L *= gfp
+                ext = None
+                if parts.ext is not None:
+                    f_ext, scale, band, _, basis_ext = parts.ext
+                    L_ext = _combine(ctrl.gains, basis_ext)
+                    L_ext *= gfp_ext
+                    ext = (f_ext, scale, band, L_ext)
+                resp = _basis_responses(law, pc, ctrl, parts, L, gfp) if responses else None
+                del parts, gfp, gfp_ext
+            else:
+                L, ext, resp = _direct(law, pc, ctrl, responses)
+            extension = None
+            if ext is not None:
+                f_ext, scale, band, L_ext = ext
+                extension = LoopExtension(f_ext, L_ext, scale, band, _one_case(batch, len(loops)))
+            loops.append(_CaseLoop(pc, ctrl, None if extension is None else extension.scale))
+            partial.append((pc, L, resp))
+            yield LoopCase(pc.freq_hz, L, _one_case(batch, len(loops) - 1),
+                           np.vstack([pc.features, ctrl.features]), ctrl.rhp, extension=extension,
+                           noise_db=pc.noise_db, measured=pc.measured)
+
+    batch = _evaluate_batch(loops)
+    with analysis_scope():
+        metrics = analyze_loops(loop_cases(), batch)
+    out = []
+    for (pc, L, resp), m in zip(partial, metrics, strict=True):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            S = 1.0 / (1.0 + L) if resp is None else resp[0]
+        out.append(CaseResponse(pc.name, pc.freq_hz, L, S, *(resp[1:] if resp else (None, None, None)), m))
+    return out
+
+
+def _direct(law: BallScrewLaw, pc: PlantCase, ctrl: _Controller, responses: bool) -> tuple:
+    """The loop on the case's grid, its extension below the grid and (with ``responses``) the responses, formed
+    directly: ``K1 = G_fp P1``, ``K2 = G_fp P2`` and ``H [G11, G21]`` on the grid (:class:`_Controller`)."""
+    f = pc.freq_hz
+    source, d = getattr(pc.plant, "source", None), None
+    if responses and source is not None and getattr(pc.disturbance, "source", None) is source:
+        both = source.stacked(f, pc.plant.keys + pc.disturbance.keys)  # one denominator for the four responses
+        g, d = both[:2], both[2:]
+    else:
+        g = pc.plant(f)
+    ext = _extension(pc, g)
+    if ext is not None:
+        f_ext, scale, band, He_ge = ext
+        gfp_e, p1_e, p2_e = ctrl.at(f_ext)
+        L_ext = p1_e * He_ge[0]
+        L_ext += p2_e * He_ge[1]
+        L_ext *= gfp_e
+        ext = (f_ext, scale, band, L_ext)
+    if source is not None or getattr(pc.plant, "fresh", False):
+        g *= pc.hold(f)  # a new array from the plant functions of plant_cases: now H [G11, G21]
+        Hg = g
+    else:  # a plant function of the caller's: its array is left alone
+        Hg = g * pc.hold(f)
+    del g
+    gfp, k1, k2 = ctrl.at(f)
+    k1 *= gfp
+    k2 *= gfp
+    del gfp
+    L = k1 * Hg[0]
+    L += k2 * Hg[1]
+    resp = _path_responses(law, pc, ctrl, Hg, k1, k2, L, d) if responses else None
+    return L, ext, resp
+
+
+def _references(law: BallScrewLaw, ctrl: _Controller, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(U_ff, R1)`` at ``x`` (``s``, or ``z`` with the previewed discrete filters times ``z^P``)."""
+    if not ctrl.discrete:
+        return _zpk_at(law.feedforward, x), _zpk_at(law.rotary_reference, x)
+    refs = ctrl.__dict__.get("references")
+    if refs is None:  # the previewed discrete filters times z^P: their poles at z = 0 cancel against the advance
+        paths = law.reference_paths()
+        refs = ctrl.__dict__["references"] = tuple(
+            _strip_origin(paths[k].discrete, int(paths[k].preview_samples)) for k in ("feedforward", "rotary"))
+    out = []
+    for zpk, power in refs:
+        r = _zpk_at(zpk, x)
+        if power:
+            xp = x if power > 0 else np.conj(x)  # z^-1 = conj(z) on the unit circle
+            for _ in range(abs(power)):
+                r *= xp
+        out.append(r)
+    return out[0], out[1]
+
+
+def _strip_origin(z: Zpk, power: int) -> tuple[Zpk, int]:
+    """``z(x) x^power`` as ``(z', p)`` with ``z'(x) x^p`` the same, ``z'`` without roots at exactly 0."""
+    zeros, poles = z.zeros[z.zeros != 0], z.poles[z.poles != 0]
+    return (Zpk(zeros, poles, z.gain, z.dt), power + (z.zeros.size - zeros.size) - (z.poles.size - poles.size))
+
+
+def _path_responses(law: BallScrewLaw, pc: PlantCase, ctrl: _Controller, Hg: np.ndarray, k1: np.ndarray,
+                    k2: np.ndarray, L: np.ndarray, d: np.ndarray | None = None) -> tuple:
+    """``S``, tracking with and without feedforward and the disturbance response (module docstring) from the plant
+    times the hold ``Hg = H [G11, G21]``, the paths ``k1 = K1``, ``k2 = K2`` on the grid and the disturbance inputs'
+    ``d = [G13, G23]`` (evaluated when not given; ``d`` is used up)."""
+    f = pc.freq_hz
+    S = 1.0 / (1.0 + L)
+    no_ff = k1 + k2
+    no_ff *= Hg[1]
+    ff, r1 = _references(law, ctrl, _variable(f, ctrl.fs, ctrl.discrete))
+    tracking = ff
+    tracking *= Hg[1]
+    r1 -= 1.0
+    r1 *= k1
+    r1 *= Hg[1]
+    tracking += r1  # H G21 (U_ff + K1 (R1 - 1))
+    del r1
+    tracking += no_ff
+    tracking *= S
+    no_ff *= S
     dist = None
     if pc.disturbance is not None:
-        d = pc.disturbance(f)  # [G13, G23]
-        dist = (d[1] + H * K[0] * (g[0] * d[1] - d[0] * g[1])) * S
-    return CaseResponse(pc.name, f, L, S, tracking, tracking_no_ff, dist, metrics)
+        d = pc.disturbance(f) if d is None else d  # [G13, G23]
+        dist = Hg[0] * d[1]
+        d[0] *= Hg[1]
+        dist -= d[0]
+        dist *= k1  # H K1 (G11 G23 - G13 G21)
+        dist += d[1]
+        dist *= S
+    return S, tracking, no_ff, dist
+
+
+def _one_case(batch, k: int) -> Callable[[np.ndarray], np.ndarray]:
+    """Case ``k``'s loop at any frequency [Hz] through the joint evaluator (the extension's below the grid)."""
+
+    def evaluate(fq):
+        return batch([(k, fq)])[0]
+
+    return evaluate
+
+
+def _basis_responses(law: BallScrewLaw, pc: PlantCase, ctrl: _Controller, parts: _CaseParts, L: np.ndarray,
+                     gfp: np.ndarray) -> tuple:
+    """``S``, tracking with and without feedforward, and the disturbance response on the case's grid (module
+    docstring), from the parts' basis ``B`` (:class:`_Controller`): ``H G21 K1 = G_fp (Kx1 B2 + Kv1 B3)``,
+    ``H G21 K2 = G_fp (Kx2 B2 + Kv2 B3 + Ki2 B4)``, ``H K1 (G11 G23 - G13 G21) = G_fp (Kx1 (B0 G23 - G13 B2) + Kv1
+    (B1 G23 - G13 B3))``; two work arrays besides the four results."""
+    B = parts.basis
+    kx1, kv1, kx2, kv2, ki2 = ctrl.gains
+    with np.errstate(divide="ignore", invalid="ignore"):
+        S = 1.0 / (1.0 + L)
+    tmp = np.empty(L.shape, complex)
+
+    def axpy(out, a, x):  # out += a x
+        np.multiply(x, a, out=tmp)
+        out += tmp
+
+    no_ff = B[2] * (kx2 + kx1)  # H G21 (K1 + K2) / G_fp
+    axpy(no_ff, kv2 + kv1, B[3])
+    axpy(no_ff, ki2, B[4])
+    no_ff *= gfp
+    k1g = B[2] * kx1  # H G21 K1
+    axpy(k1g, kv1, B[3])
+    k1g *= gfp
+    ff, r1 = _references(law, ctrl, parts.x)
+    r1 -= 1.0
+    k1g *= r1  # H G21 K1 (R1 - 1)
+    del r1
+    tracking = ff
+    tracking *= B[2]
+    tracking += k1g
+    del k1g
+    tracking += no_ff  # H G21 (U_ff + K1 R1 + K2)
+    tracking *= S
+    no_ff *= S
+    dist = None
+    if pc.disturbance is not None:
+        d = pc.disturbance(pc.freq_hz)  # [G13, G23]
+        dist = B[0] * (kx1 * d[1])
+        axpy(dist, -kx1, B[2] * d[0])
+        y = B[1] * (kv1 * d[1])
+        np.multiply(B[3], d[0], out=tmp)
+        tmp *= -kv1
+        y += tmp
+        dist += y
+        del y
+        dist *= gfp
+        dist += d[1]
+        dist *= S
+    return S, tracking, no_ff, dist
+
+
+def loop_on_grid(law: BallScrewLaw, pc: PlantCase) -> np.ndarray:
+    """The loop ``L`` [-] of ``law`` on the plant case's base grid ``pc.freq_hz``, from the fixed parts kept on ``pc``
+    (:func:`analyze_case`): five scaled sums and one product, for a search's quick conditions on many candidates
+    (the same values as :func:`loop_function` of :func:`feedback_paths` on the grid, to rounding)."""
+    ctrl = _controller(law, pc.discrete)
+    parts = _case_parts(pc, law.fs, True)
+    L = _combine(ctrl.gains, parts.basis)
+    L *= parts.filter_response(ctrl)[0]
+    return L
+
+
+def analyze_case(law: BallScrewLaw, pc: PlantCase, *, responses: bool = True) -> CaseResponse:
+    """One analysis case of a law on a plant case: the figures (refined) and, with ``responses``, the curves on the
+    case's base grid (without: ``L`` and ``S`` only, for searches).
+
+    What depends on the plant case alone (the plant and hold on the grid times the gains' basis, the model extension
+    below the grid, the filter pack's response) is computed once and kept on ``pc``: a tuner calling this for
+    hundreds of laws on the same plant cases pays for it once.
+    """
+    return _analyze(law, [pc], responses, keep=True)[0]
 
 
 def analyze_ballscrew(
     law: BallScrewLaw, model: BallScrewModel, frf: Frf | None = None, freq_hz: np.ndarray | None = None
 ) -> BallScrewAnalysis:
     """Analyse a ball-screw control law in all cases (see module docstring).
+
+    The cases are resolved one after the other and refined together: every round of the refinement evaluates the
+    loop at the points of all cases at once, each model, plant, hold and controller once
+    (:func:`~feedtune.analysis.loop.analyze_loops`).
 
     Parameters
     ----------
@@ -284,7 +932,9 @@ def analyze_ballscrew(
     BallScrewAnalysis
     """
     cases = plant_cases(model, law.fs, law.delay_samples, frf, freq_hz)
-    return BallScrewAnalysis({name: None if pc is None else analyze_case(law, pc) for name, pc in cases.items()})
+    given = [pc for pc in cases.values() if pc is not None]
+    done = iter(_analyze(law, given, True, keep=False))
+    return BallScrewAnalysis({name: None if pc is None else next(done) for name, pc in cases.items()})
 
 
 def closed_loop_poles(law: BallScrewLaw, model: BallScrewModel) -> np.ndarray:

@@ -12,19 +12,29 @@ on the same objects, so that they search with exactly the check they are judged 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import threading
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..lti import delay_response, zoh_response
-from .resolution import interpolate_frf, noise_db
+from ..lti import delay_response
+from .resolution import LineNoise, interpolate_frf
 
 CASES = ("ideal", "ideal_discrete", "measured", "discrete")
 CHECKED_WITH_FRF = "discrete"
 """The case whose figures are held to the limits when an FRF is given: the measured plant with the controller as
 the target runs it."""
 CHECKED_WITHOUT_FRF = "ideal_discrete"
+CASE_TITLES = {
+    "ideal": "model, continuous controller",
+    "ideal_discrete": "model (ZOH), discrete controller",
+    "measured": "measured FRF, continuous controller",
+    "discrete": "measured FRF, discrete controller + ZOH + delay",
+}
+"""The long title of each case beside its short name (:data:`CASES`): the report's tables and the command line's
+summaries say the same."""
 
 
 @dataclass(frozen=True)
@@ -51,8 +61,9 @@ class PlantCase:
         Lightly damped roots (Hz, damping) of the plant's exact part.
     measured : bool
         ``plant`` interpolates an FRF between the lines ``freq_hz``.
-    noise_db : ndarray or None
-        Scatter [dB] of the measured plant on ``freq_hz``.
+    noise_db : ndarray, LineNoise or None
+        Scatter [dB] of the measured plant on ``freq_hz`` (array-like; a
+        :class:`~feedtune.analysis.resolution.LineNoise` computes it per line where the analysis reads it).
     disturbance : callable or None
         ``disturbance(f)`` -> the model's disturbance-input responses (machine-specific), model cases only.
     """
@@ -65,8 +76,98 @@ class PlantCase:
     hold: Callable[[np.ndarray], np.ndarray]
     features: np.ndarray
     measured: bool = False
-    noise_db: np.ndarray | None = None
+    noise_db: np.ndarray | LineNoise | None = None
     disturbance: Callable[[np.ndarray], np.ndarray] | None = None
+
+
+_LOCAL = threading.local()
+SHARED_MIN_POINTS = 256
+"""Grids at least this long keep their ``z`` inside :func:`analysis_scope`."""
+SHARED_GRIDS = 3
+"""How many grids keep their ``z`` at a time (the last asked for)."""
+
+
+def _scope() -> dict:
+    st = getattr(_LOCAL, "scope", None)
+    if st is None:
+        st = _LOCAL.scope = {"depth": 0, "circles": [], "work": {}}
+    return st
+
+
+@contextlib.contextmanager
+def analysis_scope() -> Iterator[None]:
+    """Inside the block (per thread), :func:`unit_circle` keeps ``z`` of the last :data:`SHARED_GRIDS` grids it was
+    asked for (the plant, the hold and the controller of a case share one) and :func:`work_array` hands out the same
+    work arrays again; both are released when the outermost block ends."""
+    st = _scope()
+    st["depth"] += 1
+    try:
+        yield
+    finally:
+        st["depth"] -= 1
+        if not st["depth"]:
+            st["circles"] = []
+            st["work"] = {}
+
+
+def work_array(n: int, slot: int) -> np.ndarray:
+    """A complex work array of ``n`` elements (contents undefined); inside :func:`analysis_scope` the same memory for
+    the same ``slot`` each time (a view of one buffer, grown to the largest ``n``), outside a new array."""
+    st = _scope()
+    if not st["depth"]:
+        return np.empty(n, complex)
+    buf = st["work"].get(slot)
+    if buf is None or buf.size < n:
+        buf = st["work"][slot] = np.empty(n, complex)
+    return buf[:n]
+
+
+def unit_circle(freq_hz, fs: float) -> np.ndarray:
+    """``z = exp(j 2 pi f / fs)`` on a grid [Hz], by cosine and sine (faster than the complex exponential).
+
+    Inside :func:`analysis_scope` the result for the same grid array (and rate) is returned again: do not modify it.
+    """
+    f = np.asarray(freq_hz, float)
+    st = _scope()
+    share = st["depth"] > 0 and f.size >= SHARED_MIN_POINTS
+    if share:
+        for g, r, z in st["circles"]:
+            if g is f and r == fs:
+                return z
+    w = (2 * np.pi / fs) * f
+    z = np.empty(w.shape, complex)
+    np.cos(w, out=z.real)
+    np.sin(w, out=z.imag)
+    if share:
+        st["circles"] = [(f, fs, z), *st["circles"][:SHARED_GRIDS - 1]]
+    return z
+
+
+def delay_on_circle(freq_hz, n_samples: float, fs: float) -> np.ndarray:
+    """A delay of ``n_samples`` samples at ``fs`` [Hz]: ``z^-n`` (as :func:`feedtune.lti.delay_response`)."""
+    n = float(n_samples)
+    if n != int(n) or not 0 <= n <= 64:
+        return delay_response(freq_hz, n_samples, fs)
+    zc = np.conj(unit_circle(freq_hz, fs))
+    if n == 1:
+        return zc
+    out = zc.copy() if n >= 1 else np.ones(zc.shape, complex)
+    for _ in range(int(n) - 1):
+        out *= zc
+    return out
+
+
+def zoh_on_circle(freq_hz, fs: float) -> np.ndarray:
+    """Zero-order hold ``(1 - z^-1) / (j w T)`` on a grid [Hz], 1 at 0 Hz (as :func:`feedtune.lti.zoh_response`)."""
+    f = np.asarray(freq_hz, float)
+    out = np.conj(unit_circle(f, fs))
+    np.subtract(1.0, out, out=out)
+    wt = (2 * np.pi / fs) * f
+    nz = wt != 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out *= -1j / wt
+    out[~nz] = 1.0
+    return out
 
 
 def _one(f):
@@ -100,10 +201,10 @@ def model_cases(freq_hz: np.ndarray, fs: float, delay_samples: float, *, model_p
     """
 
     def delay(fr):
-        return delay_response(fr, delay_samples, fs)
+        return delay_on_circle(fr, delay_samples, fs)
 
     def model_zoh(fr):
-        return model_plant(fr) * zoh_response(fr, fs)
+        return model_plant(fr) * zoh_on_circle(fr, fs)
 
     return {
         "ideal": PlantCase("ideal", np.asarray(freq_hz, float), model_plant, model_plant, False, _one, features,
@@ -134,11 +235,13 @@ def measured_cases(lines_hz: np.ndarray, response: np.ndarray, fs: float, delay_
     """
     f = np.asarray(lines_hz, float)
     plant = interpolate_frf(f, response)
-    noise = noise_db(f, response, coherence)
+    noise = LineNoise(f, response, coherence)
     none = np.empty((0, 2))
 
     def zoh_delay(fr):
-        return zoh_response(fr, fs) * delay_response(fr, delay_samples, fs)
+        out = zoh_on_circle(fr, fs)
+        out *= delay_on_circle(fr, delay_samples, fs)
+        return out
 
     return {
         "measured": PlantCase("measured", f, plant, model_plant, False, _one, none, True, noise),

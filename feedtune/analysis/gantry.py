@@ -124,6 +124,30 @@ class GantryCase:
         d["tracking_max_phase_lag_deg_below_100hz"] = _max_lag(f, self.tracking, 100.0)
         return d
 
+    # --------------------------------------------------------------- notebooks
+    def __getattr__(self, name: str):
+        """A figure by name: ``case.ms``, ``case.gain_margin_db`` (the metrics', then ``to_dict()``'s)."""
+        from ..display import case_attribute
+
+        return case_attribute(self, name)
+
+    def __dir__(self) -> list[str]:
+        from ..display import case_dir
+
+        return case_dir(self)
+
+    def __repr__(self) -> str:
+        from ..display import case_repr
+
+        return case_repr(self)
+
+    def plot(self, kind: str = "loop"):
+        """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
+        (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        from ..plotting import plot_analysis
+
+        return plot_analysis(self, kind)
+
 
 @dataclass(frozen=True)
 class GantryAnalysis:
@@ -134,6 +158,39 @@ class GantryAnalysis:
     def to_dict(self) -> dict:
         """``{case: figures or None}``."""
         return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
+
+    # --------------------------------------------------------------- notebooks
+    def __getattr__(self, name: str):
+        """A case by name: ``analysis.discrete`` is ``analysis.cases["discrete"]``."""
+        from ..display import analysis_case
+
+        return analysis_case(self, name)
+
+    def __dir__(self) -> list[str]:
+        return sorted(set(object.__dir__(self)) | set(self.__dict__.get("cases", {})))
+
+    def __repr__(self) -> str:
+        from ..display import analysis_repr
+
+        return analysis_repr(self)
+
+    def _repr_html_(self) -> str:
+        from ..display import analysis_html
+
+        return analysis_html(self)
+
+    def to_dataframe(self):
+        """The scalar figures of ``to_dict()`` as a pandas DataFrame, one row per case."""
+        from ..display import analysis_frame
+
+        return analysis_frame(self)
+
+    def plot(self, kind: str = "loop", *, cases=None):
+        """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
+        ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        from ..plotting import plot_analysis
+
+        return plot_analysis(self, kind, cases=cases)
 
 
 def zoh_gantry(model: GantryModel, x: float, fs: float, freq_hz) -> np.ndarray:
@@ -172,7 +229,7 @@ def gantry_frf_matrix(frf: Frf) -> tuple[np.ndarray, np.ndarray]:
 
 
 def analyze_gantry_case(law, pc: PlantCase, weights, reference: GantryReference | None = None, *,
-                        integrators: int | None = None) -> GantryCase:
+                        integrators: int | None = None, figures: str = "all", disk_margin: bool = True) -> GantryCase:
     """One gantry case of a law (MIMO or PID) on a plant case (plant ``(2, 2, n)`` [m/V]).
 
     Parameters
@@ -186,6 +243,11 @@ def analyze_gantry_case(law, pc: PlantCase, weights, reference: GantryReference 
         For the tracking curves (None: no tracking curves, for searches).
     integrators : int, optional
         Open-loop poles at the origin; default ``2 + law.integrators`` (rigid body and integrating channels).
+    figures : {"all", "limits"}
+        ``"limits"``: only the figures the limits policy reads (:func:`~feedtune.analysis.mimo.analyze_mimo`), for
+        the candidates of a search.
+    disk_margin : bool
+        With ``figures="limits"``: also the disk margin.
     """
     f = pc.freq_hz
     K = law.response_discrete if pc.discrete else law.response
@@ -205,9 +267,9 @@ def analyze_gantry_case(law, pc: PlantCase, weights, reference: GantryReference 
 
     extension = model_extension(f, G, pc.model_plant, ext_loop)
     feats = np.vstack([pc.features, law_features(law, pc.discrete)])
-    metrics = analyze_mimo(f, evaluate=evaluate, features=feats, weights=weights, integrators=n_int,
+    metrics = analyze_mimo(f, L, evaluate=evaluate, features=feats, weights=weights, integrators=n_int,
                            open_loop_rhp_poles=law.rhp_poles(pc.discrete), extension=extension, noise_db=pc.noise_db,
-                           measured=pc.measured)
+                           measured=pc.measured, figures=figures, disk_margin=disk_margin)
     SG = matmul(S, G)
     if reference is None:
         return GantryCase(pc.name, f, Ge, L, S, SG, G, None, None, tuple(weights), metrics)
@@ -355,6 +417,30 @@ class AxisCase:
         d["tracking_max_phase_lag_deg_below_100hz"] = _max_lag(self.freq_hz, self.tracking, 100.0)
         return d
 
+    # --------------------------------------------------------------- notebooks
+    def __getattr__(self, name: str):
+        """A figure by name: ``case.ms``, ``case.gain_margin_db`` (the metrics', then ``to_dict()``'s)."""
+        from ..display import case_attribute
+
+        return case_attribute(self, name)
+
+    def __dir__(self) -> list[str]:
+        from ..display import case_dir
+
+        return case_dir(self)
+
+    def __repr__(self) -> str:
+        from ..display import case_repr
+
+        return case_repr(self)
+
+    def plot(self, kind: str = "loop"):
+        """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
+        (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        from ..plotting import plot_analysis
+
+        return plot_analysis(self, kind)
+
 
 @dataclass(frozen=True)
 class AxisAnalysis:
@@ -365,6 +451,39 @@ class AxisAnalysis:
     def to_dict(self) -> dict:
         """``{case: figures or None}``."""
         return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
+
+    # --------------------------------------------------------------- notebooks
+    def __getattr__(self, name: str):
+        """A case by name: ``analysis.discrete`` is ``analysis.cases["discrete"]``."""
+        from ..display import analysis_case
+
+        return analysis_case(self, name)
+
+    def __dir__(self) -> list[str]:
+        return sorted(set(object.__dir__(self)) | set(self.__dict__.get("cases", {})))
+
+    def __repr__(self) -> str:
+        from ..display import analysis_repr
+
+        return analysis_repr(self)
+
+    def _repr_html_(self) -> str:
+        from ..display import analysis_html
+
+        return analysis_html(self)
+
+    def to_dataframe(self):
+        """The scalar figures of ``to_dict()`` as a pandas DataFrame, one row per case."""
+        from ..display import analysis_frame
+
+        return analysis_frame(self)
+
+    def plot(self, kind: str = "loop", *, cases=None):
+        """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
+        ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        from ..plotting import plot_analysis
+
+        return plot_analysis(self, kind, cases=cases)
 
 
 def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisCase:

@@ -10,6 +10,11 @@ that do not resolve the loop are refused (:class:`~feedtune.analysis.resolution.
 Every crossover is kept: crossings are merged only in a measured loop and only where the FRF's scatter explains them
 (:func:`~feedtune.analysis.margins.merge_chatter`, listed in ``merged_crossovers``).
 
+Speed: :func:`analyze_loops` analyses several loops (the cases of a machine) with one pass over each resolved
+contour (``|L|``, ``|1 + L|``, sign changes; the angle of ``1 + L`` only where the real axis is crossed) and the
+refinement of all crossings and peaks of all loops in three joint rounds, each one call of a caller-supplied
+``evaluate_batch`` (the ball screw's evaluates every model, FRF, hold and controller once per round for all cases).
+
 Nyquist criterion with open-loop poles at the origin
 ----------------------------------------------------
 The Nyquist contour runs up the imaginary axis and is indented into the right half plane around ``s = 0``
@@ -47,16 +52,32 @@ import numpy as np
 
 from ..errors import DataError
 from .margins import (
+    CHATTER_REL,
+    CHATTER_SIGMAS,
+    NEGLIGIBLE_LOOP,
     crossings,
     disk_margins,
     interp_complex,
     level_bands,
     merge_chatter,
-    peak,
     phase_crossovers,
     prune_bands,
 )
-from .resolution import INTERPOLATION, SAMPLE_SLACK, check_samples, resolve, unresolved
+from .resolution import (
+    INTERPOLATION,
+    MAX_ROUNDS,
+    SAMPLE_SLACK,
+    SPLIT,
+    ResolutionError,
+    _describe,
+    check_samples,
+    contour_steps,
+    feature_points,
+    pair_unresolved,
+    resolve,
+    rules_broken,
+    unresolved,
+)
 
 EXTENSION_LOW_HZ = 1e-5
 """Lowest frequency of a model extension [Hz]: below the integral corners of practical designs (a gantry PID of
@@ -239,7 +260,7 @@ def low_frequency_slope(freq_hz: np.ndarray, y: np.ndarray, octaves: float = 1.0
         sel = np.arange(f.size) < min(3, f.size)
     if sel.sum() < 2:
         return 0.0
-    return float(-np.polyfit(np.log(f[sel]), np.log(np.maximum(np.abs(y[sel]), 1e-300)), 1)[0])
+    return -_fit_slope(np.log(f[sel]), np.log(np.maximum(np.abs(y[sel]), 1e-300)))
 
 
 def count_integrators(freq_hz: np.ndarray, L: np.ndarray, octaves: float = 1.0) -> int:
@@ -390,14 +411,17 @@ def junction_scale(freq_hz: np.ndarray, plant: np.ndarray, model_plant: np.ndarr
     channels, the last one frequency), averaged over the band; returns ``(c, (f_low, f_high))`` [-, Hz].
     """
     f = np.asarray(freq_hz, float)
-    sel = f <= f[0] * 2.0**octaves
-    P = np.asarray(plant)[..., sel].reshape(-1, int(sel.sum()))
-    M = np.asarray(model_plant)[..., sel].reshape(-1, int(sel.sum()))
-    den = np.sum(np.abs(M) ** 2, axis=0)
-    num = np.sum(np.conj(M) * P, axis=0)
+    m = int(np.searchsorted(f, f[0] * 2.0**octaves, side="right"))  # the band: a prefix of the sorted grid
+    P = np.asarray(plant)[..., :m].reshape(-1, m)
+    M = np.asarray(model_plant)[..., :m].reshape(-1, m)
+    den = np.zeros(m)
+    num = np.zeros(m, complex)
+    for p_row, m_row in zip(P, M, strict=True):  # a few channels
+        den += np.abs(m_row) ** 2
+        num += np.conj(m_row) * p_row
     ok = (den > 0) & np.isfinite(num) & np.isfinite(den)
     c = complex(np.mean(num[ok] / den[ok])) if ok.any() else 1.0 + 0j
-    return c, (float(f[sel][0]), float(f[sel][-1]))
+    return c, (float(f[0]), float(f[m - 1]))
 
 
 def scalar_loops(R: np.ndarray) -> list[np.ndarray]:
@@ -541,8 +565,9 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
     integrators : int, optional
         Open-loop poles at the origin; default: the rounded low-frequency slope of the contour.
     extension : LoopExtension, optional
-        The loop below ``freq_hz[0]`` from a model (:func:`model_extension`).
-    noise_db : ndarray, shape (n,), optional
+        The loop below ``freq_hz[0]`` from a model (:func:`model_extension`); with ``evaluate``, its grid is
+        resolved with the rest of the contour (a :func:`model_extension` without ``loop`` needs no resolving first).
+    noise_db : ndarray or LineNoise, shape (n,), optional
         Measurement scatter of a measured loop on ``freq_hz`` [dB]
         (:func:`~feedtune.analysis.resolution.noise_db`): crossover chatter within it is merged and listed.
     measured : bool
@@ -558,69 +583,467 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
     BandLimitedError
         See ``below_grid``.
     """
-    if below_grid not in ("refuse", "assume"):
-        raise ValueError(f"below_grid must be 'refuse' or 'assume', got {below_grid!r}")
-    f0 = np.asarray(freq_hz, float)
+    case = LoopCase(freq_hz, L, evaluate, features, open_loop_rhp_poles, integrators, extension, noise_db, measured,
+                    below_grid)
+    return analyze_loops([case])[0]
+
+
+# --------------------------------------------------------------------------------------------- batched analysis
+ROOT_ROUNDS = 2
+ROOT_POINTS = 24
+"""Rounds and interior points per bracket of the crossings' refinement: each bracket narrowed to 1/25 per round (to
+1/625 of a grid interval), then the crossing from the cubic through the last samples around it (:func:`_crossing`:
+an error of the fourth power of the final spacing). Every round is one joint evaluation: few, wide rounds."""
+PEAK_ROUNDS = 2
+PEAK_POINTS = 32
+"""Sampling rounds and interior points per bracket of the peaks' refinement (each zooming on the largest sample to
+2/33 of the bracket), then the loop at the vertex of the parabola through the three largest samples
+(:func:`_refine`): the peak's value within about 1e-13 of the true one, and always one of the loop's own values."""
+
+
+@dataclass
+class LoopCase:
+    """One scalar loop for :func:`analyze_loops`: the arguments of :func:`analyze_loop`."""
+
+    freq_hz: np.ndarray
+    L: np.ndarray | None = None
+    evaluate: Callable[[np.ndarray], np.ndarray] | None = None
+    features: np.ndarray | None = None
+    open_loop_rhp_poles: int = 0
+    integrators: int | None = None
+    extension: LoopExtension | None = None
+    noise_db: object = None
+    measured: bool = False
+    below_grid: str = "refuse"
+
+    def contour_function(self) -> Callable[[np.ndarray], np.ndarray] | None:
+        """``L`` anywhere on the contour (the extension's below the grid); None when the loop is only sampled."""
+        if self.extension is None:
+            return self.evaluate
+        return piecewise(float(np.asarray(self.freq_hz)[0]), self.extension.evaluate, self.evaluate)
+
+
+BatchEvaluator = Callable[[list], list]
+"""``evaluate_batch([(case index, frequencies [Hz]), ...])`` -> ``[L at those frequencies, ...]``."""
+
+
+def analyze_loops(cases, evaluate_batch: BatchEvaluator | None = None) -> list[LoopMetrics]:
+    """:func:`analyze_loop` of several loops, with the refinement of all of them evaluated in joint rounds.
+
+    Each loop is first resolved on its own (its contour checked once, then only the intervals that break a rule are
+    split, :mod:`~feedtune.analysis.resolution`); the quantities every figure needs are taken from one pass over the
+    resolved contour. Then every crossing (crossovers, phase crossovers, band edges) and every peak (``|S|``,
+    ``|S - 1/2|``) of every loop is refined together: each round asks for ``L`` at all the bracket points of all loops
+    at once, by one call of ``evaluate_batch`` (default: each loop's own function), three rounds in all
+    (:data:`ROOT_ROUNDS` for the crossings and :data:`PEAK_ROUNDS` for the peaks; the margins at the crossings and the
+    peaks' last zoom with the third). Cases may be given by an
+    iterator: each is made when it is asked for, so what it needs only to be formed (its plant on the grid) can go
+    before the next one is made.
+
+    Parameters
+    ----------
+    cases : iterable of LoopCase
+    evaluate_batch : callable, optional
+        ``evaluate_batch([(i, f), ...])`` -> ``[L_i(f), ...]`` over the contours of the cases ``i`` (the
+        extension's function below the grid). It may evaluate the common parts of the loops once for all.
+
+    Returns
+    -------
+    list of LoopMetrics
+        In the order of ``cases``.
+    """
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # inf and nan are handled where they arise
+        return _drive(cases, evaluate_batch)
+
+
+def _drive(cases, evaluate_batch: BatchEvaluator | None) -> list[LoopMetrics]:
+    results: list = []
+    functions: list = []
+    pending: dict[int, tuple] = {}
+    for k, c in enumerate(cases):  # one after the other (an iterator of cases may make each as it is asked for)
+        results.append(None)
+        fn = c.contour_function()
+        functions.append(fn)
+        gen = _loop_analysis(c)
+        try:
+            kind, fq = next(gen)
+            while kind == "resolve":
+                kind, fq = gen.send(fn(fq) if evaluate_batch is None else evaluate_batch([(k, fq)])[0])
+            pending[k] = (gen, fq)
+        except StopIteration as stop:
+            results[k] = stop.value
+        del c
+    while pending:
+        keys = list(pending)
+        if evaluate_batch is None:
+            values = [functions[k](pending[k][1]) for k in keys]
+        else:
+            values = evaluate_batch([(k, pending[k][1]) for k in keys])
+        for k, v in zip(keys, values, strict=True):
+            gen = pending[k][0]
+            try:
+                pending[k] = (gen, gen.send(v)[1])
+            except StopIteration as stop:
+                results[k] = stop.value
+                del pending[k]
+    return results
+
+
+class _Contour:
+    """A loop on its contour and the magnitudes every figure reads: ``|L|`` and ``|1 + L|``."""
+
+    __slots__ = ("L", "a", "a1", "f")
+
+    def __init__(self, f: np.ndarray, L: np.ndarray, a=None, a1=None) -> None:
+        self.f, self.L = f, L
+        if a is None:
+            a = np.abs(L)
+            a1 = np.abs(1.0 + L)
+        self.a, self.a1 = a, a1
+
+    def insert(self, f_new: np.ndarray, L_new: np.ndarray) -> _Contour:
+        """The contour with the points ``f_new`` [Hz] (not on it, none twice) added in order."""
+        if f_new.size == 0:
+            return self
+        order = np.argsort(f_new, kind="stable")
+        f_new, L_new = f_new[order], L_new[order]
+        pos = np.searchsorted(self.f, f_new)
+        parts = ((self.f, f_new), (self.L, L_new), (self.a, np.abs(L_new)), (self.a1, np.abs(1.0 + L_new)))
+        return _Contour(*(np.insert(old, pos, new) for old, new in parts))
+
+
+def _new_points(f: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The points of ``x`` [Hz] (sorted, unique) that are not already in the sorted grid ``f``."""
+    x = np.unique(x)
+    if x.size == 0:
+        return x
+    i = np.clip(np.searchsorted(f, x), 0, f.size - 1)
+    return x[f[i] != x]
+
+
+def _resolve_contour(q: _Contour, bad: np.ndarray, f0: np.ndarray, features):
+    """Generator: resolve the contour ``q`` (module docstring of :mod:`~feedtune.analysis.resolution`), asking for
+    the loop at new points with ``("resolve", f)``; returns the resolved :class:`_Contour`.
+
+    ``bad`` marks the intervals that break a rule (of those the rules apply to: not the junction of an extension and
+    the grid). Intervals are checked once; afterwards only the ones that break a rule are split and their new
+    intervals checked.
+    """
+    f, L = q.f, q.L
+    bad_idx = np.flatnonzero(bad)
+    extra = _new_points(f, feature_points(features if features is not None else np.empty((0, 2)), f0[0], f0[-1]))
+    add_f, add_L = [], []
+    if extra.size:
+        Lx = np.asarray((yield ("resolve", extra)), complex)
+        add_f.append(extra)
+        add_L.append(Lx)
+        k = np.searchsorted(f, extra) - 1  # interval of each new point
+        step = k[1:] != k[:-1]
+        first = np.concatenate([[True], step])
+        last = np.concatenate([step, [True]])
+        fl = np.where(first, f[k], np.concatenate([[0.0], extra[:-1]]))
+        Ll = np.where(first, L[k], np.concatenate([[0.0], Lx[:-1]]))
+        pairs = [(fl, Ll, extra, Lx), (extra[last], Lx[last], f[k[last] + 1], L[k[last] + 1])]
+        bad_idx = bad_idx[~np.isin(bad_idx, k)]  # intervals with new points are replaced by their pieces
+    else:
+        pairs = []
+    pairs.append((f[bad_idx], L[bad_idx], f[bad_idx + 1], L[bad_idx + 1]))
+    fl, Ll, fr, Lr = (np.concatenate(p) for p in zip(*pairs, strict=True))
+    keep = pair_unresolved(Ll, Lr)
+    keep[len(fl) - bad_idx.size:] = True  # the grid's bad intervals were found bad already
+    fl, Ll, fr, Lr = fl[keep], Ll[keep], fr[keep], Lr[keep]
+    t = np.arange(1, SPLIT + 1) / (SPLIT + 1)
+    for rnd in range(MAX_ROUNDS + 1):
+        if fl.size == 0:
+            return q.insert(np.concatenate(add_f), np.concatenate(add_L)) if add_f else q
+        can = fr > fl * (1 + 1e-12)
+        if not can.any() or rnd == MAX_ROUNDS:
+            i = int(np.argmin(fl))
+            raise ResolutionError(f"the loop cannot be resolved: "
+                                  f"{_describe(np.array([fl[i], fr[i]]), [np.array([Ll[i], Lr[i]])], 0)} (it passes "
+                                  "through or next to -1 there)")
+        lo, hi = np.log(fl[can]), np.log(fr[can])
+        fn = np.exp(lo[:, None] + (hi - lo)[:, None] * t[None, :])  # (m, SPLIT)
+        Ln = np.asarray((yield ("resolve", fn.ravel())), complex).reshape(fn.shape)
+        add_f.append(fn.ravel())
+        add_L.append(Ln.ravel())
+        cf = np.column_stack([fl[can], fn, fr[can]])  # the chain of each split interval
+        cL = np.column_stack([Ll[can], Ln, Lr[can]])
+        sub_fl, sub_Ll, sub_fr, sub_Lr = cf[:, :-1].ravel(), cL[:, :-1].ravel(), cf[:, 1:].ravel(), cL[:, 1:].ravel()
+        b = pair_unresolved(sub_Ll, sub_Lr)
+        fl = np.concatenate([sub_fl[b], fl[~can]])
+        Ll = np.concatenate([sub_Ll[b], Ll[~can]])
+        fr = np.concatenate([sub_fr[b], fr[~can]])
+        Lr = np.concatenate([sub_Lr[b], Lr[~can]])
+    raise AssertionError("unreachable")
+
+
+def _line_warnings(lines_hz: np.ndarray, bad: np.ndarray) -> list[str]:
+    if not bad.any():
+        return []
+    idx = np.flatnonzero(bad)
+    i = int(idx[0])
+    return [f"the FRF's lines do not resolve the loop at {lines_hz[i]:.5g}-{lines_hz[i + 1]:.5g} Hz"
+            f"{f' and {idx.size - 1} more interval(s)' if idx.size > 1 else ''}: the figures there rest on the "
+            f"interpolation ({INTERPOLATION}); measure with a finer resolution to confirm them"]
+
+
+def _fit_slope(x: np.ndarray, y: np.ndarray) -> float:
+    """Slope of the least-squares line through ``(x, y)``."""
+    xm = x - x.mean()
+    return float(np.dot(xm, y - y.mean()) / np.dot(xm, xm))
+
+
+def _local_maxima(y: np.ndarray, near: float = 0.9) -> tuple[int, np.ndarray]:
+    """Index of the largest ``y`` and the interior local maxima within ``near`` of it (as :func:`peak`)."""
+    i = int(np.argmax(y))
+    if y.size < 3:
+        return i, np.empty(0, int)
+    mid = y[1:-1]
+    inner = np.flatnonzero((mid >= y[:-2]) & (mid >= y[2:]) & (mid >= near * y[i])) + 1
+    return i, inner
+
+
+def _root_values(kind: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The crossing quantities of the refinement: ``20 log10 |L|`` (kind 0), ``Im L / |L|`` (1), ``log |1 + L|`` (2)."""
+    y = np.empty(v.shape)
+    for k, fn in ((0, lambda w: 20 * np.log10(np.abs(w))),
+                  (1, lambda w: w.imag / np.maximum(np.abs(w), 1e-300)),
+                  (2, lambda w: np.log(np.maximum(np.abs(1.0 + w), 1e-300)))):
+        sel = kind == k
+        if sel.any():
+            y[sel] = fn(v[sel])
+    return y
+
+
+def _peak_values(kind: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The peaked quantities: ``|S|`` (kind 0) and ``|S - 1/2|`` (1)."""
+    y = np.empty(v.shape)
+    sel = kind == 0
+    if sel.any():
+        y[sel] = 1.0 / np.abs(1.0 + v[sel])
+    sel = ~sel
+    if sel.any():
+        w = v[sel]
+        y[sel] = np.abs(1.0 - w) / np.abs(2.0 * (1.0 + w))
+    return y
+
+
+class _ContourNoise:
+    """The measured scatter [dB] at contour points (0 on the extension), computed only where asked."""
+
+    def __init__(self, noise, f: np.ndarray, f0: np.ndarray, first: int) -> None:
+        self.f, self.first = f, first
+        self.lf0 = np.log(f0)
+        self.lines = noise.lines if hasattr(noise, "lines") else np.asarray(noise, float).__getitem__
+
+    def at(self, i0: int, i1: int) -> np.ndarray:
+        """Scatter [dB] at the contour points ``i0 .. i1 - 1``."""
+        out = np.zeros(max(i1 - i0, 0))
+        g0 = max(i0, self.first)
+        if g0 < i1:
+            x = np.log(self.f[g0:i1])
+            n0 = self.lf0.size
+            jl = max(int(np.searchsorted(self.lf0, x[0], "right")) - 1, 0)
+            jr = min(int(np.searchsorted(self.lf0, x[-1], "left")), n0 - 1)
+            out[g0 - i0:] = np.interp(x, self.lf0[jl:jr + 1], self.lines(np.arange(jl, jr + 1)))
+        return out
+
+
+def _merge_chatter(wc: np.ndarray, f: np.ndarray, deviation: Callable, scatter: Callable | None, what: str,
+                   unit: str) -> tuple[np.ndarray, list[dict]]:
+    """:func:`~feedtune.analysis.margins.merge_chatter` with the deviation and the scatter (``scatter(i0, i1)`` at the
+    contour points ``i0 .. i1 - 1``, in the deviation's unit) read only over the clusters."""
+    if scatter is None or wc.size < 2:
+        return wc, []
+    clusters, cur = [], [wc[0]]
+    for x in wc[1:]:
+        if x <= cur[-1] * (1 + CHATTER_REL):
+            cur.append(x)
+        else:
+            clusters.append(cur)
+            cur = [x]
+    clusters.append(cur)
+    kept, merged = [], []
+    for c in clusters:
+        if len(c) == 1:
+            kept.append(c[0])
+            continue
+        i0, i1 = int(np.searchsorted(f, c[0], "left")), int(np.searchsorted(f, c[-1], "right"))
+        if i1 > i0:
+            excursion = float(np.max(np.abs(deviation(i0, i1))))
+            sigma = float(np.max(scatter(i0, i1)))
+        else:  # between two points: the scatter interpolated at the first crossing
+            j = max(int(np.searchsorted(f, c[0], "right")) - 1, 0)
+            j = min(j, f.size - 2)
+            excursion = 0.0
+            sigma = float(np.interp(c[0], f[j:j + 2], scatter(j, j + 2)))
+        if excursion <= CHATTER_SIGMAS * sigma:
+            keep = c[0] if len(c) % 2 else None
+            if keep is not None:
+                kept.append(keep)
+            merged.append({"of": what, "freq_hz": [float(x) for x in c], "kept_hz": keep, "excursion": excursion,
+                           "scatter": sigma, "unit": unit})
+        else:
+            kept.extend(c)
+    return np.array(kept, float), merged
+
+
+def _prune_bands(bands: list, f: np.ndarray, L: np.ndarray, noise: _ContourNoise) -> list:
+    """:func:`~feedtune.analysis.margins.prune_bands` on the contour ``f``, ``L`` with the scatter read only where the
+    decision needs it (first where ``(|1 + L| - 1) / |L|`` is largest: enough when the band passes there)."""
+    if not bands:
+        return bands
+
+    def strongest(lo, hi, sign):
+        i0, i1 = int(np.searchsorted(f, lo, "left")), int(np.searchsorted(f, hi, "right"))
+        if i1 <= i0:
+            return 0.0
+        l = L[i0:i1]
+        a = np.abs(l)
+        ex = np.abs(1.0 + l) - 1.0
+        if sign < 0:
+            np.negative(ex, out=ex)
+        r = ex / a
+        r[np.isnan(r)] = -np.inf
+        j = int(np.argmax(r))
+        z = ex[j] / max(float(a[j] * (noise.at(i0 + j, i0 + j + 1)[0] * np.log(10) / 20)), 1e-300)
+        if z >= CHATTER_SIGMAS:  # enough for the decision: the largest is at least this
+            return float(z)
+        sigma = a * (noise.at(i0, i1) * np.log(10) / 20)
+        return float(np.max(ex / np.maximum(sigma, 1e-300)))
+
+    kept = [b for b in bands if strongest(b[0], b[1], 1.0) >= CHATTER_SIGMAS]
+    out: list[list[float]] = []
+    for b in kept:
+        if out and strongest(out[-1][1], b[0], -1.0) < CHATTER_SIGMAS:
+            out[-1] = [out[-1][0], b[1]]
+        else:
+            out.append(list(b))
+    return out
+
+
+def _winding(q: _Contour, integrators: float) -> float:
+    """:func:`nyquist_winding` on the contour without an arctangent over all of it: the unwrapped change of the angle of
+    ``1 + L`` is the change between its ends plus ``np.unwrap``'s corrections, which only intervals whose ends lie on
+    either side of the real axis can need (elsewhere both angles lie in one closed half plane)."""
+    L = q.L
+    y = np.signbit(L.imag)
+    idx = np.flatnonzero(y[:-1] != y[1:])
+    one_plus = 1.0 + L[np.concatenate([[0], idx, idx + 1, [L.size - 1]])]
+    ph = np.angle(one_plus)
+    along = float(ph[-1] - ph[0])
+    if idx.size:
+        d = ph[1 + idx.size:1 + 2 * idx.size] - ph[1:1 + idx.size]
+        jump = np.abs(d) >= np.pi  # where np.unwrap corrects
+        if jump.any():
+            d = d[jump]
+            dm = np.mod(d + np.pi, 2 * np.pi) - np.pi
+            dm[(dm == -np.pi) & (d > 0)] = np.pi
+            along += float(np.sum(dm - d))
+    if abs(L[-1]) < 1:
+        along -= float(np.angle(1.0 + L[-1]))
+    return (2 * along + _arc_change(complex(L[0]), integrators)) / (2 * np.pi)
+
+
+def _arc_change(L0: complex, integrators: float) -> float:
+    """Change of the angle of ``1 + L`` [rad] along the indentation arc of :func:`nyquist_winding`.
+
+    On the arc ``1 + L`` runs on the circle of radius ``r = |L0|`` around 1 from angle ``-phi0`` through ``turn``:
+    for ``r < 1`` the angle of ``1 + r e^(j phi)`` stays within 90 deg of 0, for ``r > 1`` that of
+    ``r + e^(-j phi)`` does, so the change is the difference of principal values (plus the turn itself for
+    ``r > 1``); exactly what the 721-point unwrapped arc of :func:`nyquist_winding` gives, without sampling it.
+    """
+    r = abs(L0)
+    phi0 = float(np.angle(L0))
+    k = np.round((-integrators * np.pi - 2 * phi0) / (2 * np.pi))
+    turn = 2 * phi0 + 2 * np.pi * k
+    a, b = -phi0, -phi0 + turn
+    if r < 1:
+        return float(np.angle(1 + r * np.exp(1j * b)) - np.angle(1 + r * np.exp(1j * a)))
+    if r > 1:
+        return float(turn + np.angle(r + np.exp(-1j * b)) - np.angle(r + np.exp(-1j * a)))
+    arc = 1.0 + r * np.exp(1j * (a + turn * np.linspace(0.0, 1.0, 721)))  # through 0: as sampled
+    arc_ph = np.unwrap(np.angle(arc))
+    return float(arc_ph[-1] - arc_ph[0])
+
+
+def _loop_analysis(c: LoopCase):
+    """Generator computing :class:`LoopMetrics` of one loop: yields ``("resolve", f)`` while it resolves the
+    contour and ``("refine", f)`` in each joint refinement round, and is sent ``L`` at ``f`` [Hz]."""
+    if c.below_grid not in ("refuse", "assume"):
+        raise ValueError(f"below_grid must be 'refuse' or 'assume', got {c.below_grid!r}")
+    f0 = np.asarray(c.freq_hz, float)
     warnings: list[str] = []
-    if evaluate is not None:
-        L0 = evaluate(f0) if L is None else np.asarray(L, complex)
-        f, Lg = resolve(f0, evaluate, lambda R: [R], features, known=L0)
-        if measured:
-            warnings += line_resolution_warnings(f0, L0)
+    extension = c.extension
+    if c.evaluate is not None:
+        L0 = c.evaluate(f0) if c.L is None else np.asarray(c.L, complex)
     else:
-        f, Lg = f0, np.asarray(L, complex)
-        check_samples(f, [Lg])
+        L0 = np.asarray(c.L, complex)
+    fn = c.contour_function()
     if extension is not None:
-        fc, Lc = extension.prepend(f, Lg)
-        fn = piecewise(float(f[0]), extension.evaluate, evaluate)
+        nx = extension.freq_hz.size
+        q = _Contour(np.concatenate([extension.freq_hz, f0]), np.concatenate([extension.L, L0]))
     else:
-        fc, Lc, fn = f, Lg, evaluate
+        nx = 0
+        q = _Contour(f0, L0)
+    if c.evaluate is None:
+        check_samples(f0, [L0])
+    else:
+        steps = contour_steps(q.L, q.a, q.a1)
+        if c.measured:  # the FRF's lines alone: the intervals of the grid, rules relaxed as for samples
+            warnings += _line_warnings(f0, rules_broken(steps, SAMPLE_SLACK, start=nx))
+        bad = rules_broken(steps)
+        del steps
+        if nx:
+            bad[nx - 1] = False  # the junction of the extension and the grid
+            if extension.evaluate is None:
+                bad[:nx] = False
+        q = yield from _resolve_contour(q, bad, f0, c.features)
+    g = _GridFigures(q, f0, c.integrators)
+    if extension is None and c.below_grid == "refuse":
+        check_low_end(q.f, g.slope, g.a_low, g.n_int)
+    # the warnings that follow the one on merged crossings, and the Nyquist count: from the contour as it is
+    later = contour_warnings(q.f, g.slope, g.a_low, g.n_int, extension is not None)
+    L_top = complex(q.L[-1])
+    if abs(L_top) >= 1:
+        later.append(f"|L| = {abs(L_top):.3g} >= 1 at the highest frequency {q.f[-1]:g} Hz; "
+                     "extend the frequency grid for a valid Nyquist count")
+    if extension is not None:
+        later += extension.warnings(g.ms_grid, g.ms_below)
+    winding = _winding(q, g.n_int)
+    f_low, n_points = float(q.f[0]), int(q.f.size)
+    noise = None if c.noise_db is None else _ContourNoise(c.noise_db, q.f, f0, g.first)
 
-    def abs_1pl(fq):
-        return np.abs(1.0 + fn(fq))
-
-    def abs_s(fq):
-        return 1.0 / np.abs(1.0 + fn(fq))
-
-    def abs_s_half(fq):
-        v = fn(fq)
-        return np.abs(1.0 - v) / np.abs(2.0 * (1.0 + v))
-
-    noise = None
-    if noise_db is not None:
-        lines = np.interp(np.log(f), np.log(f0), np.asarray(noise_db, float))
-        noise = np.r_[np.zeros(fc.size - f.size), lines]
-    mg = loop_margins(fc, Lc, fn, noise)
-    if mg.merged:
-        warnings.append(f"{len(mg.merged)} cluster(s) of crossings within the FRF's scatter were merged "
+    if fn is None:  # samples: figures interpolated between them
+        f, L = q.f, q.L
+        noise_arr = None if noise is None else noise.at(0, f.size)
+        mg = loop_margins(f, L, None, noise_arr)
+        wc, pm, w180, gm, merged = (mg.crossovers_hz, mg.phase_margins_deg, mg.phase_crossovers_hz,
+                                    mg.gain_margins_db, mg.merged)
+        bands = level_bands(f, q.a1, 1.0)
+        bands = prune_bands(bands, f, q.a1 - 1.0, scatter_of(L, noise_arr))
+        (ms_f, ms), (dm_f, dm_peak) = g.ms_at_grid, g.dm_at_grid
+    else:
+        # only a measured loop reads the contour again (its scatter, around clusters and bands): f and L
+        f, L = (q.f, q.L) if noise is not None else (None, None)
+        del q
+        wc, w180, edges, merged, pm, gm, ms_pk, dm_pk = yield from _refine(g, f, L, noise)
+        (ms_f, ms), (dm_f, dm_peak) = ms_pk, dm_pk
+        bands = _bands(g, edges)
+        if noise is not None:
+            bands = _prune_bands(bands, f, L, noise)
+    if merged:
+        warnings.append(f"{len(merged)} cluster(s) of crossings within the FRF's scatter were merged "
                         "(merged_crossovers)")
-    wc, pm, w180, gm = mg.crossovers_hz, mg.phase_margins_deg, mg.phase_crossovers_hz, mg.gain_margins_db
-    aS = 1.0 / np.abs(1.0 + Lc)
-    ms_f, ms = peak(fc, aS, None if fn is None else abs_s)
-    dm_f, dm_peak = peak(fc, np.abs(1.0 - Lc) * aS / 2, None if fn is None else abs_s_half)
-    slope = low_frequency_slope(fc, Lc)
-    n_int = count_integrators(fc, Lc) if integrators is None else int(integrators)
-    bands = level_bands(fc, np.abs(1.0 + Lc), 1.0, None if fn is None else abs_1pl)
-    bands = prune_bands(bands, fc, np.abs(1.0 + Lc) - 1.0, scatter_of(Lc, noise))
-    if bands and bands[0][0] == fc[0] and n_int > 0:
+    warnings += later
+    if bands and bands[0][0] == f_low and g.n_int > 0:
         bands[0][0] = 0.0
-    if extension is None and below_grid == "refuse":
-        check_low_end(fc, slope, float(abs(Lc[0])), n_int)
-    warnings += contour_warnings(fc, slope, abs(Lc[0]), n_int, extension is not None)
-    if abs(Lg[-1]) >= 1:
-        warnings.append(f"|L| = {abs(Lg[-1]):.3g} >= 1 at the highest frequency {f[-1]:g} Hz; "
-                        "extend the frequency grid for a valid Nyquist count")
-    if extension is not None:
-        ms_grid = float(np.max(1.0 / np.abs(1.0 + Lg)))
-        ms_below = float(np.max(1.0 / np.abs(1.0 + extension.L)))
-        warnings += extension.warnings(ms_grid, ms_below)
-    winding = nyquist_winding(fc, Lc, n_int)
     n_ccw = int(np.round(winding))
     if abs(winding - n_ccw) > 0.2:
         warnings.append(f"Nyquist winding number {winding:.2f} is not close to an integer; grid too coarse")
     n_cw = -n_ccw
-    stable = n_cw + int(open_loop_rhp_poles) == 0
-    below = [float(x) for x in wc if x < f[0]]
+    stable = n_cw + int(c.open_loop_rhp_poles) == 0
     return LoopMetrics(
         wc,
         pm,
@@ -633,31 +1056,228 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
         bands,
         bool(stable),
         n_cw,
-        int(open_loop_rhp_poles),
-        n_int,
+        int(c.open_loop_rhp_poles),
+        g.n_int,
         warnings,
-        float(fc[0]),
+        f_low,
         None if extension is None else extension.to_dict(),
-        below,
+        [float(x) for x in wc if x < f0[0]],
         float(1.0 / dm_peak) if dm_peak > 0 else float("inf"),
         float(dm_f),
-        mg.merged,
-        int(fc.size),
-        INTERPOLATION if measured else None,
+        merged,
+        n_points,
+        INTERPOLATION if c.measured else None,
         abs(winding - n_ccw) <= 0.2,
-        float(f0[-1]) if measured else None,
-        float(abs(Lg[-1])) if measured else None,
+        float(f0[-1]) if c.measured else None,
+        float(abs(L0[-1])) if c.measured else None,
     )
+
+
+class _GridFigures:
+    """What one pass over the resolved contour gives: the brackets of every crossing (crossovers, phase crossovers,
+    ``|S| = 1``) and of every peak near the largest (``|S|``, ``|S - 1/2|``), the grid's peaks, the low-frequency
+    slope and the peak sensitivity above and below the grid's first line."""
+
+    def __init__(self, q: _Contour, f0: np.ndarray, integrators: int | None) -> None:
+        f, L, a, a1 = q.f, q.L, q.a, q.a1
+        self.first = int(np.searchsorted(f, f0[0]))  # contour points below the grid (the extension)
+        aS = 1.0 / a1
+        below = a < 1.0
+        idx_c = np.flatnonzero(below[:-1] != below[1:])
+        del below
+        big = a >= NEGLIGIBLE_LOOP
+        neg = np.signbit(L.imag)
+        re = L.real
+        idx_p = np.flatnonzero((neg[:-1] != neg[1:]) & (re[:-1] + re[1:] < 0) & (big[:-1] | big[1:]))
+        del big, neg, re
+        out_band = a1 > 1.0
+        idx_b = np.flatnonzero(out_band[:-1] != out_band[1:])
+        self.band_ends = (bool(out_band[0]), bool(out_band[-1]), bool(out_band.any()))
+        self.band_rising = out_band[idx_b + 1]
+        del out_band
+        self.f_ends = (float(f[0]), float(f[-1]))
+        i_ms, in_ms = _local_maxima(aS)
+        half = np.abs(1.0 - L)
+        half *= aS
+        half /= 2
+        i_dm, in_dm = _local_maxima(half)
+        self.ms_at_grid = float(f[i_ms]), float(aS[i_ms])
+        self.dm_at_grid = float(f[i_dm]), float(half[i_dm])
+        del half
+        self.ms_grid = float(np.max(aS[self.first:]))
+        self.ms_below = float(np.max(aS[:self.first])) if self.first else 0.0
+        del aS
+        ends = np.concatenate([idx_c, idx_p, idx_b])
+        lf = np.log(f[np.concatenate([ends, ends + 1])])
+        nr = idx_c.size + idx_p.size + idx_b.size
+        self.root_kind = np.repeat(np.arange(3), [idx_c.size, idx_p.size, idx_b.size])
+        self.root_lo, self.root_hi = lf[:nr], lf[nr:]
+        if f.size >= 3:
+            p_idx = np.concatenate([in_ms, in_dm])
+            self.peak_kind = np.repeat(np.arange(2), [in_ms.size, in_dm.size])
+        else:
+            p_idx = self.peak_kind = np.empty(0, int)
+        self.peak_lo, self.peak_hi = np.log(f[p_idx - 1]), np.log(f[p_idx + 1])
+        sel = f <= f[0] * 2.0
+        if sel.sum() < 3:
+            sel = np.arange(f.size) < min(3, f.size)
+        self.slope = 0.0 if sel.sum() < 2 else -_fit_slope(np.log(f[sel]), np.log(np.maximum(a[sel], 1e-300)))
+        self.n_int = max(0, int(np.round(self.slope))) if integrators is None else int(integrators)
+        self.a_low = float(a[0])
+
+
+def _refine(g: _GridFigures, f: np.ndarray | None, L: np.ndarray | None, noise: _ContourNoise | None):
+    """Generator: refine every crossing and peak of :class:`_GridFigures` in joint rounds (``("refine", points)``,
+    sent ``L`` there) and return ``(crossovers, phase crossovers, band edges, merged clusters, phase margins, gain
+    margins, (f, |S|) peak, (f, |S - 1/2|) peak)``; with ``noise``, clusters of crossings are merged on the contour
+    ``f``, ``L`` first (:func:`_merge_chatter`).
+
+    Rounds: the crossings' brackets sampled :data:`ROOT_ROUNDS` times (then :func:`_crossing`), the peaks' brackets
+    :data:`PEAK_ROUNDS` times (each round zooming on the largest sample), and one last round with the loop at the
+    crossings (their margins) and at the vertex of the parabola through the three largest samples of each peak (the
+    peak is the largest value evaluated: always one of the loop's own).
+    """
+    t, tp = np.linspace(0.0, 1.0, ROOT_POINTS + 2), np.linspace(0.0, 1.0, PEAK_POINTS + 2)
+    rlo, rhi, plo, phi = g.root_lo, g.root_hi, g.peak_lo, g.peak_hi
+    nr, npk = rlo.size, plo.size
+    rk, pk = np.repeat(g.root_kind, t.size), np.repeat(g.peak_kind, tp.size)
+    rows_r, rows_p = np.arange(nr), np.arange(npk)
+    wc = w180 = edges = np.empty(0)
+    best_x = best_y = vertex = np.empty(0)
+    merged: list[dict] = []
+    pm: list = []
+    gm: list = []
+    last = max(ROOT_ROUNDS, PEAK_ROUNDS)
+    for rnd in range(last + 1):
+        parts = []
+        xr = xp = None
+        if rnd < ROOT_ROUNDS and nr:
+            xr = rlo[:, None] + (rhi - rlo)[:, None] * t[None, :]
+            parts.append(np.exp(xr.ravel()))
+        if rnd < PEAK_ROUNDS and npk:
+            xp = plo[:, None] + (phi - plo)[:, None] * tp[None, :]
+            parts.append(np.exp(xp.ravel()))
+        if rnd == last:
+            parts += [wc, w180, np.exp(vertex)]
+        if not any(p.size for p in parts):
+            if rnd == last:
+                break
+            v = np.empty(0, complex)
+        else:
+            v = np.asarray((yield ("refine", np.concatenate(parts))), complex)
+        pos = 0
+        if xr is not None:
+            y = _root_values(rk, v[:xr.size]).reshape(xr.shape)
+            pos = xr.size
+            s = np.signbit(y)
+            change = s[:, :-1] != s[:, 1:]
+            j = np.where(change.any(axis=1), np.argmax(change, axis=1), 0)
+            if rnd < ROOT_ROUNDS - 1:
+                rlo, rhi = xr[rows_r, j], xr[rows_r, j + 1]
+            else:
+                roots = np.exp(_crossing(xr, y, j))
+                kind = g.root_kind
+                wc, w180, edges = roots[kind == 0], roots[kind == 1], roots[kind == 2]
+                if noise is not None:
+                    def deg_scatter(i0, i1):
+                        return np.degrees(noise.at(i0, i1) * np.log(10) / 20)
+
+                    wc, merged = _merge_chatter(wc, f, lambda i0, i1: 20 * np.log10(np.abs(L[i0:i1])), noise.at,
+                                                "crossovers", "dB")
+                    w180, merged_180 = _merge_chatter(w180, f, lambda i0, i1: np.degrees(np.angle(-L[i0:i1])),
+                                                      deg_scatter, "phase crossovers", "deg")
+                    merged += merged_180
+        if xp is not None:
+            y = _peak_values(pk, v[pos:pos + xp.size]).reshape(xp.shape)
+            pos += xp.size
+            j = np.argmax(y, axis=1)
+            if rnd < PEAK_ROUNDS - 1:
+                plo = xp[rows_p, np.maximum(j - 1, 0)]
+                phi = xp[rows_p, np.minimum(j + 1, PEAK_POINTS + 1)]
+            else:
+                best_x, best_y = xp[rows_p, j], y[rows_p, j]
+                vertex = _vertex(xp, y, j)
+        if rnd == last:
+            Lx, L180, Lv = v[pos:pos + wc.size], v[pos + wc.size:pos + wc.size + w180.size], v[pos + wc.size
+                                                                                                + w180.size:]
+            pm = [float(x) for x in np.rad2deg(np.angle(-Lx))] if wc.size else []
+            gm = [float(x) for x in -20 * np.log10(np.abs(L180))]
+            yv = _peak_values(g.peak_kind, Lv)
+            take = yv > best_y
+            best_x, best_y = np.where(take, vertex, best_x), np.where(take, yv, best_y)
+    fp = np.exp(best_x)
+    ms_pk = _best_peak(fp[g.peak_kind == 0], best_y[g.peak_kind == 0], *g.ms_at_grid)
+    dm_pk = _best_peak(fp[g.peak_kind == 1], best_y[g.peak_kind == 1], *g.dm_at_grid)
+    return [float(x) for x in wc], [float(x) for x in w180], edges, merged, pm, gm, ms_pk, dm_pk
+
+
+def _vertex(x: np.ndarray, y: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Vertex (log frequency) of the parabola through the samples ``j - 1, j, j + 1`` of each row (the three nearest
+    inside the row at its ends), kept inside them; the largest sample where it is undefined."""
+    rows = np.arange(x.shape[0])
+    k = np.clip(j, 1, x.shape[1] - 2)
+    x0, x1, x2 = x[rows, k - 1], x[rows, k], x[rows, k + 1]
+    y0, y1, y2 = y[rows, k - 1], y[rows, k], y[rows, k + 1]
+    num = (x1 - x0) ** 2 * (y1 - y2) - (x1 - x2) ** 2 * (y1 - y0)
+    den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0)
+    xv = x1 - 0.5 * num / den
+    ok = np.isfinite(xv) & (xv >= x0) & (xv <= x2)
+    return np.where(ok, xv, x[rows, j])
+
+
+def _crossing(x: np.ndarray, y: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Where ``y`` crosses 0 between the samples ``j`` and ``j + 1`` of each row (``x``: log frequency).
+
+    The linear interpolation in the bracket (as :func:`~feedtune.analysis.resolution.refine_roots`), then one Newton
+    step on the cubic through the four samples around it: an error of the fourth power of the sample spacing instead
+    of the square; the step is kept only when it stays inside the bracket (at an FRF's line, where the interpolated
+    loop has a kink, the linear estimate is as good as any).
+    """
+    rows = np.arange(x.shape[0])
+    xa, xb, ya, yb = x[rows, j], x[rows, j + 1], y[rows, j], y[rows, j + 1]
+    frac = np.where(ya != yb, ya / (ya - yb), 0.5)
+    x0 = xa + np.clip(frac, 0.0, 1.0) * (xb - xa)
+    if x.shape[1] < 4:
+        return x0
+    k = np.clip(j - 1, 0, x.shape[1] - 4)[:, None] + np.arange(4)[None, :]
+    X, Y = x[rows[:, None], k], y[rows[:, None], k]
+    # Newton's divided differences of the cubic through the four samples
+    d1 = (Y[:, 1:] - Y[:, :-1]) / (X[:, 1:] - X[:, :-1])
+    d2 = (d1[:, 1:] - d1[:, :-1]) / (X[:, 2:] - X[:, :-2])
+    d3 = (d2[:, 1:] - d2[:, :-1]) / (X[:, 3:] - X[:, :-3])
+    c0, c1, c2, c3 = Y[:, 0], d1[:, 0], d2[:, 0], d3[:, 0]
+    u0, u1, u2 = x0 - X[:, 0], x0 - X[:, 1], x0 - X[:, 2]
+    p = c0 + u0 * (c1 + u1 * (c2 + u2 * c3))
+    dp = c1 + c2 * (u0 + u1) + c3 * (u0 * u1 + u0 * u2 + u1 * u2)
+    x1 = x0 - p / dp
+    ok = np.isfinite(x1) & (x1 >= np.minimum(xa, xb)) & (x1 <= np.maximum(xa, xb)) & (ya != yb)
+    return np.where(ok, x1, x0)
+
+
+def _best_peak(fp: np.ndarray, yp: np.ndarray, f_grid: float, y_grid: float) -> tuple[float, float]:
+    """The largest refined peak when it is at least the grid's, else the grid's (as :func:`peak`)."""
+    if fp.size:
+        k = int(np.argmax(yp))
+        if yp[k] >= y_grid:
+            return float(fp[k]), float(yp[k])
+    return f_grid, y_grid
+
+
+def _bands(g: _GridFigures, edges: np.ndarray) -> list[list[float]]:
+    """The ``|S| < 1`` bands from the refined edges (as :func:`~feedtune.analysis.margins.level_bands`)."""
+    first, last, any_band = g.band_ends
+    if not any_band:
+        return []
+    starts = [float(x) for x in edges[g.band_rising]]
+    ends = [float(x) for x in edges[~g.band_rising]]
+    if first:
+        starts.insert(0, g.f_ends[0])
+    if last:
+        ends.append(g.f_ends[1])
+    return [[s, e] for s, e in zip(starts, ends, strict=True)]
 
 
 def line_resolution_warnings(lines_hz: np.ndarray, L_lines: np.ndarray) -> list[str]:
     """A warning naming where an FRF's lines are too far apart for the loop (the verdict then rests on the
     interpolation between them)."""
-    bad = unresolved([L_lines], SAMPLE_SLACK)
-    if not bad.any():
-        return []
-    idx = np.flatnonzero(bad)
-    i = int(idx[0])
-    return [f"the FRF's lines do not resolve the loop at {lines_hz[i]:.5g}-{lines_hz[i + 1]:.5g} Hz"
-            f"{f' and {idx.size - 1} more interval(s)' if idx.size > 1 else ''}: the figures there rest on the "
-            f"interpolation ({INTERPOLATION}); measure with a finer resolution to confirm them"]
+    return _line_warnings(lines_hz, unresolved([L_lines], SAMPLE_SLACK))

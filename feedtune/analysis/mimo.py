@@ -26,6 +26,7 @@ algebra (products, adjugate inverses, determinants, singular values); there is n
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -365,7 +366,7 @@ def _sigma_max(A: np.ndarray) -> np.ndarray:
 def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, features=None, weights=(0.5, 0.5),
                  integrators: int | None = None, open_loop_rhp_poles: int = 0, S: np.ndarray | None = None,
                  extension: LoopExtension | None = None, noise_db: np.ndarray | None = None, measured: bool = False,
-                 below_grid: str = "refuse") -> MimoMetrics:
+                 below_grid: str = "refuse", figures: str = "all", disk_margin: bool = True) -> MimoMetrics:
     """All figures of :class:`MimoMetrics` for a 2x2 loop.
 
     Parameters
@@ -373,7 +374,8 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     freq_hz : array_like, shape (n,)
         Samples' grid, or the base grid and band of ``evaluate`` [Hz].
     L : ndarray, shape (2, 2, n), optional
-        Loop ``G K`` on ``freq_hz`` (when no ``evaluate`` is given).
+        Loop ``G K`` on ``freq_hz``: the samples without ``evaluate``; with it, ``evaluate(freq_hz)`` already
+        computed by the caller (not evaluated again).
     evaluate : callable, optional
         ``evaluate(f)`` -> ``L`` at any ``f`` [Hz] of the band, shape ``(2, 2, len(f))``; the grid is refined with it
         (:func:`~feedtune.analysis.resolution.resolve` on the CoM loop, the diagonal and ``det(I + L) - 1``).
@@ -393,7 +395,18 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
         ``freq_hz`` are an FRF's lines interpolated by ``evaluate`` (a warning names unresolved intervals).
     below_grid : {"refuse", "assume"}
         See :func:`mimo_nyquist`.
+    figures : {"all", "limits"}
+        ``"limits"``: only what :meth:`~feedtune.analysis.limits.Limits.check` and the tuners' acceptance read
+        (crossovers, phase and gain margins, ``Ms``, the disk margin, Nyquist stability and its warnings, the band
+        top), each exactly as with ``"all"``; the bands (rejection, active, damping) and the ``sigma_max(L)``
+        crossovers are left empty. For the many candidates of a search (the winner is analysed in full).
+    disk_margin : bool
+        With ``figures="limits"``: compute the disk margin (False: ``inf``, for a policy without a disk-margin
+        limit).
     """
+    if figures not in ("all", "limits"):
+        raise ValueError(f"figures must be 'all' or 'limits', got {figures!r}")
+    full = figures == "all"
     f0 = np.asarray(freq_hz, float)
     extra_warnings: list[str] = []
 
@@ -401,10 +414,11 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
         return [com_loop(R, weights), *scalar_loops(R)]
 
     if evaluate is not None:
-        f, Lg = resolve(f0, evaluate, probe, features)
+        L0 = evaluate(f0) if L is None else np.asarray(L, complex)
+        f, Lg = resolve(f0, evaluate, probe, features, known=L0)
         S = None
         if measured:
-            extra_warnings += line_resolution_warnings(f0, com_loop(evaluate(f0), weights))
+            extra_warnings += line_resolution_warnings(f0, com_loop(L0, weights))
     else:
         f, Lg = f0, np.asarray(L, complex)
         check_samples(f, probe(Lg))
@@ -416,8 +430,7 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
         fc, Lc, fn = f, Lg, evaluate
         Sc = sensitivity(Lc) if S is None else S
     smax_s = _sigma_max(Sc)
-    smax_l = _sigma_max(Lc)
-    eye_half = 0.5 * identity2(fc.size)
+    smax_l = _sigma_max(Lc) if full else None
     lc = com_loop(Lc, weights)
     if fn is None:
         fns = {"com": None, "s": None, "half": None, "l": None}
@@ -433,12 +446,19 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
         noise = np.r_[np.zeros(fc.size - f.size), lines]
     mg = loop_margins(fc, lc, fns["com"], noise)
     ms_f, ms = peak(fc, smax_s, fns["s"])
-    dm_f, dm_peak = peak(fc, _sigma_max(Sc - eye_half), fns["half"])
-    sl_x = [float(x) for x in crossings(fc, np.log(smax_l), 0.0,
-                                        None if fns["l"] is None else (lambda fq: np.log(fns["l"](fq))))]
-    active = level_bands(fc, smax_l, 1.0, fns["l"])
-    bands = level_bands(fc, 1.0 / smax_s, 1.0, fns.get("inv_s"))
-    bands = prune_bands(bands, fc, 1.0 / smax_s - 1.0, scatter_of(smax_l, noise))
+    if full or disk_margin:
+        dm_f, dm_peak = peak(fc, _sigma_max(Sc - 0.5 * identity2(fc.size)), fns["half"])
+    else:
+        dm_f, dm_peak = math.nan, 0.0
+    sl_x: list = []
+    active: list = []
+    bands: list = []
+    if full:
+        sl_x = [float(x) for x in crossings(fc, np.log(smax_l), 0.0,
+                                            None if fns["l"] is None else (lambda fq: np.log(fns["l"](fq))))]
+        active = level_bands(fc, smax_l, 1.0, fns["l"])
+        bands = level_bands(fc, 1.0 / smax_s, 1.0, fns.get("inv_s"))
+        bands = prune_bands(bands, fc, 1.0 / smax_s - 1.0, scatter_of(smax_l, noise))
     ny = mimo_nyquist(f, Lg, integrators=integrators, open_loop_rhp_poles=open_loop_rhp_poles, extension=extension,
                       below_grid=below_grid)
     if bands and bands[0][0] == fc[0] and ny.integrators > 0:

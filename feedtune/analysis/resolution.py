@@ -19,8 +19,9 @@ loop and ``det(I + L) - 1`` for a 2x2 loop), between every two neighbouring freq
 With a function (:func:`resolve`), every interval that breaks a rule is split (:data:`SPLIT` log-spaced points)
 until none does, at most :data:`MAX_ROUNDS` times; a loop still unresolved then (it passes through ``-1``) is
 refused with :class:`ResolutionError`. Crossings of a level are then bracketed to a relative width of about 1e-9
-(:func:`refine_roots`) and peaks zoomed to about 1e-6 (:func:`refine_peaks`). With samples only
-(:func:`check_samples`), a grid that breaks a rule by more than :data:`SAMPLE_SLACK` times is refused.
+(:func:`refine_roots`) and peaks zoomed to about 1e-6 (:func:`refine_peaks`); the SISO analysis does the same for
+all crossings and peaks of all its loops in joint rounds (:func:`feedtune.analysis.loop.analyze_loops`). With
+samples only (:func:`check_samples`), a grid that breaks a rule by more than :data:`SAMPLE_SLACK` times is refused.
 """
 
 from __future__ import annotations
@@ -94,16 +95,66 @@ def feature_points(features, lo_hz: float, hi_hz: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------ rules
-def _steps(l: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per interval: winding step [deg], phase step [deg], magnitude step [dB], near-|l|=1 flag."""
+def _pair_steps(l0: np.ndarray, l1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per interval from ``l0`` to ``l1``: winding and phase steps [deg], magnitude step [dB], near-|l|=1 flag."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.abs(l)
-        wind = np.abs(np.angle((1.0 + l[1:]) / (1.0 + l[:-1]), deg=True))
-        phase = np.abs(np.angle(l[1:] / l[:-1], deg=True))
-        mag = np.abs(20 * np.log10(a[1:] / a[:-1]))
-    lo, hi = np.minimum(a[:-1], a[1:]), np.maximum(a[:-1], a[1:])
+        a0, a1 = np.abs(l0), np.abs(l1)
+        wind = np.abs(np.angle((1.0 + l1) / (1.0 + l0), deg=True))
+        phase = np.abs(np.angle(l1 / l0, deg=True))
+        mag = np.abs(20 * np.log10(a1 / a0))
+    lo, hi = np.minimum(a0, a1), np.maximum(a0, a1)
     near = (lo <= NEAR_HIGH) & (hi >= NEAR_LOW)
     return np.nan_to_num(wind, nan=360.0), np.nan_to_num(phase, nan=360.0), np.nan_to_num(mag, nan=1e3), near
+
+
+def _steps(l: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per interval: winding step [deg], phase step [deg], magnitude step [dB], near-|l|=1 flag."""
+    return _pair_steps(l[:-1], l[1:])
+
+
+def pair_unresolved(l0: np.ndarray, l1: np.ndarray, slack: float = 1.0) -> np.ndarray:
+    """Boolean per interval from ``l0`` to ``l1`` (a scalar loop at both ends): a resolution rule is broken (by more
+    than ``slack`` times)."""
+    wind, phase, mag, near = _pair_steps(l0, l1)
+    return (wind > slack * WINDING_STEP_DEG) | (near & ((phase > slack * PHASE_STEP_DEG)
+                                                        | (mag > slack * MAGNITUDE_STEP_DB)))
+
+
+def contour_steps(L: np.ndarray, a: np.ndarray, a1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                          np.ndarray]:
+    """The steps of :func:`_steps` of a whole contour, from what the analysis has anyway: ``a = |L|``,
+    ``a1 = |1 + L|``, no arctangent over the whole contour.
+
+    Returns ``(cos_wind, near, phase, mag)``: the cosine of the winding step of every interval (the angle between
+    ``1 + L`` at its ends, from their dot product), the intervals where ``|L|`` is near 1 (indices) and their phase
+    [deg] and magnitude [dB] steps (the only ones a rule reads).
+    """
+    x = L.real + 1.0
+    y = L.imag
+    cos_wind = x[:-1] * x[1:]
+    cos_wind += y[:-1] * y[1:]
+    del x
+    cos_wind /= a1[:-1]
+    cos_wind /= a1[1:]
+    near = np.minimum(a[:-1], a[1:]) <= NEAR_HIGH
+    near &= np.maximum(a[:-1], a[1:]) >= NEAR_LOW
+    i = np.flatnonzero(near)
+    l0, l1 = L[i], L[i + 1]
+    phase = np.abs(np.angle(l1 * np.conj(l0), deg=True))
+    mag = np.abs(20 * np.log10(a[i + 1] / a[i]))
+    return cos_wind, i, phase, mag
+
+
+def rules_broken(steps: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], slack: float = 1.0,
+                 start: int = 0) -> np.ndarray:
+    """Boolean per interval (from interval ``start`` on) of :func:`contour_steps`: a rule is broken by more than
+    ``slack`` times (an undefined step, where ``L`` or ``1 + L`` is 0 or not finite, breaks it)."""
+    cos_wind, near, phase, mag = steps
+    bad = ~(cos_wind[start:] >= np.cos(np.radians(min(slack * WINDING_STEP_DEG, 180.0))))
+    sel = near >= start
+    hit = near[sel][~((phase[sel] <= slack * PHASE_STEP_DEG) & (mag[sel] <= slack * MAGNITUDE_STEP_DB))]
+    bad[hit - start] = True
+    return bad
 
 
 def unresolved(loops: Sequence[np.ndarray], slack: float = 1.0) -> np.ndarray:
@@ -257,36 +308,71 @@ def refine_peaks(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi:
 # ------------------------------------------------------------------------------------------ measured parts
 INTERPOLATION = "log magnitude and unwrapped phase, linear in log frequency, between the FRF's lines"
 """How a measured response is evaluated between its lines (stated in the analysis output)."""
+INTERPOLATION_TABLE_AFTER = 8
+"""After this many evaluations between the lines, :func:`interpolate_frf` tabulates every line's log magnitude and
+phase step (a search evaluates the same FRF thousands of times; one analysis, a handful)."""
 
 
 def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     """A function evaluating the measured ``response`` (last axis over ``freq_hz`` [Hz] > 0) between its lines.
 
     :data:`INTERPOLATION`; exact on the lines (asked for the lines themselves, it returns the measured values
-    without interpolating). Frequencies outside the lines are clamped to the end values.
+    without interpolating). Frequencies outside the lines are clamped to the end values. A point between lines ``i``
+    and ``i + 1`` is interpolated from those two lines alone, the phase step between them wrapped as
+    :func:`numpy.unwrap` wraps it (the unwrapped phase of the whole FRF differs from it by a multiple of ``2 pi``
+    only); nothing is computed ahead until the function has been asked :data:`INTERPOLATION_TABLE_AFTER` times.
+    ``response`` is referenced, not copied: it must not be modified afterwards.
     """
     f = np.asarray(freq_hz, float)
     h = np.asarray(response, complex)
-    h_lines = h.copy()
-    h_lines.setflags(write=False)
     lf = np.log(f)
-    with np.errstate(divide="ignore"):
-        lm = np.log(np.maximum(np.abs(h), 1e-300))
-    ph = np.unwrap(np.angle(h), axis=-1)
     shape = h.shape[:-1]
-    lm2, ph2 = lm.reshape(-1, f.size), ph.reshape(-1, f.size)
+    h2 = h.reshape(-1, f.size)
+    tables: dict = {"calls": 0}
+
+    def wrapped(d: np.ndarray) -> np.ndarray:
+        big = np.abs(d) >= np.pi  # np.unwrap's rule: only steps of at least pi are wrapped
+        if big.any():
+            dm = np.mod(d[big] + np.pi, 2 * np.pi) - np.pi
+            dm[(dm == -np.pi) & (d[big] > 0)] = np.pi
+            d[big] = dm
+        return d
 
     def evaluate(fq: np.ndarray) -> np.ndarray:
         fq = np.asarray(fq, float)
         if fq.shape == f.shape and (fq is f or np.array_equal(fq, f)):
-            return h_lines.copy()
-        x = np.log(np.clip(fq, f[0], f[-1]))
+            return h.copy()
+        x = np.log(np.clip(fq, f[0], f[-1])).ravel()
         i = np.clip(np.searchsorted(lf, x) - 1, 0, f.size - 2)
         t = (x - lf[i]) / (lf[i + 1] - lf[i])
-        m = lm2[:, i] + t * (lm2[:, i + 1] - lm2[:, i])
-        p = ph2[:, i] + t * (ph2[:, i + 1] - ph2[:, i])
-        return np.exp(m + 1j * p).reshape(*shape, fq.size)
+        tables["calls"] += 1
+        if tables["calls"] > INTERPOLATION_TABLE_AFTER and "lm" not in tables:
+            # asked often (a search): log magnitude, angle and wrapped angle steps of every line, once (the same
+            # values the two-line computation gives)
+            with np.errstate(divide="ignore"):
+                tables["lm"] = np.log(np.maximum(np.abs(h2), 1e-300))
+            tables["pa"] = np.angle(h2)
+            tables["dp"] = wrapped(np.diff(tables["pa"], axis=-1))
+        if "lm" in tables:
+            lm, pa, dp = tables["lm"], tables["pa"], tables["dp"]
+            la, lb, p0, d = lm[:, i], lm[:, i + 1], pa[:, i], dp[:, i]
+        else:
+            a, b = h2[:, i], h2[:, i + 1]
+            with np.errstate(divide="ignore"):
+                la = np.log(np.maximum(np.abs(a), 1e-300))
+                lb = np.log(np.maximum(np.abs(b), 1e-300))
+            p0 = np.angle(a)
+            d = wrapped(np.angle(b) - p0)
+        mag = np.exp(la + t * (lb - la))
+        ph = p0 + t * d
+        out = np.empty(mag.shape, complex)  # exp(m + j p) from the real exponential, cosine and sine (faster)
+        np.cos(ph, out=out.real)
+        np.sin(ph, out=out.imag)
+        out.real *= mag
+        out.imag *= mag
+        return out.reshape(*shape, fq.size)
 
+    evaluate.fresh = True  # every call returns a new array
     return evaluate
 
 
@@ -319,3 +405,89 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
         c = np.where(np.isfinite(c), c, 0.0)
         out = np.maximum(out, np.max(c, axis=0))
     return out
+
+
+class LineNoise:
+    """:func:`noise_db` of a measured response, computed per line on first use (array-like).
+
+    The analysis reads the scatter only where crossings cluster and at the edges of ``|S| < 1`` bands, a few dozen
+    lines of thousands: :meth:`lines` computes just those (the same arithmetic, hence the same values, as the whole
+    array). ``numpy.asarray(noise)`` gives the whole array (computed once), so a :class:`LineNoise` stands wherever a
+    ``noise_db`` array is accepted.
+
+    Parameters
+    ----------
+    freq_hz : ndarray, shape (n,)
+        The lines [Hz].
+    response : ndarray, shape (..., n)
+        The measured response (referenced, not copied).
+    coherence : ndarray, optional
+        Coherence of the channels (same shape as ``response``).
+    half_window : int
+        Half width of the running median [lines].
+    """
+
+    def __init__(self, freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | None = None,
+                 half_window: int = 10) -> None:
+        self.freq_hz = np.asarray(freq_hz, float)
+        self._h = np.asarray(response, complex).reshape(-1, self.freq_hz.size)
+        self._coherence = None if coherence is None else np.asarray(coherence, float).reshape(-1, self.freq_hz.size)
+        self._half = int(half_window)
+        self._full: np.ndarray | None = None
+        self._asked = 0
+
+    @property
+    def size(self) -> int:
+        """Number of lines."""
+        return int(self.freq_hz.size)
+
+    @property
+    def shape(self) -> tuple[int]:
+        """``(n,)``."""
+        return (self.size,)
+
+    def __len__(self) -> int:
+        return self.size
+
+    def full(self) -> np.ndarray:
+        """The scatter [dB] on every line (:func:`noise_db`), computed once."""
+        if self._full is None:
+            self._full = noise_db(self.freq_hz, self._h, self._coherence, self._half)
+            self._full.setflags(write=False)
+        return self._full
+
+    def __array__(self, dtype=None, copy=None):
+        out = self.full()
+        return out.astype(dtype) if dtype is not None and np.dtype(dtype) != out.dtype else out.copy()
+
+    def lines(self, index: np.ndarray) -> np.ndarray:
+        """The scatter [dB] on the lines ``index`` (integers in ``[0, n)``)."""
+        idx = np.asarray(index, int)
+        self._asked += 1
+        if self._full is None and (idx.size > self.size // 8 or self._asked > INTERPOLATION_TABLE_AFTER):
+            self.full()  # most of the lines, or asked often (a search): the whole array once
+        if self._full is not None or idx.size == 0:
+            return self.full()[idx] if idx.size else np.empty(0)
+        n, hw = self.size, self._half
+        out = np.zeros(idx.shape)
+        if n >= 3:
+            # second differences d2[q] of the dB magnitude at the interior lines q + 1, padded with the edge values
+            # (index p of the padded row is d2[clip(p - 1, 0, n - 3)]); median over the window, clamped at the ends
+            win = np.clip(idx[..., None] + np.arange(-hw, hw + 1), 0, n - 1)
+            q = np.clip(win - 1, 0, n - 3)
+            need = np.unique(q)
+            lines = np.unique(np.r_[need, need + 1, need + 2])
+            with np.errstate(divide="ignore"):
+                db = 20 * np.log10(np.maximum(np.abs(self._h[:, lines]), 1e-300))
+            pos = np.searchsorted(lines, need)
+            d2 = np.abs(db[:, pos] - 2 * db[:, pos + 1] + db[:, pos + 2])  # rows x need
+            vals = d2[:, np.searchsorted(need, q)]  # rows x idx... x window
+            med = np.median(vals, axis=-1)
+            out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
+        if self._coherence is not None:
+            g = self._coherence[:, idx]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * np.clip(g, 1e-6, 1))))
+            c = np.where(np.isfinite(c), c, 0.0)
+            out = np.maximum(out, np.max(c, axis=0))
+        return out

@@ -19,8 +19,10 @@ from pathlib import Path
 import typer
 from typer.core import TyperGroup
 
-from .common import JSON_OPTION, fmt, print_json
+from .common import JSON_OPTION, fmt, fmt_length
+from .envelope import emit
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .help_text import QUANTITIES, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -30,6 +32,7 @@ from .limits_options import (
     limits_from_options,
 )
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION
 
 GAINS_COMMAND = "gains"
@@ -56,18 +59,25 @@ class AnalyzeGroup(TyperGroup):
 
 app = typer.Typer(
     cls=AnalyzeGroup,
-    rich_markup_mode=None,
+    rich_markup_mode="rich",
     no_args_is_help=True,
-    help="Analyze a design (feedtune analyze GAINS.toml [--frf F]) or a log (feedtune analyze track|ropesnap LOG).",
+    help="Analyze a gains file, or a tracking or rope-snap log.\n\n'feedtune analyze GAINS [--frf FRF]' is short for "
+         "'feedtune analyze gains GAINS [--frf FRF]'.",
 )
 
 
 # ------------------------------------------------------------------------------------------ gains file
 @app.command(GAINS_COMMAND)
 def analyze(
-    gains_file: Path = typer.Argument(..., help="Gains file (.toml or .json) from 'feedtune design'."),
-    frf: Path = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u) for the measured and discrete cases."),
-    quantity: str = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata."),
+    gains_file: Path = typer.Argument(..., metavar="GAINS", help="Gains file (.toml or .json) from 'feedtune design'."),
+    frf: Path = typer.Option(
+        None, "--frf", metavar="FRF",
+        help="Measured FRF (x1/u, x2/u) for the measured and discrete cases.",
+    ),
+    quantity: str = typer.Option(
+        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
+        help="Quantity of the --frf file (position, velocity or acceleration) if not in its metadata.",
+    ),
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
@@ -80,9 +90,13 @@ def analyze(
     strict: bool = typer.Option(False, "--check", help="Exit 1 when the design does not meet the limits."),
     fs_override: bool = FS_OVERRIDE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Loop, every crossover and margin, Ms, disk margin, |S|<1 bands, Nyquist stability, disturbance and tracking
+    """Margins, stability and limits verdict of a gains file.
+
+    Loop, every crossover and margin, Ms, disk margin, |S|<1 bands, Nyquist stability, disturbance and tracking
     of a design, and its verdict under the limits."""
+    show_progress(quiet)
     from ..io import read_document
     from ..machines import analyze_gains
     from .frf_options import FrfReadOptions, read_optional_frf
@@ -98,19 +112,21 @@ def analyze(
         rate.report(as_json)
     done = analyze_gains(doc, str(gains_file), measured)
     record = rate.to_json() if rate is not None and measured is not None else {}  # checked against an FRF
-    finish_analysis({**done.result, **record}, done.analysis, policy, as_json, strict)
+    finish_analysis({**done.result, **record}, done.analysis, policy, as_json, strict, gains_kind=doc.get("kind"))
 
 
 # ------------------------------------------------------------------------------------------ logs
 def log_result(log_path: Path, kind: str, metrics) -> dict:
-    """The ``--json`` object of ``analyze track|ropesnap``: log, kind, metrics (no spectrum), units."""
+    """The results of ``analyze track|ropesnap``: log, kind, metrics (no spectrum), units (``--json`` prints them in
+    the envelope, whose ``kind`` is ``analyze.track`` or ``analyze.ropesnap``)."""
     units = TRACK_UNITS if kind == "track" else ROPESNAP_UNITS
     return {"log": str(log_path), "kind": kind, "metrics": metrics.to_dict(include_spectrum=False),
             "units": dict(units)}
 
 
 def _um(x: float | None) -> str:
-    return fmt(None if x is None else x * 1e6, "um")
+    """A displacement [m] in um (or mm, m where um would need a power of ten)."""
+    return fmt_length(x)
 
 
 def _print_track(result: dict) -> None:
@@ -136,42 +152,26 @@ def _print_ropesnap(result: dict) -> None:
     settle = fmt(m["settling_time_s"], "s") if m["settled"] else "not settled within the log"
     typer.echo(f"  5 % settling time {settle} (band {_um(m['settle_band_m'])} around {_um(m['final_m'])})")
     for p in m["asd_peaks"]:
-        typer.echo(f"  ASD peak {fmt(p['freq_hz'], 'Hz')}: {fmt(p['asd_m_per_rthz'], 'm/sqrt(Hz)')}")
+        typer.echo(f"  ASD peak {fmt(p['freq_hz'], 'Hz')}: {fmt(p['asd_m_per_rthz'] * 1e6, 'um/sqrt(Hz)')}")
 
 
 @app.command("track")
 def track(
-    log_file: Path = typer.Argument(..., help="Tracking log (.csv, .mat, .mf4), e.g. from 'feedtune simulate track'."),
-    error: str = typer.Option(None, "--error", help="Tracking-error column [m] (default e2 when present)."),
-    reference: str = typer.Option("x_ref", "--reference", help="Commanded table position column [m]."),
-    position: str = typer.Option(None, "--position", help="Measured table position column [m] (default x2_table)."),
-    map_: list[str] = MAP_OPTION,
-    fs: float = FS_OPTION,
-    time: str = TIME_OPTION,
-    scale: list[str] = SCALE_OPTION,
-    unit: list[str] = UNIT_OPTION,
-    skip_rows: int = SKIP_ROWS_OPTION,
-    as_json: bool = JSON_OPTION,
-) -> None:
-    """Max and RMS tracking error (whole run, constant velocity, acceleration) and error spectrum peaks."""
-    from ..analysis.log_analysis import analyze_tracking_log
-    from .log_options import read_log_with_options
-
-    log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
-    metrics = analyze_tracking_log(log, error=error, reference=reference, position=position)
-    result = log_result(log_file, "track", metrics)
-    if as_json:
-        print_json(result)
-    else:
-        _print_track(result)
-
-
-@app.command("ropesnap")
-def ropesnap(
-    log_file: Path = typer.Argument(..., help="Rope-snap log (.csv, .mat, .mf4), e.g. 'feedtune simulate ropesnap'."),
-    position: str = typer.Option(None, "--position", help="Table displacement column [m] (default x2_table)."),
-    t_release: float = typer.Option(
-        None, "--t-release", help="Release instant [s] (default: the log's t_release_s metadata, else detected)."
+    log_file: Path = typer.Argument(
+        ..., metavar="LOG",
+        help="Tracking log (.csv, .mat, .mf4), e.g. from 'feedtune simulate track'.",
+    ),
+    error: str = typer.Option(
+        None, "--error", metavar="COLUMN",
+        help="Tracking-error column [m] (default e2 when present).",
+    ),
+    reference: str = typer.Option(
+        "x_ref", "--reference", metavar="COLUMN",
+        help="Commanded table position column [m].",
+    ),
+    position: str = typer.Option(
+        None, "--position", metavar="COLUMN",
+        help="Measured table position column [m] (default x2_table).",
     ),
     map_: list[str] = MAP_OPTION,
     fs: float = FS_OPTION,
@@ -180,8 +180,51 @@ def ropesnap(
     unit: list[str] = UNIT_OPTION,
     skip_rows: int = SKIP_ROWS_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Peak displacement, 5 % settling time and amplitude spectral density after a rope snap."""
+    """Tracking error of a log per motion phase, and its spectrum.
+
+    Max and RMS tracking error (whole run, constant velocity, acceleration) and error spectrum peaks."""
+    show_progress(quiet)
+    from ..analysis.log_analysis import analyze_tracking_log
+    from .log_options import read_log_with_options
+
+    log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
+    metrics = analyze_tracking_log(log, error=error, reference=reference, position=position)
+    result = log_result(log_file, "track", metrics)
+    if as_json:
+        emit(result)
+    else:
+        _print_track(result)
+
+
+@app.command("ropesnap")
+def ropesnap(
+    log_file: Path = typer.Argument(
+        ..., metavar="LOG",
+        help="Rope-snap log (.csv, .mat, .mf4), e.g. 'feedtune simulate ropesnap'.",
+    ),
+    position: str = typer.Option(
+        None, "--position", metavar="COLUMN",
+        help="Table displacement column [m] (default x2_table).",
+    ),
+    t_release: float = typer.Option(
+        None, "--t-release", metavar="S",
+        help="Release instant [s] (default: the log's t_release_s metadata, else detected).",
+    ),
+    map_: list[str] = MAP_OPTION,
+    fs: float = FS_OPTION,
+    time: str = TIME_OPTION,
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    skip_rows: int = SKIP_ROWS_OPTION,
+    as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
+) -> None:
+    """Peak, settling time and spectrum of a rope-snap log.
+
+    Peak displacement, 5 % settling time and amplitude spectral density after a rope snap."""
+    show_progress(quiet)
     from ..analysis.log_analysis import analyze_ropesnap_log
     from .log_options import read_log_with_options
 
@@ -189,6 +232,6 @@ def ropesnap(
     metrics = analyze_ropesnap_log(log, position=position, t_release=t_release)
     result = log_result(log_file, "ropesnap", metrics)
     if as_json:
-        print_json(result)
+        emit(result)
     else:
         _print_ropesnap(result)

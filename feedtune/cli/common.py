@@ -37,7 +37,8 @@ def jsonable(obj):
 
 
 def print_json(obj) -> None:
-    """Print one JSON object on stdout."""
+    """Print one JSON object on stdout (commands print their ``--json`` result through
+    :func:`feedtune.cli.envelope.emit`, which wraps it in the envelope of docs/json.md)."""
     typer.echo(json.dumps(jsonable(obj), indent=2, allow_nan=False))
 
 
@@ -54,10 +55,65 @@ def parse_float_pair(values, name: str) -> tuple[float, float] | None:
 
 
 def fmt(x, unit: str = "", digits: int = 4) -> str:
-    """Format a number with its unit for summaries; '-' for None."""
+    """A number with its unit for summaries, rounded to ``digits`` significant digits (4: what a measured value
+    means; designed gains are printed with 6): plain from 1e-4 up to 1e6 (``0.001936``, ``65080``, ``13``), with
+    a power of ten outside (``2.285e-06``, ``1.079e+07``); ``-`` for None; no unit for ``""`` and ``"-"``
+    (dimensionless)."""
     if x is None:
         return "-"
-    return f"{x:.{digits}g}{(' ' + unit) if unit else ''}"
+    text = _number(float(x), digits)
+    return f"{text} {unit}" if unit and unit != "-" else text
+
+
+def _number(x: float, digits: int) -> str:
+    if not math.isfinite(x) or x == 0:
+        return "0" if x == 0 else f"{x:g}"
+    rounded = float(f"{x:.{digits}g}")
+    exponent = math.floor(math.log10(abs(rounded)))
+    if not -4 <= exponent < 6:
+        return f"{x:.{digits}g}"
+    text = f"{rounded:.{max(digits - 1 - exponent, 0)}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+AT_BOUND = 1e-9
+"""A fitted parameter closer to its bound than this fraction of its standard deviation sits on the bound: a bounded
+least-squares fit leaves it there up to rounding (``b1 = 8e-31`` with a std of ``7e-4`` is ``0``)."""
+
+
+def fmt_param(value, unit: str = "", std=None, lower=None, digits: int = 4) -> str:
+    """A fitted parameter for summaries: ``0.01383 V/(rad/s)  (std 0.00034)``; on its lower bound ``lower`` (within
+    :data:`AT_BOUND` of its std, or exactly) ``0 V/(rad/s)  (at its lower bound; std 0.00067)``. The std is given
+    to 2 significant digits."""
+    at_bound = lower is not None and value is not None and (
+        value <= lower or (std is not None and math.isfinite(std) and value - lower <= AT_BOUND * std))
+    text = fmt(lower if at_bound else value, unit, digits)
+    notes = (["at its lower bound"] if at_bound else []) + ([f"std {fmt(std, '', 2)}"] if std is not None else [])
+    return text + (f"  ({'; '.join(notes)})" if notes else "")
+
+
+def fmt_hz(x) -> str:
+    """A frequency [Hz] to the resolution that means something: ``2000``, ``260.1``, ``13.0``, ``0.5``."""
+    if x is None:
+        return "-"
+    if x >= 1000:
+        return f"{x:.0f}"
+    return f"{x:.1f}" if x >= 1 else f"{x:.2g}"
+
+
+def fmt_band(lo, hi) -> str:
+    """A frequency band ``LO-HI Hz`` (:func:`fmt_hz`): ``13.0-260.1 Hz``."""
+    return f"{fmt_hz(lo)}-{fmt_hz(hi)} Hz"
+
+
+def fmt_length(x_m, digits: int = 4) -> str:
+    """A length [m] in um, mm or m, whichever shows it without a power of ten: ``15.12 um``, ``99.95 mm``."""
+    if x_m is None:
+        return "-"
+    size = abs(x_m)
+    if size < 1e-3:
+        return fmt(x_m * 1e6, "um", digits)
+    return fmt(x_m * 1e3, "mm", digits) if size < 1 else fmt(x_m, "m", digits)
 
 
 def check_distinct_outputs(*named) -> None:

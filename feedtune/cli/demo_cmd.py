@@ -7,7 +7,8 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .common import FORCE_OPTION, JSON_OPTION
+from .help_text import ENGINES, MACHINES, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -16,13 +17,23 @@ from .limits_options import (
     PM_MIN_OPTION,
     limits_from_options,
 )
+from .progress_display import QUIET_OPTION, show_progress
 
 
 def demo(
-    machine: str = typer.Argument("ballscrew", help="Which twin: ballscrew (thesis ch. 3) or gantry (ch. 4)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Folder for every file of the demo (created if missing)."),
-    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the excitation phases and the measurement noise."),
-    engine: str = typer.Option("auto", "--engine", help="Simulation engine: auto, numba or python."),
+    machine: str = typer.Argument(
+        "ballscrew", **choice(MACHINES),
+        help="Which twin: ballscrew (thesis ch. 3) or gantry (ch. 4).",
+    ),
+    out: Path = typer.Option(
+        ..., "--out", "-o", metavar="DIR",
+        help="Folder for every file of the demo (created if missing).",
+    ),
+    seed: int = typer.Option(
+        0, "--seed", min=0, metavar="N",
+        help="Seed of the excitation phases and the measurement noise.",
+    ),
+    engine: str = typer.Option("auto", "--engine", **choice(ENGINES), help="Simulation engine: auto, numba or python."),
     keep_raw: bool = typer.Option(False, "--keep-raw", help="gantry: also write the FRF and mass runs' raw logs."),
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
@@ -31,15 +42,18 @@ def demo(
     dm_min: float = DM_MIN_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """The main job on a digital twin, no input files: measure, identify, design, test and compare; end with
-    report.html built from the files written.
+    """Run the main job on a digital twin, with no input files.
+
+    Measure, identify, design, test and compare on the twin; end with report.html built from the files written.
 
     ballscrew: FRF, 2-mass model, MC-PPC against P-PI, both tuned by the same rule under the same limits, rope
     snap, tracking at 200/500/1000 mm/s, slotting, pre-filter (Table 3.2). gantry: 2x2 FRFs and mass runs at three
     table positions, eq. 4.16 model, x-axis loop shaping, MIMO against independent PIDs tuned under the same limits,
     rope snap, tracking at 1 and 200 mm/s, contours.
     """
+    show_progress(quiet)
     from ..io.atomic import staged_folder
     from ..machines import get_machine
     from ..workflows import run_machine_demo
@@ -49,7 +63,10 @@ def demo(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
     check_out_dir(out, force)
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw)
+    from .. import progress
+
     with staged_folder(out) as stage:  # the folder appears whole, the report in it, or not at all
+        progress.step("writing the files")
         staged = write_texts(result.texts, force=True, out_dir=stage)
         write_demo_report(stage, True, machine, policy)
     written = [out / p.name for p in staged]
@@ -60,7 +77,9 @@ def demo(
         d["out"] = str(out)
         d["files"] = [str(p) for p in written]
         d["report"] = str(report_path)
-        print_json(d)
+        from .envelope import emit
+
+        emit(d)
         return
     typer.echo(result.summary())
     typer.echo("")

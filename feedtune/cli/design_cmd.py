@@ -6,8 +6,9 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .help_text import QUANTITIES, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -18,30 +19,37 @@ from .limits_options import (
     limits_from_options,
     print_check,
 )
+from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import DELAY_OPTION, FS_OVERRIDE_OPTION, fs_option, target_sampling
 from .summary import print_design_summary
 
 app = typer.Typer(
-    rich_markup_mode=None,
-    help="Design controllers from identified models: MC-PPC, P-PI (ball screw); MIMO, PID, loop shaping (gantry).",
+    rich_markup_mode="rich",
+    help="Design controllers: MC-PPC, P-PI, MIMO, PID, loop shaping.\n\nFrom identified models: MC-PPC and P-PI "
+         "for a ball screw, MIMO and PID for a gantry, loop shaping for an x axis.",
     no_args_is_help=True,
 )
 
 NOTCH_HELP = "Notch HZ,ZETA_Z,ZETA_P (repeatable), e.g. --notch 420,0.55,0.7 --notch 1080,0.05,0.7."
-NOTCH_OPTION = typer.Option(None, "--notch", help=NOTCH_HELP)
-LPF_OPTION = typer.Option(None, "--lpf", help="First-order low-pass pole frequency [Hz] (eq. 3.10).")
+NOTCH_OPTION = typer.Option(None, "--notch", metavar="HZ,ZETA_Z,ZETA_P", help=NOTCH_HELP)
+LPF_OPTION = typer.Option(None, "--lpf", metavar="HZ", help="First-order low-pass pole frequency [Hz] (eq. 3.10).")
 DEFAULT_FS = 20000.0
 """Sample rate [Hz] of ``design ppc|ppi`` without ``--fs`` and without a rate recorded in the FRF."""
 FS_OPTION = fs_option("20000 Hz")
-QUANTITY_OPTION = typer.Option(None, "--quantity", help="Quantity of the --frf file if not in its metadata.")
-OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml with a .json twin).")
+QUANTITY_OPTION = typer.Option(
+    None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
+    help="Quantity of the --frf file (position, velocity or acceleration) if not in its metadata.",
+)
+OUT_OPTION = typer.Option(None, "--out", "-o", metavar="FILE", help="Gains file to write (.toml with a .json twin).")
 ALLOW_OPTION = typer.Option(False, "--allow-unstable", help="Write the gains even if limits are violated.")
 FRICTION_OPTION = typer.Option(
-    None, "--friction", help="Friction model file ('feedtune identify friction') to feed forward (eq. 2.1)."
+    None, "--friction", metavar="FILE",
+    help="Friction model file ('feedtune identify friction') to feed forward (eq. 2.1).",
 )
 FRICTION_BAND_OPTION = typer.Option(
-    None, "--friction-band", help="Linear band around zero velocity of the friction feedforward, in the friction "
-    "model's velocity unit (m/s or rad/s); default 0.1 x its smaller Stribeck velocity."
+    None, "--friction-band", metavar="SPEED",
+    help="Linear band around zero velocity of the friction feedforward, in the friction model's velocity unit (m/s or "
+         "rad/s); default 0.1 x its smaller Stribeck velocity.",
 )
 
 
@@ -74,6 +82,7 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
     from ..errors import DesignError
     from ..io import write_document
     from ..io.gains import gains_document, with_friction_feedforward
+    from .envelope import collect, design_result, emit
     from .frf_options import read_optional_frf
 
     friction_model = _load_friction(friction)
@@ -108,8 +117,12 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
         write_document(out, doc, force=force)
         result["out"] = str(out)
         written = True
+    msg = "; ".join(check.limit_check.violations_named(OPTION_NAMES))
+    if not check.ok and allow_unstable:
+        collect(f"{msg} (written because of --allow-unstable)")
+    result = design_result(result, "ballscrew")
     if as_json:
-        print_json(result)
+        emit(result)
     else:
         print_design_summary(result)
         print_check(result["check"])
@@ -118,7 +131,6 @@ def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, a
         if written:
             typer.echo(f"wrote {out}")
     if not check.ok:
-        msg = "; ".join(check.limit_check.violations_named(OPTION_NAMES))
         if allow_unstable:
             typer.echo(f"feedtune: warning: {msg} (written because of --allow-unstable)", err=True)
         else:
@@ -147,19 +159,32 @@ def _load_model(path: Path):
 
 @app.command("ppc")
 def ppc(
-    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
-    beta: float = typer.Option(None, "--beta", help="Multiplier of the axial mode's decay rate (eq. 3.7), >= 1 "
-                                                    "(thesis: 4). Without --beta, --pole-hz and --zeta the three are "
-                                                    "tuned under the limits."),
-    pole_hz: float = typer.Option(None, "--pole-hz", help="Rigid-body closed-loop pole frequency [Hz] (eq. 3.8; "
-                                                          "thesis: 50)."),
-    zeta: float = typer.Option(None, "--zeta", help="Damping of the rigid-body pole pair [-] (thesis: 0.7)."),
+    model_file: Path = typer.Argument(
+        ..., metavar="MODEL",
+        help="Ball-screw model file from 'feedtune identify ballscrew'.",
+    ),
+    beta: float = typer.Option(
+        None, "--beta", metavar="BETA",
+        help="Multiplier of the axial mode's decay rate (eq. 3.7), >= 1 (thesis: 4). Without --beta, --pole-hz and "
+             "--zeta the three are tuned under the limits.",
+    ),
+    pole_hz: float = typer.Option(
+        None, "--pole-hz", metavar="HZ",
+        help="Rigid-body closed-loop pole frequency [Hz] (eq. 3.8; thesis: 50).",
+    ),
+    zeta: float = typer.Option(
+        None, "--zeta", metavar="ZETA",
+        help="Damping of the rigid-body pole pair [-] (thesis: 0.7).",
+    ),
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     fs_override: bool = FS_OVERRIDE_OPTION,
-    frf: Path = typer.Option(None, "--frf", help="Measured FRF for the measured and discrete analysis cases."),
+    frf: Path = typer.Option(
+        None, "--frf", metavar="FRF",
+        help="Measured FRF for the measured and discrete analysis cases.",
+    ),
     quantity: str = QUANTITY_OPTION,
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
@@ -176,9 +201,13 @@ def ppc(
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Mode-compensating pole-placement control (MC-PPC, eq. 3.5-3.13): given, or tuned for the highest first
+    """Design MC-PPC, given or tuned under the limits.
+
+    Mode-compensating pole-placement control (MC-PPC, eq. 3.5-3.13): given, or tuned for the highest first
     crossover under the limits."""
+    show_progress(quiet)
     from ..design.mcppc import design_mcppc
     from ..tune.mcppc import tune_mcppc
     from .frf_options import FrfReadOptions, read_optional_frf
@@ -216,21 +245,33 @@ def ppc(
 
 @app.command("ppi")
 def ppi(
-    model_file: Path = typer.Argument(..., help="Ball-screw model file from 'feedtune identify ballscrew'."),
+    model_file: Path = typer.Argument(
+        ..., metavar="MODEL",
+        help="Ball-screw model file from 'feedtune identify ballscrew'.",
+    ),
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
-    kpx: float = typer.Option(None, "--kpx", help="Position-loop gain [1/s] (give all three to skip tuning)."),
-    kpv: float = typer.Option(None, "--kpv", help="Velocity-loop proportional gain [command unit/(rad/s)]."),
-    kiv: float = typer.Option(None, "--kiv", help="Velocity-loop integral gain [command unit/rad]."),
+    kpx: float = typer.Option(
+        None, "--kpx", metavar="1/S",
+        help="Position-loop gain [1/s] (give all three to skip tuning).",
+    ),
+    kpv: float = typer.Option(
+        None, "--kpv", metavar="GAIN",
+        help="Velocity-loop proportional gain [command unit/(rad/s)].",
+    ),
+    kiv: float = typer.Option(None, "--kiv", metavar="GAIN", help="Velocity-loop integral gain [command unit/rad]."),
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     fs_override: bool = FS_OVERRIDE_OPTION,
-    frf: Path = typer.Option(None, "--frf", help="Measured FRF: tuning and checking use the discrete case on it."),
+    frf: Path = typer.Option(
+        None, "--frf", metavar="FRF",
+        help="Measured FRF: tuning and checking use the discrete case on it.",
+    ),
     quantity: str = QUANTITY_OPTION,
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
@@ -242,8 +283,12 @@ def ppi(
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """P-PI position-velocity cascade with velocity and acceleration feedforward (Figure 3.9)."""
+    """Design the P-PI cascade, given or tuned under the limits.
+
+    P-PI position-velocity cascade with velocity and acceleration feedforward (Figure 3.9)."""
+    show_progress(quiet)
     from ..design.ppi import design_ppi
     from ..errors import UsageError
     from ..tune.ppi import tune_ppi

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .common import FORCE_OPTION, JSON_OPTION
 from .design_cmd import (
     ALLOW_OPTION,
     DELAY_OPTION,
@@ -31,6 +31,7 @@ from .design_cmd import (
     QUANTITY_OPTION,
 )
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -41,25 +42,39 @@ from .limits_options import (
     limits_from_options,
     print_check,
 )
+from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION, fs_option, target_sampling
 
 DEFAULT_FS = 15000.0
 """Sample rate [Hz] of ``design loopshape|gantry|pid`` without ``--fs`` and without a rate recorded in an FRF."""
 FS_OPTION = fs_option("15000 Hz")
-LPF_OPTION = typer.Option(None, "--lpf", help="Low-pass frequency [Hz] of the filter pack.")
-LEAD_OPTION = typer.Option(None, "--lead", help="Extra lead stage HZ,DEG in the filter pack (repeatable), "
-                                                "e.g. --lead 154,70.")
-LPF_ZETA_OPTION = typer.Option(0.7, "--lpf-zeta", help="Damping of a 2nd-order low-pass [-].")
-PREFILTER_HZ_OPTION = typer.Option(80.0, "--prefilter-hz", help="Pre-filter low-pass frequency [Hz] (eq. 4.20).")
-X_OPTION = typer.Option(0.0, "--x", help="Table position [m] the gantry design is made at.")
-X_MIN_OPTION = typer.Option(-0.3, "--x-min", help="First table position [m] of the schedule tables.")
-X_MAX_OPTION = typer.Option(0.3, "--x-max", help="Last table position [m] of the schedule tables.")
-X_POINTS_OPTION = typer.Option(13, "--x-points", help="Number of rows of the schedule tables.")
-PRE1_OPTION = typer.Option(None, "--prefilter1", help="Left-side pre-filter gains VEL,ACC,JERK,SNAP "
-                                                      "[s, s^2, s^3, s^4] (eq. 4.32).")
-PRE2_OPTION = typer.Option(None, "--prefilter2", help="Right-side pre-filter gains VEL,ACC,JERK,SNAP.")
-GANTRY_FRF_OPTION = typer.Option(None, "--frf", help="Measured 2x2 position FRF (y1/u1, y1/u2, y2/u1, y2/u2) "
-                                                     "for the measured and discrete cases.")
+LPF_OPTION = typer.Option(None, "--lpf", metavar="HZ", help="Low-pass frequency [Hz] of the filter pack.")
+LEAD_OPTION = typer.Option(
+    None, "--lead", metavar="HZ,DEG",
+    help="Extra lead stage HZ,DEG in the filter pack (repeatable), e.g. --lead 154,70.",
+)
+LPF_ZETA_OPTION = typer.Option(0.7, "--lpf-zeta", metavar="ZETA", help="Damping of a 2nd-order low-pass [-].")
+PREFILTER_HZ_OPTION = typer.Option(
+    80.0, "--prefilter-hz", metavar="HZ",
+    help="Pre-filter low-pass frequency [Hz] (eq. 4.20).",
+)
+X_OPTION = typer.Option(0.0, "--design-x", metavar="M", help="Table position [m] the design is made at (averaging, "
+                                                              "damping gain, the PIDs' mass scaling).")
+X_MIN_OPTION = typer.Option(-0.3, "--x-min", metavar="M", help="First table position [m] of the schedule tables.")
+X_MAX_OPTION = typer.Option(0.3, "--x-max", metavar="M", help="Last table position [m] of the schedule tables.")
+X_POINTS_OPTION = typer.Option(13, "--x-points", metavar="N", help="Number of rows of the schedule tables.")
+PRE1_OPTION = typer.Option(
+    None, "--prefilter1", metavar="VEL,ACC,JERK,SNAP",
+    help="Left-side pre-filter gains VEL,ACC,JERK,SNAP [s, s^2, s^3, s^4] (eq. 4.32).",
+)
+PRE2_OPTION = typer.Option(
+    None, "--prefilter2", metavar="VEL,ACC,JERK,SNAP",
+    help="Right-side pre-filter gains VEL,ACC,JERK,SNAP.",
+)
+GANTRY_FRF_OPTION = typer.Option(
+    None, "--frf", metavar="FRF",
+    help="Measured 2x2 position FRF (y1/u1, y1/u2, y2/u1, y2/u2) for the measured and discrete cases.",
+)
 
 # ------------------------------------------------------------------------------------------ helpers
 def _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead):
@@ -119,17 +134,22 @@ def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, 
     """
     from ..errors import DesignError
     from ..io import write_document
+    from .envelope import collect, design_result, emit
     from .summary import print_design_summary
 
     violations = check.violations_named(OPTION_NAMES) + list(extra)
-    result["check"] = {**check.to_dict(), "ok": not violations, "violations": violations}
+    checked = (result.get("check") or {}).get("checked_case")
+    result["check"] = {"checked_case": checked, **check.to_dict(), "ok": not violations, "violations": violations}
     written = False
     if out is not None and (not violations or allow_unstable):
         write_document(out, doc, force=force)
         result["out"] = str(out)
         written = True
+    if violations and allow_unstable:
+        collect(f"{'; '.join(violations)} (written because of --allow-unstable)")
+    result = design_result(result, doc.get("kind"))
     if as_json:
-        print_json(result)
+        emit(result)
     else:
         print_design_summary(result)
         print_check(result["check"])
@@ -177,35 +197,55 @@ def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, 
 
 # ------------------------------------------------------------------------------------------ loopshape
 def loopshape(
-    plant_file: Path = typer.Argument(..., help="Model file (.toml/.json: a gantry model's m_x) or a measured "
-                                                "SISO FRF (.csv/.mat/.uff)."),
-    crossover_hz: float = typer.Option(None, "--crossover-hz", help="Crossover frequency [Hz] (thesis: 130); "
-                                                                    "without it the tuner finds the highest "
-                                                                    "crossover under the limits."),
-    pm_deg: float = typer.Option(None, "--pm-deg", help="Phase margin at the crossover [deg] (thesis: 35); needed "
-                                                        "with --crossover-hz, fixes the target when tuning."),
-    pi_lag_deg: float = typer.Option(None, "--pi-lag-deg", help="Phase lag of the integral action at the "
-                                                                "crossover [deg] (default 10; searched when "
-                                                                "tuning unless given)."),
-    max_stage_deg: float = typer.Option(70.0, "--max-stage-deg", help="Largest phase of one lead stage [deg] "
-                                                                      "(the tuner searches 1-3 stages instead)."),
-    mass: float = typer.Option(None, "--mass", help="Axis mass [V/(m/s^2)] (instead of the model's m_x or the "
-                                                    "FRF estimate)."),
-    channel: str = typer.Option(None, "--channel", help="FRF channel OUT/IN when the FRF has several."),
+    plant_file: Path = typer.Argument(
+        ..., metavar="PLANT",
+        help="Model file (.toml/.json: a gantry model's m_x) or a measured SISO FRF (.csv/.mat/.uff).",
+    ),
+    crossover_hz: float = typer.Option(
+        None, "--crossover-hz", metavar="HZ",
+        help="Crossover frequency [Hz] (thesis: 130); without it the tuner finds the highest crossover under the "
+             "limits.",
+    ),
+    pm_deg: float = typer.Option(
+        None, "--pm-deg", metavar="DEG",
+        help="Phase margin at the crossover [deg] (thesis: 35); needed with --crossover-hz, fixes the target when "
+             "tuning.",
+    ),
+    pi_lag_deg: float = typer.Option(
+        None, "--pi-lag-deg", metavar="DEG",
+        help="Phase lag of the integral action at the crossover [deg] (default 10; searched when tuning unless given).",
+    ),
+    max_stage_deg: float = typer.Option(
+        70.0, "--max-stage-deg", metavar="DEG",
+        help="Largest phase of one lead stage [deg] (the tuner searches 1-3 stages instead).",
+    ),
+    mass: float = typer.Option(
+        None, "--mass", metavar="MASS",
+        help="Axis mass [V/(m/s^2)] (instead of the model's m_x or the FRF estimate).",
+    ),
+    channel: str = typer.Option(
+        None, "--channel", metavar="OUT/IN",
+        help="FRF channel OUT/IN when the FRF has several.",
+    ),
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
-    lpf_order: int = typer.Option(1, "--lpf-order", help="Low-pass order, 1 or 2."),
+    lpf_order: int = typer.Option(1, "--lpf-order", **choice(LPF_ORDERS), help="Low-pass order, 1 or 2."),
     lpf_zeta: float = LPF_ZETA_OPTION,
     lead: list[str] = LEAD_OPTION,
-    prefilter: str = typer.Option(None, "--prefilter", help="Pre-filter gains VEL,ACC,JERK,SNAP "
-                                                            "[s, s^2, s^3, s^4] (eq. 4.20)."),
+    prefilter: str = typer.Option(
+        None, "--prefilter", metavar="VEL,ACC,JERK,SNAP",
+        help="Pre-filter gains VEL,ACC,JERK,SNAP [s, s^2, s^3, s^4] (eq. 4.20).",
+    ),
     prefilter_hz: float = PREFILTER_HZ_OPTION,
     friction: Path = FRICTION_OPTION,
     friction_band: float = FRICTION_BAND_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     fs_override: bool = FS_OVERRIDE_OPTION,
-    frf: Path = typer.Option(None, "--frf", help="Measured SISO FRF for the measured and discrete cases."),
+    frf: Path = typer.Option(
+        None, "--frf", metavar="FRF",
+        help="Measured SISO FRF for the measured and discrete cases.",
+    ),
     quantity: str = QUANTITY_OPTION,
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
@@ -220,10 +260,14 @@ def loopshape(
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20), designed or tuned; optionally with
+    """Design x-axis loop shaping, given or tuned under the limits.
+
+    Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20), designed or tuned; optionally with
     the Stribeck friction feedforward of an identified friction model (--friction, levels in the axis' command unit,
     velocities in m/s)."""
+    show_progress(quiet)
     from ..analysis.gantry import analyze_axis, target_violations
     from ..analysis.limits import check_analysis
     from ..control.friction import friction_feedforward
@@ -293,17 +337,25 @@ def loopshape(
 
 # ------------------------------------------------------------------------------------------ gantry
 def gantry(
-    model_file: Path = typer.Argument(..., help="Gantry model file from 'feedtune identify gantry'."),
-    crossover_hz: float = typer.Option(60.0, "--crossover-hz", help="CoM-loop crossover [Hz] (thesis: 60)."),
-    pm_deg: float = typer.Option(40.0, "--pm-deg", help="CoM-loop phase margin [deg] (thesis: 40)."),
-    damping_increase: float = typer.Option(5.9, "--damping-increase", help="Increase of the torsional damping "
-                                                                           "by active damping [-] (5.9 = +590 %)."),
-    ki: float = typer.Option(None, "--ki", help="Actuator-level integral gain [V/(m s)]; default "
+    model_file: Path = typer.Argument(..., metavar="MODEL", help="Gantry model file from 'feedtune identify gantry'."),
+    crossover_hz: float = typer.Option(
+        60.0, "--crossover-hz", metavar="HZ",
+        help="CoM-loop crossover [Hz] (thesis: 60).",
+    ),
+    pm_deg: float = typer.Option(40.0, "--pm-deg", metavar="DEG", help="CoM-loop phase margin [deg] (thesis: 40)."),
+    damping_increase: float = typer.Option(
+        5.9, "--damping-increase", metavar="FACTOR",
+        help="Increase of the torsional damping by active damping [-] (5.9 = +590 %).",
+    ),
+    ki: float = typer.Option(None, "--ki", metavar="GAIN", help="Actuator-level integral gain [V/(m s)]; default "
                                                 "K_D wc tan(--integral-lag-deg)."),
-    integral_lag_deg: float = typer.Option(10.0, "--integral-lag-deg", help="Sets the default --ki [deg]."),
+    integral_lag_deg: float = typer.Option(
+        10.0, "--integral-lag-deg", metavar="DEG",
+        help="Sets the default --ki [deg].",
+    ),
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
-    lpf_order: int = typer.Option(2, "--lpf-order", help="Low-pass order, 1 or 2."),
+    lpf_order: int = typer.Option(2, "--lpf-order", **choice(LPF_ORDERS), help="Low-pass order, 1 or 2."),
     lpf_zeta: float = LPF_ZETA_OPTION,
     lead: list[str] = LEAD_OPTION,
     x: float = X_OPTION,
@@ -333,10 +385,14 @@ def gantry(
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Gantry MIMO control: averaging, lead, active damping, actuator-level integral (eq. 4.22-4.33); optionally with
+    """Design the gantry MIMO law.
+
+    Gantry MIMO control: averaging, lead, active damping, actuator-level integral (eq. 4.22-4.33); optionally with
     the Stribeck friction feedforward of the gantry's travel (--friction, levels in the model's command unit,
     velocities in m/s), split alpha1 : alpha2 between the drives."""
+    show_progress(quiet)
     from ..control.prefilter import PrefilterGains
     from ..design.gantry_mimo import design_gantry_mimo
     from .frf_options import FrfReadOptions, read_optional_frf
@@ -390,7 +446,7 @@ def _matched(match: Path, frf):
 
 
 FILTERS_CHOICE_OPTION = typer.Option(
-    None, "--filters", metavar="own|identical",
+    None, "--filters", **choice(FILTER_CHOICES),
     help="Filters of the tuned PIDs: identical (the filter options, or with --match the matched file's notches and "
          "low-pass: the thesis' rule) or own (the tuner chooses notches and a low-pass where they raise the "
          "crossover; the filter options or the matched ones are candidates). Default: identical with --match, "
@@ -415,23 +471,27 @@ def _print_tuning(tuning: dict) -> None:
 
 
 def pid(
-    model_file: Path = typer.Argument(..., help="Gantry model file from 'feedtune identify gantry'."),
+    model_file: Path = typer.Argument(..., metavar="MODEL", help="Gantry model file from 'feedtune identify gantry'."),
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
-    match: Path = typer.Option(None, "--match", help="Gantry gains file (e.g. the MIMO design) whose Ms the "
-                                                     "PIDs are tuned to; without filter options its notches "
-                                                     "and low-pass are used (not its leads)."),
+    match: Path = typer.Option(
+        None, "--match", metavar="GAINS",
+        help="Gantry gains file (e.g. the MIMO design) whose Ms the PIDs are tuned to; without filter options its "
+             "notches and low-pass are used (not its leads).",
+    ),
     filter_choice: str = FILTERS_CHOICE_OPTION,
-    kp: str = typer.Option(None, "--kp", help="Proportional gain [V/m], one value or SIDE1,SIDE2 (with --kd, "
-                                              "--ki: no tuning)."),
-    kd: str = typer.Option(None, "--kd", help="Derivative gain [V/(m/s)], one value or SIDE1,SIDE2."),
-    ki: str = typer.Option(None, "--ki", help="Integral gain [V/(m s)], one value or SIDE1,SIDE2."),
+    kp: str = typer.Option(
+        None, "--kp", metavar="K[,K2]",
+        help="Proportional gain [V/m], one value or SIDE1,SIDE2 (with --kd, --ki: no tuning).",
+    ),
+    kd: str = typer.Option(None, "--kd", metavar="K[,K2]", help="Derivative gain [V/(m/s)], one value or SIDE1,SIDE2."),
+    ki: str = typer.Option(None, "--ki", metavar="K[,K2]", help="Integral gain [V/(m s)], one value or SIDE1,SIDE2."),
     notch: list[str] = NOTCH_OPTION,
     lpf: float = LPF_OPTION,
-    lpf_order: int = typer.Option(2, "--lpf-order", help="Low-pass order, 1 or 2."),
+    lpf_order: int = typer.Option(2, "--lpf-order", **choice(LPF_ORDERS), help="Low-pass order, 1 or 2."),
     lpf_zeta: float = LPF_ZETA_OPTION,
     lead: list[str] = LEAD_OPTION,
     x: float = X_OPTION,
@@ -456,10 +516,14 @@ def pid(
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Independent PID per side behind notches and low-pass, tuned for the highest crossover under the limits
+    """Design independent PIDs per gantry side, the MIMO baseline.
+
+    Independent PID per side behind notches and low-pass, tuned for the highest crossover under the limits
     (thesis baseline); optionally with the friction feedforward of the gantry's travel (--friction), split
     alpha1 : alpha2 between the sides like the inertia feedforward."""
+    show_progress(quiet)
     from ..control.prefilter import PrefilterGains
     from ..design.gantry_pid import design_gantry_pid
     from ..errors import UsageError

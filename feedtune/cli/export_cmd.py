@@ -7,7 +7,8 @@ from pathlib import Path
 import typer
 
 from ..export.c_common import float_bound_text
-from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .common import FORCE_OPTION, JSON_OPTION
+from .help_text import ANTI_WINDUP, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -17,20 +18,29 @@ from .limits_options import (
     PM_MIN_OPTION,
     limits_from_options,
 )
+from .progress_display import QUIET_OPTION, show_progress
 
-app = typer.Typer(rich_markup_mode=None, help="Export gains files for real-time targets.", no_args_is_help=True)
+app = typer.Typer(rich_markup_mode="rich", help="Export gains files for real-time targets.", no_args_is_help=True)
 
 
 @app.command("c")
 def export_c(
-    gains_file: Path = typer.Argument(..., help="Gains file (.toml or .json) from 'feedtune design' or 'tune': "
-                                                "ball screw, gantry (MIMO or PID) or x axis."),
-    out: Path = typer.Option(None, "--out", "-o", help="Header to write (default: GAINS with suffix .h)."),
-    prefix: str = typer.Option("ft", "--prefix", help="Prefix of the C identifiers."),
-    u_max: float = typer.Option(None, "--u-max", help="Output limit in the command unit of the file: every command "
-                                                      "is clamped to +-U_MAX. Default: no limit (said in the "
-                                                      "header)."),
-    anti_windup: str = typer.Option("none", "--anti-windup", metavar="none|clamp",
+    gains_file: Path = typer.Argument(
+        ..., metavar="GAINS",
+        help="Gains file (.toml or .json) from 'feedtune design' or 'tune': ball screw, gantry (MIMO or PID) or x "
+             "axis.",
+    ),
+    out: Path = typer.Option(
+        None, "--out", "-o", metavar="FILE",
+        help="Header to write (default: GAINS with suffix .h).",
+    ),
+    prefix: str = typer.Option("ft", "--prefix", metavar="NAME", help="Prefix of the C identifiers."),
+    u_max: float = typer.Option(
+        None, "--u-max", metavar="U",
+        help="Output limit in the command unit of the file: every command is clamped to +-U_MAX. Default: no limit "
+             "(said in the header).",
+    ),
+    anti_windup: str = typer.Option("none", "--anti-windup", **choice(ANTI_WINDUP),
                                     help="clamp: an integrator stops integrating while its command sits at --u-max "
                                          "and the error drives it further (conditional integration)."),
     single: bool = typer.Option(False, "--float", help="Single precision: float states, coefficients and "
@@ -47,11 +57,15 @@ def export_c(
                                                                         "check (the header then says so)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Write a self-contained C header that runs the controller sample by sample.
+    """Write a C header that runs a gains file sample by sample.
+
+    Write a self-contained C header that runs the controller sample by sample.
 
     The design is checked first, as 'feedtune analyze GAINS --check' does (stable in every case, the limits in the
     checked case); a design that fails is not exported unless --allow-unstable."""
+    show_progress(quiet)
     from ..analysis.limits import check_analysis
     from ..errors import DesignError
     from ..export.c_header import c_header
@@ -73,13 +87,17 @@ def export_c(
         if not allow_unstable:
             raise DesignError(f"{gains_file}: {msg}; not exported (use --allow-unstable to export it anyway)")
         warning = f"this design fails the limits check ({policy.describe()}): {msg}"
-        typer.echo(f"feedtune: warning: {msg} (exported because of --allow-unstable)", err=True)
+        from .envelope import warn
+
+        warn(f"{msg} (exported because of --allow-unstable)")
     text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning,
                     precision=precision)
     atomic_write_text(target, text, force=force)
     if as_json:
-        print_json({"kind": "c_header", "gains_kind": doc.get("kind"), "out": str(target), "prefix": prefix,
-                    "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup, "precision": precision,
-                    "check": {"checked_case": case, **check.to_dict()}})
+        from .envelope import emit
+
+        emit({"gains_kind": doc.get("kind"), "out": str(target), "prefix": prefix,
+              "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup, "precision": precision,
+              "check": {"checked_case": case, **check.to_dict()}})
     else:
         typer.echo(f"wrote {target}")

@@ -13,8 +13,11 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair, print_json
+from .common import FORCE_OPTION, JSON_OPTION, fmt, fmt_band, parse_float_pair
+from .envelope import emit
+from .help_text import FRF_METHODS, QUANTITIES, choice
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+from .progress_display import QUIET_OPTION, show_progress
 
 #: Coherence level counted in the summary ("lines with coherence >= 0.9").
 GOOD_COHERENCE = 0.9
@@ -90,15 +93,16 @@ def _print_summary(result: dict) -> None:
     est = result["estimate"]
     lo, hi = result["band_hz"]
     typer.echo(f"FRF from {result['log']}: {result['estimator']} ({result['method']})")
-    typer.echo(f"  {result['lines']} lines, {fmt(lo, 'Hz')} .. {fmt(hi, 'Hz')}, unit {result['unit']} "
+    typer.echo(f"  {result['lines']} lines, {fmt_band(lo, hi)}, unit {result['unit']} "
                f"({result['quantity']})")
     if "period_samples" in est:
-        typer.echo(f"  period {est['period_samples']} samples ({est['period_s']} s, {est['period_detection']}); "
+        typer.echo(f"  period {est['period_samples']} samples ({fmt(est['period_s'], 's')}, "
+                   f"{est['period_detection']}); "
                    f"{est['periods_averaged']} of {est['periods_total']} periods averaged, "
                    f"{est['excited_lines']} excited lines")
     elif "nperseg" in est:
-        typer.echo(f"  {est['segments']} segments of {est['nperseg']} samples, overlap {est['overlap']}, "
-                   f"resolution {est['resolution_hz']} Hz")
+        typer.echo(f"  {est['segments']} segments of {est['nperseg']} samples, overlap {fmt(est['overlap'])}, "
+                   f"resolution {fmt(est['resolution_hz'], 'Hz')}")
     smp = result["sampling"]
     if smp["removed"]:
         typer.echo(f"  ZOH and computational delay ({smp['delay_samples']:g} sample(s) at {smp['fs_hz']:g} Hz) "
@@ -119,22 +123,40 @@ def _print_summary(result: dict) -> None:
 
 
 def frf(
-    log_file: Path = typer.Argument(..., help="Excitation log (.csv, .mat, .mf4)."),
-    input_: str = typer.Option("u", "--input", "-i", help="Plant input signal (command) [V, A or N]."),
-    output: str = typer.Option(..., "--output", "-y", help="Output signals, comma-separated, e.g. x1,x2."),
+    log_file: Path = typer.Argument(..., metavar="LOG", help="Excitation log (.csv, .mat, .mf4)."),
+    input_: str = typer.Option(
+        "u", "--input", "-i", metavar="COLUMN",
+        help="Plant input signal (command) [V, A or N].",
+    ),
+    output: str = typer.Option(
+        ..., "--output", "-y", metavar="COLUMNS",
+        help="Output signals, comma-separated, e.g. x1,x2.",
+    ),
     reference: str = typer.Option(
-        None, "--reference", "-r", help="Excitation injected into a closed loop: indirect estimate G = S_ry/S_ru."
+        None, "--reference", "-r", metavar="COLUMN",
+        help="Excitation injected into a closed loop: indirect estimate G = S_ry/S_ru.",
     ),
-    method: str = typer.Option("h1", "--method", help="h1 (Welch) or periodic (multisine, per-line averaging)."),
+    method: str = typer.Option(
+        "h1", "--method", **choice(FRF_METHODS),
+        help="h1 (Welch) or periodic (multisine, per-line averaging).",
+    ),
     period_samples: int = typer.Option(
-        None, "--period-samples", help="Period of a periodic excitation [samples] (default: detected)."
+        None, "--period-samples", metavar="N", help="Period of a periodic excitation [samples] (default: detected)."
     ),
-    transient_periods: int = typer.Option(1, "--transient-periods", help="Leading periods dropped (periodic)."),
-    nperseg: int = typer.Option(None, "--nperseg", help="Welch segment length [samples] (h1)."),
-    overlap: float = typer.Option(0.5, "--overlap", help="Welch overlap as a fraction of --nperseg (h1)."),
-    band: tuple[float, float] = typer.Option(None, "--band", help="Keep LO HI [Hz]."),
-    quantity: str = typer.Option("position", "--quantity", help="What the outputs measure: position, velocity, "
-                                 "acceleration."),
+    transient_periods: int = typer.Option(
+        1, "--transient-periods", metavar="N",
+        help="Leading periods dropped (periodic).",
+    ),
+    nperseg: int = typer.Option(None, "--nperseg", metavar="N", help="Welch segment length [samples] (h1)."),
+    overlap: float = typer.Option(
+        0.5, "--overlap", metavar="FRACTION",
+        help="Welch overlap as a fraction of --nperseg (h1).",
+    ),
+    band: tuple[float, float] = typer.Option(None, "--band", metavar="LO HI", help="Keep LO HI [Hz]."),
+    quantity: str = typer.Option(
+        "position", "--quantity", **choice(QUANTITIES, "QUANTITY"),
+        help="What the outputs measure: position, velocity, acceleration.",
+    ),
     map_: list[str] = MAP_OPTION,
     fs: float = FS_OPTION,
     time: str = TIME_OPTION,
@@ -147,14 +169,18 @@ def frf(
         "the log). Use it when the input is the controller's computed command and the outputs its encoder "
         "readings, so the FRF is the continuous plant the analysis expects.",
     ),
-    out: Path = typer.Option(None, "--out", "-o", help="FRF file to write (.csv, .mat or .uff)."),
+    out: Path = typer.Option(None, "--out", "-o", metavar="FILE", help="FRF file to write (.csv, .mat or .uff)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Estimate the FRF input -> outputs and its coherence from a log (Welch H1, periodic, or indirect).
+    """Estimate FRFs and their coherence from an excitation log.
+
+    Estimate the FRF input -> outputs and its coherence from a log (Welch H1, periodic, or indirect).
 
     With --remove-sampling the ZOH and the computational delay of a controller's own log are removed.
     """
+    show_progress(quiet)
     from ..frf_sampling import mark_sampling_kept
     from ..frf_sampling import remove_sampling as remove_zoh_and_delay
     from ..identify.frf_estimate import estimate_frf
@@ -183,6 +209,6 @@ def frf(
         write_frf(estimate, out, force=force)
         result["out"] = str(out)
     if as_json:
-        print_json(result)
+        emit(result)
     else:
         _print_summary(result)

@@ -29,7 +29,7 @@ FRF_MAP_OPTION = typer.Option(
     "x1/u.mag_db='Magnitude [dB]'. Only the mapped channels are read.",
 )
 FRF_SKIP_ROWS_OPTION = typer.Option(
-    0, "--frf-skip-rows", min=0, help="FRF CSV: lines to skip before the header row (vendor preambles)."
+    0, "--frf-skip-rows", min=0, metavar="N", help="FRF CSV: lines to skip before the header row (vendor preambles)."
 )
 FRF_SCALE_OPTION = typer.Option(
     None, "--frf-scale", metavar="OUT/IN=FACTOR",
@@ -184,9 +184,11 @@ def read_optional_frf(path, quantity=None, mat_freq=None, mat_channel=None, *, w
 
 
 def warn_sampling(frf, path) -> None:
-    """Print one warning line when an FRF file still contains the ZOH and delay of a sampled log."""
+    """Print one warning line when an FRF file still contains the ZOH and delay of a sampled log (also in the
+    ``--json`` envelope's ``warnings``)."""
     from ..frf_sampling import double_counting_warning
+    from .envelope import warn
 
     msg = None if frf is None else double_counting_warning(frf, path)
     if msg:
-        typer.echo(f"feedtune: warning: {msg}", err=True)
+        warn(msg)

@@ -11,40 +11,68 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair, print_json
+from .common import FORCE_OPTION, JSON_OPTION, fmt, fmt_band, fmt_param, parse_float_pair
+from .envelope import emit, quantities, quantity
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .help_text import FRICTION_LAWS, KALMAN_METHODS, QUANTITIES, choice
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+from .progress_display import QUIET_OPTION, show_progress
 
-app = typer.Typer(rich_markup_mode=None, help="Identify models from FRFs and logs.", no_args_is_help=True)
+app = typer.Typer(rich_markup_mode="rich", help="Identify models from FRFs and logs.", no_args_is_help=True)
+
+
+BALLSCREW_LOWER_BOUNDS = {"b1": 0.0, "b2": 0.0, "c": 0.0}
+"""The parameters :func:`feedtune.identify.ballscrew.fit_ballscrew` bounds below (m1, m2 and k are fitted as
+logarithms): a value on its bound is printed as such."""
 
 
 @app.command("ballscrew")
 def ballscrew(
-    frf_files: list[Path] = typer.Argument(..., help="FRF files (CSV, MATLAB .mat, UFF58) with x1/u and/or x2/u."),
+    frf_files: list[Path] = typer.Argument(
+        ..., metavar="FRF",
+        help="FRF files (CSV, MATLAB .mat, UFF58) with x1/u and/or x2/u.",
+    ),
     band: tuple[float, float] = typer.Option(
-        None, "--band", help="Fit band LO HI [Hz] (default: around the first axial mode)."
+        None, "--band", metavar="LO HI", help="Fit band LO HI [Hz] (default: around the first axial mode)."
     ),
     channel: list[str] = typer.Option(
-        None, "--channel", help="Channels to fit, motor side first (default: x1/u and x2/u)."
+        None, "--channel", metavar="OUT/IN", help="Channels to fit, motor side first (default: x1/u and x2/u)."
     ),
-    lead: float = typer.Option(None, "--lead", help="Table travel per screw radian [m/rad] for FRFs in m, mm or um."),
+    lead: float = typer.Option(
+        None, "--lead", metavar="M/RAD",
+        help="Table travel per screw radian [m/rad] for FRFs in m, mm or um.",
+    ),
     no_delay: bool = typer.Option(
         False, "--no-delay", help="Do not fit a pure delay (current loop) alongside the model."
     ),
     quantity: str = typer.Option(
-        None, "--quantity", help="position, velocity or acceleration (overrides file metadata)."
+        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
+        help="position, velocity or acceleration (overrides file metadata).",
     ),
-    mat_freq: str = typer.Option(None, "--mat-freq", help="MATLAB files: name of the frequency variable [Hz]."),
-    mat_channel: list[str] = typer.Option(None, "--mat-channel", help="MATLAB files: CHANNEL=VARIABLE, e.g. x2/u=H2."),
+    mat_freq: str = typer.Option(
+        None, "--mat-freq", metavar="VARIABLE",
+        help="MATLAB files: name of the frequency variable [Hz].",
+    ),
+    mat_channel: list[str] = typer.Option(
+        None, "--mat-channel", metavar="CHANNEL=VARIABLE",
+        help="MATLAB files: CHANNEL=VARIABLE, e.g. x2/u=H2.",
+    ),
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
-    out: Path = typer.Option(None, "--out", "-o", help="Model file to write (.toml, with a .json twin)."),
+    out: Path = typer.Option(
+        None, "--out", "-o", metavar="FILE",
+        help="Model file to write (.toml, with a .json twin).",
+    ),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Fit the 2-mass ball-screw model (m1, m2, b1, b2, k, c; eq. 3.1) to measured FRFs."""
+    """Fit the 2-mass ball-screw model to measured FRFs.
+
+    Fit the 2-mass ball-screw model (m1, m2, b1, b2, k, c; eq. 3.1) to measured FRFs."""
+    show_progress(quiet)
     from ..identify.ballscrew import fit_ballscrew
     from ..io import save_model
     from .frf_options import FrfReadOptions, quantity_option, read_frf_with_options
@@ -59,21 +87,17 @@ def ballscrew(
         save_model(out, fit.model, fit=result, force=force)
         result["out"] = str(out)
     if as_json:
-        print_json(result)
+        emit({**result, "params": ballscrew_params(result)})
         return
     p = result["params"]
     units = result.get("units", {})
     typer.echo("Ball-screw 2-mass model (eq. 3.1):")
     for name in ("m1", "m2", "b1", "b2", "k", "c"):
         std = result.get("std", {}).get(name)
-        typer.echo(
-            f"  {name:3s} = {fmt(p[name], units.get(name, ''))}" + (f"  (std {fmt(std)})" if std is not None else "")
-        )
+        typer.echo(f"  {name:3s} = {fmt_param(p[name], units.get(name, ''), std, BALLSCREW_LOWER_BOUNDS.get(name))}")
     for m in result["modes"]:
         typer.echo(f"  mode: {m['freq_hz']:.2f} Hz, damping {100 * m['zeta']:.2f} %")
-    typer.echo(
-        f"  real pole: {fmt(result['real_pole_hz'], 'Hz')}; band {result['band_hz'][0]:g}-{result['band_hz'][1]:g} Hz"
-    )
+    typer.echo(f"  real pole: {fmt(result['real_pole_hz'], 'Hz')}; band {fmt_band(*result['band_hz'])}")
     for ch, q in result["fit"].items():
         typer.echo(
             f"  fit {ch}: nrmse {fmt(q.get('nrmse'))}, magnitude rms {fmt(q.get('mag_rms_db'), 'dB')}, "
@@ -102,37 +126,115 @@ def _check_model_out(out: Path | None, force: bool) -> None:
 
 
 def _std_text(value: float, std: float | None, unit: str) -> str:
-    return f"{fmt(value, unit)}" + ("" if std is None else f"  (std {fmt(std)})")
+    return fmt_param(value, unit, std)
+
+
+def _omega_bound_note(fit: dict, name: str) -> str:
+    """``  (at the upper bound of its search)`` after a Stribeck velocity the fit left on a bound
+    (``omega_at_bound``: the log does not resolve it), else empty."""
+    bounds = fit.get("omega_bounds", {}).get(name.rsplit("_", 1)[-1])
+    value = fit["friction"].get(name)
+    if not (name.startswith("omega") and fit.get("omega_at_bound") and bounds and value):
+        return ""
+    lo, hi = bounds
+    side = "lower" if value <= 1.001 * lo else "upper" if value >= 0.999 * hi else None
+    return f"  (at the {side} bound of its search)" if side else ""
+
+
+# ------------------------------------------------------------------------------------------ --json params
+def ballscrew_params(result: dict) -> dict:
+    """``params`` of ``identify ballscrew --json``: m1, m2, b1, b2, k, c and the fitted delay [s] as
+    ``{"value", "unit", "std"}``."""
+    params = quantities(result["params"], result["units"], result.get("std"))
+    if result.get("delay_s") is not None:
+        params["delay"] = quantity(result["delay_s"], "s", result.get("delay_std_s"))
+    return params
+
+
+def _law_params(directions: dict, units: dict) -> dict:
+    """A law fitted per direction (``{"pos": {dc, ds, omega, viscous, std}, ...}``) as ``dc_pos, ds_pos, ...``."""
+    return {f"{name}_{way}": quantity(d[name], units.get(name, "-"), d.get("std", {}).get(name))
+            for way, d in directions.items() for name in ("dc", "ds", "omega", "viscous") if name in d}
+
+
+def joint_params(joint: dict) -> dict:
+    """``params`` of the joint fit of mass and friction law (one direction): mass and the law of that direction."""
+    return {"mass": quantity(joint["mass"], joint["units"]["mass"], joint.get("mass_std")),
+            **_law_params(joint["law_fit"]["directions"], joint["law_fit"]["units"])}
+
+
+def friction_params(result: dict) -> dict:
+    """``params`` of ``identify friction --json``: the law per direction (``dc_pos, ds_pos, omega_pos, ...``) with
+    standard deviations; with the Kalman method also mass and viscous friction (std from the joint fit, else null:
+    given or from the rigid fit), Coulomb level and offset."""
+    if result.get("method") == "steady-state":
+        return _law_params(result["fit"]["directions"], result["fit"]["units"])
+    fit = result["friction"]
+    law, units, std = fit["friction"], fit["units"], fit.get("std", {})
+    names = [k for k in law if k not in ("model", "units")]
+    params = {k: quantity(law[k], law.get("units", {}).get(k, units.get(k, "-")), std.get(k)) for k in names}
+    joint = result.get("joint_fit") or {}
+    params["mass"] = quantity(result["mass"], result["units"]["mass"], joint.get("mass_std"))
+    params["viscous"] = quantity(result["viscous"], result["units"]["viscous"], None)
+    for name in ("coulomb", "offset"):
+        params[name] = quantity(fit[name], units.get(name, "-"), None)
+    return params
 
 
 @app.command("rigid")
 def rigid(
-    log_files: list[Path] = typer.Argument(..., help="Tracking log(s) (.csv, .mat, .mf4) with position and "
-                                                      "command; several logs are filtered one by one and fitted "
-                                                      "together."),
-    position: str = typer.Option("x", "--position", help="Measured position column [m or rad; mm, um, deg]."),
-    input_: str = typer.Option("u", "--input", "-i", help="Command or force column (unit from the log or --unit)."),
-    asymmetric: bool = typer.Option(False, "--asymmetric", help="Viscous and Coulomb friction per direction."),
-    lpf_hz: float = typer.Option(None, "--lpf-hz", help="Zero-phase Butterworth cut-off of the position [Hz] "
-                                                        "(default: from the data, where the velocity spectrum "
-                                                        "meets its noise floor; see docs/commands.md)."),
-    filter_order: int = typer.Option(4, "--filter-order", help="Butterworth order (applied forward and backward)."),
-    decimate: int = typer.Option(None, "--decimate", help="Parallel decimation factor (default round(fs / lpf-hz))."),
-    velocity_threshold: float = typer.Option(
-        None, "--velocity-threshold", help="Drop samples slower than this [m/s or rad/s]."
+    log_files: list[Path] = typer.Argument(
+        ..., metavar="LOG",
+        help="Tracking log(s) (.csv, .mat, .mf4) with position and command; several logs are filtered one by one and "
+             "fitted together.",
     ),
-    validate: Path = typer.Option(None, "--validate", help="Second log (same columns and options) to cross-check."),
+    position: str = typer.Option(
+        "x", "--position", metavar="COLUMN",
+        help="Measured position column [m or rad; mm, um, deg].",
+    ),
+    input_: str = typer.Option(
+        "u", "--input", "-i", metavar="COLUMN",
+        help="Command or force column (unit from the log or --unit).",
+    ),
+    asymmetric: bool = typer.Option(False, "--asymmetric", help="Viscous and Coulomb friction per direction."),
+    lpf_hz: float = typer.Option(
+        None, "--lpf-hz", metavar="HZ",
+        help="Zero-phase Butterworth cut-off of the position [Hz] (default: from the data, where the velocity "
+             "spectrum meets its noise floor; see docs/commands.md).",
+    ),
+    filter_order: int = typer.Option(
+        4, "--filter-order", metavar="N",
+        help="Butterworth order (applied forward and backward).",
+    ),
+    decimate: int = typer.Option(
+        None, "--decimate", metavar="N",
+        help="Parallel decimation factor (default round(fs / lpf-hz)).",
+    ),
+    velocity_threshold: float = typer.Option(
+        None, "--velocity-threshold", metavar="SPEED", help="Drop samples slower than this [m/s or rad/s]."
+    ),
+    validate: Path = typer.Option(
+        None, "--validate", metavar="LOG",
+        help="Second log (same columns and options) to cross-check.",
+    ),
     map_: list[str] = MAP_OPTION,
     fs: float = FS_OPTION,
     time: str = TIME_OPTION,
     scale: list[str] = SCALE_OPTION,
     unit: list[str] = UNIT_OPTION,
     skip_rows: int = SKIP_ROWS_OPTION,
-    out: Path = typer.Option(None, "--out", "-o", help="Rigid-body model file (.toml with a .json twin)."),
+    out: Path = typer.Option(
+        None, "--out", "-o", metavar="FILE",
+        help="Rigid-body model file (.toml with a .json twin).",
+    ),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Inertia, viscous and Coulomb friction and offset by least squares on filtered derivatives (IDIM-LS)."""
+    """Fit inertia, friction and offset to logs (IDIM-LS).
+
+    Inertia, viscous and Coulomb friction and offset by least squares on filtered derivatives (IDIM-LS)."""
+    show_progress(quiet)
     from ..identify.rigid import fit_rigid, validate_rigid
     from ..io import save_model
     from .log_options import LogOptions
@@ -152,7 +254,8 @@ def rigid(
         record = {k: v for k, v in result.items() if k not in ("rigid_model", "validation")}
         result["files"] = [str(p) for p in save_model(out, fit.model, fit=record, force=force)]
     if as_json:
-        print_json(result)
+        result.pop("rigid_model", None)  # the same values as "params", keyed as in the model file
+        emit({**result, "params": quantities(result["values"], result["units"], result["std"])})
         return
     units = result["units"]
     kind = {"rigid": "symmetric", "rigid-asymmetric": "asymmetric", "rigid-one-direction": "one-direction"}[
@@ -289,7 +392,7 @@ def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: boo
     if files:
         result["files"] = files
     if as_json:
-        print_json(result)
+        emit({**result, "params": joint_params(result["joint_fit"])})
         return
     jf = result["joint_fit"]
     fu = jf["law_fit"]["units"]
@@ -356,17 +459,35 @@ def _joint_curve_files(joint, curve_out: Path | None, log_file, warnings, force:
 
 @app.command("friction")
 def friction(
-    log_files: list[Path] = typer.Argument(..., help="Tracking log(s) (.csv, .mat, .mf4) moving both ways at "
-                                                      "several speeds; several logs are filtered one by one and "
-                                                      "fitted together."),
-    model_file: Path = typer.Option(
-        None, "--model", help="Ballscrew or rigid model file giving mass and viscous friction (default: joint fit)."
+    log_files: list[Path] = typer.Argument(
+        ..., metavar="LOG",
+        help="Tracking log(s) (.csv, .mat, .mf4) moving both ways at several speeds; several logs are filtered one by "
+             "one and fitted together.",
     ),
-    position: str = typer.Option("x", "--position", help="Position column, e.g. x1 or x2 [rad] or x [m]."),
-    input_: str = typer.Option("u", "--input", "-i", help="Command column (unit from the log or --unit)."),
-    mass: float = typer.Option(None, "--mass", help="Mass or inertia instead of --model [command/(position/s^2)]."),
-    viscous: float = typer.Option(None, "--viscous", help="Viscous friction with --mass [command/(position/s)]."),
-    law: str = typer.Option("stribeck", "--law", help="Friction law: stribeck (eq. 2.1), hump or lugre."),
+    model_file: Path = typer.Option(
+        None, "--model", metavar="MODEL",
+        help="Ballscrew or rigid model file giving mass and viscous friction (default: joint fit).",
+    ),
+    position: str = typer.Option(
+        "x", "--position", metavar="COLUMN",
+        help="Position column, e.g. x1 or x2 [rad] or x [m].",
+    ),
+    input_: str = typer.Option(
+        "u", "--input", "-i", metavar="COLUMN",
+        help="Command column (unit from the log or --unit).",
+    ),
+    mass: float = typer.Option(
+        None, "--mass", metavar="MASS",
+        help="Mass or inertia instead of --model [command/(position/s^2)].",
+    ),
+    viscous: float = typer.Option(
+        None, "--viscous", metavar="COEFF",
+        help="Viscous friction with --mass [command/(position/s)].",
+    ),
+    law: str = typer.Option(
+        "stribeck", "--law", **choice(FRICTION_LAWS),
+        help="Friction law: stribeck (eq. 2.1), hump or lugre.",
+    ),
     steady_state: bool = typer.Option(
         False, "--steady-state", help="Fit the law to the mean command on constant-velocity plateaus (no Kalman "
                                       "filter, no mass)."
@@ -375,31 +496,38 @@ def friction(
         False, "--rigid-first", help="Without --model/--mass: IDIM-LS rigid fit first instead of the joint fit."
     ),
     lpf_hz: float = typer.Option(
-        None, "--lpf-hz", help="Position filter cut-off of the joint, rigid or plateau fit [Hz] (default: from "
-                               "the data)."
+        None, "--lpf-hz", metavar="HZ",
+        help="Position filter cut-off of the joint, rigid or plateau fit [Hz] (default: from the data).",
     ),
     bandwidth_hz: float = typer.Option(
-        None, "--bandwidth-hz", help="Kalman observer bandwidth [Hz] (default min(0.05 fs, 50 Hz))."
+        None, "--bandwidth-hz", metavar="HZ", help="Kalman observer bandwidth [Hz] (default min(0.05 fs, 50 Hz))."
     ),
-    method: str = typer.Option(None, "--method", help="Kalman filter: steady-state (fast, default) or filterpy "
-                                                      "(per-sample)."),
-    min_speed: float = typer.Option(None, "--min-speed", help="Ignore slower samples or plateaus [m/s or rad/s] "
-                                                              "(default 2 % of the peak; plateaus 0.2 %)."),
+    method: str = typer.Option(
+        None, "--method", **choice(KALMAN_METHODS),
+        help="Kalman filter: steady-state (fast, default) or filterpy (per-sample).",
+    ),
+    min_speed: float = typer.Option(
+        None, "--min-speed", metavar="SPEED",
+        help="Ignore slower samples or plateaus [m/s or rad/s] (default 2 % of the peak; plateaus 0.2 %).",
+    ),
     per_direction_omega: bool = typer.Option(
         False, "--per-direction-omega", help="Separate Stribeck velocity per direction."
     ),
     reversal_guard_s: float = typer.Option(
-        None, "--reversal-guard", help="Time left out after each reversal [s] (default: observer settling time)."
+        None, "--reversal-guard", metavar="S",
+        help="Time left out after each reversal [s] (default: observer settling time).",
     ),
     plateau_acc_tol: float = typer.Option(
-        None, "--plateau-acc-tol", help="--steady-state: largest |acceleration| on a plateau [m/s^2 or rad/s^2] "
-                                        "(default 5 % of the log's 99th percentile)."
+        None, "--plateau-acc-tol", metavar="ACC",
+        help="--steady-state: largest |acceleration| on a plateau [m/s^2 or rad/s^2] (default 5 % of the log's 99th "
+             "percentile).",
     ),
     plateau_vel_tol: float = typer.Option(
-        None, "--plateau-vel-tol", help="--steady-state: relative velocity tolerance of a plateau (default 0.02)."
+        None, "--plateau-vel-tol", metavar="FRACTION",
+        help="--steady-state: relative velocity tolerance of a plateau (default 0.02).",
     ),
     plateau_min_duration: float = typer.Option(
-        None, "--plateau-min-duration", help="--steady-state: shortest plateau [s] (default 0.1)."
+        None, "--plateau-min-duration", metavar="S", help="--steady-state: shortest plateau [s] (default 0.1)."
     ),
     map_: list[str] = MAP_OPTION,
     fs: float = FS_OPTION,
@@ -407,18 +535,25 @@ def friction(
     scale: list[str] = SCALE_OPTION,
     unit: list[str] = UNIT_OPTION,
     skip_rows: int = SKIP_ROWS_OPTION,
-    out: Path = typer.Option(None, "--out", "-o", help="Friction model file (.toml with a .json twin; needs both "
-                                                        "directions)."),
+    out: Path = typer.Option(
+        None, "--out", "-o", metavar="FILE",
+        help="Friction model file (.toml with a .json twin; needs both directions).",
+    ),
     curve_out: Path = typer.Option(
-        None, "--curve-out", help="Friction curve document (.toml with a .json twin, or .json) for the report: the "
-                                  "law per direction with std, the measured points and the fitted curve; one "
-                                  "direction is enough (--steady-state or the joint fit)."
+        None, "--curve-out", metavar="FILE",
+        help="Friction curve document (.toml with a .json twin, or .json) for the report: the law per direction with "
+             "std, the measured points and the fitted curve; one direction is enough (--steady-state or the joint "
+             "fit).",
     ),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Friction per direction: Stribeck eq. 2.1 (or --law hump|lugre) from the Kalman-filter equivalent disturbance,
+    """Fit a friction law per direction of motion to logs.
+
+    Friction per direction: Stribeck eq. 2.1 (or --law hump|lugre) from the Kalman-filter equivalent disturbance,
     or with --steady-state from constant-velocity plateaus."""
+    show_progress(quiet)
     from ..errors import DataError
     from ..identify.friction import OneDirectionError, fit_joint_friction, identify_friction
     from ..identify.friction_curve import PlateauSettings, identify_friction_curve
@@ -477,7 +612,7 @@ def friction(
             files = _joint_curve_files(ident.joint_fit, curve_out, log_file, ident.warnings, force)
         result["files"] = result.get("files", []) + files
     if as_json:
-        print_json(result)
+        emit({**result, "params": friction_params(result)})
         return
     if steady_state:
         _friction_steady_state_text(result, log_file)
@@ -487,7 +622,7 @@ def friction(
     name = "Stribeck friction (eq. 2.1)" if result["law"] == "stribeck" else f"Friction ({result['law']} law)"
     typer.echo(f"{name} from {log_file}:")
     for name in ("dc_pos", "ds_pos", "omega_pos", "dc_neg", "ds_neg", "omega_neg"):
-        typer.echo(f"  {name:9s} = {_std_text(f[name], std.get(name), u[name])}")
+        typer.echo(f"  {name:9s} = {_std_text(f[name], std.get(name), u[name])}{_omega_bound_note(fit, name)}")
     typer.echo(f"  Coulomb {fmt(fit['coulomb'], u['coulomb'])}, offset {fmt(fit['offset'], u['offset'])}; "
                f"fit RMS {fmt(fit['rms_error'], u['rms_error'])} ({fmt(fit['relative_error_pct'], '%')}), "
                f"{fit['n_pos']} + {fit['n_neg']} samples")

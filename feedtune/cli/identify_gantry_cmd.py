@@ -15,8 +15,14 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair, print_json
+from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair
+from .envelope import emit, quantities
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .help_text import QUANTITIES, choice
+from .progress_display import QUIET_OPTION, show_progress
+
+GANTRY_PARAMS = ("m", "J0", "d", "m_x", "c", "k", "alpha1_0", "dalpha1_dx")
+"""The identified parameters of the gantry model (eq. 4.16) in ``identify gantry --json``'s ``params``."""
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -42,30 +48,49 @@ def _gantry_frf(path: Path, quantity: str | None, frf_options=None):
 
 # ------------------------------------------------------------------------------------------ commands
 def gantry(
-    frf_files: list[Path] = typer.Argument(..., help="2x2 FRF files (y1/u1, y1/u2, y2/u1, y2/u2; output unit m), "
-                                                      "one per table position."),
-    x: list[float] = typer.Option(None, "--x", help="Table position [m] of each FRF file, in the same order "
-                                                    "(repeatable; at least 3 distinct)."),
-    span: float = typer.Option(..., "--span", help="Span L between the two actuators/encoders [m] (1.484 in the "
-                                                   "thesis). Required: the FRFs determine only M, C, K in encoder "
-                                                   "coordinates, not the geometry."),
-    band: tuple[float, float] = typer.Option(None, "--band", help="Fit band LO HI [Hz] around the yaw mode "
-                                                                  "(default: detected, 0.6-1.6 f_yaw)."),
+    frf_files: list[Path] = typer.Argument(
+        ..., metavar="FRF",
+        help="2x2 FRF files (y1/u1, y1/u2, y2/u1, y2/u2; output unit m), one per table position.",
+    ),
+    x: list[float] = typer.Option(
+        None, "--x", metavar="M",
+        help="Table position [m] of each FRF file, in the same order (repeatable; at least 3 distinct).",
+    ),
+    span: float = typer.Option(
+        ..., "--span", metavar="M",
+        help="Span L between the two actuators/encoders [m] (1.484 in the thesis). Required: the FRFs determine only "
+             "M, C, K in encoder coordinates, not the geometry.",
+    ),
+    band: tuple[float, float] = typer.Option(
+        None, "--band", metavar="LO HI",
+        help="Fit band LO HI [Hz] around the yaw mode (default: detected, 0.6-1.6 f_yaw).",
+    ),
     bounds: bool = typer.Option(False, "--bounds", help="Solve with physical bounds (c, k >= 0, M >= 0; cvxpy)."),
-    mass_file: Path = typer.Option(None, "--mass", help="Mass document from feedtune identify mass: imposes the "
-                                                        "side masses (eq. 4.13) and its m_x."),
-    m_x: float = typer.Option(None, "--m-x", help="Table mass [V/(m/s^2)]: fit only J0 and d of J(x)."),
-    quantity: str = typer.Option(None, "--quantity", help="position, velocity or acceleration (overrides the "
-                                                          "files)."),
+    mass_file: Path = typer.Option(
+        None, "--mass", metavar="FILE",
+        help="Mass document from feedtune identify mass: imposes the side masses (eq. 4.13) and its m_x.",
+    ),
+    m_x: float = typer.Option(None, "--m-x", metavar="MASS", help="Table mass [V/(m/s^2)]: fit only J0 and d of J(x)."),
+    quantity: str = typer.Option(
+        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
+        help="position, velocity or acceleration (overrides the files).",
+    ),
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
-    out: Path = typer.Option(None, "--out", "-o", help="Model file to write (.toml with a .json twin)."),
+    out: Path = typer.Option(
+        None, "--out", "-o", metavar="FILE",
+        help="Model file to write (.toml with a .json twin).",
+    ),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Fit the gantry yaw model (eq. 4.1-4.16: m, J0, d, m_x, c, k, alpha1(x)) to 2x2 FRFs at several x."""
+    """Fit the gantry yaw model to 2x2 FRFs at several positions.
+
+    Fit the gantry yaw model (eq. 4.1-4.16: m, J0, d, m_x, c, k, alpha1(x)) to 2x2 FRFs at several x."""
+    show_progress(quiet)
     from ..identify.gantry import fit_gantry
     from ..io import save_model
     from .frf_options import FrfReadOptions
@@ -84,7 +109,8 @@ def gantry(
         written = save_model(out, fit.model, fit=result, force=force)
         result["files"] = [str(p) for p in written]
     if as_json:
-        print_json(result)
+        model = result["model"]  # the fit gives no standard deviations; the span L is given (--span)
+        emit({**result, "params": quantities(model, model["units"], names=GANTRY_PARAMS)})
         return
     model = result["model"]
     units = model["units"]
@@ -105,21 +131,39 @@ def gantry(
 
 
 def mass(
-    logs: list[Path] = typer.Argument(..., help="Tracking logs of the gantry (u1, u2 [V] and the commanded "
-                                                "acceleration), one per table position."),
-    x: list[float] = typer.Option(None, "--x", help="Table position [m] of each log, in the same order "
+    logs: list[Path] = typer.Argument(
+        ..., metavar="LOG",
+        help="Tracking logs of the gantry (u1, u2 [V] and the commanded acceleration), one per table position.",
+    ),
+    x: list[float] = typer.Option(None, "--x", metavar="M", help="Table position [m] of each log, in the same order "
                                                     "(repeatable; at least 2 distinct)."),
-    axis_log: Path = typer.Option(None, "--axis-log", help="Tracking log of the x axis (ux, a_ref) for m_x."),
-    u1: str = typer.Option("u1", "--u1", help="Left command signal [V]."),
-    u2: str = typer.Option("u2", "--u2", help="Right command signal [V]."),
-    acc_ref: str = typer.Option("ay_ref", "--acc-ref", help="Commanded y acceleration signal [m/s^2]."),
-    axis_u: str = typer.Option("ux", "--axis-u", help="x-axis command signal in --axis-log [V]."),
-    axis_acc_ref: str = typer.Option("a_ref", "--axis-acc-ref", help="Commanded x acceleration in --axis-log."),
-    out: Path = typer.Option(None, "--out", "-o", help="Mass document to write (.toml with a .json twin)."),
+    axis_log: Path = typer.Option(
+        None, "--axis-log", metavar="LOG",
+        help="Tracking log of the x axis (ux, a_ref) for m_x.",
+    ),
+    u1: str = typer.Option("u1", "--u1", metavar="COLUMN", help="Left command signal [V]."),
+    u2: str = typer.Option("u2", "--u2", metavar="COLUMN", help="Right command signal [V]."),
+    acc_ref: str = typer.Option(
+        "ay_ref", "--acc-ref", metavar="COLUMN",
+        help="Commanded y acceleration signal [m/s^2].",
+    ),
+    axis_u: str = typer.Option("ux", "--axis-u", metavar="COLUMN", help="x-axis command signal in --axis-log [V]."),
+    axis_acc_ref: str = typer.Option(
+        "a_ref", "--axis-acc-ref", metavar="COLUMN",
+        help="Commanded x acceleration in --axis-log.",
+    ),
+    out: Path = typer.Option(
+        None, "--out", "-o", metavar="FILE",
+        help="Mass document to write (.toml with a .json twin).",
+    ),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Total mass and distribution alpha1(x) (thesis Fig. 4.5) from tracking logs; m_x from an x-axis log."""
+    """Fit the gantry's mass distribution to tracking logs.
+
+    Total mass and distribution alpha1(x) (thesis Fig. 4.5) from tracking logs; m_x from an x-axis log."""
+    show_progress(quiet)
     from ..identify.mass import fit_axis_mass, fit_mass_distribution
     from ..io import read_log, write_document
     from ..io.mass_file import mass_document
@@ -133,7 +177,8 @@ def mass(
     if out is not None:
         result["files"] = [str(p) for p in write_document(out, doc, force=force)]
     if as_json:
-        print_json(result)
+        names = ["m", "alpha1_0", "dalpha1_dx"] + ([] if m_x is None else ["m_x"])
+        emit({**result, "params": quantities(result, result["units"], names=names)})
         return
     typer.echo(f"Gantry mass from {len(logs)} logs: m = {fmt(fit.m, 'V/(m/s^2)')}, alpha1(x) = "
                f"{fit.alpha1_0:.4f} {fit.dalpha1_dx:+.4f} x [x in m] (rms residual {fit.alpha1_rms_residual:.2g})")

@@ -10,8 +10,10 @@ import math
 
 import typer
 
+from .help_text import LIMITS_PROFILES, choice
+
 LIMITS_OPTION = typer.Option(
-    "textbook", "--limits", metavar="PROFILE",
+    "textbook", "--limits", **choice(LIMITS_PROFILES),
     help="Limits profile: textbook (Ms <= 2.5, PM >= 30 deg, GM >= 6 dB) or thesis (Ms <= 3.25, PM >= 30 deg, "
          "the thesis' own acceptance); single limits are overridden by --ms-max, --pm-min, --gm-min, --dm-min.")
 MS_MAX_OPTION = typer.Option(None, "--ms-max", metavar="MS", help="Largest peak sensitivity max|S| [-] "
@@ -60,19 +62,21 @@ def print_check(check: dict) -> None:
             typer.echo(f"  {v}")
 
 
-def finish_analysis(result: dict, analysis, limits, as_json: bool, strict: bool) -> None:
-    """Check an analysis against the policy, add ``result["check"]``, print the summary (or the JSON) and, with
-    ``strict``, raise DesignError when the check fails."""
+def finish_analysis(result: dict, analysis, limits, as_json: bool, strict: bool, gains_kind: str | None = None
+                    ) -> None:
+    """Check an analysis against the policy, add ``result["check"]``, print the summary (or the JSON envelope, with
+    ``gains_kind`` the gains file's kind) and, with ``strict``, raise DesignError when the check fails."""
     from ..analysis.limits import DEFAULT_LIMITS, check_analysis
     from ..errors import DesignError
-    from .common import print_json
+    from .envelope import design_result, emit
     from .summary import print_design_summary
 
     check, checked = check_analysis(analysis, limits or DEFAULT_LIMITS)
+    result = design_result(result, gains_kind)
     result["check"] = {"checked_case": checked, **check.to_dict(),
                        "violations": check.violations_named(OPTION_NAMES)}
     if as_json:
-        print_json(result)
+        emit(result)
     else:
         print_design_summary(result)
         print_check(result["check"])

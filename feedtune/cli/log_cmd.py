@@ -12,10 +12,11 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+from .progress_display import QUIET_OPTION, show_progress
 
-app = typer.Typer(rich_markup_mode=None, help="Convert and merge logs from other tools.", no_args_is_help=True)
+app = typer.Typer(rich_markup_mode="rich", help="Convert and merge logs from other tools.", no_args_is_help=True)
 
 
 def _summary(log, out: Path, as_json: bool, extra: dict | None = None) -> None:
@@ -23,7 +24,9 @@ def _summary(log, out: Path, as_json: bool, extra: dict | None = None) -> None:
             "duration_s": float(log.t[-1] - log.t[0]), "signals": {k: log.unit(k) for k in log.signals},
             **(extra or {})}
     if as_json:
-        print_json(info)
+        from .envelope import emit
+
+        emit(info)
         return
     names = ", ".join(f"{k} [{u}]" if u else k for k, u in info["signals"].items())
     typer.echo(f"wrote {out}: {log.n} samples at {fmt(log.fs, 'Hz', 6)} over {fmt(info['duration_s'], 's')}; "
@@ -34,22 +37,26 @@ def _summary(log, out: Path, as_json: bool, extra: dict | None = None) -> None:
 
 @app.command("convert")
 def convert(
-    log_file: Path = typer.Argument(..., help="Log to read (.csv, .mat, .mf4)."),
-    out: Path = typer.Option(..., "--out", "-o", help="feedtune CSV log to write."),
+    log_file: Path = typer.Argument(..., metavar="LOG", help="Log to read (.csv, .mat, .mf4)."),
+    out: Path = typer.Option(..., "--out", "-o", metavar="FILE", help="feedtune CSV log to write."),
     map_: list[str] = MAP_OPTION,
     fs: float = FS_OPTION,
     time: str = TIME_OPTION,
     scale: list[str] = SCALE_OPTION,
     unit: list[str] = UNIT_OPTION,
     skip_rows: int = SKIP_ROWS_OPTION,
-    keep: str = typer.Option(None, "--keep", help="Comma-separated signals to keep (default: all)."),
+    keep: str = typer.Option(None, "--keep", metavar="NAMES", help="Comma-separated signals to keep (default: all)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Read a log with the usual log options and write it as a feedtune CSV log (names, units, time in s).
+    """Write a log from another tool as a feedtune CSV log.
 
-    Example: feedtune log convert a3MR.csv --skip-rows 3 --time Time --scale Time=1e-3 --map n="Analog 1"
-    --unit n=rpm --keep n --out amp.csv"""
+    Read a log with the usual log options and write it as a feedtune CSV log (names, units, time in s).
+
+    An amplifier trace with a 3-line preamble, time in ms: feedtune log convert a3MR.csv --skip-rows 3 --time Time
+    --scale Time=1e-3 --map n="Analog 1" --unit n=rpm --keep n --out amp.csv"""
+    show_progress(quiet)
     from ..errors import UsageError
     from ..io import write_log_csv
     from ..io.atomic import ensure_writable
@@ -71,11 +78,15 @@ def convert(
 
 @app.command("merge")
 def merge(
-    log_files: list[Path] = typer.Argument(..., help="feedtune CSV logs (or any log the log commands read with "
-                                                      "their defaults), each with its own time column."),
-    out: Path = typer.Option(..., "--out", "-o", help="Merged feedtune CSV log to write."),
-    fs: float = typer.Option(None, "--fs", help="Sample rate of the merged log [Hz] (default: the lowest rate "
-                                                "among the logs)."),
+    log_files: list[Path] = typer.Argument(
+        ..., metavar="LOG",
+        help="feedtune CSV logs (or any log the log commands read with their defaults), each with its own time column.",
+    ),
+    out: Path = typer.Option(..., "--out", "-o", metavar="FILE", help="Merged feedtune CSV log to write."),
+    fs: float = typer.Option(
+        None, "--fs", metavar="HZ",
+        help="Sample rate of the merged log [Hz] (default: the lowest rate among the logs).",
+    ),
     shift: list[str] = typer.Option(None, "--shift", metavar="NAME=SECONDS",
                                     help="Add SECONDS to the time stamps of a signal (repeatable)."),
     offset: list[str] = typer.Option(None, "--offset", metavar="NAME=VALUE|mean:N",
@@ -87,12 +98,16 @@ def merge(
                                              "measured speed in m/s)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Put several logs on one uniform time base: shift, offset, scale, anti-alias and resample, integrate.
+    """Put several logs on one uniform time base.
+
+    Put several logs on one uniform time base: shift, offset, scale, anti-alias and resample, integrate.
 
     Order per signal: shift, offset, scale; then low-pass the signals faster than the base (zero-phase, 0.4 x the
-    base rate), interpolate linearly, integrate. Example: feedtune log merge daq.csv amp.csv --shift f=0.004
-    --offset f=mean:10 --scale f=-200 --unit f=N --integrate x=v --out merged.csv"""
+    base rate), interpolate linearly, integrate. A DAQ log and an amplifier trace: feedtune log merge daq.csv amp.csv
+    --shift f=0.004 --offset f=mean:10 --scale f=-200 --unit f=N --integrate x=v --out merged.csv"""
+    show_progress(quiet)
     from ..errors import UsageError
     from ..io import read_log, write_log_csv
     from ..io.atomic import ensure_writable

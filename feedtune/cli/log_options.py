@@ -25,15 +25,20 @@ from dataclasses import dataclass, field
 import typer
 
 MAP_OPTION = typer.Option(
-    None, "--map", help="Rename a column: NAME=COLUMN (repeatable); MATLAB matrix columns as NAME=var[k] (0-based)."
+    None, "--map", metavar="NAME=COLUMN",
+    help="Rename a column: NAME=COLUMN (repeatable); MATLAB matrix columns as NAME=var[k] (0-based).",
 )
-FS_OPTION = typer.Option(None, "--fs", help="Sample rate [Hz] for logs without a usable time column.")
-TIME_OPTION = typer.Option(None, "--time", help="Name of the time column (default t or time) [s].")
+FS_OPTION = typer.Option(None, "--fs", metavar="HZ", help="Sample rate [Hz] for logs without a usable time column.")
+TIME_OPTION = typer.Option(None, "--time", metavar="COLUMN", help="Name of the time column (default t or time) [s].")
 SCALE_OPTION = typer.Option(
-    None, "--scale", help="Multiply a signal after renaming: NAME=FACTOR (repeatable), e.g. u=35.15 for V to N."
+    None, "--scale", metavar="NAME=FACTOR",
+    help="Multiply a signal after renaming: NAME=FACTOR (repeatable), e.g. u=35.15 for V to N.",
 )
-UNIT_OPTION = typer.Option(None, "--unit", help="Unit of a signal: NAME=UNIT (repeatable), e.g. u=N, x=m.")
-SKIP_ROWS_OPTION = typer.Option(0, "--skip-rows", min=0, help="CSV: lines to skip before the header row.")
+UNIT_OPTION = typer.Option(
+    None, "--unit", metavar="NAME=UNIT",
+    help="Unit of a signal: NAME=UNIT (repeatable), e.g. u=N, x=m.",
+)
+SKIP_ROWS_OPTION = typer.Option(0, "--skip-rows", min=0, metavar="N", help="CSV: lines to skip before the header row.")
 
 
 @dataclass(frozen=True)

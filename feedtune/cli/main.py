@@ -19,6 +19,7 @@ from . import (
     design_gantry_cmd,
     export_cmd,
     frf_cmd,
+    help_text,
     identify_cmd,
     identify_gantry_cmd,
     log_cmd,
@@ -31,11 +32,13 @@ from . import (
 )
 
 app = typer.Typer(
-    rich_markup_mode=None,
+    rich_markup_mode="rich",
     name="feedtune",
     help="Identify and tune precision feed drives: ball-screw drives and linear-motor gantries.",
+    epilog="Start with [bold]feedtune demo --out demo_out[/bold] (the main job on the ball-screw twin, no input "
+           "files); every command's --help ends with an example that runs from the repository root.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,
     pretty_exceptions_enable=False,
     context_settings={"help_option_names": ["-h", "--help"]},
 )
@@ -77,6 +80,55 @@ app.add_typer(simulate_cmd.app, name="simulate")
 app.command("trajectory")(trajectory_cmd.trajectory)
 app.command("demo")(demo_cmd.demo)
 app.add_typer(log_cmd.app, name="log")
+help_text.prepare_help(app)
+
+
+DEPRECATED_OPTIONS = {
+    ("simulate", "gantry", "frf"): {"--keep-delay": "--keep-sampling"},
+    ("simulate", "gantry", "axis-frf"): {"--keep-delay": "--keep-sampling"},
+    ("design", "gantry"): {"--x": "--design-x"},
+    ("design", "pid"): {"--x": "--design-x"},
+}
+"""Old spellings still accepted, per command, with a warning on stderr; the help shows only the new one. One idea, one
+spelling: ``--keep-sampling`` keeps the ZOH and the computational delay in a simulated FRF (as ``simulate frf``;
+``frf --remove-sampling`` is its counterpart for logs), ``--design-x`` is the table position a gantry design is made
+at (as ``tune``, where ``--x`` gives the FRFs' positions)."""
+
+
+def renamed_options(args: list[str]) -> list[str]:
+    """``args`` with the deprecated option spellings of :data:`DEPRECATED_OPTIONS` replaced (``--x 0.1`` and
+    ``--x=0.1``), each announced once on stderr; arguments after ``--`` are left alone."""
+    path = []
+    for a in args:
+        if a.startswith("-"):
+            break
+        path.append(a)
+    renames = next((r for command, r in DEPRECATED_OPTIONS.items() if tuple(path[:len(command)]) == command), None)
+    if not renames:
+        return list(args)
+    out: list[str] = []
+    for i, a in enumerate(args):
+        if a == "--":
+            return out + list(args[i:])
+        name, eq, value = a.partition("=")
+        if name in renames:
+            typer.echo(f"feedtune: warning: {name} is deprecated; use {renames[name]}", err=True)
+            a = renames[name] + eq + value
+        out.append(a)
+    return out
+
+
+def _invocation() -> dict:
+    """Keyword arguments of the command line's run beyond the defaults: the arguments when a deprecated spelling was
+    renamed (:func:`renamed_options`), and the program name ``feedtune`` under ``python -m feedtune`` (usage lines,
+    the completion variable ``_FEEDTUNE_COMPLETE``)."""
+    extra: dict = {}
+    args = renamed_options(sys.argv[1:])
+    if args != sys.argv[1:]:
+        extra["args"] = args
+    if getattr(sys.modules.get("__main__"), "__package__", None) == "feedtune":
+        extra["prog_name"] = "feedtune"
+    return extra
 
 
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")
@@ -130,6 +182,7 @@ def main() -> None:
 
     for name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
+    os.environ.setdefault("FEEDTUNE_JOBS", "auto")  # independent steps side by side (feedtune.workflows.parallel)
     _RECEIVED.clear()
     handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGINT)}
     signal.signal(signal.SIGTERM, _on_signal)
@@ -147,14 +200,14 @@ def main() -> None:
 def _run() -> None:
     """Run the command line and turn its outcome into an exit code (:func:`main`)."""
 
-    from ..errors import FeedtuneError
+    from ..errors import FeedtuneError, cli_message
 
     try:
-        code = app(standalone_mode=False)
+        code = app(standalone_mode=False, **_invocation())
     except FeedtuneError as exc:
         if _RECEIVED:
             _exit_signalled(_RECEIVED[0])
-        typer.echo(f"feedtune: error: {exc}", err=True)
+        typer.echo(f"feedtune: error: {cli_message(exc)}", err=True)  # parameters named by their options
         sys.exit(exc.exit_code)
     except (KeyboardInterrupt, typer.Abort):
         typer.echo("feedtune: interrupted", err=True)

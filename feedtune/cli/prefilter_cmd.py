@@ -11,20 +11,41 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .common import FORCE_OPTION, JSON_OPTION, fmt
+from .envelope import emit, quantities
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
+from .progress_display import QUIET_OPTION, show_progress
 
 
 def prefilter(
-    log_file: Path = typer.Argument(..., help="Tracking log (CSV, MATLAB, MDF4) with x_ref [m] and e2 or x2."),
-    gains: Path = typer.Option(None, "--gains", "-g", help="Gains file the run used (lead, sample rate; --out copy)."),
-    out: Path = typer.Option(None, "--out", "-o", help="Gains file to write: --gains plus [prefilter] (.toml+.json)."),
-    lpf_hz: float = typer.Option(80.0, "--lpf-hz", help="Pole frequency of the low-pass G in eq. 3.19 [Hz]."),
-    orders: str = typer.Option("vel,acc,jerk,snap", "--orders", help="Terms to fit, comma separated."),
-    reference: str = typer.Option("x_ref", "--reference", help="Reference position signal [m] (v_ref.. used too)."),
-    error: str = typer.Option(None, "--error", help="Tracking error signal reference - measured [m] (default e2)."),
+    log_file: Path = typer.Argument(
+        ..., metavar="LOG",
+        help="Tracking log (CSV, MATLAB, MDF4) with x_ref [m] and e2 or x2.",
+    ),
+    gains: Path = typer.Option(
+        None, "--gains", "-g", metavar="GAINS",
+        help="Gains file the run used (lead, sample rate; --out copy).",
+    ),
+    out: Path = typer.Option(
+        None, "--out", "-o", metavar="FILE",
+        help="Gains file to write: --gains plus [prefilter] (.toml+.json).",
+    ),
+    lpf_hz: float = typer.Option(
+        80.0, "--lpf-hz", metavar="HZ",
+        help="Pole frequency of the low-pass G in eq. 3.19 [Hz].",
+    ),
+    orders: str = typer.Option("vel,acc,jerk,snap", "--orders", metavar="TERMS", help="Terms to fit, comma separated."),
+    reference: str = typer.Option(
+        "x_ref", "--reference", metavar="COLUMN",
+        help="Reference position signal [m] (v_ref.. used too).",
+    ),
+    error: str = typer.Option(
+        None, "--error", metavar="COLUMN",
+        help="Tracking error signal reference - measured [m] (default e2).",
+    ),
     position: str = typer.Option(
-        None, "--position", help="Measured table position, when there is no error signal (default x2_table, x2)."
+        None, "--position", metavar="COLUMN",
+        help="Measured table position, when there is no error signal (default x2_table, x2).",
     ),
     refine: bool = typer.Option(
         False, "--refine", help="The run already used the pre-filter of --gains: add the new gains to its gains."
@@ -37,8 +58,12 @@ def prefilter(
     skip_rows: int = SKIP_ROWS_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Fit the least-squares trajectory pre-filter to one tracking run and add it to a gains file (eq. 3.16-3.20)."""
+    """Fit the trajectory pre-filter to one tracking run.
+
+    Fit the least-squares trajectory pre-filter to one tracking run and add it to a gains file (eq. 3.16-3.20)."""
+    show_progress(quiet)
     from ..design.prefilter import fit_prefilter
     from ..errors import UsageError
     from ..io import read_document, write_document
@@ -64,8 +89,8 @@ def prefilter(
         if out is not None:
             write_document(out, new_doc, force=force)
             result["out"] = str(out)
-    if as_json:
-        print_json(result)
+    if as_json:  # the fitted gains [s, s^2, s^3, s^4] with their standard deviations (null: not fitted)
+        emit({**result, "gains": quantities(result["gains"], result["units"], result["std"])})
     else:
         _summary(result, fit)
 
@@ -120,7 +145,7 @@ def _summary(result: dict, fit) -> None:
         std = fit.std.get(name)
         extra = f"  (std {fmt(std, unit, 2)}; from {fit.sources.get(_order(name), '-')})" if std is not None else \
             "  (not fitted)"
-        typer.echo(f"  {name:7s} = {fmt(fit.gains[name], unit, 5)}{extra}")
+        typer.echo(f"  {name:7s} = {fmt(fit.gains[name], unit)}{extra}")
     typer.echo(f"  tracking error RMS {fmt(fit.error_rms * factor, shown)}; correlated with the reference "
                f"derivatives {fmt(fit.fitted_rms * factor, shown)}")
     typer.echo(f"  achievable RMS with the pre-filter {fmt(fit.residual_rms * factor, shown)} "

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .common import FORCE_OPTION, JSON_OPTION
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -24,6 +24,7 @@ from .log_options import (
     UNIT_OPTION,
     LogOptions,
 )
+from .progress_display import QUIET_OPTION, show_progress
 
 HTML_SUFFIXES = (".html", ".htm")
 
@@ -42,14 +43,15 @@ def check_report_paths(out: Path, pdf: bool, force: bool) -> list[Path]:
 
 def report(
     inputs: list[Path] = typer.Argument(
-        ..., help="Model, gains, FRF and log files, or folders holding them (classified by content)."
+        ..., metavar="FILE", help="Model, gains, FRF and log files, or folders holding them (classified by content)."
     ),
-    out: Path = typer.Option(..., "--out", "-o", help="HTML file to write (.html)."),
+    out: Path = typer.Option(..., "--out", "-o", metavar="FILE", help="HTML file to write (.html)."),
     pdf: bool = typer.Option(False, "--pdf", help="Also write a PDF with the same figures and tables (OUT.pdf)."),
-    title: str = typer.Option(None, "--title", help="Report title."),
+    title: str = typer.Option(None, "--title", metavar="TEXT", help="Report title."),
     log_kind: list[str] = typer.Option(
-        None, "--log-kind", help="FILE=KIND: what run a log holds (track, cut, ropesnap, contour, friction; frf and "
-        "mass logs are listed only), for logs without feedtune metadata; repeatable."
+        None, "--log-kind", metavar="FILE=KIND",
+        help="FILE=KIND: what run a log holds (track, cut, ropesnap, contour, friction; frf and mass logs are listed "
+             "only), for logs without feedtune metadata; repeatable.",
     ),
     strict: bool = typer.Option(
         False, "--strict", help="Files in a folder that cannot be read or classified are errors, not warnings."
@@ -67,12 +69,16 @@ def report(
     dm_min: float = DM_MIN_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Build a report: summary, identification, design and time-domain sections for the files given.
+    """Build one HTML report from model, gains, FRF and log files.
+
+    Build a report: summary, identification, design and time-domain sections for the files given.
 
     The log options (--map, --scale, --unit, --time, --fs, --skip-rows) apply to the log files named on the command
     line, as for 'feedtune analyze track' (e.g. --map x_ref=cmd --map x2_table=pos for a foreign tracking log);
     logs inside folders are read as feedtune logs."""
+    show_progress(quiet)
     from ..report.build import build_report, write_report
     from ..report.collect import parse_log_kinds
     from ..report.sections import ReportLimits
@@ -85,7 +91,9 @@ def report(
     written = write_report(built, out, pdf=pdf, force=force)
     result = report_summary(built, written)
     if as_json:
-        print_json(result)
+        from .envelope import emit
+
+        emit(result)
         return
     typer.echo(f"report with {result['figures']} figures and {result['tables']} tables: "
                + ", ".join(result["sections"]))

@@ -35,14 +35,15 @@ FS_OVERRIDE_OPTION = typer.Option(
     help="Proceed (with a warning) when the target's sample rate disagrees by more than 0.1 % with the rate an FRF "
          "file records (its sampling_fs_hz); without it that is an error.")
 DELAY_OPTION = typer.Option(
-    None, "--delay-samples",
-    help="Computational delay [samples] (default: the one an FRF file records, sampling_delay_samples, else 1).")
+    None, "--delay-samples", metavar="N",
+    help="Computational delay [samples] (default: the one an FRF file records, sampling_delay_samples, else 1).",
+)
 
 
 def fs_option(default: str) -> typer.models.OptionInfo:
     """The ``--fs`` option (default None: "not given"), its help naming the command's ``default`` rate."""
-    return typer.Option(None, "--fs", help=f"Sample rate of the target [Hz] (default: the rate the FRF files record, "
-                                           f"sampling_fs_hz, else {default}).")
+    return typer.Option(None, "--fs", metavar="HZ", help="Sample rate of the target [Hz] (default: the rate the FRF "
+                                                         f"files record, sampling_fs_hz, else {default}).")
 
 
 @dataclass(frozen=True)
@@ -90,8 +91,11 @@ class TargetSampling:
 
     def report(self, as_json: bool, command: str = "") -> None:
         """In a summary: the warnings on stderr, and the line of :meth:`describe` when the rate is a default or an
-        FRF's, or the delay an FRF's. With ``--json`` nothing: the result carries them (:meth:`to_json`), and
-        stdout stays one JSON object also where stderr is merged into it."""
+        FRF's, or the delay an FRF's. With ``--json`` nothing: the result carries them (:meth:`to_json`, and the
+        envelope's ``warnings``), and stdout stays one JSON object also where stderr is merged into it."""
+        from .envelope import collect
+
+        collect(*self.warnings)
         if as_json:
             return
         for w in self.warnings:

@@ -6,21 +6,28 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt, print_json
+from ..control.names import controller_name
+from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt
+from .help_text import ENGINES, EXCITATIONS, choice
+from .progress_display import QUIET_OPTION, show_progress
 from .twin_options import twin_from_options
 
 app = typer.Typer(
-    rich_markup_mode=None,
-    help="Run experiments on the digital twins (ball screw; gantry ...); write logs (and FRFs).",
+    rich_markup_mode="rich",
+    help="Run experiments on the ball-screw and gantry digital twins.\n\nEvery experiment writes the log a bench "
+         "test would (and the FRF of an FRF measurement).",
     no_args_is_help=True,
 )
 
-MACHINE_OPTION = typer.Option("ballscrew", "--machine", help="Machine kind of the twin (ballscrew).")
+MACHINE_OPTION = typer.Option(
+    "ballscrew", "--machine", **choice(("ballscrew",)),
+    help="Machine kind of the twin (ballscrew).",
+)
 PARAM_OPTION = typer.Option(
     None,
     "--param",
     "-p",
-    help="Twin parameter NAME=VALUE (repeatable), e.g. current_loop_hz=500, k=250, "
+    metavar="NAME=VALUE", help="Twin parameter NAME=VALUE (repeatable), e.g. current_loop_hz=500, k=250, "
     "friction_motor=none, friction_motor.dc_pos=0.05, noise_m=0; see docs/twin.md.",
 )
 IDEAL_OPTION = typer.Option(
@@ -28,10 +35,16 @@ IDEAL_OPTION = typer.Option(
     "--ideal",
     help="Twin without unmodeled dynamics, friction, quantization, noise or saturation (the 2-mass model alone).",
 )
-SEED_OPTION = typer.Option(0, "--seed", min=0, help="Seed of the measurement noise (and multisine phases).")
-ENGINE_OPTION = typer.Option("auto", "--engine", help="auto, numba or python.")
-OUT_OPTION = typer.Option(..., "--out", "-o", help="Log file to write (.csv).")
-GAINS_OPTION = typer.Option(..., "--gains", "-g", help="Gains file (.toml or .json) from feedtune design.")
+SEED_OPTION = typer.Option(
+    0, "--seed", min=0, metavar="N",
+    help="Seed of the measurement noise (and multisine phases).",
+)
+ENGINE_OPTION = typer.Option("auto", "--engine", **choice(ENGINES), help="auto, numba or python.")
+OUT_OPTION = typer.Option(..., "--out", "-o", metavar="FILE", help="Log file to write (.csv).")
+GAINS_OPTION = typer.Option(
+    ..., "--gains", "-g", metavar="GAINS",
+    help="Gains file (.toml or .json) from feedtune design.",
+)
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -57,7 +70,9 @@ def _finish(result, texts: dict, force: bool, as_json: bool, lines: list[str]) -
     out = result.to_dict()
     out["files"] = [str(p) for p in written]
     if as_json:
-        print_json(out)
+        from .envelope import emit
+
+        emit(out)
     else:
         for line in lines:
             typer.echo(line)
@@ -84,15 +99,27 @@ def _trajectory(trajectory_file, distance, waypoints, v_max, a_max, j_max, s_max
 @app.command("frf")
 def frf(
     out: Path = OUT_OPTION,
-    frf_out: Path = typer.Option(None, "--frf-out", help="FRF file to write (.csv; default OUT_frf.csv)."),
-    excitation: str = typer.Option("multisine", "--excitation", help="multisine, chirp or prbs."),
-    rms: float = typer.Option(1.0, "--rms", help="RMS of the excitation added to the command [V]."),
-    f_lo: float = typer.Option(2.0, "--f-lo", help="Lowest excited frequency [Hz]."),
-    f_hi: float = typer.Option(2000.0, "--f-hi", help="Highest excited frequency [Hz]."),
-    period: float = typer.Option(0.5, "--period", help="Excitation period [s] (line spacing 1/period)."),
-    periods: int = typer.Option(6, "--periods", help="Periods run; the first is dropped as transient."),
-    drift: float = typer.Option(0.05, "--drift", help="Constant table speed during the test [m/s] (0: standstill)."),
-    gains: Path = typer.Option(None, "--gains", "-g", help="Stabilising controller (default: a weak P-PI)."),
+    frf_out: Path = typer.Option(
+        None, "--frf-out", metavar="FILE",
+        help="FRF file to write (.csv; default OUT_frf.csv).",
+    ),
+    excitation: str = typer.Option(
+        "multisine", "--excitation", **choice(EXCITATIONS),
+        help="multisine, chirp or prbs.",
+    ),
+    rms: float = typer.Option(1.0, "--rms", metavar="V", help="RMS of the excitation added to the command [V]."),
+    f_lo: float = typer.Option(2.0, "--f-lo", metavar="HZ", help="Lowest excited frequency [Hz]."),
+    f_hi: float = typer.Option(2000.0, "--f-hi", metavar="HZ", help="Highest excited frequency [Hz]."),
+    period: float = typer.Option(0.5, "--period", metavar="S", help="Excitation period [s] (line spacing 1/period)."),
+    periods: int = typer.Option(6, "--periods", metavar="N", help="Periods run; the first is dropped as transient."),
+    drift: float = typer.Option(
+        0.05, "--drift", metavar="M/S",
+        help="Constant table speed during the test [m/s] (0: standstill).",
+    ),
+    gains: Path = typer.Option(
+        None, "--gains", "-g", metavar="GAINS",
+        help="Stabilising controller (default: a weak P-PI).",
+    ),
     keep_sampling: bool = typer.Option(
         False, "--keep-sampling", help="Keep the zero-order hold and computational delay of the logged u[k] -> x[k] "
         "in the FRF file (default: removed, so the file is the continuous plant the analysis expects)."
@@ -104,12 +131,16 @@ def frf(
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Measure the FRF u -> x1, x2 under a weak stabilising controller; write the log and the FRF.
+    """Measure the ball-screw twin's FRF u -> x1, x2.
+
+    Measure the FRF u -> x1, x2 under a weak stabilising controller; write the log and the FRF.
 
     The FRF file is the continuous plant: the ZOH and the computational delay are divided out unless
     --keep-sampling is given.
     """
+    show_progress(quiet)
     from ..machines.ballscrew.experiments import measure_frf
     from ..workflows.files import experiment_texts
 
@@ -150,16 +181,16 @@ def track(
     gains: Path = GAINS_OPTION,
     out: Path = OUT_OPTION,
     trajectory_file: Path = typer.Option(
-        None, "--trajectory", "-t", help="Trajectory log (.csv from feedtune trajectory) with x_ref [m]."
+        None, "--trajectory", "-t", metavar="LOG", help="Trajectory log (.csv from feedtune trajectory) with x_ref [m]."
     ),
-    distance: float = typer.Option(None, "--distance", help="Move length [m] (instead of --trajectory)."),
-    waypoints: str = typer.Option(None, "--waypoints", help="Comma-separated positions [m]."),
-    v_max: float = typer.Option(0.2, "--v-max", help="Velocity limit [m/s]."),
-    a_max: float = typer.Option(5.0, "--a-max", help="Acceleration limit [m/s^2]."),
-    j_max: float = typer.Option(500.0, "--j-max", help="Jerk limit [m/s^3]."),
-    s_max: float = typer.Option(None, "--s-max", help="Snap limit [m/s^4] (jerk-continuous profile)."),
-    dwell_before: float = typer.Option(0.05, "--dwell-before", help="Rest before the move [s]."),
-    dwell_after: float = typer.Option(0.2, "--dwell-after", help="Rest after the move [s]."),
+    distance: float = typer.Option(None, "--distance", metavar="M", help="Move length [m] (instead of --trajectory)."),
+    waypoints: str = typer.Option(None, "--waypoints", metavar="X1,X2,...", help="Comma-separated positions [m]."),
+    v_max: float = typer.Option(0.2, "--v-max", metavar="M/S", help="Velocity limit [m/s]."),
+    a_max: float = typer.Option(5.0, "--a-max", metavar="M/S^2", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(500.0, "--j-max", metavar="M/S^3", help="Jerk limit [m/s^3]."),
+    s_max: float = typer.Option(None, "--s-max", metavar="M/S^4", help="Snap limit [m/s^4] (jerk-continuous profile)."),
+    dwell_before: float = typer.Option(0.05, "--dwell-before", metavar="S", help="Rest before the move [s]."),
+    dwell_after: float = typer.Option(0.2, "--dwell-after", metavar="S", help="Rest after the move [s]."),
     machine: str = MACHINE_OPTION,
     param: list[str] = PARAM_OPTION,
     ideal: bool = IDEAL_OPTION,
@@ -167,8 +198,12 @@ def track(
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Run a trajectory under the controller of a gains file; the log holds x_ref and derivatives, x1, x2, u."""
+    """Track a trajectory on the ball-screw twin.
+
+    Run a trajectory under the controller of a gains file; the log holds x_ref and derivatives, x1, x2, u."""
+    show_progress(quiet)
     from ..machines.ballscrew.experiments import run_tracking
     from ..workflows.files import experiment_texts
 
@@ -183,8 +218,8 @@ def track(
         []
         if res.tripped
         else [
-            f"tracking with {rt.controller or 'controller'} from {gains}: max error "
-            f"{res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um"
+            f"tracking with {controller_name(rt.controller)} from {gains}: max error "
+            f"{fmt(res.summary['max_um'], 'um')}, RMS {fmt(res.summary['rms_um'], 'um')}"
         ]
     )
     _finish(res, experiment_texts(res, str(out)), force, as_json, lines)
@@ -194,9 +229,12 @@ def track(
 def ropesnap(
     gains: Path = GAINS_OPTION,
     out: Path = OUT_OPTION,
-    force_v: float = typer.Option(0.5, "--rope-force", help="Rope force on the table before the release [V]."),
-    t_release: float = typer.Option(0.6, "--t-release", help="Release time [s]."),
-    after: float = typer.Option(1.0, "--after", help="Time simulated after the release [s]."),
+    force_v: float = typer.Option(
+        0.5, "--rope-force", metavar="V",
+        help="Rope force on the table before the release [V].",
+    ),
+    t_release: float = typer.Option(0.6, "--t-release", metavar="S", help="Release time [s]."),
+    after: float = typer.Option(1.0, "--after", metavar="S", help="Time simulated after the release [s]."),
     machine: str = MACHINE_OPTION,
     param: list[str] = PARAM_OPTION,
     ideal: bool = IDEAL_OPTION,
@@ -204,8 +242,12 @@ def ropesnap(
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Rope snap: a constant table force released at --t-release; the log holds the table displacement and u."""
+    """Rope snap on the ball-screw twin.
+
+    Rope snap: a constant table force released at --t-release; the log holds the table displacement and u."""
+    show_progress(quiet)
     from ..machines.ballscrew.experiments import run_ropesnap
     from ..workflows.files import experiment_texts
 
@@ -217,7 +259,7 @@ def ropesnap(
     if not res.tripped:
         st = res.summary["settling_time_s"]
         lines = [
-            f"rope snap with {rt.controller or 'controller'}: peak {res.summary['peak_um']:.4g} um, 5 % "
+            f"rope snap with {controller_name(rt.controller)}: peak {fmt(res.summary['peak_um'], 'um')}, 5 % "
             f"settling {'not reached' if st is None else f'{st:.4g} s'}"
         ]
     _finish(res, experiment_texts(res, str(out)), force, as_json, lines)
@@ -227,16 +269,16 @@ def ropesnap(
 def cut(
     gains: Path = GAINS_OPTION,
     out: Path = OUT_OPTION,
-    speed: float = typer.Option(0.2, "--speed", help="Feed speed [m/s]."),
-    flutes: int = typer.Option(4, "--flutes", help="Teeth of the end mill."),
-    rpm: float = typer.Option(3500.0, "--rpm", help="Spindle speed [1/min]."),
-    tool_diameter: float = typer.Option(25.4e-3, "--tool-diameter", help="End-mill diameter [m]."),
-    cut_start: float = typer.Option(0.05, "--cut-start", help="Workpiece edge [m of table travel]."),
-    cut_length: float = typer.Option(0.12, "--cut-length", help="Length of the slot [m]."),
-    mean_force: float = typer.Option(0.3, "--mean-force", help="Mean feed force in full engagement [V]."),
-    tooth_force: float = typer.Option(0.3, "--tooth-force", help="Tooth-passing force amplitude [V]."),
-    a_max: float = typer.Option(5.0, "--a-max", help="Acceleration limit [m/s^2]."),
-    j_max: float = typer.Option(500.0, "--j-max", help="Jerk limit [m/s^3]."),
+    speed: float = typer.Option(0.2, "--speed", metavar="M/S", help="Feed speed [m/s]."),
+    flutes: int = typer.Option(4, "--flutes", metavar="N", help="Teeth of the end mill."),
+    rpm: float = typer.Option(3500.0, "--rpm", metavar="RPM", help="Spindle speed [1/min]."),
+    tool_diameter: float = typer.Option(25.4e-3, "--tool-diameter", metavar="M", help="End-mill diameter [m]."),
+    cut_start: float = typer.Option(0.05, "--cut-start", metavar="M", help="Workpiece edge [m of table travel]."),
+    cut_length: float = typer.Option(0.12, "--cut-length", metavar="M", help="Length of the slot [m]."),
+    mean_force: float = typer.Option(0.3, "--mean-force", metavar="V", help="Mean feed force in full engagement [V]."),
+    tooth_force: float = typer.Option(0.3, "--tooth-force", metavar="V", help="Tooth-passing force amplitude [V]."),
+    a_max: float = typer.Option(5.0, "--a-max", metavar="M/S^2", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(500.0, "--j-max", metavar="M/S^3", help="Jerk limit [m/s^3]."),
     machine: str = MACHINE_OPTION,
     param: list[str] = PARAM_OPTION,
     ideal: bool = IDEAL_OPTION,
@@ -244,8 +286,12 @@ def cut(
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Slotting at constant feed (thesis 3.4): cutting force at the tooth-passing frequency entering and leaving."""
+    """Slotting at constant feed on the ball-screw twin.
+
+    Slotting at constant feed (thesis 3.4): cutting force at the tooth-passing frequency entering and leaving."""
+    show_progress(quiet)
     from ..errors import UsageError
     from ..machines.ballscrew.experiments import SlotCut, run_cut
     from ..sim.trajectory import point_to_point
@@ -280,8 +326,8 @@ def cut(
         if res.tripped
         else [
             f"slotting at {speed * 1e3:g} mm/s ({sc.tooth_hz:.4g} Hz tooth passing) "
-            f"with {rt.controller or 'controller'}: "
-            f"max error {res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um"
+            f"with {controller_name(rt.controller)}: "
+            f"max error {fmt(res.summary['max_um'], 'um')}, RMS {fmt(res.summary['rms_um'], 'um')}"
         ]
     )
     _finish(res, experiment_texts(res, str(out)), force, as_json, lines)

@@ -11,31 +11,40 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt, print_json
+from ..control.names import controller_name
+from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt
+from .help_text import ENGINES, FEATURES, SHAPES, TRACKING_TESTS, choice
+from .progress_display import QUIET_OPTION, show_progress
 from .twin_options import twin_from_options
 
 app = typer.Typer(
-    rich_markup_mode=None,
-    help="Run experiments on the linear-motor T-gantry twin (thesis chapter 4); write logs and FRFs.",
+    rich_markup_mode="rich",
+    help="Run experiments on the T-gantry twin (thesis chapter 4).",
     no_args_is_help=True,
 )
 
 PARAM_OPTION = typer.Option(
     None, "--param", "-p",
-    help="Twin parameter NAME=VALUE (repeatable), e.g. k=150e3, base_hz=none, mode320.zeta=0.05, "
+    metavar="NAME=VALUE", help="Twin parameter NAME=VALUE (repeatable), e.g. k=150e3, base_hz=none, mode320.zeta=0.05, "
          "pwm_noise_v=0; see docs/gantry_twin.md.")
 IDEAL_OPTION = typer.Option(False, "--ideal", help="Twin without structural, pitching or base modes, noise, "
                                                    "quantization or saturation (eq. 4.16 alone).")
-SEED_OPTION = typer.Option(0, "--seed", min=0, help="Seed of the noise (and multisine phases).")
-ENGINE_OPTION = typer.Option("auto", "--engine", help="Plant step: auto, numba or python.")
-OUT_OPTION = typer.Option(..., "--out", "-o", help="Log file to write (.csv).")
-GAINS_OPTION = typer.Option(..., "--gains", "-g", help="Gantry gains file (kind gantry) from feedtune design "
-                                                       "gantry|pid.")
-OPT_GAINS_OPTION = typer.Option(None, "--gains", "-g", help="Gantry gains file (kind gantry); default: the built-in "
-                                                            "holding controller (CoM/yaw PID, 20 Hz).")
-AXIS_GAINS_OPTION = typer.Option(None, "--axis-gains", help="x-axis gains file (kind axis) from feedtune design "
-                                                            "loopshape; default: the built-in holding PID.")
-X_OPTION = typer.Option(0.0, "--x", help="Table position [m].")
+SEED_OPTION = typer.Option(0, "--seed", min=0, metavar="N", help="Seed of the noise (and multisine phases).")
+ENGINE_OPTION = typer.Option("auto", "--engine", **choice(ENGINES), help="Plant step: auto, numba or python.")
+OUT_OPTION = typer.Option(..., "--out", "-o", metavar="FILE", help="Log file to write (.csv).")
+GAINS_OPTION = typer.Option(
+    ..., "--gains", "-g", metavar="GAINS",
+    help="Gantry gains file (kind gantry) from feedtune design gantry|pid.",
+)
+OPT_GAINS_OPTION = typer.Option(
+    None, "--gains", "-g", metavar="GAINS",
+    help="Gantry gains file (kind gantry); default: the built-in holding controller (CoM/yaw PID, 20 Hz).",
+)
+AXIS_GAINS_OPTION = typer.Option(
+    None, "--axis-gains", metavar="GAINS",
+    help="x-axis gains file (kind axis) from feedtune design loopshape; default: the built-in holding PID.",
+)
+X_OPTION = typer.Option(0.0, "--x", metavar="M", help="Table position [m].")
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -86,7 +95,9 @@ def _finish(results: list, texts: dict, force: bool, as_json: bool, lines: list[
     out.update(extra or {})
     out["files"] = [str(p) for p in written]
     if as_json:
-        print_json(out)
+        from .envelope import emit
+
+        emit(out)
     else:
         for line in lines:
             typer.echo(line)
@@ -107,16 +118,22 @@ def _log_text(result) -> str:
 @app.command("frf")
 def frf(
     out: Path = OUT_OPTION,
-    x: list[float] = typer.Option(None, "--x", help="Table position [m] (repeatable: one run per position; "
-                                                    "file names get _x<POS> appended)."),
-    frf_out: Path = typer.Option(None, "--frf-out", help="FRF file (.csv; default: the log name + _frf.csv)."),
-    rms: float = typer.Option(0.5, "--rms", help="RMS of the multisine added to u1, then u2 [V]."),
-    f_lo: float = typer.Option(2.0, "--f-lo", help="Lowest excited frequency [Hz]."),
-    f_hi: float = typer.Option(1000.0, "--f-hi", help="Highest excited frequency [Hz]."),
-    period: float = typer.Option(0.5, "--period", help="Multisine period [s] (line spacing 1/period)."),
-    periods: int = typer.Option(4, "--periods", help="Periods per input; the first of each is dropped."),
-    keep_delay: bool = typer.Option(False, "--keep-delay", help="Keep the computational delay and the ZOH half "
-                                                                "sample in the FRF (default: removed)."),
+    x: list[float] = typer.Option(
+        None, "--x", metavar="M",
+        help="Table position [m] (repeatable: one run per position; file names get _x<POS> appended).",
+    ),
+    frf_out: Path = typer.Option(
+        None, "--frf-out", metavar="FILE",
+        help="FRF file (.csv; default: the log name + _frf.csv).",
+    ),
+    rms: float = typer.Option(0.5, "--rms", metavar="V", help="RMS of the multisine added to u1, then u2 [V]."),
+    f_lo: float = typer.Option(2.0, "--f-lo", metavar="HZ", help="Lowest excited frequency [Hz]."),
+    f_hi: float = typer.Option(1000.0, "--f-hi", metavar="HZ", help="Highest excited frequency [Hz]."),
+    period: float = typer.Option(0.5, "--period", metavar="S", help="Multisine period [s] (line spacing 1/period)."),
+    periods: int = typer.Option(4, "--periods", metavar="N", help="Periods per input; the first of each is dropped."),
+    keep_delay: bool = typer.Option(False, "--keep-sampling", help="Keep the computational delay and the ZOH half "
+                                                                   "sample in the FRF (default: removed, so the file "
+                                                                   "is the continuous plant the analysis expects)."),
     gains: Path = OPT_GAINS_OPTION,
     axis_gains: Path = AXIS_GAINS_OPTION,
     param: list[str] = PARAM_OPTION,
@@ -125,8 +142,12 @@ def frf(
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Measure the 2x2 FRF (u1, u2) -> (y1, y2) [m/V] at each table position under a stabilising controller."""
+    """Measure the gantry twin's 2x2 FRF at each table position.
+
+    Measure the 2x2 FRF (u1, u2) -> (y1, y2) [m/V] at each table position under a stabilising controller."""
+    show_progress(quiet)
     from ..io.frf_csv import frf_to_csv_text
     from ..machines.gantry.experiments import measure_gantry_frf
 
@@ -160,14 +181,18 @@ def frf(
 def axis_frf(
     out: Path = OUT_OPTION,
     x: float = X_OPTION,
-    frf_out: Path = typer.Option(None, "--frf-out", help="FRF file (.csv; default: the log name + _frf.csv)."),
-    rms: float = typer.Option(0.5, "--rms", help="RMS of the multisine added to ux [V]."),
-    f_lo: float = typer.Option(2.0, "--f-lo", help="Lowest excited frequency [Hz]."),
-    f_hi: float = typer.Option(1000.0, "--f-hi", help="Highest excited frequency [Hz]."),
-    period: float = typer.Option(0.5, "--period", help="Multisine period [s] (line spacing 1/period)."),
-    periods: int = typer.Option(4, "--periods", help="Periods; the first is dropped."),
-    keep_delay: bool = typer.Option(False, "--keep-delay", help="Keep the computational delay and the ZOH half "
-                                                                "sample in the FRF (default: removed)."),
+    frf_out: Path = typer.Option(
+        None, "--frf-out", metavar="FILE",
+        help="FRF file (.csv; default: the log name + _frf.csv).",
+    ),
+    rms: float = typer.Option(0.5, "--rms", metavar="V", help="RMS of the multisine added to ux [V]."),
+    f_lo: float = typer.Option(2.0, "--f-lo", metavar="HZ", help="Lowest excited frequency [Hz]."),
+    f_hi: float = typer.Option(1000.0, "--f-hi", metavar="HZ", help="Highest excited frequency [Hz]."),
+    period: float = typer.Option(0.5, "--period", metavar="S", help="Multisine period [s] (line spacing 1/period)."),
+    periods: int = typer.Option(4, "--periods", metavar="N", help="Periods; the first is dropped."),
+    keep_delay: bool = typer.Option(False, "--keep-sampling", help="Keep the computational delay and the ZOH half "
+                                                                   "sample in the FRF (default: removed, so the file "
+                                                                   "is the continuous plant the analysis expects)."),
     gains: Path = OPT_GAINS_OPTION,
     axis_gains: Path = AXIS_GAINS_OPTION,
     param: list[str] = PARAM_OPTION,
@@ -176,8 +201,12 @@ def axis_frf(
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Measure the x-axis FRF ux -> x [m/V] (for feedtune design loopshape FRF)."""
+    """Measure the gantry twin's x-axis FRF ux -> x.
+
+    Measure the x-axis FRF ux -> x [m/V] (for feedtune design loopshape FRF)."""
+    show_progress(quiet)
     from ..io.frf_csv import frf_to_csv_text
     from ..machines.gantry.experiments import measure_axis_frf
 
@@ -202,14 +231,17 @@ def axis_frf(
 @app.command("mass")
 def mass(
     out: Path = OUT_OPTION,
-    x: list[float] = typer.Option(None, "--x", help="Table position [m] (repeatable; file names get _x<POS>)."),
+    x: list[float] = typer.Option(
+        None, "--x", metavar="M",
+        help="Table position [m] (repeatable; file names get _x<POS>).",
+    ),
     axis_run: bool = typer.Option(True, "--axis/--no-axis", help="Also run the table back and forth "
                                                                  "(OUT_axis.csv) for m_x."),
-    distance: float = typer.Option(0.1, "--distance", help="Length of the back-and-forth move [m]."),
-    v_max: float = typer.Option(0.1, "--v-max", help="Velocity limit [m/s]."),
-    a_max: float = typer.Option(0.5, "--a-max", help="Acceleration limit [m/s^2]."),
-    j_max: float = typer.Option(2.5, "--j-max", help="Jerk limit [m/s^3]."),
-    cycles: int = typer.Option(1, "--cycles", help="Back-and-forth cycles."),
+    distance: float = typer.Option(0.1, "--distance", metavar="M", help="Length of the back-and-forth move [m]."),
+    v_max: float = typer.Option(0.1, "--v-max", metavar="M/S", help="Velocity limit [m/s]."),
+    a_max: float = typer.Option(0.5, "--a-max", metavar="M/S^2", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(2.5, "--j-max", metavar="M/S^3", help="Jerk limit [m/s^3]."),
+    cycles: int = typer.Option(1, "--cycles", metavar="N", help="Back-and-forth cycles."),
     gains: Path = OPT_GAINS_OPTION,
     axis_gains: Path = AXIS_GAINS_OPTION,
     param: list[str] = PARAM_OPTION,
@@ -218,8 +250,12 @@ def mass(
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Mass runs: slow y moves at each table position (u1, u2, ay_ref logged) for feedtune identify mass."""
+    """Mass runs on the gantry twin, for identify mass.
+
+    Mass runs: slow y moves at each table position (u1, u2, ay_ref logged) for feedtune identify mass."""
+    show_progress(quiet)
     from ..machines.gantry.experiments import run_axis_mass, run_mass
 
     _check_csv(out)
@@ -250,18 +286,24 @@ def ropesnap(
     out: Path = OUT_OPTION,
     axis_gains: Path = AXIS_GAINS_OPTION,
     x: float = X_OPTION,
-    force_n: float = typer.Option(57.0, "--rope-force", help="Rope force on the table before the release [N] "
-                                                             "(converted with force_constant_n_per_v)."),
-    t_release: float = typer.Option(0.5, "--t-release", help="Release time [s]."),
-    after: float = typer.Option(0.5, "--after", help="Time simulated after the release [s]."),
+    force_n: float = typer.Option(
+        57.0, "--rope-force", metavar="N",
+        help="Rope force on the table before the release [N] (converted with force_constant_n_per_v).",
+    ),
+    t_release: float = typer.Option(0.5, "--t-release", metavar="S", help="Release time [s]."),
+    after: float = typer.Option(0.5, "--after", metavar="S", help="Time simulated after the release [s]."),
     param: list[str] = PARAM_OPTION,
     ideal: bool = IDEAL_OPTION,
     seed: int = SEED_OPTION,
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Rope snap (thesis 4.5): a table force released at --t-release; logs the table displacement y_table."""
+    """Rope snap on the gantry twin.
+
+    Rope snap (thesis 4.5): a table force released at --t-release; logs the table displacement y_table."""
+    show_progress(quiet)
     from ..machines.gantry.experiments import run_gantry_ropesnap
 
     _check_csv(out)
@@ -272,8 +314,9 @@ def ropesnap(
     lines = []
     if not res.tripped:
         st = res.summary["settling_time_s"]
-        lines = [f"rope snap ({fmt(force_n, 'N')} = {fmt(res.summary['force_V'], 'V')}) with {g.controller}: "
-                 f"peak {res.summary['peak_um']:.4g} um, 5 % settling "
+        lines = [f"rope snap ({fmt(force_n, 'N')} = {fmt(res.summary['force_V'], 'V')}) with "
+                 f"{controller_name(g.controller)}: "
+                 f"peak {fmt(res.summary['peak_um'], 'um')}, 5 % settling "
                  f"{'not reached' if st is None else f'{st:.4g} s'}"]
     _finish([res], {str(out): _log_text(res)}, force, as_json, lines)
 
@@ -284,23 +327,30 @@ def track(
     out: Path = OUT_OPTION,
     axis_gains: Path = AXIS_GAINS_OPTION,
     x: float = X_OPTION,
-    test: str = typer.Option(None, "--test", help="Thesis test: 1mm_s (1 mm/s, 2.8 mm/s^2, 10 mm/s^3, 2 mm) or "
-                                                  "200mm_s (200 mm/s, 2 m/s^2, 50 m/s^3, 100 mm)."),
-    distance: float = typer.Option(0.1, "--distance", help="Move length [m] (without --test)."),
-    v_max: float = typer.Option(0.2, "--v-max", help="Velocity limit [m/s]."),
-    a_max: float = typer.Option(2.0, "--a-max", help="Acceleration limit [m/s^2]."),
-    j_max: float = typer.Option(50.0, "--j-max", help="Jerk limit [m/s^3]."),
-    s_max: float = typer.Option(None, "--s-max", help="Snap limit [m/s^4] (jerk-continuous profile)."),
-    dwell_before: float = typer.Option(0.05, "--dwell-before", help="Rest before the move [s]."),
-    dwell_after: float = typer.Option(0.2, "--dwell-after", help="Rest after the move [s]."),
+    test: str = typer.Option(
+        None, "--test", **choice(TRACKING_TESTS),
+        help="Thesis test: 1mm_s (1 mm/s, 2.8 mm/s^2, 10 mm/s^3, 2 mm) or 200mm_s (200 mm/s, 2 m/s^2, 50 m/s^3, 100 "
+             "mm).",
+    ),
+    distance: float = typer.Option(0.1, "--distance", metavar="M", help="Move length [m] (without --test)."),
+    v_max: float = typer.Option(0.2, "--v-max", metavar="M/S", help="Velocity limit [m/s]."),
+    a_max: float = typer.Option(2.0, "--a-max", metavar="M/S^2", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(50.0, "--j-max", metavar="M/S^3", help="Jerk limit [m/s^3]."),
+    s_max: float = typer.Option(None, "--s-max", metavar="M/S^4", help="Snap limit [m/s^4] (jerk-continuous profile)."),
+    dwell_before: float = typer.Option(0.05, "--dwell-before", metavar="S", help="Rest before the move [s]."),
+    dwell_after: float = typer.Option(0.2, "--dwell-after", metavar="S", help="Rest after the move [s]."),
     param: list[str] = PARAM_OPTION,
     ideal: bool = IDEAL_OPTION,
     seed: int = SEED_OPTION,
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Track a y move with the table at --x; logs y_ref and derivatives, y1, y2, u1, u2 and the errors e1, e2."""
+    """Track a y move on the gantry twin.
+
+    Track a y move with the table at --x; logs y_ref and derivatives, y1, y2, u1, u2 and the errors e1, e2."""
+    show_progress(quiet)
     from ..machines.gantry.experiments import run_gantry_tracking, tracking_trajectory
 
     _check_csv(out)
@@ -311,35 +361,48 @@ def track(
     tr = tracking_trajectory(move, twin.fs, dwell_before=dwell_before, dwell_after=dwell_after)
     res = run_gantry_tracking(twin, g, tr, a, x=x, seed=seed, engine=engine)
     lines = [] if res.tripped else [
-        f"tracking {tr.limits['v_max'] * 1e3:g} mm/s at x = {x:g} m with {g.controller}: max error "
-        f"{res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um (y1 and y2)"]
+        f"tracking {tr.limits['v_max'] * 1e3:g} mm/s at x = {x:g} m with {controller_name(g.controller)}: max error "
+        f"{fmt(res.summary['max_um'], 'um')}, RMS {fmt(res.summary['rms_um'], 'um')} (y1 and y2)"]
     _finish([res], {str(out): _log_text(res)}, force, as_json, lines)
 
 
 @app.command("contour")
 def contour(
     gains: Path = GAINS_OPTION,
-    axis_gains: Path = typer.Option(..., "--axis-gains", help="x-axis gains file (kind axis) from feedtune design "
-                                                              "loopshape."),
+    axis_gains: Path = typer.Option(
+        ..., "--axis-gains", metavar="GAINS",
+        help="x-axis gains file (kind axis) from feedtune design loopshape.",
+    ),
     out: Path = OUT_OPTION,
-    shape: str = typer.Option("circle", "--shape", help="circle or diamond."),
-    feature: str = typer.Option(None, "--feature", help="Thesis test: 1um, 1mm or 200mm (size, feed and limits "
-                                                        "of 4.5)."),
-    size: float = typer.Option(0.2, "--size", help="Circle diameter or diamond side [m] (without --feature)."),
-    v_max: float = typer.Option(0.2, "--v-max", help="Feed limit [m/s]."),
-    a_max: float = typer.Option(2.0, "--a-max", help="Tangential acceleration limit [m/s^2]."),
-    j_max: float = typer.Option(50.0, "--j-max", help="Tangential jerk limit [m/s^3]."),
+    shape: str = typer.Option("circle", "--shape", **choice(SHAPES), help="circle or diamond."),
+    feature: str = typer.Option(
+        None, "--feature", **choice(FEATURES),
+        help="Thesis test: 1um, 1mm or 200mm (size, feed and limits of 4.5).",
+    ),
+    size: float = typer.Option(
+        0.2, "--size", metavar="M",
+        help="Circle diameter or diamond side [m] (without --feature).",
+    ),
+    v_max: float = typer.Option(0.2, "--v-max", metavar="M/S", help="Feed limit [m/s]."),
+    a_max: float = typer.Option(2.0, "--a-max", metavar="M/S^2", help="Tangential acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(50.0, "--j-max", metavar="M/S^3", help="Tangential jerk limit [m/s^3]."),
     clockwise: bool = typer.Option(False, "--clockwise", help="Run clockwise (default counter-clockwise)."),
-    x0: float = typer.Option(0.1, "--x0", help="Table position at the start point [m] (circle: its rightmost "
-                                               "point; diamond: its lowest corner)."),
+    x0: float = typer.Option(
+        0.1, "--x0", metavar="M",
+        help="Table position at the start point [m] (circle: its rightmost point; diamond: its lowest corner).",
+    ),
     param: list[str] = PARAM_OPTION,
     ideal: bool = IDEAL_OPTION,
     seed: int = SEED_OPTION,
     engine: str = ENGINE_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """x-y contour: the table on x under --axis-gains, the gantry on y under --gains; logs the contour error."""
+    """Run an x-y contour on the gantry twin.
+
+    x-y contour: the table on x under --axis-gains, the gantry on y under --gains; logs the contour error."""
+    show_progress(quiet)
     from ..machines.gantry.experiments import run_contour
     from ..sim.contour import THESIS_FEATURES, contour_path
 
@@ -357,6 +420,7 @@ def contour(
                         fs=twin.fs, start=(x0, 0.0), clockwise=clockwise, dwell_before=0.05, dwell_after=0.2)
     res = run_contour(twin, g, a, path, seed=seed, engine=engine)
     lines = [] if res.tripped else [
-        f"{path.shape} {path.size_m * 1e3:g} mm at {lim['v_max'] * 1e3:g} mm/s with {g.controller}: contour "
-        f"error max {res.summary['max_um']:.4g} um, RMS {res.summary['rms_um']:.4g} um"]
+        f"{path.shape} {path.size_m * 1e3:g} mm at {lim['v_max'] * 1e3:g} mm/s with {controller_name(g.controller)}: "
+        f"contour "
+        f"error max {fmt(res.summary['max_um'], 'um')}, RMS {fmt(res.summary['rms_um'], 'um')}"]
     _finish([res], {str(out): _log_text(res)}, force, as_json, lines)

@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import typer
 
+from ..control.names import CONTROLLER_NAMES, controller_name
 from .common import fmt
 
-CONTROLLER_NAMES = {"mcppc": "MC-PPC", "ppi": "P-PI", "mimo": "gantry MIMO", "pid": "gantry PID",
-                    "loopshape": "x-axis loop shaping"}
-"""Display names of the controllers (one vocabulary for CLI, report and docs)."""
+__all__ = ["CONTROLLER_NAMES", "print_design_summary"]
 MAX_LISTED = 4
 """Crossovers and bands listed per case before ``+N more``."""
 
@@ -43,17 +42,19 @@ def _worst_freq(entries: list[dict], key: str, value) -> float | None:
 
 
 def print_design_summary(result: dict) -> None:
-    """Print the gains and the per-case table of a design or analysis result (``--json`` layout)."""
-    controller = result.get("controller", result.get("kind"))
-    name = CONTROLLER_NAMES.get(controller, str(controller))
+    """Print the gains and the per-case table of a design or analysis result (``--json`` layout: ``gains`` as
+    ``{"value", "unit", "std"}`` entries, or plain numbers in ``gain_units``)."""
+    controller = result.get("controller", result.get("gains_kind"))
+    name = controller_name(controller)
     units = result.get("gain_units", {})
     typer.echo(f"{name} gains:")
     for k, v in result["gains"].items():
-        typer.echo(f"  {k:9s} = {fmt(v, units.get(k, ''), 6)}")
+        value, unit = (v["value"], v["unit"]) if isinstance(v, dict) else (v, units.get(k, ""))
+        typer.echo(f"  {k:9s} = {fmt(value, unit, 6)}")
     for stage in result.get("lead_stages", []):
         typer.echo(f"  lead stage {stage['phase_deg']:.1f} deg at {stage['center_hz']:.4g} Hz "
                    f"(zero {stage['zero_hz']:.4g} Hz, pole {stage['pole_hz']:.4g} Hz, gamma {stage['gamma']:.3g})")
-    gantry = result.get("kind") == "gantry"
+    gantry = result.get("gains_kind", result.get("kind")) == "gantry"
     head = "CoM crossovers [Hz]" if gantry else "crossovers [Hz]"
     typer.echo(f"{'case':15s} {head:30s} {'PM [deg] @Hz':>15s} {'GM [dB] @Hz':>15s} "
                f"{'Ms @Hz':>14s} {'disk':>5s}  {'|S|<1 bands [Hz]':28s} stable")
@@ -74,8 +75,18 @@ def print_design_summary(result: dict) -> None:
                    "margins of the CoM loop alpha^T L [1 1]^T; disk = balanced disk margin")
     else:
         typer.echo("PM, GM: the worst over every crossover; disk = balanced disk margin alpha")
+    print_case_legend(result["analysis"])
     ideal = result["analysis"].get("ideal") or {}
     if ideal.get("disturbance_min_real_rad_per_V") is not None:
         unit = result.get("command_unit", "V")
         typer.echo(f"d2->x2 most negative real part: {ideal['disturbance_min_real_rad_per_V']:.4g} rad/{unit} at "
                    f"{ideal['disturbance_min_real_freq_hz']:.1f} Hz (ideal)")
+
+
+def print_case_legend(cases) -> None:
+    """Two lines naming the analysis cases of ``cases`` by their long titles (the report's)."""
+    from ..analysis.cases import CASE_TITLES
+
+    named = [f"{c} = {CASE_TITLES[c]}" for c in cases if c in CASE_TITLES]
+    for i in range(0, len(named), 2):
+        typer.echo(("cases: " if i == 0 else "       ") + "; ".join(named[i:i + 2]))

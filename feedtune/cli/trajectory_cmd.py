@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, print_json
+from .common import FORCE_OPTION, JSON_OPTION
+from .progress_display import QUIET_OPTION, show_progress
 
 
 def build_trajectory(distance, waypoints, v_max, a_max, j_max, s_max, fs, dwell, dwell_before, dwell_after):
@@ -35,21 +36,31 @@ def build_trajectory(distance, waypoints, v_max, a_max, j_max, s_max, fs, dwell,
 
 
 def trajectory(
-    out: Path = typer.Option(..., "--out", "-o", help="Trajectory log to write (.csv)."),
-    distance: float = typer.Option(None, "--distance", help="Move length [m] (point to point)."),
-    waypoints: str = typer.Option(None, "--waypoints", help="Comma-separated positions [m], e.g. 0,0.1,0."),
-    v_max: float = typer.Option(..., "--v-max", help="Velocity limit [m/s]."),
-    a_max: float = typer.Option(..., "--a-max", help="Acceleration limit [m/s^2]."),
-    j_max: float = typer.Option(..., "--j-max", help="Jerk limit [m/s^3]."),
-    s_max: float = typer.Option(None, "--s-max", help="Snap limit [m/s^4] (jerk-continuous 15-segment profile)."),
-    fs: float = typer.Option(20000.0, "--fs", help="Sample rate [Hz]."),
-    dwell: float = typer.Option(0.0, "--dwell", help="Rest between waypoint moves [s]."),
-    dwell_before: float = typer.Option(0.0, "--dwell-before", help="Rest before a --distance move [s]."),
-    dwell_after: float = typer.Option(0.0, "--dwell-after", help="Rest after a --distance move [s]."),
+    out: Path = typer.Option(..., "--out", "-o", metavar="FILE", help="Trajectory log to write (.csv)."),
+    distance: float = typer.Option(None, "--distance", metavar="M", help="Move length [m] (point to point)."),
+    waypoints: str = typer.Option(
+        None, "--waypoints", metavar="X1,X2,...",
+        help="Comma-separated positions [m], e.g. 0,0.1,0.",
+    ),
+    v_max: float = typer.Option(..., "--v-max", metavar="M/S", help="Velocity limit [m/s]."),
+    a_max: float = typer.Option(..., "--a-max", metavar="M/S^2", help="Acceleration limit [m/s^2]."),
+    j_max: float = typer.Option(..., "--j-max", metavar="M/S^3", help="Jerk limit [m/s^3]."),
+    s_max: float = typer.Option(
+        None, "--s-max", metavar="M/S^4",
+        help="Snap limit [m/s^4] (jerk-continuous 15-segment profile).",
+    ),
+    fs: float = typer.Option(20000.0, "--fs", metavar="HZ", help="Sample rate [Hz]."),
+    dwell: float = typer.Option(0.0, "--dwell", metavar="S", help="Rest between waypoint moves [s]."),
+    dwell_before: float = typer.Option(0.0, "--dwell-before", metavar="S", help="Rest before a --distance move [s]."),
+    dwell_after: float = typer.Option(0.0, "--dwell-after", metavar="S", help="Rest after a --distance move [s]."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Write a reference trajectory (x_ref, v_ref, a_ref, j_ref, s_ref in m, m/s, ...) as a CSV log."""
+    """Write a jerk- or snap-limited reference trajectory (CSV).
+
+    Write a reference trajectory (x_ref, v_ref, a_ref, j_ref, s_ref in m, m/s, ...) as a CSV log."""
+    show_progress(quiet)
     from ..errors import UsageError
     from ..io import write_log_csv
 
@@ -63,7 +74,9 @@ def trajectory(
     result.pop("moves", None)
     result["out"] = str(out)
     if as_json:
-        print_json(result)
+        from .envelope import emit
+
+        emit(result)
         return
     pk = result["peaks"]
     typer.echo(

@@ -15,9 +15,10 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt, print_json
+from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _load_model
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -26,25 +27,42 @@ from .limits_options import (
     PM_MIN_OPTION,
     limits_from_options,
 )
+from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION, target_sampling
 
-FRFS_OPTION = typer.Option(None, "--frf", help="Measured FRF (x1/u, x2/u), repeatable: one per table position or "
-                                               "load. The limits must hold on every one.")
-OUT_OPTION = typer.Option(None, "--out", "-o", help="Gains file to write (.toml or .json), with the certificate.")
-FS_OPTION = typer.Option(None, "--fs", help="Sample rate of the target [Hz] (default: the rate the FRF files record, "
-                                             "sampling_fs_hz, else 20000 for mcppc and ppi, 15000 for gantry, pid "
-                                             "and loopshape).")
+FRFS_OPTION = typer.Option(
+    None, "--frf", metavar="FRF",
+    help="Measured FRF (x1/u, x2/u), repeatable: one per table position or load. The limits must hold on every one.",
+)
+OUT_OPTION = typer.Option(
+    None, "--out", "-o", metavar="FILE",
+    help="Gains file to write (.toml or .json), with the certificate.",
+)
+FS_OPTION = typer.Option(
+    None, "--fs", metavar="HZ",
+    help="Sample rate of the target [Hz] (default: the rate the FRF files record, sampling_fs_hz, else 20000 for "
+         "mcppc and ppi, 15000 for gantry, pid and loopshape).",
+)
 DEFAULT_FS = {"mcppc": 20000.0, "ppi": 20000.0, "gantry": 15000.0, "pid": 15000.0, "loopshape": 15000.0}
-X_OPTION = typer.Option(None, "--x", help="gantry, pid: table position [m] of each --frf, in order (repeatable; "
-                                          "default: the position recorded in each FRF file, x_m).")
-DESIGN_X_OPTION = typer.Option(0.0, "--design-x", help="gantry, pid: table position [m] the design is made at "
-                                                       "(averaging, damping gain, the PIDs' mass scaling).")
-LPF_ORDER_OPTION = typer.Option(None, "--lpf-order", help="Low-pass order, 1 or 2 (default 2 for gantry and pid, "
-                                                          "else 1).")
-LEAD_OPTION = typer.Option(None, "--lead", help="gantry, pid, loopshape: extra lead stage HZ,DEG in the filter pack "
-                                                "(repeatable), e.g. --lead 154,70.")
+X_OPTION = typer.Option(
+    None, "--x", metavar="M",
+    help="gantry, pid: table position [m] of each --frf, in order (repeatable; default: the position recorded in each "
+         "FRF file, x_m).",
+)
+DESIGN_X_OPTION = typer.Option(
+    0.0, "--design-x", metavar="M",
+    help="gantry, pid: table position [m] the design is made at (averaging, damping gain, the PIDs' mass scaling).",
+)
+LPF_ORDER_OPTION = typer.Option(
+    None, "--lpf-order", **choice(LPF_ORDERS),
+    help="Low-pass order, 1 or 2 (default 2 for gantry and pid, else 1).",
+)
+LEAD_OPTION = typer.Option(
+    None, "--lead", metavar="HZ,DEG",
+    help="gantry, pid, loopshape: extra lead stage HZ,DEG in the filter pack (repeatable), e.g. --lead 154,70.",
+)
 FILTERS_OPTION = typer.Option(
-    None, "--filters", metavar="own|identical",
+    None, "--filters", **choice(FILTER_CHOICES),
     help="own: the tuner places notches and a low-pass where they raise the guaranteed crossover (--notch/--lpf "
          "are candidates, and the pack they form as a whole; --lead stages are kept); identical: the pack as "
          "given. Default: identical with --notch or --lpf, else own.")
@@ -109,9 +127,28 @@ def _write_certified(title: str, doc: dict, cert, result: dict, out: Path | None
         write_document(out, doc, force=force)
         result["out"] = str(out)
     if as_json:
-        print_json(result)
+        from .envelope import design_result, emit
+
+        if "gains" not in result:  # the x axis: the gains as the file holds them
+            result = {**result, "gains": {k: v["value"] for k, v in doc["gains"].items()},
+                      "gain_units": {k: v["unit"] for k, v in doc["gains"].items()}}
+        emit(design_result(result, doc.get("kind")), check=certificate_check(cert))
         return True
     return False
+
+
+def certificate_check(cert) -> dict:
+    """The ``check`` of ``tune --json``: the certificate's verdict in the layout of ``design``'s check. ``violations``
+    and ``items`` of every FRF, each named by its FRF; ``active`` the limit closest to binding over all FRFs."""
+    from .limits_options import OPTION_NAMES
+
+    worst = cert.worst()
+    active = worst.get("active_limit")
+    return {"checked_case": cert.frfs[0].checked_case if cert.frfs else None, "ok": cert.ok,
+            "limits": cert.limits.to_dict(),
+            "violations": [f"{c.name}: {v}" for c in cert.frfs for v in c.check.violations_named(OPTION_NAMES)],
+            "items": [{**i.to_dict(), "frf": c.name} for c in cert.frfs for i in c.check.items],
+            "active": None if active is None else active["name"]}
 
 
 def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pack, filters: str | None,
@@ -267,22 +304,24 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
         typer.echo(f"wrote {out}")
 
 
-TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI", "gantry": "gantry MIMO", "pid": "gantry PID pair",
-          "loopshape": "x-axis loop shaping"}
-"""The structures ``feedtune tune`` tunes and their names."""
+TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI", "gantry": "MIMO", "pid": "PID", "loopshape": "x-axis loop shaping"}
+"""The structures ``feedtune tune`` tunes and their names (:data:`feedtune.control.names.CONTROLLER_NAMES`; the
+``gantry`` structure is the MIMO law)."""
 
 
 def tune(
-    structure: str = typer.Argument(..., metavar="STRUCTURE", help="mcppc (MC-PPC: beta, pole frequency, zeta), ppi "
-                                                                   "(P-PI cascade: Kpx, Kpv, Kiv), gantry (MIMO "
-                                                                   "law: CoM crossover, PM target, damping), pid "
-                                                                   "(independent PIDs: bandwidth, zeta, rho) or "
-                                                                   "loopshape (x axis: crossover, PM target, lag, "
-                                                                   "lead stages)."),
-    model_file: Path = typer.Argument(..., help="mcppc, ppi: ball-screw model file ('feedtune identify ballscrew'); "
-                                                "gantry, pid: gantry model file ('feedtune identify gantry'); "
-                                                "loopshape: a model file (a gantry model's m_x, a rigid-body "
-                                                "model's mass) or a measured SISO FRF."),
+    structure: str = typer.Argument(
+        ..., **choice(TITLES, "STRUCTURE"),
+        help="mcppc (MC-PPC: beta, pole frequency, zeta), ppi (P-PI cascade: Kpx, Kpv, Kiv), gantry (MIMO law: CoM "
+             "crossover, PM target, damping), pid (independent PIDs: bandwidth, zeta, rho) or loopshape (x axis: "
+             "crossover, PM target, lag, lead stages).",
+    ),
+    model_file: Path = typer.Argument(
+        ..., metavar="MODEL",
+        help="mcppc, ppi: ball-screw model file ('feedtune identify ballscrew'); gantry, pid: gantry model file "
+             "('feedtune identify gantry'); loopshape: a model file (a gantry model's m_x, a rigid-body model's mass) "
+             "or a measured SISO FRF.",
+    ),
     frf: list[Path] = FRFS_OPTION,
     x: list[float] = X_OPTION,
     design_x: float = DESIGN_X_OPTION,
@@ -307,8 +346,11 @@ def tune(
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
-    """Tune a controller for the highest first crossover that meets the limits on every measured FRF, and certify it.
+    """Tune for every measured FRF under the limits, and certify it.
+
+    Tune a controller for the highest first crossover that meets the limits on every measured FRF, and certify it.
 
     mcppc tunes beta, the pole frequency and zeta of eq. 3.5-3.13; ppi tunes Kpx, Kpv and Kiv (Figure 3.9) by the
     rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. gantry tunes the MIMO law of
@@ -317,8 +359,9 @@ def tune(
     loopshape tunes an x axis (eq. 4.17-4.18), with --filters own also its notches and low-pass. Without --frf, on the
     model in the ideal discrete case.
 
-    Example: feedtune tune gantry gantry_model.toml --frf frf_x-0.3.csv --frf frf_x0.3.csv --notch 110,0.5,0.7
-    --lpf 450 --lead 154,70 -o mimo_gains.toml"""
+    On a gantry measured at two positions: feedtune tune gantry gantry_model.toml --frf frf_x-0.3.csv --frf
+    frf_x0.3.csv --notch 110,0.5,0.7 --lpf 450 --lead 154,70 -o mimo_gains.toml"""
+    show_progress(quiet)
     from ..errors import UsageError
     from .design_gantry_cmd import _loop_filters
     from .frf_options import FrfReadOptions

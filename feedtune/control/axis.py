@@ -8,6 +8,7 @@ LoopShapeDesign` adds the design targets and the plant it was designed on.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 from ..lti import Zpk
 from .discretize import matched
@@ -64,14 +65,19 @@ class AxisLaw:
 
     def controller(self) -> Zpk:
         """Continuous ``C(s)`` [command unit/m] of eq. 4.18 including the filter pack."""
-        c = self.pi_zpk() * self.filters.zpk() * self.gain
-        for stage in self.lead_stages:
-            c = c * stage.zpk()
-        return c
+        return self._controllers[0]
 
     def controller_discrete(self) -> Zpk:
         """Pole-zero-matched ``C(z)`` at ``fs``."""
-        return matched(self.controller(), self.fs).tf
+        return self._controllers[1]
+
+    @cached_property
+    def _controllers(self) -> tuple[Zpk, Zpk]:
+        """``(C(s), C(z))``, made once per law (a law is a value; analyses and searches evaluate them often)."""
+        c = self.pi_zpk() * self.filters.zpk() * self.gain
+        for stage in self.lead_stages:
+            c = c * stage.zpk()
+        return c, matched(c, self.fs).tf
 
     def feedforward(self) -> Zpk:
         """``m_x s^2`` [command unit/m] (eq. 4.19)."""

@@ -18,6 +18,7 @@ In transfer-function form (continuous) ``u = U_ff x_r + K1 (R1 x_r - x1) + K2 (x
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -134,13 +135,19 @@ class BallScrewLaw:
 
     def K1d(self) -> Zpk:
         """Discrete ``(Kx1 + Kv1 (1 - z^-1)/T) G_fp(z)``."""
-        g = self.gains
-        diff = backward_difference(self.fs)
-        return _sum_zpk(Zpk.constant(g["Kx1"], self.T), diff * g["Kv1"]) * self.filter_pack_discrete()
+        return self._discrete_paths[0]
 
     def K2d(self) -> Zpk:
         """Discrete ``(Kx2 + Kv2 (1 - z^-1)/T + Ki2 T/(1 - z^-1)) G_fp(z)``."""
+        return self._discrete_paths[1]
+
+    @cached_property
+    def _discrete_paths(self) -> tuple[Zpk, Zpk]:
+        """``(K1d, K2d)``, computed once per law (a law is a value; searches and analyses evaluate them often)."""
         g = self.gains
+        fp = self.filter_pack_discrete()
+        diff = backward_difference(self.fs)
+        k1 = _sum_zpk(Zpk.constant(g["Kx1"], self.T), diff * g["Kv1"]) * fp
         parts = [
             Zpk.constant(g["Kx2"], self.T),
             backward_difference(self.fs) * g["Kv2"],
@@ -149,7 +156,7 @@ class BallScrewLaw:
         out = parts[0]
         for p in parts[1:]:
             out = _sum_zpk(out, p)
-        return out * self.filter_pack_discrete()
+        return k1, out * fp
 
     @property
     def preview_samples(self) -> int:
@@ -164,6 +171,29 @@ class BallScrewLaw:
             "feedforward": reference_path(self.feedforward, self.fs, p),
             "table": reference_path(Zpk.constant(1.0), self.fs, p),
         }
+
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from ..display import call, params, quantity
+
+        fp = self.filter_pack
+        return call("BallScrewLaw", [*params(self.gains, gain_units("U")), "U = command unit",
+                                     f"filter pack {fp.poles.size} poles {fp.zeros.size} zeros",
+                                     f"fs={quantity(self.fs, 'Hz')}", f"delay={self.delay_samples} sample(s)"])
+
+    def plot(self, freq_hz=None, *, title: str | None = None):
+        """``|K1|``, ``|K2|`` and their phase, continuous and discrete (:func:`feedtune.plotting.plot_law`)."""
+        from ..plotting import plot_law
+
+        return plot_law(self, freq_hz, title=title)
+
+    def to_control(self, *, discrete: bool = False, delay: bool | None = None, form: str = "tf"):
+        """The feedback ``u = [K1 K2] [e1; e2]`` as a python-control system (``discrete=True``: ``dt = 1/fs`` with
+        the computational delay; ``form="ss"``: sections, accurate near ``z = 1``);
+        :func:`feedtune.interop_control.law_to_control`."""
+        from ..interop_control import law_to_control
+
+        return law_to_control(self, discrete=discrete, delay=delay, form=form)
 
 
 def _sum_zpk(a: Zpk, b: Zpk) -> Zpk:

@@ -70,7 +70,7 @@ def matched(
     if not (np.isfinite(fs) and fs > 0):
         raise UsageError(f"sample rate must be > 0 Hz, got {fs}")
     T = 1.0 / fs
-    scale = max([1.0, *np.abs(g.zeros), *np.abs(g.poles)])
+    scale = max([1.0, *(float(np.max(np.abs(r))) for r in (g.zeros, g.poles) if r.size)])
     z_at0 = _is_origin(g.zeros, scale)
     p_at0 = _is_origin(g.poles, scale)
     for name, roots in (("pole", g.poles), ("zero", g.zeros)):
@@ -85,11 +85,11 @@ def matched(
         n_add = {"all": n_excess, "all-but-one": n_excess - 1, "none": 0}.get(excess_zeros)
         if n_add is None:
             raise UsageError(f"excess_zeros must be 'all', 'all-but-one' or 'none', got {excess_zeros!r}")
-        zd = np.r_[zd, -np.ones(n_add)]
+        zd = np.concatenate([zd, -np.ones(n_add)])
     delay = 0
     if causal and zd.size > pd.size:
         delay = zd.size - pd.size
-        pd = np.r_[pd, np.zeros(delay)]
+        pd = np.concatenate([pd, np.zeros(delay)])
     gd = _match_gain(g, zd, pd, z_at0, p_at0, T, match_hz)
     return Matched(Zpk(zd, pd, gd, T), delay)
 
@@ -101,8 +101,8 @@ def _match_gain(
     n_diff = int(z_at0.sum() - p_at0.sum())  # net power of s at the origin
     c_red = g.gain * np.prod(-g.zeros[~z_at0]) / np.prod(-g.poles[~p_at0])
     # s^n <-> ((z - 1) / T)^n, so G(s)/s^n at s=0 must equal Gd(z)/((z-1)/T)^n at z=1
-    zd_red = zd[~np.r_[z_at0, np.zeros(zd.size - z_at0.size, bool)]]
-    pd_red = pd[~np.r_[p_at0, np.zeros(pd.size - p_at0.size, bool)]]
+    zd_red = np.concatenate([zd[:z_at0.size][~z_at0], zd[z_at0.size:]])  # the roots not at s = 0, in order
+    pd_red = np.concatenate([pd[:p_at0.size][~p_at0], pd[p_at0.size:]])
     d_red = np.prod(1 - zd_red) / np.prod(1 - pd_red) * T**n_diff
     if match_hz is None and np.isfinite(c_red) and abs(d_red) > 0 and abs(c_red) > 0:
         return float(np.real(c_red / d_red))
@@ -112,6 +112,26 @@ def _match_gain(
     if not (np.isfinite(hc) and abs(hd) > 0):
         raise UsageError(f"cannot match the gain of the discretized filter at {f:g} Hz")
     return float(abs(hc) / abs(hd) * np.sign(np.real(hc / hd)))
+
+
+def matched_stages_response(stages, fs: float, freq_hz) -> np.ndarray:
+    """``matched(prod(stage.zpk() for stage in stages), fs).tf.freqresp(freq_hz)`` in closed form, for a cascade of
+    first-order lead or lag stages (:class:`~feedtune.control.filters.LeadStage`) whose roots lie off the origin.
+
+    :func:`matched` maps every root on its own and matches the gain at 0 Hz, which for such stages is the product of
+    their own gains, so the cascade's response is the product of the stages': each ``(wp/wz) (s + wz)/(s + wp)``
+    becomes ``g (z - e^(-wz T))/(z - e^(-wp T))`` with ``g = (1 - e^(-wp T))/(1 - e^(-wz T))``. The designs iterate
+    on it (equal to :func:`matched` to rounding).
+    """
+    T = 1.0 / fs
+    z = np.exp(2j * np.pi * np.asarray(freq_hz, float) * T)
+    out = np.ones(z.shape, complex)
+    for stage in stages:
+        wz, wp = 2 * np.pi * stage.zero_hz, 2 * np.pi * stage.pole_hz
+        zd, pd = math.exp(-wz * T), math.exp(-wp * T)
+        gain = (wp / wz) * wz / wp / ((1 - zd) / (1 - pd))
+        out = out * (gain * (z - zd) / (z - pd))
+    return out
 
 
 def backward_difference(fs: float) -> Zpk:
@@ -132,6 +152,6 @@ def unit_delay(n: int, fs: float) -> Zpk:
 def check_sampling(fs: float, delay_samples: int) -> None:
     """UsageError unless ``fs`` [Hz] > 0 and ``delay_samples`` is an integer >= 0."""
     if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
-        raise UsageError(f"--fs must be a sample rate > 0 Hz, got {fs}")
+        raise UsageError(f"fs must be a sample rate > 0 Hz, got {fs}", parameter="fs")
     if int(delay_samples) != delay_samples or delay_samples < 0:
-        raise UsageError(f"--delay-samples must be an integer >= 0, got {delay_samples}")
+        raise UsageError(f"delay_samples must be an integer >= 0, got {delay_samples}", parameter="delay_samples")

@@ -63,11 +63,11 @@ class Notch:
         """From the command-line form ``HZ,ZETA_Z,ZETA_P`` (e.g. ``420,0.55,0.7``)."""
         parts = [p.strip() for p in str(text).split(",")]
         if len(parts) != 3:
-            raise UsageError(f"--notch expects HZ,ZETA_Z,ZETA_P (e.g. 420,0.55,0.7), got {text!r}")
+            raise UsageError(f"notch expects HZ,ZETA_Z,ZETA_P (e.g. 420,0.55,0.7), got {text!r}", parameter="notch")
         try:
             return cls(*(float(p) for p in parts))
         except ValueError:
-            raise UsageError(f"--notch expects three numbers HZ,ZETA_Z,ZETA_P, got {text!r}") from None
+            raise UsageError(f"notch expects three numbers HZ,ZETA_Z,ZETA_P, got {text!r}", parameter="notch") from None
 
 
 def lowpass1(freq_hz: float) -> Zpk:
@@ -200,23 +200,23 @@ class LeadStage:
         """From the command-line form ``HZ,DEG`` (e.g. ``154,70``)."""
         parts = [p.strip() for p in str(text).split(",")]
         if len(parts) != 2:
-            raise UsageError(f"--lead expects HZ,DEG (e.g. 154,70), got {text!r}")
+            raise UsageError(f"lead expects HZ,DEG (e.g. 154,70), got {text!r}", parameter="lead")
         try:
             hz, deg = (float(p) for p in parts)
         except ValueError:
-            raise UsageError(f"--lead expects two numbers HZ,DEG, got {text!r}") from None
+            raise UsageError(f"lead expects two numbers HZ,DEG, got {text!r}", parameter="lead") from None
         if not 0 < deg < 90:
-            raise UsageError(f"--lead phase must lie between 0 and 90 deg, got {deg:g}")
+            raise UsageError(f"lead phase must lie between 0 and 90 deg, got {deg:g}", parameter="lead")
         return cls(hz, deg)
 
 
-def _positive(v, name: str) -> float:
+def _positive(v, name: str, parameter: str | None = None) -> float:
     try:
         x = float(v)
     except (TypeError, ValueError):
-        raise UsageError(f"{name} must be a number, got {v!r}") from None
+        raise UsageError(f"{name} must be a number, got {v!r}", parameter=parameter) from None
     if not (math.isfinite(x) and x > 0):
-        raise UsageError(f"{name} must be a finite number > 0, got {v!r}")
+        raise UsageError(f"{name} must be a finite number > 0, got {v!r}", parameter=parameter)
     return x
 
 
@@ -278,13 +278,15 @@ class FilterPack:
         """UsageError when a filter frequency is at or above the Nyquist frequency ``fs/2`` [Hz]."""
         for n in self.notches:
             if n.freq_hz >= fs / 2:
-                raise UsageError(f"--notch {n.freq_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz")
+                raise UsageError(f"notch {n.freq_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz",
+                                 parameter="notch")
         for stage in self.leads:
             if stage.pole_hz >= fs / 2:
-                raise UsageError(f"--lead {stage.center_hz:g} Hz has its pole at {stage.pole_hz:g} Hz, at or "
-                                 f"above the Nyquist frequency {fs / 2:g} Hz")
+                raise UsageError(f"lead {stage.center_hz:g} Hz has its pole at {stage.pole_hz:g} Hz, at or "
+                                 f"above the Nyquist frequency {fs / 2:g} Hz", parameter="lead")
         if self.lpf_hz is not None and self.lpf_hz >= fs / 2:
-            raise UsageError(f"--lpf {self.lpf_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz")
+            raise UsageError(f"lpf_hz {self.lpf_hz:g} Hz is at or above the Nyquist frequency {fs / 2:g} Hz",
+                             parameter="FilterPack.lpf_hz")
 
     def to_dict(self) -> dict:
         """Plain description (frequencies in Hz, phases in deg)."""

@@ -155,7 +155,7 @@ def friction_feedforward(friction: StribeckFriction, *, command_unit: str, lead_
         if friction.law != "stribeck":
             raise DataError(f"{where}: a {friction.law!r} friction law cannot be fed forward (the gains file's "
                             "[friction_feedforward] and the C export implement eq. 2.1 only); identify the friction "
-                            "with --law stribeck")
+                            "with law=stribeck", parameter="law")
         unit = f"{friction.command_unit}/({friction.velocity_unit})"
         dropped = {"viscous_not_fed_forward": {"pos": {"value": friction.viscous_pos, "unit": unit},
                                                "neg": {"value": friction.viscous_negative, "unit": unit}}}

@@ -102,10 +102,11 @@ class MimoLaw:
 
     def response_discrete(self, freq_hz) -> np.ndarray:
         """Discrete ``K(e^{j w T})`` [V/m] (backward difference and backward-Euler integral)."""
-        f = np.asarray(freq_hz, float)
+        h = self.filter_pack_discrete()
+        z = h.variable(freq_hz)  # every part has the sample time 1/fs: z once for all
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self._assemble(self.filter_pack_discrete().freqresp(f), self.lead_discrete().freqresp(f),
-                                  self._zpk["diff"].freqresp(f), self._zpk["integ"].freqresp(f))
+            return self._assemble(h.evaluate(z), self.lead_discrete().evaluate(z), self._zpk["diff"].evaluate(z),
+                                  self._zpk["integ"].evaluate(z))
 
     def rhp_poles(self, discrete: bool) -> int:
         """Controller poles in the right half plane (outside the unit circle)."""
@@ -234,10 +235,10 @@ class PidLaw:
 
     def response_discrete(self, freq_hz) -> np.ndarray:
         """Discrete ``K(e^{j w T})`` [V/m] (backward difference, backward-Euler integral)."""
-        f = np.asarray(freq_hz, float)
+        h = self.filter_pack_discrete()
+        z = h.variable(freq_hz)  # every part has the sample time 1/fs: z once for all
         with np.errstate(divide="ignore", invalid="ignore"):
-            return self._assemble(self.filter_pack_discrete().freqresp(f), self._zpk["diff"].freqresp(f),
-                                  self._zpk["integ"].freqresp(f))
+            return self._assemble(h.evaluate(z), self._zpk["diff"].evaluate(z), self._zpk["integ"].evaluate(z))
 
     def rhp_poles(self, discrete: bool) -> int:
         """Controller poles in the right half plane (outside the unit circle)."""

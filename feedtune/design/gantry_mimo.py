@@ -32,13 +32,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..control.discretize import backward_euler_integrator, check_sampling, matched
+from ..control.discretize import backward_euler_integrator, check_sampling, matched, matched_stages_response
 from ..control.filters import TWO_PI, FilterPack, LeadStage, split_lead
 from ..control.friction import FrictionFeedforward, friction_feedforward
 from ..control.gantry import GantrySchedule, MimoLaw
 from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import DesignError, UsageError
-from ..lti import Zpk, zoh_double_integrator
+from ..lti import zoh_double_integrator
 from ..models.gantry import GantryModel
 from .loopshape import wrap_deg
 
@@ -71,7 +71,8 @@ def averaged_plant(model: GantryModel, x: float, freq_hz, alpha=None) -> np.ndar
 def damping_gain(model: GantryModel, damping_increase: float, x: float = 0.0) -> float:
     """``beta`` [V/(m/s)] that raises the torsional damping by ``damping_increase * c`` at ``x`` (eq. 4.28)."""
     if not (math.isfinite(damping_increase) and damping_increase >= 0):
-        raise UsageError(f"--damping-increase must be a number >= 0 (5.9 = +590 %), got {damping_increase}")
+        raise UsageError(f"damping_increase must be a number >= 0 (5.9 = +590 %), got {damping_increase}",
+                         parameter="damping_increase")
     a1, a2 = model.arms(x)
     return float(damping_increase * model.c / (2.0 * a1 * a2))
 
@@ -308,12 +309,12 @@ def design_gantry_mimo(
     """
     check_sampling(fs, delay_samples)
     if not (math.isfinite(crossover_hz) and 0 < crossover_hz < fs / 2):
-        raise UsageError(f"--crossover-hz must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, "
-                         f"got {crossover_hz}")
+        raise UsageError(f"crossover_hz must lie between 0 and the Nyquist frequency {fs / 2:g} Hz, "
+                         f"got {crossover_hz}", parameter="crossover_hz")
     if not 0 < pm_deg < 90:
-        raise UsageError(f"--pm-deg must lie in (0, 90) deg, got {pm_deg}")
+        raise UsageError(f"pm_deg must lie in (0, 90) deg, got {pm_deg}", parameter="pm_deg")
     if ki is not None and not (math.isfinite(ki) and ki >= 0):
-        raise UsageError(f"--ki must be a gain >= 0 [V/(m s)], got {ki}")
+        raise UsageError(f"ki must be a gain >= 0 [V/(m s)], got {ki}", parameter="ki")
     if ki is None and not 0 < integral_lag_deg < 45:
         raise UsageError(f"integral lag must lie in (0, 45) deg, got {integral_lag_deg}")
     pack = filters or FilterPack()
@@ -329,7 +330,7 @@ def design_gantry_mimo(
     target = -180.0 + pm_deg
 
     def loop_parts(stages) -> tuple[complex, complex]:
-        d = matched(_stages_zpk(stages), fs).tf.freqresp(fc)[0]
+        d = matched_stages_response(stages, fs, fc)[0]  # matched(D(s)) at the crossover, in closed form
         A = h * plant * (d + ratio * integ)
         B = 0.0 if ki is None else ki * h * plant * integ
         return A, B
@@ -343,15 +344,16 @@ def design_gantry_mimo(
         A, B = loop_parts(stages)
         k = _unit_magnitude_gain(A, B)
         if k is None:
-            raise DesignError(f"the integral gain --ki {ki:g} V/(m s) alone exceeds unit loop gain at "
-                              f"{crossover_hz:g} Hz; lower --ki or raise --crossover-hz")
+            raise DesignError(f"the integral gain ki {ki:g} V/(m s) alone exceeds unit loop gain at "
+                              f"{crossover_hz:g} Hz; lower ki or raise crossover_hz",
+                              parameter=("ki", "crossover_hz"))
         err = float(wrap_deg(target - np.angle(k * A + B, deg=True)))
         if abs(err) < 1e-6:
             break
         lead += err
         if abs(lead) > 270:
             raise DesignError(f"the CoM loop needs {lead:.0f} deg of lead at {crossover_hz:g} Hz; lower "
-                              "--crossover-hz or --pm-deg, or change the filter pack")
+                              "crossover_hz or pm_deg, or change the filter pack", parameter=("crossover_hz", "pm_deg"))
     else:
         raise DesignError(f"lead design did not converge at {crossover_hz:g} Hz (phase error {err:.3g} deg)")
     ki_value = float(ratio * k) if ki is None else float(ki)
@@ -362,13 +364,6 @@ def design_gantry_mimo(
     return GantryMimoDesign(model, float(x), law, gantry_schedule(model, grid, prefilter1, prefilter2),
                             float(crossover_hz), float(pm_deg), float(damping_increase), how, float(prefilter_hz),
                             iterations)
-
-
-def _stages_zpk(stages) -> Zpk:
-    d = Zpk.constant(1.0)
-    for s in stages:
-        d = d * s.zpk()
-    return d
 
 
 def with_beta(design: GantryMimoDesign, beta: float) -> GantryMimoDesign:

@@ -29,11 +29,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
 from ..control.axis import AxisLaw
-from ..control.discretize import check_sampling, matched
+from ..control.discretize import check_sampling, matched, matched_stages_response
 from ..control.filters import (
     TWO_PI,
     FilterPack,
@@ -130,17 +131,18 @@ def axis_plant(plant, *, mass: float | None = None, channel: str | None = None,
         if ch is None:
             if len(plant.channels) != 1:
                 raise UsageError(f"{plant.source}: the FRF has channels {', '.join(plant.channels)}; "
-                                 "choose one with --channel OUT/IN")
+                                 "choose one with channel=OUT/IN", parameter="channel")
             ch = plant.channels[0]
         elif not plant.has(ch):
             raise DataError(f"{plant.source}: no channel {ch!r}; available: {', '.join(plant.channels)}")
         unit = plant.input_unit
         if mass is not None:
-            return AxisPlant(_positive(mass, f"--mass [{unit}/(m/s^2)]"), plant, ch, plant.source, "given", unit)
+            return AxisPlant(_positive(mass, f"mass [{unit}/(m/s^2)]", parameter="mass"), plant, ch, plant.source,
+                             "given", unit)
         m, how = _mass_from_frf(plant, ch, crossover_hz)
         return AxisPlant(m, plant, ch, plant.source, how, unit)
     if mass is not None:
-        return AxisPlant(_positive(mass, "--mass [command unit/(m/s^2)]"), source="given mass",
+        return AxisPlant(_positive(mass, "mass [command unit/(m/s^2)]", parameter="mass"), source="given mass",
                          command_unit=_command_unit_of(plant))
     if isinstance(plant, (int, float)) and not isinstance(plant, bool):
         return AxisPlant(_positive(plant, "x-axis mass [V/(m/s^2)]"), source="given mass")
@@ -172,7 +174,8 @@ def _mass_from_frf(frf: Frf, channel: str, crossover_hz: float | None) -> tuple[
         sel = (f > 0) & (np.arange(f.size) < np.flatnonzero(f > 0)[0] + 5)
     m = float(np.median(1.0 / np.abs(acc.channel(channel)[sel])))
     if not (math.isfinite(m) and m > 0):
-        raise DataError(f"{frf.source}: cannot estimate the mass from the low-frequency accelerance; give --mass")
+        raise DataError(f"{frf.source}: cannot estimate the mass from the low-frequency accelerance; give mass=",
+                        parameter="mass")
     return m, f"median of 1/|accelerance| over {f[sel][0]:.3g}-{f[sel][-1]:.3g} Hz"
 
 
@@ -258,9 +261,9 @@ class LoopShapeDesign:
                                   v_band=v_band, where=where, command_where=plant_where or self.plant.source)
         return replace(self, friction=ff)
 
-    @property
+    @cached_property
     def law(self) -> AxisLaw:
-        """The control law alone (what runtimes, analyses and gains files need)."""
+        """The control law alone (what runtimes, analyses and gains files need); made once per design."""
         return AxisLaw(self.plant.mass, self.gain, self.ti_s, tuple(self.lead_stages), self.filters, self.fs,
                        self.delay_samples, self.prefilter, self.prefilter_hz)
 
@@ -393,13 +396,14 @@ def design_loopshape(
         The iteration did not converge (e.g. the required lead exceeds what the stages can give).
     """
     check_sampling(fs, delay_samples)
-    wc_hz = _positive(crossover_hz, "--crossover-hz")
+    wc_hz = _positive(crossover_hz, "crossover_hz", parameter="crossover_hz")
     if wc_hz >= fs / 2:
-        raise UsageError(f"--crossover-hz {wc_hz:g} must be below the Nyquist frequency {fs / 2:g} Hz")
+        raise UsageError(f"crossover_hz {wc_hz:g} must be below the Nyquist frequency {fs / 2:g} Hz",
+                         parameter="crossover_hz")
     if not 0 < pm_deg < 90:
-        raise UsageError(f"--pm-deg must lie in (0, 90) deg, got {pm_deg}")
+        raise UsageError(f"pm_deg must lie in (0, 90) deg, got {pm_deg}", parameter="pm_deg")
     if not 0 < pi_lag_deg < 45:
-        raise UsageError(f"--pi-lag-deg must lie in (0, 45) deg, got {pi_lag_deg}")
+        raise UsageError(f"pi_lag_deg must lie in (0, 45) deg, got {pi_lag_deg}", parameter="pi_lag_deg")
     if stages is not None and (isinstance(stages, bool) or int(stages) != stages or stages < 1):
         raise UsageError(f"the number of lead stages must be an integer >= 1, got {stages!r}")
     pack = filters if filters is not None else FilterPack()
@@ -414,7 +418,8 @@ def design_loopshape(
     target = -180.0 + pm_deg
     other = p_c * matched(base.controller(), fs).tf.freqresp([wc_hz])[0]  # K = 1, no lead
     lead = float(wrap_deg(target - np.angle(other, deg=True)))
-    design = base
+    # the matched transform maps each root on its own and matches the gain at 0 Hz, so the discrete controller is
+    # the product of the matched parts: the loop at the crossover is ``other`` times the matched lead stages there
     for it in range(1, 31):
         if stages is None:
             split = split_lead(lead, max_stage_deg)
@@ -423,16 +428,17 @@ def design_loopshape(
                               "stage(s) can give")
         else:
             split = [lead / stages] * int(stages)
-        trial = replace(base, lead_stages=tuple(LeadStage(wc_hz, p) for p in split), gain=1.0)
-        loop = p_c * trial.controller_discrete().freqresp([wc_hz])[0]
+        lead_stages = tuple(LeadStage(wc_hz, p) for p in split)
+        loop = other * matched_stages_response(lead_stages, fs, [wc_hz])[0]
         err = float(wrap_deg(target - np.angle(loop, deg=True)))
-        design = replace(trial, gain=float(1.0 / abs(loop)), iterations=it)
         if abs(err) < 1e-6:
+            design = replace(base, lead_stages=lead_stages, gain=float(1.0 / abs(loop)), iterations=it)
             break
         lead += err
         if abs(lead) >= 90.0 * 4:
             raise DesignError(f"loop shaping needs more than {lead:.0f} deg of lead at {wc_hz:g} Hz; "
-                              "lower --crossover-hz or --pm-deg, or change the filters")
+                              "lower crossover_hz or pm_deg, or change the filters",
+                              parameter=("crossover_hz", "pm_deg"))
     else:
         raise DesignError(f"loop shaping did not converge at {wc_hz:g} Hz (phase error {err:.3g} deg)")
     if friction is not None:

@@ -83,11 +83,11 @@ class McppcDesign:
 def desired_poles(model: BallScrewModel, beta: float, pole_hz: float, zeta: float) -> np.ndarray:
     """Closed-loop poles of eq. 3.7-3.8 [rad/s]."""
     if not beta >= 1:
-        raise UsageError(f"--beta must be >= 1 (it multiplies the mode's decay rate), got {beta}")
+        raise UsageError(f"beta must be >= 1 (it multiplies the mode's decay rate), got {beta}", parameter="beta")
     if not pole_hz > 0:
-        raise UsageError(f"--pole-hz must be > 0 Hz, got {pole_hz}")
+        raise UsageError(f"pole_hz must be > 0 Hz, got {pole_hz}", parameter="pole_hz")
     if not 0 < zeta < 1:
-        raise UsageError(f"--zeta must be between 0 and 1 (exclusive), got {zeta}")
+        raise UsageError(f"zeta must be between 0 and 1 (exclusive), got {zeta}", parameter="zeta")
     p = model.poles()
     mode = p[np.argmax(p.imag)]
     if mode.imag <= 0:

@@ -84,11 +84,11 @@ def acceleration_feedforward(model: BallScrewModel) -> Zpk:
 
 
 def _check_gains(Kpx: float, Kpv: float, Kiv: float) -> None:
-    for name, v in (("--kpx", Kpx), ("--kpv", Kpv), ("--kiv", Kiv)):
+    for name, v in (("Kpx", Kpx), ("Kpv", Kpv), ("Kiv", Kiv)):
         if not (np.isfinite(v) and v >= 0):
-            raise UsageError(f"{name} must be a finite gain >= 0, got {v}")
+            raise UsageError(f"{name} must be a finite gain >= 0, got {v}", parameter=name)
     if Kpv <= 0:
-        raise UsageError("--kpv must be > 0")
+        raise UsageError("Kpv must be > 0", parameter="Kpv")
 
 
 def design_ppi(

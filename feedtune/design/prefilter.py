@@ -443,7 +443,8 @@ def fit_prefilter(log: Log, *, lpf_hz: float = DEFAULT_LPF_HZ, orders=ORDERS, re
     x_ref = log[reference] if reference in log else None
     if x_ref is None and not derivs:
         raise DataError(f"{log.source}: no reference signal {reference!r} (or {', '.join(sig_names[1:])}); "
-                        f"available: {', '.join(log.signals)}; map a column with --map {reference}=COLUMN")
+                        f"available: {', '.join(log.signals)}; map a column to it when reading the log "
+                        f"(mapping={reference}=COLUMN)", parameter="read_log.mapping")
     unit = _reference_unit(log, reference, sig_names)
     e, err_name = _error_signal(log, x_ref, reference, unit, error, position, lead_m_per_rad)
     names = {"error": err_name, "pos": reference, **dict(zip(ORDERS, sig_names[1:], strict=True))}
@@ -475,7 +476,8 @@ def _error_signal(log: Log, x_ref, reference: str, unit: str, error: str | None,
         position = None if error else next((p for p in ("x2_table", "x2") if p in log), None)
         if error is None and position is None:
             raise DataError(f"{log.source}: no tracking error 'e2' and no measured position 'x2_table' or 'x2'; "
-                            f"available: {', '.join(log.signals)}; name one with --error or --position")
+                            f"available: {', '.join(log.signals)}; name one with error= or position=",
+                            parameter=("error", "position"))
     if error is not None:
         return log[error] * _factor_to(log, error, unit, lead), error
     if x_ref is None:

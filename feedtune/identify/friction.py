@@ -612,7 +612,8 @@ def _in_screw_rotation(log: Log, position: str, model: BallScrewModel) -> Log:
     q, unit = position_si(log, position)
     if unit == "m" and not model.lead_given:
         raise DataError(f"{log.source}: position column {position!r} is in m but the ball-screw model has no lead "
-                        "(identified without --lead): give the position in rad or identify the model with --lead")
+                        "(identified without lead_m_per_rad): give the position in rad or identify the model with "
+                        "lead_m_per_rad", parameter="fit_ballscrew.lead_m_per_rad")
     return log.with_signals({position: q / model.lead_m_per_rad}, {position: "rad"}) if unit == "m" else log
 
 

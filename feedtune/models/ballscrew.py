@@ -192,6 +192,36 @@ class BallScrewModel:
         """``m1 + m2`` [V/(rad/s^2)]."""
         return self.m1 + self.m2
 
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from ..display import call, params, quantity
+
+        modes = ", ".join(f"mode {quantity(m.freq_hz, 'Hz')} zeta {quantity(m.zeta)}" for m in self.modes())
+        lead = f"lead={quantity(self.lead_m_per_rad * 1e3, 'mm/rad')}" if self.lead_given else "no lead"
+        return call("BallScrewModel", [*params(self.params(), param_units(self.input_unit)), modes, lead])
+
+    def plot(self, freq_hz=None, *, frf=None, title: str | None = None):
+        """``x1/u`` and ``x2/u`` magnitude [dB] and phase [deg], with a measured FRF when given
+        (:func:`feedtune.plotting.plot_model`); returns the matplotlib Figure."""
+        from ..plotting import plot_model
+
+        return plot_model(self, freq_hz, frf=frf, title=title)
+
+    def to_control(self, form: str = "ss"):
+        """The model as a python-control ``StateSpace`` (eq. 3.3; ``form="tf"``: ``TransferFunction``), inputs
+        ``u, d1, d2``, outputs ``x1, x2`` (:func:`feedtune.interop_control.ballscrew_to_control`)."""
+        from ..interop_control import ballscrew_to_control
+
+        return ballscrew_to_control(self, form)
+
+    @classmethod
+    def from_control(cls, sys, **kwargs) -> BallScrewModel:
+        """The model of a python-control system with input ``u`` and outputs ``x1, x2``
+        (:func:`feedtune.interop_control.ballscrew_from_control`)."""
+        from ..interop_control import ballscrew_from_control
+
+        return ballscrew_from_control(sys, **kwargs)
+
 
 THESIS_TABLE_3_1 = BallScrewModel(m1=1.858e-3, m2=0.379e-3, b1=1.020e-3, b2=0.0, k=210.02, c=0.014)
 """The parameters identified in the thesis (Table 3.1)."""

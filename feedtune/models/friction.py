@@ -193,6 +193,21 @@ class StribeckFriction:
             },
         }
 
+    def __repr__(self) -> str:
+        from ..display import call, params
+
+        d = self.to_dict()
+        units = d.pop("units")
+        law = d.pop("model")
+        d.pop("formula", None)
+        return call(type(self).__name__, [f"law={law}", *params(d, units)])
+
+    def plot(self, velocity=None, *, title: str | None = None):
+        """The friction curve ``d(v)`` [command unit] over velocity (:func:`feedtune.plotting.plot_friction`)."""
+        from ..plotting import plot_friction
+
+        return plot_friction(self, velocity, title=title)
+
 
 # ------------------------------------------------------------------------------------------- friction laws
 def check_law(law: str) -> str:
@@ -363,3 +378,5 @@ class FrictionLaw(StribeckFriction):
                   "viscous_neg": self.viscous_negative})
         d["units"] = {**d["units"], "viscous_pos": vu, "viscous_neg": vu}
         return d
+
+    __repr__ = StribeckFriction.__repr__

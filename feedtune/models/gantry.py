@@ -231,6 +231,37 @@ class GantryModelAtX:
             "units": {"x": "m", "L": "m", "M": f"{u}/(m/s^2)", "C": f"{u}/(m/s)", "K": f"{u}/m"},
         }
 
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from ..display import call, number, quantity
+
+        def mat(a):
+            return "[" + "; ".join(" ".join(number(v) for v in row) for row in a) + "]"
+
+        u, mode = self.input_unit, self.yaw_mode()
+        return call("GantryModelAtX", [f"x={quantity(self.x, 'm')}", f"M={mat(self.M)} {u}/(m/s^2)",
+                                       f"C={mat(self.C)} {u}/(m/s)", f"K={mat(self.K)} {u}/m",
+                                       f"yaw {quantity(mode.freq_hz, 'Hz')} zeta {quantity(mode.zeta)}"])
+
+    def plot(self, freq_hz=None, *, frf=None, title: str | None = None):
+        """The 2x2 position FRF [dB, deg], with a measured FRF when given (:func:`feedtune.plotting.plot_model`)."""
+        from ..plotting import plot_model
+
+        return plot_model(self, freq_hz, frf=frf, title=title)
+
+    def to_control(self):
+        """A python-control ``StateSpace``, inputs ``u1, u2``, outputs ``y1, y2`` [m]."""
+        from ..interop_control import gantry_to_control
+
+        return gantry_to_control(self)
+
+    @classmethod
+    def from_control(cls, sys, *, L: float, x: float = 0.0, **kwargs) -> GantryModelAtX:
+        """``M, C, K`` of a 2x2 python-control system (:func:`feedtune.interop_control.gantry_from_control`)."""
+        from ..interop_control import gantry_from_control
+
+        return gantry_from_control(sys, L=L, x=x, **kwargs)
+
 
 @dataclass(frozen=True)
 class GantryModel:
@@ -362,6 +393,27 @@ class GantryModel:
         out["units"] = param_units(self.input_unit)
         out["meta"] = {str(k): str(v) for k, v in self.meta.items()}
         return out
+
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from ..display import call, params, quantity
+
+        mode = self.yaw_mode(0.0)
+        return call("GantryModel", [*params(self.params(), param_units(self.input_unit)),
+                                    f"yaw at x=0: {quantity(mode.freq_hz, 'Hz')} zeta {quantity(mode.zeta)}"])
+
+    def plot(self, freq_hz=None, *, x: float = 0.0, frf=None, title: str | None = None):
+        """The 2x2 position FRF at table position ``x`` [m], with a measured FRF when given
+        (:func:`feedtune.plotting.plot_model`)."""
+        from ..plotting import plot_model
+
+        return plot_model(self, freq_hz, frf=frf, x=x, title=title)
+
+    def to_control(self, x: float = 0.0):
+        """A python-control ``StateSpace`` at table position ``x`` [m] (inputs ``u1, u2``, outputs ``y1, y2``)."""
+        from ..interop_control import gantry_to_control
+
+        return gantry_to_control(self, x)
 
 
 def _position(x) -> float:

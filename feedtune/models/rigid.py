@@ -135,6 +135,26 @@ class RigidBodyModel:
         """
         return self.mass * np.asarray(acc, dtype=float) + self.friction(vel) + self.offset
 
+    def __repr__(self) -> str:
+        from ..display import call, params
+
+        values = {"mass": self.mass, "viscous": self.viscous, "coulomb_pos": self.coulomb_pos,
+                  "coulomb_neg": self.coulomb_neg, "viscous_neg": self.viscous_neg, "offset": self.offset}
+        return call("RigidBodyModel", params({k: v for k, v in values.items() if v is not None}, self.units))
+
+    def plot(self, velocity=None, *, title: str | None = None):
+        """Friction (viscous + Coulomb) [command unit] over velocity (:func:`feedtune.plotting.plot_friction`)."""
+        from ..plotting import plot_friction
+
+        return plot_friction(self, velocity, title=title)
+
+    def to_control(self):
+        """The linear part ``1 / (m s^2 + b s)`` as a python-control ``TransferFunction``
+        (:func:`feedtune.interop_control.rigid_to_control`)."""
+        from ..interop_control import rigid_to_control
+
+        return rigid_to_control(self)
+
     def to_dict(self) -> dict:
         """JSON-ready parameters with their units."""
         return {

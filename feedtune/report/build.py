@@ -18,7 +18,7 @@ import numpy as np
 from .collect import Inputs, collect_inputs
 from .content import Report, Section
 from .design import design_section
-from .html import render_html
+from .html import render_html, render_pngs
 from .identification import identification_section
 from .sections import Colors, ReportLimits, display_names
 from .summary import inputs_section, summary_section
@@ -60,7 +60,7 @@ def _sections(inputs: Inputs, limits: ReportLimits, strict: bool) -> tuple[list[
     design, designs = design_section(inputs, names, limits, data, warnings, colors)
     time = time_domain_section(inputs, names, limits, data, warnings, colors, strict)
     warnings = list(dict.fromkeys(warnings))
-    summary = summary_section(designs, data, warnings, limits)
+    summary = summary_section(designs, data, warnings, limits, inputs)
     body = [s for s in (summary, ident, design, time, inputs_section(inputs, names)) if s is not None]
     return [s for s in body if not s.is_empty()], data, warnings
 
@@ -101,17 +101,21 @@ def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None =
     UsageError
         A bad ``log_kinds`` entry.
     """
-    from .. import __version__
+    from .. import __version__, progress
 
     limits = limits or ReportLimits()
+    progress.step("report: reading the inputs")
     inputs = collect_inputs(paths, log_kinds=log_kinds, strict=strict, log_reader=log_reader)
+    progress.step("report: building the sections")
     sections, data, warnings = _sections(inputs, limits, strict)
     data = plain({"schema": REPORT_SCHEMA, "created_by": f"feedtune {__version__}", "title": title or DEFAULT_TITLE,
                   "inputs": inputs.to_dict(), **data, "warnings": warnings})
     report = Report(title or DEFAULT_TITLE, sections, data, warnings)
     if not render:
         return report
-    return Report(report.title, sections, data, warnings, render_html(report))
+    progress.step(f"report: drawing {len(report.figures())} figures")
+    pngs = render_pngs(report)
+    return Report(report.title, sections, data, warnings, render_html(report, pngs=pngs), pngs)
 
 
 def pdf_path_for(html_path: str | os.PathLike[str]) -> Path:
@@ -138,7 +142,9 @@ def write_report(report: Report, out: str | os.PathLike[str], *, pdf: bool = Fal
     with atomic_outputs(paths, force=force) as temps:
         temps[0].write_bytes(report.html.encode("utf-8"))
         if pdf:
+            from .. import progress
             from .pdf import write_pdf
 
+            progress.step("report: writing the PDF")
             write_pdf(report, temps[1])
     return paths

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from functools import partial
 
 import numpy as np
 
 from .content import Cell, FigureBlock, Table, text_cell
 from .figures import PALETTE, Curve, sensitivity_figure
 from .sections import ReportLimits
+from .trust import trusted_mask
 
 
 def _s_magnitude(S: np.ndarray) -> np.ndarray:
@@ -70,10 +72,20 @@ def certificate_blocks(designs: Sequence, frfs: Sequence[tuple[str, object]], do
                              "active limit", "verdict"], rows,
                             "Each row is feedtune analyze GAINS --frf FRF; the last row is the worst over the FRFs "
                             "(lowest first crossover, highest Ms, smallest margins)."))
-        curves = [Curve(c.analysis.cases[c.checked_case].freq_hz, _s_magnitude(c.analysis.cases[c.checked_case].S),
-                        c.name, PALETTE[k % len(PALETTE)]) for k, c in enumerate(cert.frfs)]
+        by_name = dict(frfs)
+        curves, masked = [], 0
+        for k, c in enumerate(cert.frfs):
+            case = c.analysis.cases[c.checked_case]
+            frf = by_name.get(c.name)
+            mask = trusted_mask(frf, tuple(frf.channels), case.freq_hz, limits.coherence_trust) \
+                if frf is not None else None
+            masked += 0 if mask is None else int(np.count_nonzero(~mask))
+            curves.append(Curve(case.freq_hz, _s_magnitude(case.S), c.name, PALETTE[k % len(PALETTE)], mask=mask))
         peaks = {c.name: (float(c.metrics.ms_freq_hz), float(c.metrics.ms)) for c in cert.frfs}
+        note = (f" Lines whose coherence (lowest over the FRF's channels) is below {limits.coherence_trust:g} are "
+                "not drawn; Ms is the analysis' peak over every line." if masked else "")
         blocks.append(FigureBlock(f"design-certificate-{d.name}", f"|S| of {title} on every measured "
-                                  "FRF (discrete case; sigma_max(S) for a gantry) with the Ms limit.",
-                                  sensitivity_figure(curves, peaks, limits.ms_max)))
+                                  "FRF (discrete case; sigma_max(S) for a gantry) with the Ms limit." + note,
+                                  partial(sensitivity_figure, curves, peaks, limits.ms_max,
+                                          title=f"|S| of {title} on every FRF")))
     return blocks

@@ -110,13 +110,26 @@ class Table:
         return [c for row in self.rows for c in row if c.is_number]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FigureBlock:
-    """A matplotlib figure (``matplotlib.figure.Figure``, Agg canvas) with its caption."""
+    """A matplotlib figure (``matplotlib.figure.Figure``, Agg canvas) with its caption.
+
+    ``source`` is the figure, or a callable without arguments that draws it: the figure is then built on first use
+    of :attr:`figure` (the report draws its figures where it renders them, possibly in several processes).
+    """
 
     name: str
     caption: str
-    figure: Any
+    source: Any
+
+    @property
+    def figure(self):
+        """The matplotlib Figure (built once from ``source`` when that is a callable)."""
+        built = self.__dict__.get("_figure")
+        if built is None:
+            built = self.source() if callable(self.source) and not hasattr(self.source, "savefig") else self.source
+            object.__setattr__(self, "_figure", built)
+        return built
 
 
 @dataclass(frozen=True)
@@ -187,6 +200,8 @@ class Report:
         The warnings listed in the summary.
     html : str
         The self-contained HTML document.
+    images : dict
+        Each figure drawn once as PNG bytes, by figure name (shared by the HTML and the PDF).
     """
 
     title: str
@@ -194,6 +209,7 @@ class Report:
     data: dict
     warnings: list
     html: str = field(repr=False, default="")
+    images: dict = field(repr=False, default_factory=dict)
 
     def section(self, key: str) -> Section | None:
         """The section (or subsection) with this key, or None."""

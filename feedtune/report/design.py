@@ -11,7 +11,8 @@ The analysis is the one ``feedtune analyze GAINS [--frf F] --json`` prints:
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -20,6 +21,7 @@ from .collect import FrfInput, GainsInput, Inputs
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
 from .figures import (
     Curve,
+    controller_figure,
     loop_figure,
     magnitude_figure,
     nyquist_figure,
@@ -27,8 +29,21 @@ from .figures import (
     sensitivity_figure,
 )
 from .sections import Colors, ReportLimits, controller_label, parameter_table, quantity_value, tuning_table
+from .trust import (
+    BANDWIDTH_DEFINITION,
+    MEASURED_CASES,
+    bandwidth_entry,
+    coherence_of,
+    mask_note,
+    trusted_mask,
+    trusted_top_hz,
+    verdict_line,
+)
 
 PREFILTER_SUFFIX = " + pre-filter"
+BALLSCREW_CHANNELS = ("x1/u", "x2/u")
+CONTROLLER_POINTS = 500
+"""Frequencies of a controller's Bode plot (log-spaced from 0.5 Hz to the Nyquist frequency)."""
 CASE_TITLES = {
     "ideal": "model, continuous controller",
     "ideal_discrete": "model (ZOH), discrete controller",
@@ -50,11 +65,78 @@ class BallScrewDesign:
     analysis: object
     result: dict
     prefilter: tuple | None = None
+    masks: dict = field(default_factory=dict)
+    support: dict = field(default_factory=dict)
+    bandwidth: dict = field(default_factory=dict)
 
     @property
     def main_case(self) -> str:
         """``discrete`` when a measured FRF was given, else ``ideal_discrete``."""
         return "discrete" if self.analysis.cases.get("discrete") is not None else "ideal_discrete"
+
+
+def case_masks(analysis, frf, channels, threshold: float) -> dict:
+    """``{case: trusted points}`` of the cases drawn from the measured FRF (:func:`~feedtune.report.trust.
+    trusted_mask`; cases without an FRF or an FRF without coherence get none)."""
+    out = {}
+    for case in MEASURED_CASES:
+        c = analysis.cases.get(case)
+        if c is not None and frf is not None:
+            mask = trusted_mask(frf, channels, c.freq_hz, threshold)
+            if mask is not None:
+                out[case] = mask
+    return out
+
+
+def support_of(frf, channels, threshold: float, model_band_top: float | None) -> dict:
+    """The tops of the bands [Hz] that support a figure: ``measured`` (the trusted FRF band; the FRF's last line
+    without coherence data; None without an FRF) and ``model`` (the model's fit band, None when unknown)."""
+    top = None
+    if frf is not None:
+        found = coherence_of(frf, channels)
+        top = trusted_top_hz(*found, threshold) if found is not None else float(frf.freq_hz[-1])
+    return {"measured": top, "model": model_band_top}
+
+
+def model_band_top(inputs: Inputs, kind: str) -> float | None:
+    """Top of the fit band [Hz] of the first model file of ``kind`` that stores one (``fit.band_hz``)."""
+    for m in inputs.models:
+        band = (m.doc.get("fit") or {}).get("band_hz") if m.kind == kind and isinstance(m.doc.get("fit"), Mapping) \
+            else None
+        if isinstance(band, (list, tuple)) and len(band) == 2:
+            return float(band[1])
+    return None
+
+
+def bandwidth_table_entry(d) -> dict:
+    """``{case: bandwidth_entry}`` of a design's analysis cases."""
+    return {case: bandwidth_entry(m["tracking_bandwidth_hz"], case, d.support)
+            for case, m in d.result["analysis"].items() if m is not None}
+
+
+def bandwidth_cell(d, case: str) -> Cell:
+    """The tracking bandwidth of a case as shown: the value when the data supports it, else ``-``."""
+    e = d.bandwidth.get(case) or {}
+    if not e.get("shown"):
+        return text_cell("-")
+    return Cell(e["value_hz"], "Hz", key=["design", d.name, "tracking_bandwidth", "cases", case, "value_hz"])
+
+
+def bandwidth_note(limits: ReportLimits) -> str:
+    """Table note defining the tracking bandwidth."""
+    return "Tracking bandwidth: the " + BANDWIDTH_DEFINITION.format(thr=limits.coherence_trust) + "; '-' otherwise."
+
+
+def store_bandwidth(store: dict, d, limits: ReportLimits) -> None:
+    """``store[name]["tracking_bandwidth"]``: the definition and each case's entry."""
+    store[d.name]["tracking_bandwidth"] = {"definition": BANDWIDTH_DEFINITION.format(thr=limits.coherence_trust),
+                                           "cases": d.bandwidth}
+
+
+def verdict_paragraph(d, limits: ReportLimits):
+    """The pass/fail line of a design (an Alert when it fails)."""
+    text = verdict_line(d.label, d.name, d.result["check"], CASE_TITLES, limits.policy.describe())
+    return Paragraph(text) if d.result["check"].get("ok") else Alert(text)
 
 
 def analysis_frf(inputs: Inputs) -> FrfInput | None:
@@ -96,7 +178,7 @@ def _gain_units(doc: Mapping) -> dict:
     return units
 
 
-def _margins_table(designs: list[BallScrewDesign]) -> Table:
+def _margins_table(designs: list[BallScrewDesign], limits: ReportLimits) -> Table:
     rows = []
     for d in designs:
         for case, figures in d.result["analysis"].items():
@@ -112,13 +194,13 @@ def _margins_table(designs: list[BallScrewDesign]) -> Table:
                 Cell(figures["ms"], "", key=[*k, "ms"]),
                 Cell(figures["ms_freq_hz"], "Hz", key=[*k, "ms_freq_hz"]),
                 Cell(figures["rejection_band_hz"], "Hz", key=[*k, "rejection_band_hz"]),
-                Cell(figures["tracking_bandwidth_hz"], "Hz", key=[*k, "tracking_bandwidth_hz"]),
+                bandwidth_cell(d, case),
             ])
     return Table("Stability, margins and bandwidth per analysis case (feedtune analyze)",
                  ["controller", "case", "stable", "crossovers", "phase margin", "gain margin", "Ms", "Ms at",
-                  "|S| < 1 band", "tracking bandwidth (±3 dB)"], rows,
+                  "|S| < 1 band", "tracking bandwidth"], rows,
                  "Phase margin: the crossover whose margin is closest to 0; gain margin: the phase crossover "
-                 "closest to 0 dB (negative: the gain may only be reduced).")
+                 "closest to 0 dB (negative: the gain may only be reduced). " + bandwidth_note(limits))
 
 
 def _poles_table(d: BallScrewDesign) -> Table:
@@ -153,14 +235,24 @@ def _filters_paragraph(d: BallScrewDesign, doc: Mapping) -> Paragraph | None:
 
 # ------------------------------------------------------------------------------------------ figures
 def _curves(designs, case_of, attr: str, *, ideal_dashed: bool = False, label_suffix: str = "") -> list[Curve]:
+    """One curve per design of ``attr`` in the case ``case_of(d)``, with the trusted points of a measured case."""
     out = []
     for d in designs:
-        case = d.analysis.cases.get(case_of(d))
+        name = case_of(d)
+        case = d.analysis.cases.get(name)
         if case is None or getattr(case, attr) is None:
             continue
         out.append(Curve(case.freq_hz, getattr(case, attr), d.label + label_suffix, d.color,
-                         "--" if ideal_dashed else "-", 1.0 if ideal_dashed else 1.5))
+                         "--" if ideal_dashed else "-", 1.0 if ideal_dashed else 1.5, d.masks.get(name)))
     return out
+
+
+def _masked_note(designs, limits: ReportLimits) -> str:
+    """Caption text on the measured lines left out of the main case's curves."""
+    d = designs[0]
+    case = d.analysis.cases.get(d.main_case)
+    return mask_note(d.masks.get(d.main_case), case.freq_hz, limits.coherence_trust, " and ".join(BALLSCREW_CHANNELS)) \
+        if case is not None else ""
 
 
 def feedback_groups(designs: list[BallScrewDesign]) -> list[BallScrewDesign]:
@@ -184,26 +276,27 @@ def _pole_map(designs: list[BallScrewDesign]) -> FigureBlock:
     open_loop = designs[0].model.poles()
     closed = [(d.label, d.color, np.array([complex(*p) for p in d.result["closed_loop_poles"]])) for d in designs]
     top = max(m.freq_hz for d in designs for m in d.model.modes()) if designs[0].model.modes() else 100.0
-    fig = pole_map_figure(open_loop, closed, zoom_rad_s=2 * np.pi * 3 * top)
+    fig = partial(pole_map_figure, open_loop, closed, zoom_rad_s=2 * np.pi * 3 * top)
     return FigureBlock("design-poles", "Open-loop poles of the design model and closed-loop poles of each "
                        "controller including its filter pack (thesis Fig. 3.6).", fig)
 
 
-def _loop(designs) -> FigureBlock:
+def _loop(designs, limits: ReportLimits) -> FigureBlock:
     main = _curves(designs, lambda d: d.main_case, "L")
     ideal = _curves(designs, lambda d: "ideal", "L", ideal_dashed=True, label_suffix=" (model, continuous)")
     cross = {d.label: d.analysis.cases[d.main_case].metrics.crossovers_hz for d in designs}
-    fig = loop_figure(main + ideal, cross)
+    fig = partial(loop_figure, main + ideal, cross, title="Loop transfer L")
     return FigureBlock("design-loop", f"Loop transfer L = K1 G11 + K2 G21 (eq. 3.24/3.25), solid: "
                        f"{_case_name(designs)}, dashed: model with the continuous controller; circles: "
-                       "crossovers (thesis Fig. 3.10a-b).", fig)
+                       "crossovers (thesis Fig. 3.10a-b)." + _masked_note(designs, limits), fig)
 
 
-def _nyquist(designs) -> FigureBlock:
+def _nyquist(designs, limits: ReportLimits) -> FigureBlock:
     main = _curves(designs, lambda d: d.main_case, "L")
     ms = {d.label: d.analysis.cases[d.main_case].metrics.ms for d in designs}
     return FigureBlock("design-nyquist", f"Nyquist plot of L ({_case_name(designs)}), dotted circles: distance "
-                       "1/Ms from -1 (thesis Fig. 3.10c-d).", nyquist_figure(main, ms))
+                       "1/Ms from -1 (thesis Fig. 3.10c-d)." + _masked_note(designs, limits),
+                       partial(nyquist_figure, main, ms))
 
 
 def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
@@ -212,8 +305,9 @@ def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
     peaks = {d.label: (d.analysis.cases[d.main_case].metrics.ms_freq_hz, d.analysis.cases[d.main_case].metrics.ms)
              for d in designs}
     return FigureBlock("design-sensitivity", f"Sensitivity S = 1/(1 + L), solid: {_case_name(designs)}; "
-                       "|S| < 1 (below 0 dB) where disturbances are rejected (thesis Fig. 3.11).",
-                       sensitivity_figure(main + ideal, peaks, limits.ms_max))
+                       "|S| < 1 (below 0 dB) where disturbances are rejected (thesis Fig. 3.11). Ms is the "
+                       "analysis' peak over every line." + _masked_note(designs, limits),
+                       partial(sensitivity_figure, main + ideal, peaks, limits.ms_max))
 
 
 def _disturbance(designs) -> FigureBlock:
@@ -228,7 +322,8 @@ def _disturbance(designs) -> FigureBlock:
                 curves.append(Curve(c.freq_hz, c.disturbance * scale, d.label + suffix, d.color, style,
                                     1.5 if case == "ideal" else 1.0))
     unit = designs[0].model.input_unit
-    fig = magnitude_figure(curves, ylabel=f"|x2/d2| [{'µm' if linear else 'rad'}/{unit}]")
+    fig = partial(magnitude_figure, curves, ylabel=f"|x2/d2| [{'µm' if linear else 'rad'}/{unit}]",
+                           title="Disturbance transfer x2/d2")
     return FigureBlock("design-disturbance", "Disturbance transfer from a force d2 on the table to the table "
                        "position x2 (eq. 3.26/3.27), on the model; solid: continuous, dashed: discrete "
                        "controller (thesis Fig. 3.12).", fig)
@@ -245,21 +340,43 @@ def _prefiltered(designs) -> list[Curve]:
         gains, lpf_hz = d.prefilter
         F = prefilter_response(gains, lpf_hz, case.freq_hz, d.law.fs, method="tustin")
         out.append(Curve(case.freq_hz, case.tracking * F, f"{d.label}, feedforward and pre-filter", d.color,
-                         "-.", 1.6))
+                         "-.", 1.6, d.masks.get(d.main_case)))
     return out
 
 
-def _tracking(designs) -> FigureBlock:
+def _tracking(designs, limits: ReportLimits) -> FigureBlock:
     leaders = feedback_groups(designs)
     with_ff = _curves(leaders, lambda d: d.main_case, "tracking", label_suffix=", feedforward")
     without = _curves(leaders, lambda d: d.main_case, "tracking_no_ff", label_suffix=", feedback only")
-    without = [Curve(c.x, c.y, c.label, c.color, ":", 1.2) for c in without]
+    without = [Curve(c.x, c.y, c.label, c.color, ":", 1.2, c.mask) for c in without]
     pre = _prefiltered(designs)
-    fig = magnitude_figure(with_ff + without + pre, ylabel="|x2/x_r| [dB]", db=True, phase=True)
+    fig = partial(magnitude_figure, with_ff + without + pre, ylabel="|x2/x_r| [dB]", db=True, phase=True,
+                           title="Command tracking x2/x_r")
     extra = " and with the trajectory pre-filter of the gains file (dash-dot)" if pre else ""
     return FigureBlock("design-tracking", f"Command tracking x2/x_r ({_case_name(designs)}) with the rotary "
                        "command generator and feedforward (solid), with feedback only (dotted)" + extra +
-                       " (thesis Fig. 3.13).", fig)
+                       " (thesis Fig. 3.13)." + _masked_note(designs, limits), fig)
+
+
+def controller_grid(fs: float) -> np.ndarray:
+    """Frequencies [Hz] of a controller's Bode plot: 0.5 Hz to just below the Nyquist frequency."""
+    return np.logspace(np.log10(0.5), np.log10(fs / 2 * 0.999), CONTROLLER_POINTS)
+
+
+def _controller(d: BallScrewDesign) -> FigureBlock:
+    """Bode plot of the discrete K1, K2 (eq. 3.5 with the filter pack) and of the filter pack alone."""
+    law = d.law
+    f = controller_grid(law.fs)
+    unit = f"{d.model.input_unit}/rad"
+    paths = [Curve(f, law.K1d().freqresp(f), "K1 on the rotary error (x1)", d.color, "-", 1.4),
+             Curve(f, law.K2d().freqresp(f), "K2 on the table error (x2)", d.color, "--", 1.4)]
+    filters = [Curve(f, law.filter_pack_discrete().freqresp(f), "filter pack G_fp", "0.25", "-", 1.3)]
+    fig = partial(controller_figure, paths, filters, unit=unit, fs_hz=law.fs,
+                  title=f"Controller and filter pack of {d.label}")
+    return FigureBlock(f"design-controller-{d.name}", f"Controller of {d.label} ({d.name}) as the target executes it "
+                       f"at {law.fs:g} Hz: K1 and K2 of eq. 3.5 (backward differences, backward-Euler integral) "
+                       "with the matched filter pack (left, dB re 1 " + unit + "), and the filter pack alone "
+                       "(right).", fig)
 
 
 # ------------------------------------------------------------------------------------------ warnings
@@ -292,17 +409,22 @@ def _unanalysed_section(gains: list[GainsInput], names: Mapping) -> Section | No
 def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
                   limits: ReportLimits) -> tuple[list[BallScrewDesign], str | None]:
     """Analyse every ball-screw gains file; also return the name of the FRF used (or None)."""
+    from dataclasses import replace
+
     fi = analysis_frf(inputs)
     frf = fi.frf if fi is not None else None
     ballscrew = [g for g in inputs.gains if g.kind == "ballscrew"]
     prefilters = [prefilter_of(g) for g in ballscrew]
     labels = [design_label(g, p) for g, p in zip(ballscrew, prefilters, strict=True)]
+    support = support_of(frf, BALLSCREW_CHANNELS, limits.coherence_trust, model_band_top(inputs, "ballscrew"))
     designs = []
     for g, pre, label in zip(ballscrew, prefilters, labels, strict=True):
         if labels.count(label) > 1:
             label = f"{label} ({g.path.stem})"
         law, model, analysis, result = analyze_gains(g, frf, limits)
-        designs.append(BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre))
+        d = BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre,
+                            case_masks(analysis, frf, BALLSCREW_CHANNELS, limits.coherence_trust), support)
+        designs.append(replace(d, bandwidth=bandwidth_table_entry(d)))
     return designs, (names[fi.path] if fi is not None else None)
 
 
@@ -330,6 +452,7 @@ def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: d
                                 + " --json."))
         for d in designs:
             store[d.name] = {**d.result, "frf": frf_name}
+            store_bandwidth(store, d, limits)
             doc = next(g.doc for g in inputs.gains if names[g.path] == d.name)
             blocks.append(parameter_table(f"Gains of {d.label} ({d.name})", d.result["gains"],
                                           ["design", d.name, "gains"], units=_gain_units(doc)))
@@ -342,16 +465,16 @@ def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: d
                     f"Trajectory pre-filter of {d.label} (eq. 3.17-3.20, G = low-pass at {d.prefilter[1]:g} Hz)",
                     d.prefilter[0], ["design", d.name, "prefilter", "gains"],
                     units={"K_vel": "s", "K_acc": "s^2", "K_jerk": "s^3", "K_snap": "s^4"}))
-            found = design_warnings(d, limits)
-            warnings.extend(found)
-            blocks.extend(Alert(w) for w in found)
+            warnings.extend(design_warnings(d, limits))
+            blocks.append(verdict_paragraph(d, limits))
         blocks.append(tuning_table([(d.label, next(g.doc for g in inputs.gains if names[g.path] == d.name)
                                       .get("design")) for d in designs]))
-        blocks.append(_margins_table(designs))
+        blocks.append(_margins_table(designs, limits))
         blocks.extend(_poles_table(d) for d in designs)
         leaders = feedback_groups(designs)
-        blocks += [_pole_map(leaders), _loop(leaders), _nyquist(leaders), _sensitivity(leaders, limits),
-                   _disturbance(leaders), _tracking(designs)]
+        blocks += [_pole_map(leaders), _loop(leaders, limits), _nyquist(leaders, limits),
+                   _sensitivity(leaders, limits), _disturbance(leaders), _tracking(designs, limits)]
+        blocks += [_controller(d) for d in leaders]
         frfs = [(names[fi.path], fi.frf) for fi in inputs.frfs if fi.frf.has("x1/u") and fi.frf.has("x2/u")]
         blocks += certificate_blocks(designs, frfs, {names[g.path]: g.doc for g in inputs.gains}, limits, store)
         subs.append(Section("design-ballscrew", "Ball-screw controllers", blocks))

@@ -30,19 +30,21 @@ h3 { font-size: 1.12em; margin: 24px 0 6px; }
 .meta { color: var(--muted); font-size: 0.9em; margin: 0 0 12px; }
 nav ol { columns: 2; font-size: 0.92em; margin: 8px 0 0; }
 nav a, a { color: #0b5cad; text-decoration: none; }
-table { border-collapse: collapse; margin: 10px 0 4px; font-size: 0.86em; width: auto; max-width: 100%;
-        display: block; overflow-x: auto; }
-caption { text-align: left; font-weight: 600; padding: 4px 0; }
-th, td { border: 1px solid var(--line); padding: 3px 8px; vertical-align: top; }
+div.table-wrap { max-width: 100%; overflow-x: auto; margin: 10px 0 4px; }
+table { border-collapse: collapse; font-size: 0.8em; line-height: 1.35; width: auto; max-width: 100%; }
+caption { text-align: left; font-weight: 600; padding: 4px 0; font-size: 1.08em; }
+th, td { border: 1px solid var(--line); padding: 2px 6px; vertical-align: top; overflow-wrap: break-word; }
+th { hyphens: auto; overflow-wrap: normal; }
 th { background: var(--head); text-align: left; font-weight: 600; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; overflow-wrap: normal; }
+p.verdict { font-weight: 600; }
 p.note { color: var(--muted); font-size: 0.85em; margin: 2px 0 12px; }
 div.warning { background: var(--warn-bg); border-left: 4px solid var(--warn); color: #4a2a00; padding: 6px 10px;
               margin: 6px 0; font-size: 0.92em; }
 figure { margin: 16px 0 20px; break-inside: avoid; }
 figure img { max-width: 100%; height: auto; border: 1px solid var(--line); }
 figcaption { color: var(--muted); font-size: 0.88em; margin-top: 4px; }
-@media print { body { max-width: none; } h2 { break-after: avoid; } table { display: table; } }
+@media print { body { max-width: none; } h2 { break-after: avoid; } div.table-wrap { overflow: visible; } }
 """
 
 
@@ -50,9 +52,16 @@ def _esc(text: str) -> str:
     return html.escape(str(text), quote=True)
 
 
+def _breakable(text: str) -> str:
+    """Escaped text that may break after ``_`` (and after ``/`` in a path without spaces): long file names wrap
+    inside narrow columns."""
+    out = _esc(text).replace("_", "_<wbr>")
+    return out.replace("/", "/<wbr>") if " " not in text else out
+
+
 def _cell(cell: Cell) -> str:
     if not cell.is_number:
-        return f"<td>{_esc(cell.text)}</td>"
+        return f"<td>{_breakable(cell.text)}</td>"
     attrs = ' class="num"'
     if cell.key is not None:
         attrs += f" data-key='{_esc(json.dumps(cell.key))}'"
@@ -74,12 +83,17 @@ def _table(t: Table) -> str:
     head = "".join(f"<th>{_esc(c)}</th>" for c in t.columns)
     body = "\n".join("<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in t.rows)
     note = f'<p class="note">{_esc(t.note)}</p>' if t.note else ""
-    return (f"<table><caption>{_esc(t.title)}</caption><thead><tr>{head}</tr></thead>\n<tbody>\n{body}\n"
-            f"</tbody></table>{note}")
+    return (f'<div class="table-wrap"><table><caption>{_esc(t.title)}</caption><thead><tr>{head}</tr></thead>\n'
+            f"<tbody>\n{body}\n</tbody></table></div>{note}")
+
+
+def png_size(png: bytes) -> tuple[int, int]:
+    """``(width, height)`` [px] of a PNG image from its header."""
+    return int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
 
 
 def _figure(f: FigureBlock, png: bytes) -> str:
-    w, h = (round(x * f.figure.dpi) for x in f.figure.get_size_inches())
+    w, h = png_size(png)
     data = base64.b64encode(png).decode("ascii")
     return (f'<figure id="fig-{_esc(_slug(f.name))}"><img alt="{_esc(f.caption)}" width="{w}" height="{h}" '
             f'src="data:image/png;base64,{data}"><figcaption>{_esc(f.caption)}</figcaption></figure>')
@@ -93,7 +107,7 @@ def _block(b, pngs: dict) -> str:
     if isinstance(b, Table):
         return _table(b)
     if isinstance(b, FigureBlock):
-        return _figure(b, pngs[id(b)])
+        return _figure(b, pngs[b.name])
     if isinstance(b, Alert):
         return f'<div class="warning">{_esc(b.text)}</div>'
     if isinstance(b, Paragraph):
@@ -125,8 +139,145 @@ def data_script(data: dict) -> str:
     return f'<script type="application/json" id="{DATA_ELEMENT_ID}">{text}</script>'
 
 
-def render_html(report: Report, *, created: str | None = None) -> str:
-    """The HTML text of a report (figures rendered to PNG here).
+PROCESSES_ENV = "FEEDTUNE_REPORT_PROCESSES"
+"""Environment variable: the number of processes that draw the figures (1: this process only)."""
+MIN_FIGURES_PER_PROCESS = 3
+"""Fewer figures than this per extra process are drawn in this process (forking costs more than it saves)."""
+
+
+def render_processes(n_figures: int) -> int:
+    """How many processes draw ``n_figures`` figures: ``$FEEDTUNE_REPORT_PROCESSES`` when set, 1 when
+    ``$FEEDTUNE_JOBS`` is not set or 1 (library callers: :mod:`feedtune.workflows.parallel`), else this one plus
+    one per core the machine leaves idle (the cores this process may use minus the 1-minute load average, which
+    counts this process; a core at least half idle counts), at most 4 in all and one per
+    :data:`MIN_FIGURES_PER_PROCESS` figures; 1 where ``os.fork`` does not exist."""
+    import os
+
+    if not hasattr(os, "fork"):
+        return 1
+    env = os.environ.get(PROCESSES_ENV, "").strip()
+    if env:
+        try:
+            return max(1, int(env))
+        except ValueError:
+            return 1
+    if not os.environ.get("FEEDTUNE_JOBS", "").strip() or os.environ["FEEDTUNE_JOBS"].strip() == "1":
+        return 1  # processes only where asked for (feedtune.workflows.parallel: the command line asks)
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        cpus = os.cpu_count() or 1
+    try:
+        idle = cpus - os.getloadavg()[0]
+    except (AttributeError, OSError):
+        idle = cpus - 1.0
+    extra = min(cpus - 1, int(idle + 0.5))
+    return max(1, min(1 + extra, 4, n_figures // MIN_FIGURES_PER_PROCESS))
+
+
+def _warm_up() -> None:
+    """Draw a tiny figure with text (loads the fonts and the Agg backend, about 0.3 s the first time)."""
+    from .figures import new_figure
+
+    fig, axes = new_figure(1, height=0.8, width=2.0)
+    axes[0, 0].set_xlabel("t [s]")
+    figure_png(fig)
+
+
+def _draw(figures, advance=None) -> dict[str, bytes]:
+    """PNG bytes of ``figures`` by name; ``advance()`` after each (progress of this process only: a forked child
+    never calls it, so no lock of the parent's progress display is taken in a child)."""
+    out = {}
+    for f in figures:
+        out[f.name] = figure_png(f.figure)
+        if advance is not None:
+            advance()
+    return out
+
+
+def _draw_in_children(chunks: list) -> list:
+    """Fork one child per chunk; each draws its figures and sends the PNGs back through a pipe.
+
+    Returns ``[(pid, read_fd, chunk)]``; a child that fails leaves its chunk to the parent."""
+    import os
+    import pickle
+
+    children = []
+    for chunk in chunks:
+        r, w = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # child: draw, send, leave without running the parent's cleanup
+            code = 1
+            try:
+                os.close(r)
+                data = pickle.dumps(_draw(chunk), protocol=pickle.HIGHEST_PROTOCOL)
+                with os.fdopen(w, "wb") as fh:
+                    fh.write(data)
+                code = 0
+            finally:
+                os._exit(code)
+        os.close(w)
+        children.append((pid, r, chunk))
+    return children
+
+
+PARENT_SHARE = 0.6
+"""Figures drawn in this process relative to a child's: it also reads the replies and runs before and after."""
+
+
+def split_work(items: list, n: int) -> list[list]:
+    """``items`` dealt in order to ``n`` chunks, the first (this process) taking :data:`PARENT_SHARE` of a child's
+    share: heavy and light figures alternate in the report, so dealing in order spreads them.
+
+    Examples
+    --------
+    >>> [len(c) for c in split_work(list(range(14)), 2)]
+    [5, 9]
+    """
+    weights = [PARENT_SHARE] + [1.0] * (n - 1)
+    chunks: list[list] = [[] for _ in range(n)]
+    for item in items:
+        k = min(range(n), key=lambda j: (len(chunks[j]) + 1) / weights[j])
+        chunks[k].append(item)
+    return chunks
+
+
+def render_pngs(report: Report, processes: int | None = None) -> dict[str, bytes]:
+    """Every figure of the report drawn once, as PNG bytes by figure name (the HTML and the PDF use them).
+
+    The figures are built and drawn here (a :class:`FigureBlock` may hold a callable that draws its figure),
+    split over ``processes`` processes (default :func:`render_processes`; forked children send the PNG bytes back,
+    and any figure a child fails to deliver is drawn here). Figure names are unique within a report (they are also
+    the HTML ids ``fig-NAME``)."""
+    import os
+    import pickle
+
+    figures = report.figures()
+    if len({f.name for f in figures}) != len(figures):
+        raise ValueError("internal error: two report figures share a name")
+    from .. import progress
+
+    n = render_processes(len(figures)) if processes is None else max(1, int(processes))
+    if n <= 1 or len(figures) < 2:
+        with progress.task("figures", total=len(figures)) as advance:
+            return _draw(figures, advance)
+    chunks = split_work(figures, n)
+    _warm_up()  # fonts and the Agg backend loaded once, before the children are forked
+    children = _draw_in_children(chunks[1:])
+    with progress.task(f"figures drawn here ({len(figures) - len(chunks[0])} more in {n - 1} other process)",
+                       total=len(chunks[0])) as advance:
+        out = _draw(chunks[0], advance)
+    for pid, r, chunk in children:
+        with os.fdopen(r, "rb") as fh:
+            data = fh.read()
+        _, status = os.waitpid(pid, 0)
+        got = pickle.loads(data) if status == 0 and data else {}
+        out.update(got if set(got) == {f.name for f in chunk} else _draw(chunk))
+    return {f.name: out[f.name] for f in figures}
+
+
+def render_html(report: Report, *, created: str | None = None, pngs: dict[str, bytes] | None = None) -> str:
+    """The HTML text of a report.
 
     Parameters
     ----------
@@ -134,10 +285,12 @@ def render_html(report: Report, *, created: str | None = None) -> str:
         Sections, title and data (``report.html`` is not used).
     created : str, optional
         Creation time shown in the header (default: now, local time, to the minute).
+    pngs : dict, optional
+        The figures as PNG by name (:func:`render_pngs`; drawn here when not given).
     """
     from .. import __version__
 
-    pngs = {id(f): figure_png(f.figure) for f in report.figures()}
+    pngs = pngs if pngs is not None else render_pngs(report)
     when = created or _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     n_files = sum(len(v) for k, v in report.data.get("inputs", {}).items() if k != "skipped")
     body = "\n".join(_section(s, 2, pngs) for s in report.sections if not s.is_empty())

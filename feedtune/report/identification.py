@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -16,6 +17,8 @@ from .sections import ReportLimits, parameter_table
 BALLSCREW_CHANNELS = ("x1/u", "x2/u")
 GANTRY_CHANNELS = ("y1/u1", "y1/u2", "y2/u1", "y2/u2")
 FRF_UNITS = {"position": "{out}/{inp}", "velocity": "{out}/s/{inp}", "acceleration": "{out}/s^2/{inp}"}
+COHERENCE_FAINT = 0.5
+"""Measured FRF lines with a lower coherence [-] are drawn faint (``ReportLimits.coherence_trust``'s default)."""
 MAX_SCATTER_POINTS = 6000
 """Points of a disturbance-estimate scatter drawn (evenly strided)."""
 
@@ -78,7 +81,8 @@ def _ballscrew_model_curves(model, freq_hz: np.ndarray, quantity: str, delay_s: 
     return {ch: (freq_hz, m.channel(ch) * lag) for ch in BALLSCREW_CHANNELS}
 
 
-def _frf_block(name: str, frf, model=None, fit: Mapping | None = None) -> FigureBlock:
+def _frf_block(name: str, frf, model=None, fit: Mapping | None = None,
+               threshold: float = COHERENCE_FAINT) -> FigureBlock:
     """Measured (and model) FRF figure of one FRF file."""
     channels = [ch for ch in frf.channels]
     if model is not None:
@@ -93,8 +97,11 @@ def _frf_block(name: str, frf, model=None, fit: Mapping | None = None) -> Figure
         band = [float(b[0]), float(b[1])] if isinstance(b, (list, tuple)) and len(b) == 2 else None
         caption = (f"Measured FRF {name} against the identified model ({frf.quantity}, model with the identified "
                    f"equivalent delay {delay * 1e3:.3g} ms; shaded: fit band) - thesis Fig. 3.4a.")
-    fig = frf_figure(channels, measured, model_curves, coherence, unit=frf_unit(frf),
-                     title=f"FRF {name}" + (" vs model" if model is not None else ""), band_hz=band)
+    if any(np.any(c[1] < threshold) for c in coherence.values()):
+        caption += f" Faint: measured lines with coherence below {threshold:g}."
+    fig = partial(frf_figure, channels, measured, model_curves, coherence, unit=frf_unit(frf),
+                     title=f"FRF {name}" + (" vs model" if model is not None else ""), band_hz=band,
+                     coherence_min=threshold)
     return FigureBlock(f"frf-{name}", caption, fig)
 
 
@@ -102,7 +109,7 @@ def _model_only_block(name: str, model) -> FigureBlock:
     top = max([m.freq_hz for m in model.modes()] + [100.0])
     f = np.logspace(0, np.log10(10 * top), 800)
     curves = _ballscrew_model_curves(model, f, "position", 0.0)
-    fig = frf_figure(BALLSCREW_CHANNELS, {}, curves, {}, unit=f"rad/{model.input_unit}", title=f"Model {name}")
+    fig = partial(frf_figure, BALLSCREW_CHANNELS, {}, curves, {}, unit=f"rad/{model.input_unit}", title=f"Model {name}")
     return FigureBlock(f"model-frf-{name}", f"Position FRF of the model {name} (no measured FRF given).", fig)
 
 
@@ -164,7 +171,7 @@ def _ballscrew_model_section(mi: ModelInput, name: str, frfs: list[tuple[str, Fr
     band = band if isinstance(band, (list, tuple)) and len(band) == 2 else None
     matching = [(n, f) for n, f in frfs if any(f.frf.has(ch) for ch in BALLSCREW_CHANNELS)]
     for fname, fi in matching:
-        blocks.append(_frf_block(fname, fi.frf, mi.model, fit))
+        blocks.append(_frf_block(fname, fi.frf, mi.model, fit, limits.coherence_trust))
         coh = coherence_warnings(fname, fi.frf, band, limits)
         warnings.extend(coh)
         blocks.extend(Alert(w) for w in coh)
@@ -319,7 +326,7 @@ def friction_section(inputs: Inputs, names: Mapping, data: dict) -> Section | No
     if doc_units is not None and not curves and not pts:
         vel_unit, cmd_unit = doc_units
     if curves or pts:
-        fig = friction_figure(curves, pts, velocity_unit=vel_unit, command_unit=cmd_unit,
+        fig = partial(friction_figure, curves, pts, velocity_unit=vel_unit, command_unit=cmd_unit,
                               title="Friction versus velocity")
         caption = "Friction model" if curves else "Estimated disturbance versus velocity"
         if curves and pts:
@@ -327,7 +334,7 @@ def friction_section(inputs: Inputs, names: Mapping, data: dict) -> Section | No
         blocks.append(FigureBlock("friction", caption + " (thesis eq. 2.1, §2.1.3).", fig))
     if doc_curves or doc_points:
         vu, cu = doc_units
-        fig = friction_figure([*doc_points, *doc_curves], [], velocity_unit=vu, command_unit=cu,
+        fig = partial(friction_figure, [*doc_points, *doc_curves], [], velocity_unit=vu, command_unit=cu,
                               title="Fitted friction law over the measured friction")
         blocks.append(FigureBlock("friction-curve", "Friction law fitted per direction (lines) over the measured "
                                   f"friction (points) [{cu} versus {vu}]: plateau means of a steady-state run, or "
@@ -360,7 +367,7 @@ def _gantry_frf_block(name: str, fi: FrfInput, model) -> FigureBlock:
         m = model.frf(f, x, frf.quantity)
         curves = {ch: (f, m.channel(ch)) for ch in channels if m.has(ch)}
         caption += f" against the model at x = {x:g} m (thesis Fig. 4.7)"
-    fig = frf_figure(channels, measured, curves, coherence, unit=frf_unit(frf), width=14.0,
+    fig = partial(frf_figure, channels, measured, curves, coherence, unit=frf_unit(frf), width=14.0,
                      title=f"FRF {name}" + (f" vs model at x = {x:g} m" if x is not None else ""))
     return FigureBlock(f"frf-{name}", caption + ".", fig)
 
@@ -387,8 +394,8 @@ def _gantry_section(mi: ModelInput, name: str, inputs: Inputs, names: Mapping, l
     if mass_points:
         points.update(mass_points)
     unit = model.input_unit
-    fig = gantry_mass_figure(x, masses, inertia, yaw, mass_unit=f"{unit}/(m/s^2)", inertia_unit=f"{unit} m s^2",
-                             points=points or None)
+    fig = partial(gantry_mass_figure, x, masses, inertia, yaw, mass_unit=f"{unit}/(m/s^2)",
+                  inertia_unit=f"{unit} m s^2", points=points or None)
     blocks = [parameter_table("Gantry model parameters (eq. 4.1-4.4, 4.16)", mi.doc.get("params", {}),
                               ["identification", name, "params"]),
               FigureBlock(f"gantry-mass-{name}", "Mass distribution, yaw inertia and yaw-mode frequency versus "
@@ -451,7 +458,7 @@ def identification_section(inputs: Inputs, names: Mapping, limits: ReportLimits,
     for name, fi in frfs:
         if name in used_frfs:
             continue
-        blocks: list = [_frf_block(name, fi.frf)]
+        blocks: list = [_frf_block(name, fi.frf, threshold=limits.coherence_trust)]
         blocks.extend(Paragraph(w + "; no model fit band to judge it against.")
                       for w in coherence_warnings(name, fi.frf, None, limits))
         subs.append(Section(f"frf-{name}", f"Measured FRF {name}", blocks))

@@ -28,16 +28,24 @@ class ReportLimits:
         ``analyze`` use; default: the ``textbook`` profile.
     coherence_min : float
         Coherence [-] below which FRF points inside the fit band are flagged.
+    coherence_trust : float
+        Coherence [-] below which the lines of a measured FRF are left out of the curves drawn from it (loop,
+        sensitivity, Nyquist, tracking) and end the band that supports a tracking bandwidth.
     nrmse_max : float
         Normalised RMS fit error [-] above which a model fit is called poor.
     saturation_samples : int
         Consecutive samples at the command's largest magnitude that count as saturation.
+    u_max : float or None
+        Command saturation level [command unit] for the margin of every run; None: the log's ``u_max`` metadata,
+        else the twin's default for twin logs, else unknown (no margin shown).
     """
 
     policy: Limits = DEFAULT_LIMITS
     coherence_min: float = 0.8
     nrmse_max: float = 0.2
     saturation_samples: int = 10
+    coherence_trust: float = 0.5
+    u_max: float | None = None
 
     @property
     def ms_max(self) -> float | None:
@@ -47,7 +55,8 @@ class ReportLimits:
     def to_dict(self) -> dict:
         """JSON-ready thresholds with units in the keys."""
         return {**self.policy.to_dict(), "coherence_min": self.coherence_min, "nrmse_max": self.nrmse_max,
-                "saturation_samples": self.saturation_samples}
+                "saturation_samples": self.saturation_samples, "coherence_trust": self.coherence_trust,
+                "u_max": self.u_max}
 
 
 def controller_label(name: str | None) -> str:

@@ -6,24 +6,25 @@ from collections.abc import Mapping
 
 from .collect import Inputs
 from .content import Alert, Cell, Paragraph, Section, Table, text_cell
-from .design import CASE_TITLES
+from .design import CASE_TITLES, bandwidth_cell, bandwidth_note, verdict_paragraph
 from .sections import BASELINE_CONTROLLERS, ReportLimits
 
 
-def _verdict_table(designs: list) -> Table:
+def _verdict_table(designs: list, limits: ReportLimits) -> Table:
     rows = []
     for d in designs:
         case = d.main_case
         m = d.result["analysis"][case]
         k = ["design", d.name, "analysis", case]
-        rows.append([text_cell(d.label), text_cell(CASE_TITLES[case]), Cell(m["stable"], key=[*k, "stable"]),
+        rows.append([text_cell(d.label), text_cell("PASS" if d.result["check"].get("ok") else "FAIL"),
+                     text_cell(CASE_TITLES[case]), Cell(m["stable"], key=[*k, "stable"]),
                      Cell(m["crossovers_hz"], "Hz", key=[*k, "crossovers_hz"]),
                      Cell(m["phase_margin_deg"], "deg", key=[*k, "phase_margin_deg"]),
                      Cell(m["gain_margin_db"], "dB", key=[*k, "gain_margin_db"]),
-                     Cell(m["ms"], "", key=[*k, "ms"]),
-                     Cell(m["tracking_bandwidth_hz"], "Hz", key=[*k, "tracking_bandwidth_hz"])])
-    return Table("Controllers", ["controller", "case", "stable", "crossovers", "phase margin", "gain margin", "Ms",
-                                 "tracking bandwidth (±3 dB)"], rows)
+                     Cell(m["ms"], "", key=[*k, "ms"]), bandwidth_cell(d, case)])
+    return Table("Controllers", ["controller", "verdict", "case", "stable", "crossovers", "phase margin",
+                                 "gain margin", "Ms", "tracking bandwidth"], rows,
+                 f"Verdict under {limits.policy.describe()}. " + bandwidth_note(limits))
 
 
 def _span(values: list[float]) -> tuple[float, float] | None:
@@ -93,22 +94,6 @@ def _fit_table(data: Mapping) -> Table | None:
     return Table("Model fit", ["model", "channel", "NRMSE"], rows) if rows else None
 
 
-def _design_sentence(designs: list) -> str:
-    parts = []
-    for d in designs:
-        m = d.result["analysis"][d.main_case]
-        wc = m["crossovers_hz"]
-        cross = f"crossover {wc[0]:.4g} Hz" + (f" (first of {len(wc)})" if len(wc) > 1 else "") if wc else \
-            "no crossover"
-        pm = "-" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.3g} deg"
-        parts.append(f"{d.label}: {'stable' if m['stable'] else 'UNSTABLE'}, {cross}, Ms {m['ms']:.3g}, "
-                     f"phase margin {pm}")
-    cases = {d.main_case for d in designs}
-    if len(cases) > 1:
-        return "; ".join(f"{p} ({CASE_TITLES[d.main_case]})" for p, d in zip(parts, designs, strict=True)) + "."
-    return "; ".join(parts) + f" ({CASE_TITLES[designs[0].main_case]})."
-
-
 def _reduction_sentence(red: dict) -> str | None:
     parts = []
     for label, r in red.items():
@@ -173,12 +158,12 @@ def _baseline_wins(data: Mapping) -> str | None:
 
 
 def summary_section(designs: list, data: dict, warnings: list[str],
-                    limits: ReportLimits) -> Section:
+                    limits: ReportLimits, inputs: Inputs | None = None) -> Section:
     """The summary shown first: the verdict in words and numbers, error reductions, model fit, warnings."""
+    checked = checked_statements(designs, data, limits, inputs)
     blocks: list = []
     red = reductions(data)
-    if designs:
-        blocks.append(Paragraph(_design_sentence(designs)))
+    blocks.extend(verdict_paragraph(d, limits) for d in designs)
     sentence = _reduction_sentence(red)
     if sentence:
         blocks.append(Paragraph(sentence + " Negative values are increases."))
@@ -187,7 +172,7 @@ def summary_section(designs: list, data: dict, warnings: list[str],
         blocks.append(Alert("The baseline wins here: " + wins))
     data.setdefault("verdict", {})["baseline_wins"] = wins
     if designs:
-        blocks.append(_verdict_table(designs))
+        blocks.append(_verdict_table(designs, limits))
     data["summary"] = {"reductions": red, "warnings": list(warnings), "limits": limits.to_dict()}
     table = _reduction_table(red)
     if table is not None:
@@ -199,11 +184,33 @@ def summary_section(designs: list, data: dict, warnings: list[str],
         blocks.append(Paragraph(f"Warnings ({len(warnings)}):"))
         blocks.extend(Alert(w) for w in warnings)
     else:
-        what = (f"every design is stable in every case and meets the limits ({limits.policy.describe()})"
-                if designs else "no design was given")
-        blocks.append(Paragraph(f"No warnings: {what}; no poor fit, low coherence, saturation or tripped run was "
-                                "found in the inputs."))
+        blocks.append(Paragraph("No warnings: " + "; ".join(checked or ["nothing in the inputs to check"]) + "."))
     return Section("summary", "Summary", blocks)
+
+
+def checked_statements(designs: list, data: Mapping, limits: ReportLimits, inputs: Inputs | None = None) -> list[str]:
+    """What was checked and found in order, one statement per kind of input (used when there is no warning):
+    designs, model fits, FRF coherence in a fit band, logs. Nothing is claimed for inputs that were not given."""
+    out = []
+    if designs:
+        out.append(f"every design ({len(designs)}) is stable in every analysis case and meets the limits "
+                   f"({limits.policy.describe()})")
+    fits = [m for m in (data.get("identification") or {}).values()
+            if isinstance(m, Mapping) and isinstance(m.get("fit"), Mapping) and m["fit"].get("fit")]
+    if fits:
+        out.append(f"every model fit ({len(fits)}) has NRMSE <= {limits.nrmse_max:g} per channel")
+        if any(m["fit"].get("band_hz") for m in fits) and (inputs is None or inputs.frfs):
+            out.append(f"the coherence of the measured FRF is >= {limits.coherence_min:g} inside the fit band")
+    elif inputs is not None and inputs.frfs:
+        out.append(f"the measured FRFs ({len(inputs.frfs)}) are shown without a model fit band to judge their "
+                   "coherence against (see Identification)")
+    if inputs is not None and not designs and not inputs.gains:
+        out.append("no gains file was given, so no stability or margin is claimed")
+    runs = len(data.get("tracking") or {}) + len(data.get("ropesnap") or {}) + len(data.get("contour") or {})
+    if runs:
+        out.append(f"no run ({runs}) tripped or held its command at the largest magnitude for "
+                   f"{limits.saturation_samples} samples or more")
+    return out
 
 
 def inputs_section(inputs: Inputs, names: Mapping) -> Section:
@@ -221,8 +228,15 @@ def inputs_section(inputs: Inputs, names: Mapping) -> Section:
         how = {"meta": "from its metadata", "option": "from --log-kind", "columns": "from its columns"}[li.kind_from]
         rows.append([text_cell(names[li.path]), text_cell(f"log ({li.kind}, {how})"),
                      text_cell(f"{li.log.n} samples at {li.log.fs:.6g} Hz, signals {', '.join(li.log.signals)}")])
+    for c in inputs.curves:
+        doc = c.doc
+        directions = " and ".join({"pos": "v > 0", "neg": "v < 0"}.get(d, d) for d in doc.get("directions") or [])
+        rows.append([text_cell(names.get(c.path, c.path.name)), text_cell(f"friction curve ({doc.get('law', '-')})"),
+                     text_cell(f"{directions or 'no direction'}; {len((doc.get('points') or {}).get('velocity') or [])}"
+                               f" measured points; from {doc.get('source', '-')}")])
     for o in inputs.others:
-        rows.append([text_cell(o.path.name), text_cell("listed only"), text_cell(o.description)])
+        rows.append([text_cell(o.path.name), text_cell("listed only" if o.doc is None else "supplementary data"),
+                     text_cell(o.description)])
     blocks: list = [Table("Files", ["file", "taken as", "details"], rows)]
     if inputs.skipped:
         blocks.append(Table("Files left out", ["file", "reason"],

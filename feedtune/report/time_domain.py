@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -19,10 +20,29 @@ from ..errors import DataError
 from .collect import Inputs, LogInput
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
 from .design import PREFILTER_SUFFIX
-from .figures import Curve, contour_figure, runs_figure
+from .figures import Curve, TimePanel, Window, contour_figure, time_figure
 from .sections import Colors, ReportLimits, baseline_of, controller_label, improvement_pct
 
 TRACKING_KINDS = ("track", "cut")
+COMMAND_SIGNALS = ("u", "u1", "u2", "ux")
+"""Command columns of the twin logs (ball screw ``u``; gantry sides ``u1``, ``u2`` and the x axis ``ux``)."""
+PEAK_FLOOR_RATIO = 10.0
+"""A spectrum peak is reported when its amplitude is at least this many times the noise floor (20 dB)."""
+PEAK_MIN_LINES = 4
+"""... and it lies at least this many frequency lines above 0 Hz (below, it is the run's own slow motion seen
+through the window's main lobe, not a line of the spectrum)."""
+PEAK_CRITERION = (f"a peak is listed when its amplitude is at least {PEAK_FLOOR_RATIO:g} times (20 dB) the noise "
+                  "floor, the median amplitude within one octave either side, and it lies at least "
+                  f"{PEAK_MIN_LINES} frequency lines above 0 Hz")
+ACCELERATION_TOL = 0.02
+"""Samples with ``|a_ref| > ACCELERATION_TOL max|a_ref|`` are accelerating (as the analysis' motion phases)."""
+ZOOM_BEFORE, ZOOM_AFTER = 0.2, 0.8
+"""A zoom window around an acceleration phase of duration D runs from D x ZOOM_BEFORE before it to D x ZOOM_AFTER
+after it (the settling after the phase is where the error shows)."""
+ZOOM_MIN_S = 0.02
+"""Shortest zoom window [s]."""
+TWIN_SOURCES = {"twin ": "ballscrew", "gantry twin ": "gantry"}
+"""Prefixes of the ``source`` metadata of twin logs and the machine whose twin wrote them."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +101,157 @@ def log_warnings(name: str, log, limits: ReportLimits) -> list[str]:
                 out.append(f"{name}: {sig} at its limit ±{sat[0]:.4g} {unit} for {sat[1]} consecutive samples "
                            f"({sat[1] / log.fs * 1e3:.3g} ms): saturation")
     return out
+
+
+def twin_u_max(machine: str) -> float | None:
+    """The command saturation [V] of a machine's twin with its default parameters (``u_max``)."""
+    from dataclasses import fields
+
+    if machine == "ballscrew":
+        from ..machines.ballscrew.twin import TwinParams as Params
+    elif machine == "gantry":
+        from ..machines.gantry.twin import GantryTwinParams as Params
+    else:
+        return None
+    value = next((f.default for f in fields(Params) if f.name == "u_max"), None)
+    return float(value) if isinstance(value, (int, float)) else None
+
+
+def saturation_level(log, limits: ReportLimits) -> tuple[float | None, str]:
+    """``(level, where it came from)``: the command saturation [command unit] for a run's margin.
+
+    The log's ``u_max`` metadata, else ``limits.u_max``, else for a log the twin wrote (``source: twin ...``)
+    the twin's default ``u_max``; ``(None, "unknown")`` otherwise."""
+    for key in ("u_max", "u_max_v", "u_max_V"):
+        if key in log.meta:
+            try:
+                return float(log.meta[key]), "log metadata"
+            except (TypeError, ValueError):
+                break
+    if limits.u_max is not None:
+        return float(limits.u_max), "report option"
+    source = str(log.meta.get("origin", log.meta.get("source", "")))  # the CSV reader keeps it as "origin"
+    for prefix, machine in TWIN_SOURCES.items():
+        if source.startswith(prefix):
+            level = twin_u_max(machine)
+            if level is not None:
+                return level, f"{machine} twin default"
+    return None, "unknown"
+
+
+def command_peaks(log, limits: ReportLimits) -> dict:
+    """Per command signal (``u``, ``u1``, ``u2``, ``ux``): peak ``|u|``, when, the saturation level and the
+    margin to it (``level - peak`` in the command unit and in % of the level)."""
+    level, source = saturation_level(log, limits)
+    out = {}
+    for sig in COMMAND_SIGNALS:
+        if sig not in log:
+            continue
+        u = np.abs(np.asarray(log[sig], float))
+        if not u.size:
+            continue
+        i = int(np.argmax(u))
+        peak = float(u[i])
+        out[sig] = {"peak_abs": peak, "t_peak_s": float(log.t[i]), "unit": log.unit(sig) or "V",
+                    "saturation": level, "saturation_source": source,
+                    "margin": None if level is None else level - peak,
+                    "margin_pct": None if not level else 100.0 * (1.0 - peak / level)}
+    return out
+
+
+def significant_peak(freq_hz: np.ndarray | None, amplitude: np.ndarray | None, peaks) -> dict:
+    """The largest of the analysis' spectrum ``peaks`` that stands above the noise floor (:data:`PEAK_CRITERION`).
+
+    Returns
+    -------
+    dict
+        ``index`` (in ``peaks``, None when none qualifies), ``freq_hz``, ``level``, ``floor`` and ``ratio`` of
+        that peak, and ``resolution_hz`` (the line spacing of the spectrum).
+    """
+    out = {"index": None, "freq_hz": None, "level": None, "floor": None, "ratio": None, "resolution_hz": None}
+    if freq_hz is None or amplitude is None or len(freq_hz) < 2:
+        return out
+    f, a = np.asarray(freq_hz, float), np.asarray(amplitude, float)
+    df = float(f[1] - f[0])
+    out["resolution_hz"] = df
+    for i, p in enumerate(peaks):
+        if p.freq_hz < PEAK_MIN_LINES * df:
+            continue
+        sel = (f >= p.freq_hz / 2) & (f <= p.freq_hz * 2)
+        floor = float(np.median(a[sel])) if sel.any() else 0.0
+        if floor > 0 and p.level >= PEAK_FLOOR_RATIO * floor:
+            return {"index": i, "freq_hz": p.freq_hz, "level": p.level, "floor": floor, "ratio": p.level / floor,
+                    "resolution_hz": df}
+    return out
+
+
+def commanded_acceleration(log) -> np.ndarray | None:
+    """The commanded acceleration [m/s^2]: ``a_ref`` (``ay_ref``), else derived from ``v_ref`` or ``x_ref``
+    (``vy_ref``, ``y_ref``); None without any."""
+    for a, v, x in (("a_ref", "v_ref", "x_ref"), ("ay_ref", "vy_ref", "y_ref")):
+        if a in log:
+            return np.asarray(log[a], float)
+        if v in log:
+            return np.gradient(np.asarray(log[v], float), log.t)
+        if x in log:
+            return np.gradient(np.gradient(np.asarray(log[x], float), log.t), log.t)
+    return None
+
+
+def acceleration_phases(log) -> list[tuple[float, float]]:
+    """``[(start, end)]`` [s] of the runs of samples with ``|a| > ACCELERATION_TOL max|a|`` (gaps shorter than
+    5 ms closed)."""
+    a = commanded_acceleration(log)
+    if a is None or not a.size or not np.max(np.abs(a)) > 0:
+        return []
+    on = np.abs(a) > ACCELERATION_TOL * np.max(np.abs(a))
+    edges = np.diff(np.r_[0, on.astype(np.int8), 0])
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    phases: list[list[float]] = []
+    for i0, i1 in zip(starts, stops, strict=True):
+        t0, t1 = float(log.t[i0]), float(log.t[i1])
+        if phases and t0 - phases[-1][1] < 0.005:
+            phases[-1][1] = t1
+        else:
+            phases.append([t0, t1])
+    return [(p[0], p[1]) for p in phases]
+
+
+def tracking_windows(log) -> list[Window]:
+    """A zoom window around every acceleration phase of a run's reference (:func:`acceleration_phases`)."""
+    phases = acceleration_phases(log)
+    t_lo, t_hi = float(log.t[0]), float(log.t[-1])
+    out = []
+    for k, (s, e) in enumerate(phases, start=1):
+        d = max(e - s, ZOOM_MIN_S / (1 + ZOOM_BEFORE + ZOOM_AFTER))
+        t0, t1 = max(t_lo, s - ZOOM_BEFORE * d), min(t_hi, e + ZOOM_AFTER * d)
+        out.append(Window(f"acceleration {k} of {len(phases)}: {s * 1e3:.0f}-{e * 1e3:.0f} ms", t0, t1))
+    return out
+
+
+def worst_window(windows: list[Window], curves: list[Curve]) -> list[Window]:
+    """The window in which the largest ``|y|`` of the curves occurs (the event a reader wants to see), as a list
+    (empty without windows)."""
+    if len(windows) <= 1:
+        return list(windows)
+
+    def peak(w: Window) -> float:
+        vals = [np.max(np.abs(c.y[(c.x >= w.t0) & (c.x <= w.t1)]), initial=0.0) for c in curves]
+        return max(vals, default=0.0)
+
+    return [max(windows, key=peak)]
+
+
+def ropesnap_window(group: list) -> Window:
+    """Zoom window [s after the release] over the response: up to 1.5 x the slowest 5 % settling time of the
+    group (10 x the peak time when a run does not settle), at least :data:`ZOOM_MIN_S`, within the runs."""
+    ends, spans = [], []
+    for r in group:
+        m = r.metrics
+        ends.append(1.5 * m.settling_time if m.settled and m.settling_time else 10.0 * max(m.peak_time, 1e-3))
+        spans.append(float(r.li.log.t[-1]) - m.t_release)
+    w = min(max(max(ends), ZOOM_MIN_S), max(spans))
+    return Window(f"after the release: 0-{w * 1e3:.0f} ms", -0.1 * w, w)
 
 
 def speed_of(log) -> float | None:
@@ -263,12 +434,19 @@ def _tracking_figure(group: list[Run]) -> FigureBlock:
         if r.metrics.freq_hz is not None:
             spec.append(Curve(r.metrics.freq_hz, r.metrics.amplitude * 1e6, r.label, r.color))
     unit = next((group[0].li.log.unit(u) for u in ("u", "u1") if u in group[0].li.log), "") or "V"
-    fig = runs_figure(err, cmd, spec, error_label="tracking error [µm]", command_label=f"control signal [{unit}]",
-                      spectrum_label="error amplitude [µm]", title=group[0].group_title)
+    windows = worst_window(tracking_windows(group[0].li.log), err)
+    panels = [TimePanel("tracking error [µm]", err), TimePanel(f"control signal [{unit}]", cmd)]
+    fig = partial(time_figure, panels, windows, spec, time_label="time [s]", spectrum_label="error amplitude [µm]",
+                  title=group[0].group_title)
     what = "cutting" if group[0].group[0] == "cut" else "tracking"
+    df = group[0].metrics.freq_hz[1] - group[0].metrics.freq_hz[0] if group[0].metrics.freq_hz is not None else None
+    zoom = (" Right: zoomed on the acceleration phase of the reference (|a_ref| above "
+            f"{100 * ACCELERATION_TOL:g} % of its peak) with the largest error, shaded on the whole run." if windows
+            else "")
+    res = f" Spectrum: Hann window over the whole run, line spacing {df:.3g} Hz." if df else ""
     return FigureBlock(f"time-{group[0].group[0]}-{group[0].group[1]}",
                        f"{group[0].group_title[0].upper()}{group[0].group_title[1:]}: {what} error, control signal "
-                       "and error amplitude spectrum (thesis Fig. 3.15).", fig)
+                       "and error amplitude spectrum (thesis Fig. 3.15)." + zoom + res, fig)
 
 
 def _stats_cells(metrics, part: str, key: list) -> list[Cell]:
@@ -285,26 +463,96 @@ def _error_name(r: Run, side: str | None) -> str:
     return r.options.get("error") or ("e2" if "e2" in r.li.log else "x_ref - position")
 
 
+def _entries(r: Run):
+    """``(side, metrics, data key)`` per analysed error of a run (each side of a gantry run)."""
+    return [(side, m, ["tracking", r.name, "sides", side]) for side, m in r.sides.items()] or \
+        [(None, r.metrics, ["tracking", r.name, "metrics"])]
+
+
+def short_title(title: str) -> str:
+    """A group title for a table cell: ``tracking, peak speed 200 mm/s`` -> ``200 mm/s``, ``cut, peak speed
+    200 mm/s`` -> ``cut 200 mm/s`` (the tables say the speed is the peak commanded speed)."""
+    for prefix, shown in (("tracking, peak speed ", ""), ("cut, peak speed ", "cut ")):
+        if title.startswith(prefix):
+            return shown + title[len(prefix):]
+    return title
+
+
+def _short_run(r: Run) -> str:
+    return short_title(r.group_title)
+
+
 def _runs_table(runs: list[Run]) -> Table:
     rows = []
     for r in runs:
-        entries = [(side, m, ["tracking", r.name, "sides", side]) for side, m in r.sides.items()] or \
-            [(None, r.metrics, ["tracking", r.name, "metrics"])]
-        for side, m, key in entries:
-            peak = m.peaks[0] if m.peaks else None
-            pk = [*key, "peaks", 0]
-            rows.append([text_cell(r.name), text_cell(r.label), text_cell(r.group_title),
+        for side, m, key in _entries(r):
+            rows.append([text_cell(_short_run(r)), text_cell(r.label), text_cell(r.name),
                          text_cell(_error_name(r, side)),
                          *_stats_cells(m, "overall", key), *_stats_cells(m, "constant_velocity", key),
-                         *_stats_cells(m, "acceleration", key),
-                         Cell(peak.freq_hz if peak else None, "Hz", key=[*pk, "freq_hz"] if peak else None),
-                         Cell(peak.level if peak else None, "µm", 1e6, key=[*pk, "amplitude_m"] if peak else None)])
+                         *_stats_cells(m, "acceleration", key)])
     note = ("Gantry runs: each side's error (feedtune analyze track LOG --error e1|e2 --reference y_ref); the "
-            "comparison uses the side with the larger maximum error." if any(r.sides for r in runs) else "")
+            "comparison uses the side with the larger maximum error. " if any(r.sides for r in runs) else "")
+    note += (f"Accelerating: |a_ref| above {100 * ACCELERATION_TOL:g} % of its peak; constant velocity: speed within "
+             "2 % of its peak and not accelerating.")
     return Table("Tracking error per run (feedtune analyze track)",
-                 ["log", "controller", "run", "error", "max", "RMS", "max at constant velocity",
-                  "RMS at constant velocity", "max while accelerating", "RMS while accelerating",
-                  "largest spectrum peak", "peak amplitude"], rows, note)
+                 ["run", "controller", "log", "error", "max", "RMS", "max, constant velocity",
+                  "RMS, constant velocity", "max, accelerating", "RMS, accelerating"], rows, note)
+
+
+def _spectrum_table(runs: list[Run], data: dict) -> Table:
+    """The largest error-spectrum peak above the noise floor per run, with the frequency resolution."""
+    rows = []
+    for r in runs:
+        store = data["tracking"][r.name].setdefault("spectrum_peak", {})
+        for side, m, key in _entries(r):
+            sp = significant_peak(m.freq_hz, m.amplitude, m.peaks)
+            store[side or "error"] = {k: sp[k] for k in ("freq_hz", "level", "floor", "ratio", "resolution_hz")} | {
+                "index": sp["index"], "criterion": PEAK_CRITERION}
+            skey = ["tracking", r.name, "spectrum_peak", side or "error"]
+            if sp["index"] is None:
+                peak_cells = [text_cell("none above the noise floor"), Cell(None), Cell(None)]
+            else:
+                pk = [*key, "peaks", sp["index"]]
+                peak_cells = [Cell(sp["freq_hz"], "Hz", key=[*pk, "freq_hz"]),
+                              Cell(sp["level"], "µm", 1e6, key=[*pk, "amplitude_m"]),
+                              Cell(sp["ratio"], "", key=[*skey, "ratio"])]
+            rows.append([text_cell(_short_run(r)), text_cell(r.label), text_cell(_error_name(r, side)), *peak_cells,
+                         Cell(sp["resolution_hz"], "Hz", key=[*skey, "resolution_hz"])])
+    return Table("Error spectrum: the largest peak above the noise floor per run",
+                 ["run", "controller", "error", "peak at", "amplitude", "peak / noise floor", "frequency resolution"],
+                 rows, "Amplitude spectrum of the whole run's error (Hann window, amplitude-correct); "
+                 f"{PEAK_CRITERION}. Frequency resolution: the line spacing 1/T of the run of duration T.")
+
+
+def command_table(runs: list[Run], section: str, data: dict, limits: ReportLimits) -> Table | None:
+    """Peak |u| per run and command signal with the margin to the saturation level (``data[section][log]
+    ["command"]``)."""
+    rows = []
+    sources = set()
+    for r in runs:
+        peaks = command_peaks(r.li.log, limits)
+        data[section][r.name]["command"] = peaks
+        for sig, p in peaks.items():
+            k = [section, r.name, "command", sig]
+            sources.add(p["saturation_source"])
+            unit = p["unit"]
+            rows.append([text_cell(_short_run(r)), text_cell(r.label), text_cell(sig),
+                         Cell(p["peak_abs"], unit, key=[*k, "peak_abs"]),
+                         Cell(p["t_peak_s"], "s", key=[*k, "t_peak_s"]),
+                         Cell(p["saturation"], unit, key=[*k, "saturation"]) if p["saturation"] is not None
+                         else text_cell("unknown"),
+                         Cell(p["margin"], unit, key=[*k, "margin"]) if p["margin"] is not None else text_cell("-"),
+                         Cell(p["margin_pct"], "%", key=[*k, "margin_pct"])
+                         if p["margin_pct"] is not None else text_cell("-")])
+    if not rows:
+        return None
+    note = ("Margin = saturation level - peak |u| (negative: the command reached the level). Saturation level from: "
+            + ", ".join(sorted(sources)) + ".")
+    if "unknown" in sources:
+        note += " Unknown levels: give the log a '# u_max:' metadata line or ReportLimits(u_max=...)."
+    return Table("Control effort: peak command and margin to saturation per run",
+                 ["run", "controller", "command", "peak |u|", "at", "saturation level", "margin", "margin [%]"],
+                 rows, note)
 
 
 def comparison_rows(runs: list[Run]) -> tuple[list[str], list[dict]]:
@@ -333,31 +581,27 @@ def comparison_rows(runs: list[Run]) -> tuple[list[str], list[dict]]:
 
 
 def _comparison_table(runs: list[Run], labels: list[str], rows: list[dict]) -> Table:
+    """Table 3.2 in long form (one row per run and controller, so any number of controllers fits the page)."""
     base = baseline_of(labels)
-    others = [lb for lb in labels if lb != base] if base else []
-    columns = ["run"] + [f"{lb} {w}" for lb in labels for w in ("max", "RMS")]
-    columns += [f"{lb} vs {base}: {w} reduction" for lb in others for w in ("max", "RMS")]
     by_name = {r.name: r for r in runs}
     table_rows = []
     for row in rows:
-        cells = [text_cell(row["run"] + ("*" if row["cut"] else ""))]
+        run_text = short_title(row["run"]) + ("*" if row["cut"] else "")
         for lb in labels:
             run = row["runs"].get(lb)
             if run is None:
-                cells += [Cell(None), Cell(None)]
                 continue
             k = ["tracking", by_name[run["log"]].name, "metrics", "overall"]
-            cells += [Cell(run["max_m"], "µm", 1e6, key=[*k, "max_m"]),
-                      Cell(run["rms_m"], "µm", 1e6, key=[*k, "rms_m"])]
-        for lb in others:
-            red = row["reduction_pct"].get(lb, {})
-            cells += [Cell(red.get("max"), "%", digits=3), Cell(red.get("rms"), "%", digits=3)]
-        table_rows.append(cells)
-    note = "Reduction = 100 (1 - error / baseline error)."
+            red = row["reduction_pct"].get(lb)
+            reds = ([Cell(red.get("max"), "%", digits=3), Cell(red.get("rms"), "%", digits=3)] if red else
+                    [text_cell("baseline" if lb == base else "-"), text_cell("baseline" if lb == base else "-")])
+            table_rows.append([text_cell(run_text), text_cell(lb), Cell(run["max_m"], "µm", 1e6, key=[*k, "max_m"]),
+                               Cell(run["rms_m"], "µm", 1e6, key=[*k, "rms_m"]), *reds])
+    note = f"Run: peak commanded speed. Reduction against {base or 'the baseline'} = 100 (1 - error / baseline error)."
     if any(r["cut"] for r in rows):
         note = "* machining (cutting) run. " + note
-    return Table("Maximum and RMS tracking error per run and controller (form of thesis Table 3.2)", columns,
-                 table_rows, note)
+    return Table("Maximum and RMS tracking error per run and controller (form of thesis Table 3.2)",
+                 ["run", "controller", "max", "RMS", "max reduction", "RMS reduction"], table_rows, note)
 
 
 def _prefilter_table(runs: list[Run]) -> Table | None:
@@ -398,14 +642,18 @@ def _ropesnap_figure(group: list[Run]) -> FigureBlock:
                                  "--" if u == "u2" else "-"))
         asd.append(Curve(m.asd_freq_hz, m.asd * 1e6, r.label, r.color))
     unit = next((group[0].li.log.unit(u) for u in ("u", "u1") if u in group[0].li.log), "") or "V"
-    fig = runs_figure(disp, cmd, asd, error_label="table displacement [µm]", command_label=f"control signal [{unit}]",
-                      spectrum_label="ASD [µm/√Hz]", title=group[0].group_title, spectrum_loglog=True)
-    for ax in fig.axes[:2]:
-        ax.set_xlabel("time after the release [s]")
+    window = ropesnap_window(group)
+    fig = partial(time_figure, [TimePanel("table displacement [µm]", disp), TimePanel(f"control signal [{unit}]", cmd)],
+                      [window], asd, time_label="time after the release [s]", spectrum_label="ASD [µm/√Hz]",
+                      title=group[0].group_title, spectrum_loglog=True)
     title = group[0].group_title
+    m = group[0].metrics
+    df = float(m.asd_freq_hz[1] - m.asd_freq_hz[0]) if m.asd_freq_hz.size > 1 else None
+    res = f" ASD: Welch, Hann, line spacing {df:.3g} Hz." if df else ""
     return FigureBlock(f"time-ropesnap-{group[0].group[1]}", f"{title[0].upper()}{title[1:]}: table "
                        "displacement from its pre-release level, control signal and amplitude spectral density "
-                       "of the displacement after the release (thesis Fig. 3.14, 4.17).", fig)
+                       "of the displacement after the release (thesis Fig. 3.14, 4.17); right: zoomed on the "
+                       "response after the release." + res, fig)
 
 
 def _ropesnap_table(runs: list[Run]) -> tuple[Table, dict]:
@@ -541,7 +789,7 @@ def _contour_subsection(inputs: Inputs, names: Mapping, colors: Colors, data: di
         title = group[0].group_title
         blocks.append(FigureBlock(f"contour-{group[0].group[1]}", f"{title[0].upper()}{title[1:]}: path against "
                                   "the reference and the contour error (thesis Fig. 4.20-4.22).",
-                                  contour_figure(paths, errors, title=title)))
+                                  partial(contour_figure, paths, errors, title=title)))
     return Section("time-contour", "Contouring", blocks)
 
 
@@ -568,7 +816,10 @@ def time_domain_section(inputs: Inputs, names: Mapping, limits: ReportLimits, da
             data.setdefault("tracking", {})[r.name] = entry
         labels, rows = comparison_rows(track)
         comparison["tracking"] = {"controllers": labels, "baseline": baseline_of(labels), "rows": rows}
-        blocks: list = [_comparison_table(track, labels, rows), _runs_table(track)]
+        blocks: list = [_comparison_table(track, labels, rows), _runs_table(track), _spectrum_table(track, data)]
+        effort = command_table(track, "tracking", data, limits)
+        if effort is not None:
+            blocks.append(effort)
         pre = _prefilter_table(track)
         if pre is not None:
             blocks.append(pre)
@@ -582,6 +833,9 @@ def time_domain_section(inputs: Inputs, names: Mapping, limits: ReportLimits, da
         table, reductions = _ropesnap_table(snaps)
         comparison["ropesnap"] = reductions
         blocks = [table]
+        effort = command_table(snaps, "ropesnap", data, limits)
+        if effort is not None:
+            blocks.append(effort)
         blocks.extend(_ropesnap_figure(g) for g in _groups(snaps))
         subs.append(Section("time-ropesnap", "Rope snap (step disturbance)", blocks))
     contour = _contour_subsection(inputs, names, colors, data, strict, warnings)

@@ -43,3 +43,15 @@ class ExperimentResult:
     def to_dict(self) -> dict:
         """``summary`` plus the run's duration and trip state."""
         return {"experiment": self.kind, **self.summary, "run": self.run.to_dict()}
+
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from ..display import call, run_parts
+
+        return call("ExperimentResult", run_parts(self))
+
+    def plot(self, signals=None, *, title: str | None = None):
+        """The run's key signals over time (:func:`feedtune.plotting.plot_run`); returns the matplotlib Figure."""
+        from ..plotting import plot_run
+
+        return plot_run(self, signals, title=title)

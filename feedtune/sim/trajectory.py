@@ -238,6 +238,23 @@ class Trajectory:
             },
         }
 
+    # --------------------------------------------------------------- notebooks
+    def __repr__(self) -> str:
+        from ..display import call, quantity
+
+        p = self.peaks()
+        return call("Trajectory", [self.profile, f"{self.n} samples", f"fs={quantity(self.fs, 'Hz')}",
+                                   f"duration={quantity(self.duration, 's')}",
+                                   f"distance={quantity(float(self.pos[-1] - self.pos[0]), 'm')}",
+                                   f"v_peak={quantity(p['velocity'], 'm/s')}",
+                                   f"a_peak={quantity(p['acceleration'], 'm/s^2')}", f"{len(self.moves)} move(s)"])
+
+    def plot(self, *, title: str | None = None):
+        """Position, velocity, acceleration, jerk and snap over time (:func:`feedtune.plotting.plot_log`)."""
+        from ..plotting import plot_log
+
+        return plot_log(self.to_log(), title=title or f"{self.profile} trajectory")
+
 
 
 

@@ -37,7 +37,7 @@ def ballscrew_sensitivity_peaks(law, pcs: Sequence[PlantCase], above_hz: float, 
     """The ``n`` highest peaks of ``|S|`` [Hz] of ``law`` above ``above_hz`` over the plant cases."""
     found = []
     for pc in pcs:
-        r = analyze_case(law, pc)
+        r = analyze_case(law, pc, responses=False)  # S is all it reads
         s = np.abs(r.S)
         for f in sensitivity_peaks(r.freq_hz, s, above_hz, n):
             found.append((float(np.interp(f, r.freq_hz, s)), f))

@@ -6,10 +6,11 @@ Shapes: the phase-margin target ``pm_deg`` in :data:`PM_TARGETS_DEG` and the dam
 at the crossover in :data:`INTEGRAL_LAGS_DEG` (thesis rule: 10 deg); bandwidth parameter: the CoM crossover target
 (eq. 4.26),
 searched by :func:`feedtune.tune.search.highest_feasible` on the checked case (``discrete`` with an FRF, else
-``ideal_discrete``) with the filter pack given (the thesis' h(s) in the demos). A candidate passes under the PID
-baseline's rule (:func:`feedtune.tune.gantry_cases.untrusted`: no unreliable Nyquist count, and on a band-limited FRF
-a loop small enough at the last line). The winner is re-checked in every case, and the next best shape is taken when
-it fails there.
+``ideal_discrete``) with the filter pack given (the thesis' h(s) in the demos); a scale whose ``sigma_max(S)`` on the
+checked cases' grids (a lower bound of the checked ``Ms``) breaks the limit is skipped unchecked. A candidate passes
+under the PID baseline's rule (:func:`feedtune.tune.gantry_cases.untrusted`: no unreliable Nyquist count, and on a
+band-limited FRF a loop small enough at the last line). The winner is re-checked in every case, and the next best
+shape is taken when it fails there.
 
 With several FRFs (the gantry measured at several table positions, or loads) each is checked at its own position
 with the law the target runs there (the schedule's ``alpha(x)``, :func:`feedtune.control.gantry.law_at`) and the
@@ -26,8 +27,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import replace
 
-from ..analysis.gantry import analyze_gantry, analyze_gantry_case, gantry_plant_cases
-from ..analysis.limits import DEFAULT_LIMITS, check_analysis
+import numpy as np
+
+from ..analysis.gantry import analyze_gantry_case, gantry_plant_cases
+from ..analysis.limits import DEFAULT_LIMITS, check_cases
+from ..analysis.mimo import matmul, sensitivity, singular_values
 from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
 from ..control.gantry import law_at
@@ -102,8 +106,9 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     xs = frf_positions(frfs, positions, x) if frfs else [float(x)]
     design_options["x_grid"] = schedule_grid(model, xs, design_options.get("x_grid"))
     case = "discrete" if frfs else "ideal_discrete"
-    pcs = [gantry_plant_cases(model, xi, fs, delay_samples, fi)[case] for xi, fi in zip(xs, frfs or [None],
+    all_cases = [gantry_plant_cases(model, xi, fs, delay_samples, fi) for xi, fi in zip(xs, frfs or [None],
                                                                                         strict=True)]
+    pcs = [cases[case] for cases in all_cases]
     if filter_choice == "own":
         def tune(filters: FilterPack, **shapes) -> GantryMimoDesign:
             return tune_gantry_mimo(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples, x=x,
@@ -131,28 +136,69 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
         raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
     checked = CheckedCases((pc, model.alpha(xi), xi) for xi, pc in zip(xs, pcs, strict=True))
 
+    designs: dict = {}
+
+    def design_of(shape: dict, crossover_hz: float):
+        """``(design, {position: law there})`` of a candidate, made once (the cheap condition and the check share
+        it), or None when it cannot be made."""
+        key = (*sorted(shape.items()), crossover_hz)
+        if key not in designs:
+            lag = {} if "integral_lag_deg" not in shape else {"integral_lag_deg": shape["integral_lag_deg"]}
+            try:
+                d = design_gantry_mimo(model, crossover_hz=crossover_hz, pm_deg=shape["pm_deg"],
+                                       damping_increase=shape["damping_increase"], filters=filters, fs=fs,
+                                       delay_samples=delay_samples, x=x, **(design_options | lag))
+                designs[key] = (d, {xi: law_at(d.law, d.schedule, xi) for xi in xs})
+            except FeedtuneError:
+                designs[key] = None
+        return designs[key]
+
     def check(shape: dict, crossover_hz: float) -> Candidate | None:
-        lag = {} if "integral_lag_deg" not in shape else {"integral_lag_deg": shape["integral_lag_deg"]}
-        try:
-            design = design_gantry_mimo(model, crossover_hz=crossover_hz, pm_deg=shape["pm_deg"],
-                                        damping_increase=shape["damping_increase"], filters=filters, fs=fs,
-                                        delay_samples=delay_samples, x=x, **(design_options | lag))
-        except FeedtuneError:
+        made = design_of(shape, crossover_hz)
+        if made is None:
             return None
+        design, laws = made
 
         def metrics_of(c):
             pc, weights, xi = c
-            law = law_at(design.law, design.schedule, xi)
-            m = analyze_gantry_case(law, pc, weights).metrics
-            return None if top_line_doubt(law, pc, m, policy, fs) is not None else m
+            return analyze_gantry_case(laws[xi], pc, weights, figures="limits",
+                                       disk_margin=policy.disk_margin_min is not None).metrics
 
-        m = checked.guaranteed(metrics_of, policy, case)
-        return None if m is None else Candidate(shape, crossover_hz, design, m, m.crossovers_hz[0])
+        def refuse(c, m) -> bool:
+            pc, _, xi = c
+            return top_line_doubt(laws[xi], pc, m, policy, fs) is not None
+
+        m, xo = checked.judge(metrics_of, policy, case, refuse)
+        return Candidate(shape, crossover_hz, design, m, xo, passed=m is not None)
+
+    plants = [pc.plant(pc.freq_hz) * pc.hold(pc.freq_hz) for pc in pcs]
+
+    def admissible(shape: dict, crossovers_hz) -> list[bool]:
+        """``max sigma_max(S)`` on the checked cases' grids within the limit: a necessary condition (the analysis'
+        Ms is the peak over a contour holding every point of the grid)."""
+        out = []
+        for xc in crossovers_hz:
+            made = design_of(shape, float(xc))
+            ok = made is not None
+            for xi, pc, ge in zip(xs, pcs, plants, strict=True):
+                if not ok:
+                    break
+                law = made[1][xi]
+                K = law.response_discrete(pc.freq_hz) if pc.discrete else law.response(pc.freq_hz)
+                ok = float(np.max(singular_values(sensitivity(matmul(ge, K)))[0])) <= policy.ms_max
+            out.append(ok)
+        return out
 
     def full_check(c: Candidate) -> list:
+        """The limits in the checked case and stability in every case, per FRF (the cases of
+        :func:`feedtune.analysis.gantry.analyze_gantry`, the figures the limits read)."""
         d = c.design
-        return [check_analysis(analyze_gantry(law_at(d.law, d.schedule, xi), model, x=xi, frf=fi), policy)[0]
-                for xi, fi in zip(xs, frfs or [None], strict=True)]
+        out = []
+        for xi, cases in zip(xs, all_cases, strict=True):
+            law = law_at(d.law, d.schedule, xi)
+            out.append(check_cases(policy, {name: None if pc is None else analyze_gantry_case(
+                law, pc, model.alpha(xi), figures="limits").metrics for name, pc in cases.items()}, [case]))
+        return out
 
     verdicts: dict = {}
 
@@ -166,13 +212,14 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     lag0 = {} if fixed_ki else {"integral_lag_deg": 10.0 if 10.0 in integral_lags else float(integral_lags[0])}
     shapes = [{"pm_deg": float(p), "damping_increase": float(d), **lag0} for p in pm_targets
               for d in damping_increases]
+    cheap = admissible if policy.ms_max is not None else None
     best = highest_feasible(check, shapes, *crossover_range_hz, record, bound_name="crossover_hz",
-                            secondary=lambda c: c.design.law.ki, accept=accept)
+                            secondary=lambda c: c.design.law.ki, accept=accept, admissible=cheap)
     if best is not None and not fixed_ki and len(integral_lags) > 1:  # the integral gain at the best shape
         lags = [{**best.shape, "integral_lag_deg": float(v)} for v in integral_lags
                 if float(v) != best.shape["integral_lag_deg"]]
         other = highest_feasible(check, lags, *crossover_range_hz, record, bound_name="crossover_hz",
-                                 secondary=lambda c: c.design.law.ki, accept=accept)
+                                 secondary=lambda c: c.design.law.ki, accept=accept, admissible=cheap)
         if other is not None and (other.objective > best.objective * (1 + CROSSOVER_TIE)
                                   or (other.objective >= best.objective * (1 - CROSSOVER_TIE)
                                       and other.design.law.ki > best.design.law.ki)):

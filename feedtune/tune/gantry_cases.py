@@ -35,7 +35,8 @@ def frf_positions(frfs: Sequence[Frf], positions, x: float) -> list[float]:
     xs = [f.position_m for f in frfs]
     if len(frfs) > 1 and any(v is None for v in xs):
         missing = next(f.source for f, v in zip(frfs, xs, strict=True) if v is None)
-        raise UsageError(f"{missing}: the FRF records no table position (x_m); give one position per FRF (--x)")
+        raise UsageError(f"{missing}: the FRF records no table position (x_m); give one position per FRF "
+                         "(positions=)", parameter="positions")
     return [x if v is None else v for v in xs]
 
 

@@ -45,6 +45,7 @@ from ..errors import DesignError, UsageError
 from ..frf import Frf
 from .filter_choice import choose_filters, merge_resonances, resonance_peaks, sensitivity_peaks
 from .search import (
+    EdgeResult,
     Probe,
     SearchResult,
     band_top_doubt,
@@ -93,6 +94,9 @@ class _AxisSearch:
         self.bounds = bounds
         self.scan = scan
         self._designs: dict = {}
+        self._relaxed: dict = {}  # shape -> its edge under the limits alone (not pruned)
+        self._whole: dict = {}  # shape -> its edge under the whole check
+        self._unstable: set = set()  # shapes whose edge under the limits alone is unstable in another case
 
     def design(self, xo: float, pm: float, lag: float) -> LoopShapeDesign | None:
         key = (xo, pm, lag)
@@ -103,16 +107,17 @@ class _AxisSearch:
                 self._designs[key] = None
         return self._designs[key]
 
-    def check(self, xo: float, pm: float, lag: float) -> Probe:
+    def check(self, xo: float, pm: float, lag: float, others: bool = True) -> Probe:
         """The analysis' own check of the design for ``(xo, pm, lag)`` in the checked case of every FRF: passes when
         it passes on each; the figures are those of the case with the lowest first crossover, the slack the
-        smallest (the case that failed is checked first next time)."""
+        smallest (the case that failed is checked first next time). Without ``others`` the stability in the other
+        cases is not asked (:meth:`edge` asks it of the edge it finds)."""
         d = self.design(xo, pm, lag)
         if d is None:
             return Probe(float(xo), False, math.nan, None, None)
         probes = []
         for k, c in enumerate(self.cases):
-            p = self._check_case(c, d, xo)
+            p = self._check_case(c, d, xo, others)
             probes.append(p)
             if not p.ok:
                 if k:
@@ -122,8 +127,9 @@ class _AxisSearch:
         slacks = [p.slack for p in probes if p.slack is not None]
         return Probe(best.scale, True, best.crossover_hz, min(slacks) if slacks else None, best.result)
 
-    def _check_case(self, c: _AxisCase, d: LoopShapeDesign, xo: float) -> Probe:
-        """The check on one FRF's checked case (limits, the band's top, stability in its other cases)."""
+    def _check_case(self, c: _AxisCase, d: LoopShapeDesign, xo: float, others: bool = True) -> Probe:
+        """The check on one FRF's checked case (limits, the band's top, and with ``others`` stability in its other
+        cases)."""
         c.checks += 1
         m = analyze_axis_case(d, c.pc, responses=False).metrics
         items = c.policy.check(m, c.name)
@@ -131,25 +137,60 @@ class _AxisSearch:
         l_top = float(np.abs(c.Ge[-1:] * d.controller_discrete().freqresp(top))[0])
         doubt = unreliable(m.warnings) or band_top_doubt(l_top, float(top[0]), c.fs, c.policy.ms_max)
         ok = all(i.ok for i in items) and doubt is None
-        if ok:  # stable in every other case too (the check a design is judged by), only for candidates that pass
-            for k, p in c.cases.items():
-                if p is None or k == c.name:
-                    continue
-                other = analyze_axis_case(d, p, responses=False).metrics
-                if not (other.stable and other.nyquist_reliable):
-                    ok, doubt = False, f"unstable in the {k} case"
-                    break
+        if ok and others:  # stable in every other case too (the check a design is judged by)
+            doubt = self._unstable_elsewhere(c, d)
+            ok = doubt is None
         slacks = [i.slack for i in items if i.slack is not None]
         slack = None if not m.stable or doubt is not None else (min(slacks) if slacks else 1.0)
         xc = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
         return Probe(float(xo), ok, xc, slack, (d, m, items))
 
+    @staticmethod
+    def _unstable_elsewhere(c: _AxisCase, d: LoopShapeDesign) -> str | None:
+        """Why the design is not stable in one of the FRF's other cases, or None (the discrete model first: the
+        case that fails most often)."""
+        for k, p in sorted(c.cases.items(), key=lambda kv: kv[0] != "ideal_discrete"):
+            if p is None or k == c.name:
+                continue
+            other = analyze_axis_case(d, p, responses=False).metrics
+            if not (other.stable and other.nyquist_reliable):
+                return f"unstable in the {k} case"
+        return None
+
     def edge(self, shape: tuple, ref: tuple | None = None, beat: float | None = None):
         """The largest crossover of one shape whose design passes the check (:func:`feasibility_edge`); with
-        ``beat`` [Hz] the first check is at that crossover."""
+        ``beat`` [Hz] the first check is at that crossover.
+
+        The search checks the limits in the checked case and asks the stability in the other cases of the edge it
+        finds alone: that edge passing them, its bracket holds for the whole check (a scale failing the limits fails
+        the whole check). Should the edge fail there, the edge of the whole check lies below it: it is sought from
+        there down with every check asking them. An edge that does not beat ``beat`` is not asked at all: the edge of
+        the whole check, no higher, cannot beat it either (the shape is returned as pruned, its crossover the bound).
+        """
         pm, lag = shape
-        start = beat if beat is not None else (None if ref is None else ref[1].scale)
-        return feasibility_edge(lambda xo: self.check(xo, pm, lag), self.scan, rtol=RTOL, start=start, beat=beat)
+        key = (float(pm), float(lag))
+        e = self._relaxed.get(key)
+        if e is None:  # the edge of a shape is sought once (a later request, with another beat, reuses it)
+            start = beat if beat is not None else (None if ref is None else ref[1].scale)
+            e = feasibility_edge(lambda xo: self.check(xo, pm, lag, others=False), self.scan, rtol=RTOL, start=start,
+                                 beat=beat)
+            if e.best is None:
+                return e
+            self._relaxed[key] = e
+        if beat is not None and e.best.crossover_hz <= beat:
+            return EdgeResult(None, e.fail_scale, e.checks, pruned=True, bound_hz=e.best.crossover_hz)
+        if key in self._whole:
+            return self._whole[key]
+        if key not in self._unstable and all(self._unstable_elsewhere(c, e.best.result[0]) is None
+                                             for c in self.cases):
+            self._whole[key] = e
+            return e
+        self._unstable.add(key)
+        full = feasibility_edge(lambda xo: self.check(xo, pm, lag), self.scan, rtol=RTOL, start=e.best.scale,
+                                beat=beat)
+        if not full.pruned:  # a pruned one may be asked again with a lower beat
+            self._whole[key] = full
+        return replace(full, checks=full.checks + e.checks)
 
     def run(self, ref: tuple | None) -> SearchResult | None:
         """The shape search over the box (the first edge from ``ref``, a passing probe of another stage count)."""

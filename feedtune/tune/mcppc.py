@@ -5,9 +5,10 @@ search and under the same limits as the baseline).
 Shapes: ``beta`` in :data:`BETAS` (the thesis's drive allowed up to 4, section 3.2.3) and ``zeta`` in :data:`ZETAS`;
 bandwidth parameter: the pole frequency ``pole_hz`` (eq. 3.8), searched by :func:`feedtune.tune.search.
 highest_feasible` on the checked case (``discrete`` with an FRF, else ``ideal_discrete``), with the filter pack given
-(default none). With several FRFs (the drive measured at several table positions or loads) a candidate passes only
-when it meets the limits on every one, and its objective is its lowest first crossover over them (the bandwidth
-it guarantees on all). The winner is re-checked in every case on every FRF
+(default none); a scale whose peak ``|S|`` on the checked case's lines (a lower bound of the checked ``Ms``) breaks
+the limit is skipped unchecked. With several FRFs (the drive measured at several table positions or loads) a
+candidate passes only when it meets the limits on every one, and its objective is its lowest first crossover over them
+(the bandwidth it guarantees on all). The winner is re-checked in every case on every FRF
 (:func:`feedtune.analysis.check.check_design`).
 """
 
@@ -16,7 +17,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import replace
 
-from ..analysis.ballscrew import analyze_case, plant_cases
+import numpy as np
+
+from ..analysis.ballscrew import analyze_case, loop_on_grid, plant_cases
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..analysis.check import check_design, resolve_limits
 from ..control.discretize import check_sampling
@@ -95,21 +98,47 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     if filter_choice != "identical":
         raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
 
+    designs: dict = {}
+
+    def design_of(shape: dict, pole_hz: float) -> tuple | None:
+        """``(design, law)`` of a candidate, made once (the cheap condition and the check share it)."""
+        key = (shape["beta"], shape["zeta"], pole_hz)
+        if key not in designs:
+            try:
+                d = design_mcppc(model, beta=shape["beta"], pole_hz=pole_hz, zeta=shape["zeta"], filters=filters,
+                                 fs=fs, delay_samples=delay_samples)
+                designs[key] = (d, d.law())
+            except FeedtuneError:
+                designs[key] = None
+        return designs[key]
+
     def check(shape: dict, pole_hz: float) -> Candidate | None:
-        try:
-            design = design_mcppc(model, beta=shape["beta"], pole_hz=pole_hz, zeta=shape["zeta"], filters=filters,
-                                  fs=fs, delay_samples=delay_samples)
-        except FeedtuneError:
+        made = design_of(shape, pole_hz)
+        if made is None:
             return None
-        law = design.law()
-        m = checked.guaranteed(lambda pc: analyze_case(law, pc, responses=False).metrics, policy, case)
-        return None if m is None else Candidate(shape, pole_hz, design, m, m.crossovers_hz[0])
+        design, law = made
+        m, xo = checked.judge(lambda pc: analyze_case(law, pc, responses=False).metrics, policy, case)
+        return Candidate(shape, pole_hz, design, m, xo, passed=m is not None)
+
+    def admissible(shape: dict, poles_hz) -> list[bool]:
+        """Peak |S| on the checked cases' lines within the limit: a necessary condition (the analysis' Ms is the
+        peak over a contour holding every line)."""
+        out = []
+        for pole_hz in poles_hz:
+            made = design_of(shape, float(pole_hz))
+            if made is None:
+                out.append(False)
+                continue
+            out.append(all(np.max(np.abs(1.0 / (1.0 + loop_on_grid(made[1], pc)))) <= policy.ms_max
+                           for pc in pcs))
+        return out
 
     checked = CheckedCases(pcs)
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
     best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz",
-                            secondary=lambda c: c.design.gains["Ki2"])
+                            secondary=lambda c: c.design.gains["Ki2"],
+                            admissible=admissible if policy.ms_max is not None else None)
     if best is None:
         raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
                           f"{', '.join(f'{z:g}' for z in zetas)}; pole {pole_range_hz[0]:g}-{pole_range_hz[1]:g} Hz) "

@@ -15,10 +15,11 @@ is one such triple, so the search covers the mass-scaled PIDs; it is continuous 
 (:func:`feedtune.analysis.gantry.gantry_plant_cases`: the measured FRF interpolated between its lines and the model
 below them, ``discrete``; without an FRF the ZOH model, ``ideal_discrete``), :func:`analyze_gantry_case` and the
 limits policy (:class:`feedtune.analysis.limits.Limits`: MIMO Nyquist stability, ``max sigma_max(S)``, and the
-CoM loop's phase and gain margins at every crossover). Candidates whose ``Ms`` on the case's base grid already
-exceeds the limit are skipped unchecked (a lower bound of the checked ``Ms``). The objective is the true first
-crossover of the CoM loop (``metrics.crossovers_hz[0]``, including crossovers below the FRF's band). The winner is
-verified in every case (stable in all, the limits in the checked case).
+CoM loop's phase and gain margins at every crossover; the figures the limits read, ``figures="limits"``).
+Candidates whose ``Ms`` on the case's base grid already exceeds the limit (a lower bound of the checked ``Ms``), or
+whose loop at a band-limited FRF's last line is too large (the rule below), are skipped unchecked. The objective is
+the true first crossover of the CoM loop (``metrics.crossovers_hz[0]``, including crossovers below the FRF's band).
+The winner is verified in every case (stable in all, the limits in the checked case).
 
 **The shape box** is ``ZETA_BOUNDS`` x ``RHO_BOUNDS``. On the thesis gantry with the MIMO design's notches and
 low-pass at Ms 2.5 the crossover at the edge rises towards ``zeta = 1`` and large ``rho`` (12.1 Hz at (0.3, 0.5),
@@ -76,6 +77,8 @@ RTOL = 2e-3
 """Relative width of the final bracket on ``w`` [-]."""
 SHAPE_STEP = 1 / 32
 """Smallest step of the shape search, a fraction of each parameter's log range [-]."""
+BOUND_SLACK = 1e-9
+"""Relative slack of the cheap necessary condition against the check's own figures [-] (rounding)."""
 FILTER_CHOICES = ("own", "identical")
 """Values of ``filter_choice``."""
 
@@ -152,14 +155,20 @@ class _Search:
         masses = self.problem.masses
         return c.Ge[:, :, None, :] * (masses[None, :, None, None] * k[None, None, :, :])  # column j: m_j k
 
-    def grid_ms(self, bw_hz: np.ndarray, zeta: float, rho: float) -> np.ndarray:
-        """``max sigma_max(S)`` over every case's base grid for each bandwidth [Hz] of ``bw_hz``."""
+    def grid_ms(self, bw_hz: np.ndarray, zeta: float, rho: float, *, band_top: bool = False) -> np.ndarray:
+        """``max sigma_max(S)`` over every case's base grid for each bandwidth [Hz] of ``bw_hz``; with ``band_top``,
+        a bandwidth whose loop on a band-limited FRF is too large at the last line
+        (:func:`feedtune.tune.search.band_top_doubt`, which the check applies there) gets ``inf``."""
         out = None
-        for i in range(len(self.problem.cases)):
+        p = self.problem
+        for i, c in enumerate(p.cases):
             L = self.grid_loops(i, bw_hz, zeta, rho)
             n_bw, n_f = L.shape[2:]
             smax = singular_values(sensitivity(L.reshape(2, 2, n_bw * n_f)))[0]
             ms = np.max(smax.reshape(n_bw, n_f), axis=1)
+            if band_top and c.pc.freq_hz[-1] < 0.999 * p.fs / 2 and p.policy.ms_max is not None:
+                top = singular_values(np.ascontiguousarray(L[:, :, :, -1]))[0]
+                ms = np.where(top > (1.0 - 1.0 / p.policy.ms_max) * (1 + BOUND_SLACK), np.inf, ms)
             out = ms if out is None else np.maximum(out, ms)
         return out
 
@@ -174,10 +183,13 @@ class _Search:
         return min(found)
 
     def admissible(self, zeta: float, rho: float):
+        """The cheap necessary condition of a shape (None without an ``Ms`` limit): ``Ms`` on the base grids (a lower
+        bound of the checked ``Ms``) and the loop at a band-limited FRF's last line (as the check judges it), each
+        with a relative slack of :data:`BOUND_SLACK` for the rounding of the two computations."""
         ms_max = self.problem.policy.ms_max
         if ms_max is None:
             return None
-        return lambda bw: self.grid_ms(np.atleast_1d(bw), zeta, rho) <= ms_max
+        return lambda bw: self.grid_ms(np.atleast_1d(bw), zeta, rho, band_top=True) <= ms_max * (1 + BOUND_SLACK)
 
     def law(self, bw_hz: float, zeta: float, rho: float) -> PidLaw:
         p = self.problem
@@ -196,7 +208,8 @@ class _Search:
         found = []
         for k, i in enumerate(self.order):
             c = p.cases[i]
-            m = analyze_gantry_case(law, c.pc, c.weights).metrics
+            m = analyze_gantry_case(law, c.pc, c.weights, figures="limits",
+                                    disk_margin=p.policy.disk_margin_min is not None).metrics
             items = p.policy.check(m, c.name)
             doubt = top_line_doubt(law, c.pc, m, p.policy, p.fs)
             ok = all(i.ok for i in items) and doubt is None and bool(m.crossovers_hz)
@@ -439,7 +452,7 @@ def _full_check(law: PidLaw, problem: _Problem):
     stable, checks = {}, []
     for i, c in enumerate(problem.cases):
         on = f" (FRF {i + 1})" if len(problem.cases) > 1 else ""
-        metrics = {name: None if pc is None else analyze_gantry_case(law, pc, c.weights).metrics
+        metrics = {name: None if pc is None else analyze_gantry_case(law, pc, c.weights, figures="limits").metrics
                    for name, pc in c.cases.items()}
         stable.update({name + on: bool(m.stable and m.nyquist_reliable) for name, m in metrics.items() if m})
         checks.append(check_cases(problem.policy, metrics, [c.name]))

@@ -13,9 +13,13 @@ rejects scales without a real check; it never accepts one. With ``beat`` (a cros
 matter) the first check is at the start, chosen by the tuner to give about that crossover: if it fails with a
 crossover at or below ``beat``, the shape's edge lies below the start and its crossover cannot exceed ``beat``, so
 the shape is pruned after one check (after none when the start fails the cheap condition and the crossover
-estimated on the base grid is clearly below ``beat``).
+estimated on the base grid is clearly below ``beat``); later in the search, as soon as a failing scale has a first
+crossover at or below ``beat`` while no passing scale has one above it (the edge lies below that scale, its crossover
+too).
 
-:func:`highest_feasible` runs the edge search over a fixed list of shapes (the MC-PPC and gantry-MIMO tuners).
+:func:`highest_feasible` runs the edge search over a fixed list of shapes (the MC-PPC and gantry-MIMO tuners), coarse
+to fine: every shape scanned down to its highest passing scale, then only the brackets that can still win or tie
+bisected (the winner is the plain search's).
 
 :func:`pattern_search` maximises the first crossover at the edge over the box of shapes, in log coordinates: a
 lattice of starts (3 per parameter, the corners included), then a local search from the best lattice points
@@ -63,15 +67,26 @@ class CheckedCases:
         """The figures with the lowest first crossover (the bandwidth guaranteed on all cases) when every case's
         ``metrics_of(plant case)`` meets the limits and has a crossover; None at the first that does not (or
         returns None)."""
+        return self.judge(metrics_of, policy, case)[0]
+
+    def judge(self, metrics_of, policy, case: str, refuse=None) -> tuple:
+        """``(figures, crossover)``: as :meth:`guaranteed` (``refuse(plant case, metrics)`` -> True also fails a
+        case), and the lowest first crossover [Hz] of the cases analysed, which bounds the guaranteed one from
+        above when the candidate fails (nan when none has one)."""
         found = []
+        xs = []
         for k, pc in enumerate(self.cases):
             m = metrics_of(pc)
-            if m is None or not m.crossovers_hz or not all(i.ok for i in policy.check(m, case)):
+            if m is not None and m.crossovers_hz:
+                xs.append(float(m.crossovers_hz[0]))
+            if (m is None or not m.crossovers_hz or not all(i.ok for i in policy.check(m, case))
+                    or (refuse is not None and refuse(pc, m))):
                 if k:
                     self.cases.insert(0, self.cases.pop(k))
-                return None
+                return None, (min(xs) if xs else math.nan)
             found.append(m)
-        return min(found, key=lambda m: m.crossovers_hz[0])
+        best = min(found, key=lambda m: m.crossovers_hz[0])
+        return best, float(best.crossovers_hz[0])
 
 
 def unreliable(warnings) -> str | None:
@@ -134,18 +149,29 @@ class EdgeResult:
     checks : int
         Real checks made.
     pruned : bool
-        Given up after the first check: the shape cannot beat the crossover it was asked to beat.
+        Given up early: the shape cannot beat the crossover it was asked to beat.
+    bound_hz : float or None
+        When pruned by a failing check: that check's first crossover [Hz], above the edge's.
     """
 
     best: Probe | None
     fail_scale: float | None
     checks: int
     pruned: bool = False
+    bound_hz: float | None = None
 
     @property
     def at_top(self) -> bool:
         """The edge is the top of the scan range (the scale bound)."""
         return self.best is not None and self.fail_scale is None
+
+
+class _PrunedError(Exception):
+    """Raised inside :func:`feasibility_edge` when a failing scale shows that the edge cannot beat ``beat``."""
+
+    def __init__(self, scale: float, crossover_hz: float) -> None:
+        super().__init__(scale)
+        self.scale, self.crossover_hz = scale, crossover_hz
 
 
 def _slack(p: Probe | None) -> float | None:
@@ -172,7 +198,8 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
     start : float, optional
         A scale expected near the edge (a neighbouring shape's): the bracket is sought around it.
     beat : float, optional
-        With ``start``: prune the shape when ``start`` fails with a first crossover at or below ``beat`` [Hz].
+        With ``start``: prune the shape as soon as a failing scale has a first crossover at or below ``beat`` [Hz]
+        while no passing one has a crossover above it (the first check is at ``start``).
     cheap_crossover : callable, optional
         ``cheap_crossover(scale)`` -> an estimate of the first crossover [Hz] on the analysis' base grid: when
         ``start`` fails the cheap condition and the estimate is ``CHEAP_MARGIN`` below ``beat``, the shape is
@@ -181,11 +208,19 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
     scan = np.asarray(scan, float)
     bottom, top = float(scan[0]), float(scan[-1])
     n = 0
+    early = beat is not None and start is not None and bottom <= start <= top
+    beaten = False  # a passing scale's first crossover exceeds ``beat``
 
     def real(s: float) -> Probe:
-        nonlocal n
+        nonlocal n, beaten
         n += 1
-        return check(float(s))
+        p = check(float(s))
+        if early:
+            if p.ok and p.crossover_hz > beat:
+                beaten = True
+            elif not p.ok and not beaten and math.isfinite(p.crossover_hz) and p.crossover_hz <= beat:
+                raise _PrunedError(p.scale, p.crossover_hz)
+        return p
 
     def cheap(s: float) -> bool:
         return True if admissible is None else bool(np.asarray(admissible(np.array([s])))[0])
@@ -247,93 +282,99 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
                 return p, u, q
             p, step = q, min(step * step, 2.0)
 
-    lo_p: Probe | None = None
-    hi: float | None = None
-    hi_p: Probe | None = None
-    if start is not None and bottom <= start <= top:
-        s = float(start)
-        if beat is not None and cheap_crossover is not None and not cheap(s):
-            xc = cheap_crossover(s)
-            if math.isfinite(xc) and xc <= beat * (1 - CHEAP_MARGIN):
-                return EdgeResult(None, s, n, pruned=True)
-        p = real(s) if beat is not None else None
-        if p is not None and not p.ok:
-            if math.isfinite(p.crossover_hz) and p.crossover_hz <= beat:
-                return EdgeResult(None, s, n, pruned=True)
-            lo_p, hi, hi_p = descend(s, p)
-        else:
-            target, b = s, None
-            if cheap(s):  # the cheap edge, when it is near above the start, is the first guess
-                t = s
-                for _ in range(3):
-                    u = min(t * 1.15, top)
-                    if u <= t:
-                        break
-                    if not cheap(u):
-                        a, b = cheap_edge(t, u)
-                        target = below(a, b)
-                        break
-                    t = u
-            else:  # down to the cheap edge below the start
-                u, t = s, s / 1.15
-                while t >= bottom and not cheap(t):
-                    u, t = t, t / 1.15
-                if t < bottom:
-                    return EdgeResult(None, None, n)
-                a, b = cheap_edge(t, u)
-                target = below(a, b)
-            q = p if p is not None and target == s else real(target)
-            if q.ok:
-                lo_p, hi, hi_p = (q, b, None) if b is not None else climb(q)
-                if hi is None:
-                    return EdgeResult(lo_p, None, n)
-            elif p is not None and p.ok:
-                lo_p, hi, hi_p = p, target, q
+    try:
+        lo_p: Probe | None = None
+        hi: float | None = None
+        hi_p: Probe | None = None
+        if start is not None and bottom <= start <= top:
+            s = float(start)
+            if beat is not None and cheap_crossover is not None and not cheap(s):
+                xc = cheap_crossover(s)
+                if math.isfinite(xc) and xc <= beat * (1 - CHEAP_MARGIN):
+                    return EdgeResult(None, s, n, pruned=True)
+            p = real(s) if beat is not None and cheap(s) else None  # not cheap: certainly failing, see below
+            if p is not None and not p.ok:
+                c = p.crossover_hz
+                t = s * beat / c * (1 - 0.5 * rtol) if math.isfinite(c) and c <= beat * 1.15 else bottom
+                if t > bottom and cheap(t):  # just above ``beat``: the scale of a crossover just below it decides
+                    q = real(t)  # failing: pruned (its crossover is below ``beat`` as the scale is)
+                    lo_p, hi, hi_p = (q, s, p) if q.ok else descend(t, q)
+                else:
+                    lo_p, hi, hi_p = descend(s, p)
             else:
-                lo_p, hi, hi_p = descend(target, q)
-        if lo_p is None:
-            return EdgeResult(None, None, n)  # no passing scale near a neighbour's edge: not scanned again
-    else:  # top-down scan
-        mask = np.ones(scan.size, bool) if admissible is None else np.asarray(admissible(scan), bool)
-        for i in range(scan.size - 1, -1, -1):
-            if not mask[i]:
-                hi, hi_p = float(scan[i]), None
+                target, b = s, None
+                if cheap(s):  # the cheap edge above the start is the first guess
+                    ups = s * 1.15 ** np.arange(1, max(math.ceil(math.log(top / s) / math.log(1.15)), 0) + 1)
+                    ups = np.minimum(ups, top)
+                    for i in range(0, ups.size if admissible is not None else 0, 4):  # four at a time, upwards
+                        refused = np.flatnonzero(~np.asarray(admissible(ups[i:i + 4]), bool))
+                        if refused.size:
+                            j = i + int(refused[0])
+                            a, b = cheap_edge(s if j == 0 else float(ups[j - 1]), float(ups[j]))
+                            target = below(a, b)
+                            break
+                else:  # down to the cheap edge below the start
+                    u, t = s, s / 1.15
+                    while t >= bottom and not cheap(t):
+                        u, t = t, t / 1.15
+                    if t < bottom:
+                        return EdgeResult(None, None, n)
+                    a, b = cheap_edge(t, u)
+                    target = below(a, b)
+                q = p if p is not None and target == s else real(target)
+                if q.ok:
+                    lo_p, hi, hi_p = (q, b, None) if b is not None else climb(q)
+                    if hi is None:
+                        return EdgeResult(lo_p, None, n)
+                elif p is not None and p.ok:
+                    lo_p, hi, hi_p = p, target, q
+                else:
+                    lo_p, hi, hi_p = descend(target, q)
+            if lo_p is None:
+                return EdgeResult(None, None, n)  # no passing scale near a neighbour's edge: not scanned again
+        else:  # top-down scan
+            mask = np.ones(scan.size, bool) if admissible is None else np.asarray(admissible(scan), bool)
+            for i in range(scan.size - 1, -1, -1):
+                if not mask[i]:
+                    hi, hi_p = float(scan[i]), None
+                    continue
+                p = real(scan[i])
+                if p.ok:
+                    lo_p = p
+                    break
+                hi, hi_p = float(scan[i]), p
+            if lo_p is None:
+                return EdgeResult(None, None, n)
+            if hi is None:
+                return EdgeResult(lo_p, None, n)
+        if hi_p is None and hi / lo_p.scale > 1 + rtol:  # the cheap edge inside the bracket, a real check below it
+            a, hi = cheap_edge(lo_p.scale, hi)
+            s = below(a, hi)
+            if s > lo_p.scale * (1 + 0.25 * rtol):
+                p = real(s)
+                if p.ok:
+                    lo_p = p
+                else:
+                    hi, hi_p = s, p
+        lo = lo_p.scale
+        while hi / lo > 1 + rtol:
+            m = math.sqrt(lo * hi)
+            s_lo, s_hi = _slack(lo_p), _slack(hi_p)
+            if s_lo is not None and s_hi is not None and s_lo > s_hi:
+                t = s_lo / (s_lo - s_hi)  # secant on the slack in log scale, kept inside the bracket
+                t = min(max(t, 0.1), 0.9)
+                m = math.exp(math.log(lo) + t * math.log(hi / lo))
+            if not cheap(m):
+                hi, hi_p = m, None
                 continue
-            p = real(scan[i])
+            p = real(m)
             if p.ok:
-                lo_p = p
-                break
-            hi, hi_p = float(scan[i]), p
-        if lo_p is None:
-            return EdgeResult(None, None, n)
-        if hi is None:
-            return EdgeResult(lo_p, None, n)
-    if hi_p is None and hi / lo_p.scale > 1 + rtol:  # the cheap edge inside the bracket, a real check below it
-        a, hi = cheap_edge(lo_p.scale, hi)
-        s = below(a, hi)
-        if s > lo_p.scale * (1 + 0.25 * rtol):
-            p = real(s)
-            if p.ok:
-                lo_p = p
+                lo, lo_p = m, p
             else:
-                hi, hi_p = s, p
-    lo = lo_p.scale
-    while hi / lo > 1 + rtol:
-        m = math.sqrt(lo * hi)
-        s_lo, s_hi = _slack(lo_p), _slack(hi_p)
-        if s_lo is not None and s_hi is not None and s_lo > s_hi:
-            t = s_lo / (s_lo - s_hi)  # secant on the slack in log scale, kept inside the bracket
-            t = min(max(t, 0.1), 0.9)
-            m = math.exp(math.log(lo) + t * math.log(hi / lo))
-        if not cheap(m):
-            hi, hi_p = m, None
-            continue
-        p = real(m)
-        if p.ok:
-            lo, lo_p = m, p
-        else:
-            hi, hi_p = m, p
-    return EdgeResult(lo_p, hi, n)
+                hi, hi_p = m, p
+        return EdgeResult(lo_p, hi, n)
+    except _PrunedError as stop:  # a failing scale below ``beat``: the edge's crossover is too
+        return EdgeResult(None, stop.scale, n, pruned=True, bound_hz=stop.crossover_hz)
 
 
 @dataclass
@@ -428,13 +469,13 @@ def pattern_search(edge_of: EdgeOf, names: Sequence[str], bounds: Sequence[tuple
     def point(k: tuple) -> tuple:
         return tuple(coordinate(i, k[i]) for i in range(dims))
 
-    beaten: dict = {}  # the crossover a pruned shape was asked to beat
+    beaten: dict = {}  # a pruned shape's crossover is at most this (the beat it was asked, or a failing check's)
 
     def value(k: tuple, ref: tuple | None = None, beat: float | None = None) -> float:
         if k not in cache or (cache[k].pruned and (beat is None or beat < beaten[k])):
             e = edge_of(point(k), ref if ref is not None else (last[-1] if last else None), beat)
             cache[k] = e
-            beaten[k] = beat
+            beaten[k] = e.bound_hz if e.pruned and e.bound_hz is not None else beat
             evaluated[point(k)] = e
             if e.best is not None:
                 last.append((point(k), e.best))
@@ -504,7 +545,7 @@ COARSE_POINTS = 16
 
 @dataclass(frozen=True)
 class Candidate:
-    """A design that passed the tuner's check.
+    """A design judged by the tuner's check.
 
     Attributes
     ----------
@@ -517,7 +558,9 @@ class Candidate:
     metrics : object
         The figures of the checked case (``LoopMetrics`` or ``MimoMetrics``).
     objective : float
-        What is maximised: the first crossover [Hz].
+        What is maximised: the first crossover [Hz]; for a failing candidate, an upper bound of it (nan: unknown).
+    passed : bool
+        False: the candidate failed; returned only to bound the crossover at its scale.
     """
 
     shape: dict
@@ -525,14 +568,17 @@ class Candidate:
     design: object
     metrics: object
     objective: float
+    passed: bool = True
 
 
 @dataclass
 class SearchRecord:
-    """What :func:`highest_feasible` did: real checks, every shape's edge and warnings."""
+    """What :func:`highest_feasible` did: real checks, every bisected shape's edge, the shapes not bisected (their
+    first crossover below what could tie with the best) and warnings."""
 
     evaluations: int = 0
     per_shape: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
 
 
@@ -540,17 +586,26 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
                      record: SearchRecord | None = None, *, bound_name: str = "bandwidth", unit: str = "Hz",
                      secondary: Callable[[Candidate], float] | None = None,
                      tie: float = CROSSOVER_TIE,
-                     accept: Callable[[Candidate], bool] | None = None) -> Candidate | None:
+                     accept: Callable[[Candidate], bool] | None = None,
+                     admissible: Callable[[dict, np.ndarray], np.ndarray] | None = None) -> Candidate | None:
     """The best candidate over a fixed list of shapes: each shape's :func:`feasibility_edge` in the scale (a top-down
     scan of :data:`COARSE_POINTS` log-spaced scales in ``[lo, hi]``, then bisection to 0.2 %), the highest first
     crossover over the shapes; among the shapes within ``tie`` of it, the highest ``secondary`` (e.g. the integral
     gain: stiffness against slow disturbances) when given.
 
+    Coarse to fine: every shape is first scanned down to its highest passing scale, which brackets its edge between
+    that scale and the failing one above it, and so its first crossover between theirs (the crossover grows with the
+    scale). The brackets are then bisected from the highest upper end down; a shape whose upper end lies below
+    what the best found can still tie with is not bisected (it can neither win nor tie). Every shape that is bisected
+    is bisected as in the plain search, so the winner and its edge are the plain search's; a refused winner
+    (``accept``) has the skipped shapes bisected too before the next in the ranking is taken.
+
     Parameters
     ----------
     check : callable
         ``check(shape, scale)`` -> the :class:`Candidate` when it passes the tuner's check (the analysis and the
-        limits), else None.
+        limits), else None or a :class:`Candidate` with ``passed=False`` whose ``objective`` bounds the first
+        crossover at that scale from above (the failing case's, nan when unknown).
     shapes : iterable of dict
     lo, hi : float
         Bounds of the scale (> 0).
@@ -565,40 +620,93 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
     accept : callable, optional
         ``accept(candidate)`` -> False when the full verification (e.g. stability in every case) refuses a shape's
         best: the next one in the ranking is taken (at most five are tried), with a warning.
+    admissible : callable, optional
+        ``admissible(shape, scales) -> bool array``: a necessary condition (False: the check certainly fails). The
+        scan skips the scales it refuses without a check, save the one just above a shape's highest passing scale
+        (checked: its figures bound the crossover and start the bisection, as in the plain scan).
     """
     rec = record if record is not None else SearchRecord()
     scan = np.geomspace(lo, hi, COARSE_POINTS)
-    bests: list[Candidate] = []
-    for shape in shapes:
-        def probe(scale: float, shape=shape) -> Probe:
+    shapes = [dict(sh) for sh in shapes]
+    probes: list[dict] = [{} for _ in shapes]  # scale -> Probe, per shape
+
+    def probe(k: int, scale: float) -> Probe:
+        memo = probes[k]
+        if scale not in memo:
+            rec.evaluations += 1
             try:
-                c = check(shape, scale)
+                c = check(shapes[k], scale)
             except ArithmeticError:
                 c = None
-            return Probe(scale, c is not None, math.nan if c is None else c.objective, None, c)
+            ok = c is not None and c.passed
+            memo[scale] = Probe(scale, ok, math.nan if c is None else c.objective, None, c)
+        return memo[scale]
 
-        edge = feasibility_edge(probe, scan)
-        rec.evaluations += edge.checks
-        if edge.best is None:
-            continue
-        found = edge.best.result
-        rec.per_shape.append({"shape": dict(shape), bound_name: found.bandwidth, "objective": found.objective})
-        bests.append(found)
-    if not bests:
+    brackets: dict[int, tuple] = {}  # shape -> (pass, fail above or None)
+    for k, shape in enumerate(shapes):  # coarse: every shape down to its highest passing scale
+        for i in range(scan.size - 1, -1, -1):
+            if admissible is not None and not bool(np.asarray(admissible(shape, scan[i:i + 1]))[0]):
+                continue
+            p = probe(k, float(scan[i]))
+            if p.ok:
+                above = None if i == scan.size - 1 else probe(k, float(scan[i + 1]))
+                brackets[k] = (p, above)
+                break
+
+    def upper(k: int) -> float:
+        p, above = brackets[k]
+        if above is None:
+            return p.crossover_hz
+        c = above.crossover_hz
+        return c if math.isfinite(c) and c >= p.crossover_hz else math.inf  # not growing here: no bound
+
+    found: dict[int, Candidate] = {}
+    skipped: list[int] = []
+
+    def fine(k: int) -> None:
+        p, above = brackets[k]
+        pts = [p.scale] if above is None else [p.scale, above.scale]
+        edge = feasibility_edge(lambda s, k=k: probe(k, s), np.array(pts))
+        found[k] = edge.best.result
+
+    def least_to_tie() -> float:
+        if not found:
+            return -math.inf
+        top = max(c.objective for c in found.values())
+        return (1 - tie) * top if secondary is not None else top
+
+    for k in sorted(brackets, key=lambda k: (-upper(k), k)):  # fine: the highest upper ends first
+        if upper(k) < least_to_tie():
+            skipped.append(k)
+        else:
+            fine(k)
+    if not found:
         return None
-    top = max(c.objective for c in bests)
-    tied = [c for c in bests if secondary is not None and c.objective >= (1 - tie) * top]
-    ranking = sorted(tied, key=lambda c: -secondary(c)) + sorted((c for c in bests if not any(c is t for t in tied)),
+
+    def ranking() -> list[Candidate]:
+        bests = [found[k] for k in sorted(found)]
+        top = max(c.objective for c in bests)
+        tied = [c for c in bests if secondary is not None and c.objective >= (1 - tie) * top]
+        return sorted(tied, key=lambda c: -secondary(c)) + sorted((c for c in bests if not any(c is t for t in tied)),
                                                                    key=lambda c: -c.objective)
-    best = ranking[0]
-    if accept is not None:
-        best = next((c for c in ranking[:5] if accept(c)), None)
+
+    order = ranking()
+    best = order[0]
+    if accept is not None and not accept(best):
+        for k in skipped:  # the next in the ranking may be one not bisected
+            fine(k)
+        order = ranking()
+        best = next((c for c in order[:5] if accept(c)), None)
         if best is None:
             return None
-        if best is not ranking[0]:
-            refused = ranking.index(best)
-            rec.warnings.append(f"the {refused} best shape(s) failed the full verification; the next best was taken "
-                                f"({best.objective:.4g} Hz instead of {ranking[0].objective:.4g} Hz)")
+        rec.warnings.append(f"the {order.index(best)} best shape(s) failed the full verification; the next best was "
+                            f"taken ({best.objective:.4g} Hz instead of {order[0].objective:.4g} Hz)")
+    for k in sorted(found):
+        c = found[k]
+        rec.per_shape.append({"shape": dict(shapes[k]), bound_name: c.bandwidth, "objective": c.objective})
+    for k in sorted(set(skipped) - set(found)):
+        p, above = brackets[k]
+        rec.skipped.append({"shape": dict(shapes[k]), "first_crossover_below_hz": upper(k)})
     if best.bandwidth >= hi * (1 - 2e-3):
         rec.warnings.append(f"the best design sits on the upper search bound {bound_name} = {hi:.4g} {unit}; the "
                             "limits may allow more")

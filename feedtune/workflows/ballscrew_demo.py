@@ -129,22 +129,8 @@ class DemoResult:
         return "\n".join(lines)
 
 
-
-
-
-
-
-
-
-
 def _fmt_s(x) -> str:
     return "not settled" if x is None else f"{x:.4f} s"
-
-
-
-
-
-
 
 
 # ------------------------------------------------------------------------------------------ demo
@@ -178,6 +164,7 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     DesignError
         No design meets the limits on the measured FRF (with the default twin and limits this does not happen).
     """
+    from .. import progress
     from ..analysis.check import check_design
     from ..control.filters import THESIS_FILTER_PACK
     from ..identify.ballscrew import fit_ballscrew
@@ -187,13 +174,16 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     from ..machines.ballscrew.twin import BallScrewTwin, TwinParams
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
+    from .parallel import plan, run_groups
 
     twin = BallScrewTwin(params or TwinParams())
     p = twin.params
+    progress.step("measuring the FRF on the twin")
     frf_res = measure_frf(twin, seed=seed, engine=engine)
     if frf_res.tripped:
         raise DesignError(f"FRF measurement stopped: {frf_res.run.trip_message}")
     frf = frf_res.frf
+    progress.step("identifying the 2-mass model")
     fit = fit_ballscrew(frf)
     texts = experiment_texts(frf_res, "frf_measurement.csv", "frf.csv")
     model_doc = model_document(fit.model, fit=fit.to_dict())
@@ -203,7 +193,11 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     common = {"limits": policy, "filters": THESIS_FILTER_PACK, "frf": frf, "fs": p.fs,
               "delay_samples": p.delay_samples}
     designs, runtimes = {}, {}
-    for name, design in (("mcppc", tune_mcppc(fit.model, **common)), ("ppi", tune_ppi(fit.model, **common))):
+    progress.step("tuning MC-PPC and P-PI under the same limits")
+    tuned = run_groups(plan([("mcppc", lambda: tune_mcppc(fit.model, **common), 1.0),
+                             ("ppi", lambda: tune_ppi(fit.model, **common), 0.6)]))  # side by side on the cores
+    for name in CONTROLLERS:
+        design = tuned[name]
         check = check_design(design, frf=frf, limits=policy)
         if not check.ok:  # the tuners return only designs that pass; this is the exported file's own check
             raise DesignError(f"{LABELS[name]} design on the identified model: {'; '.join(check.violations)}")
@@ -211,8 +205,11 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
         texts[f"{name}_gains.toml"], texts[f"{name}_gains.json"] = dumps_toml(doc), dumps_json(doc)
         runtimes[name] = _runtime_from_text(texts[f"{name}_gains.toml"], f"{name}_gains.toml")
         designs[name] = _design_figures(design, check)
-        rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
-    prefilter = _prefilter_tests(twin, texts, speeds, seed, engine, rows)
+    runs: dict = {}
+    progress.step("rope snap, tracking and cutting on the twin")
+    rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts, runs)
+    progress.step("pre-filter runs")
+    prefilter = _prefilter_tests(twin, texts, speeds, seed, engine, rows, runs)
     for row in rows:
         row["better"] = {k: w for t, k, w in better_per_figure([row])}
     result = DemoResult(rows, fit.to_dict(), designs, texts, p.to_dict(), prefilter, policy.to_dict())
@@ -244,7 +241,9 @@ def _runtime_from_text(text: str, name: str):
     return GainsRuntime.from_document(loads_document(text, "toml", name), name)
 
 
-def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts) -> list:
+def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts, runs=None) -> list:
+    """Rope snap, tracking at each speed and the cut with every runtime; ``runs`` (optional) receives the tracking
+    results as ``{(controller, speed): ExperimentResult}``."""
     from ..machines.ballscrew.experiments import SlotCut, run_cut, run_ropesnap, run_tracking
     from ..sim.trajectory import point_to_point
 
@@ -263,6 +262,8 @@ def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
             res = run_tracking(twin, rt, tr, seed=seed, engine=engine)
             texts[f"track_{v * 1e3:g}mm_s_{name}.csv"] = _log_text(res)
             row[name] = _figures(res, ("max_um", "rms_um"))
+            if runs is not None:
+                runs[(name, v)] = res
         rows.append(row)
     if include_cut:
         v = speeds[0]
@@ -279,11 +280,13 @@ def _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts)
     return rows
 
 
-def _prefilter_tests(twin, texts, speeds, seed, engine, rows) -> dict:
+def _prefilter_tests(twin, texts, speeds, seed, engine, rows, runs=None) -> dict:
     """Identify the pre-filter from one MC-PPC run, export it, rerun the tracking speeds with it.
 
     Adds ``"mcppc_prefilter"`` figures to the tracking rows and the files ``mcppc_prefilter_gains.toml/.json``
-    and ``track_*_mcppc_prefilter.csv`` to ``texts``; returns the fit with the identification speed.
+    and ``track_*_mcppc_prefilter.csv`` to ``texts``; returns the fit with the identification speed. The MC-PPC
+    run at that speed is taken from ``runs`` (:func:`_tests`) when it is there: the same gains file, move, seed
+    and engine give the same run.
     """
     from ..design.prefilter import fit_prefilter
     from ..io import dumps_json, dumps_toml
@@ -292,9 +295,11 @@ def _prefilter_tests(twin, texts, speeds, seed, engine, rows) -> dict:
     from ..machines.ballscrew.experiments import run_tracking
 
     speed = min(speeds, key=lambda v: abs(v - PREFILTER_SPEED))
-    mcppc = _runtime_from_text(texts["mcppc_gains.toml"], "mcppc_gains.toml")
-    ident = run_tracking(twin, mcppc, _demo_move(speed, twin.fs), seed=seed, engine=engine)
-    _log_text(ident)
+    ident = (runs or {}).get(("mcppc", speed))
+    if ident is None:
+        mcppc = _runtime_from_text(texts["mcppc_gains.toml"], "mcppc_gains.toml")
+        ident = run_tracking(twin, mcppc, _demo_move(speed, twin.fs), seed=seed, engine=engine)
+        _log_text(ident)  # stops on a tripped run
     fit = fit_prefilter(ident.log)
     doc = with_prefilter(loads_document(texts["mcppc_gains.toml"], "toml", "mcppc_gains.toml"), fit,
                          where="mcppc_gains.toml")

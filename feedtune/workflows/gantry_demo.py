@@ -193,32 +193,50 @@ def _figures(label: str, design, check, checked: str, analysis: dict) -> dict:
             "stable_measured": analysis[checked]["stable"]}
 
 
-def _design(twin, fit, frfs, frf0, axis_frf, texts, policy):
-    """Axis, MIMO and PID designs tuned under ``policy`` on the identified model, the gantry ones on every 2x2 FRF
-    (``frfs``, each at its recorded position), checked on the FRFs measured at x = 0 (DesignError when a tuned
-    design fails its own check), exported and read back as runtimes."""
-    from ..analysis.gantry import analyze_axis, analyze_gantry
-    from ..analysis.limits import check_analysis
-    from ..io import dumps_json, dumps_toml
-    from ..io.document import loads_document
-    from ..io.gantry_gains import axis_gains_document, gantry_gains_document
-    from ..machines import load_runtime
+TUNING_COST = {"mimo": 1.4, "pid": 1.0, "pid_own": 1.1, "axis": 3.4}
+"""Time of each tuner on the twin [s] (measured on a 2-core machine; what matters is their ratios, by which they are
+shared out over the cores: on two, the x axis against the three others)."""
+
+
+def _tune(twin, fit, frfs, axis_frf, policy) -> dict:
+    """The four tuners under ``policy``: MIMO and both PIDs on the identified model and every 2x2 FRF (``frfs``,
+    each at its recorded position), the x axis on its FRF. They are independent: they run side by side on the
+    machine's cores (:mod:`feedtune.workflows.parallel`; the results are those of running them one by one)."""
     from ..tune.gantry import tune_gantry_mimo
     from ..tune.loopshape import tune_loopshape
     from ..tune.pid import tune_gantry_pid
+    from .parallel import plan, run_groups
 
     p = twin.params
     model = fit.model
     common = {"limits": policy, "fs": p.fs, "delay_samples": p.delay_samples}
     h = _filters(MIMO_DESIGN)
     pid_identical_filters = type(h)(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta, ())  # the thesis' rule
-    tuned = {
-        "mimo": tune_gantry_mimo(model, filters=h, frf=frfs, **common),
-        "pid": tune_gantry_pid(model, filters=pid_identical_filters, filter_choice="identical", frf=frfs, **common),
-        "pid_own": tune_gantry_pid(model, filter_choice="own", frf=frfs, **common),
+    jobs = {
+        "mimo": lambda: tune_gantry_mimo(model, filters=h, frf=frfs, **common),
+        "pid": lambda: tune_gantry_pid(model, filters=pid_identical_filters, filter_choice="identical", frf=frfs,
+                                       **common),
+        "pid_own": lambda: tune_gantry_pid(model, filter_choice="own", frf=frfs, **common),
+        "axis": lambda: tune_loopshape(axis_frf, filters=_filters(AXIS_DESIGN), **common),
     }
+    return run_groups(plan([(name, fn, TUNING_COST[name]) for name, fn in jobs.items()]))
+
+
+def _design(twin, fit, frfs, frf0, axis_frf, texts, policy):
+    """Axis, MIMO and PID designs tuned under ``policy`` (:func:`_tune`), checked on the FRFs measured at x = 0
+    (DesignError when a tuned design fails its own check), exported and read back as runtimes."""
+    from ..analysis.gantry import analyze_axis, analyze_gantry
+    from ..analysis.limits import check_analysis
+    from ..io import dumps_json, dumps_toml
+    from ..io.document import loads_document
+    from ..io.gantry_gains import axis_gains_document, gantry_gains_document
+    from ..machines import load_runtime
+
+    model = fit.model
+    tuned = _tune(twin, fit, frfs, axis_frf, policy)
     designs, runtimes = {}, {}
-    for name, design in tuned.items():
+    for name in CONTROLLERS:
+        design = tuned[name]
         full = analyze_gantry(design.law, model, frf=frf0)
         check, checked = check_analysis(full, policy)
         if not check.ok:
@@ -229,7 +247,7 @@ def _design(twin, fit, frfs, frf0, axis_frf, texts, policy):
         texts[f"{name}_gains.toml"], texts[f"{name}_gains.json"] = dumps_toml(doc), dumps_json(doc)
         runtimes[name] = load_runtime(loads_document(texts[f"{name}_gains.toml"], "toml", f"{name}_gains.toml"),
                                        f"{name}_gains.toml")
-    axis = tune_loopshape(axis_frf, filters=_filters(AXIS_DESIGN), **common)
+    axis = tuned["axis"]
     full = analyze_axis(axis)
     check, checked = check_analysis(full, policy)
     if not check.ok:
@@ -335,10 +353,16 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     policy = limits or DEFAULT_LIMITS
     twin = GantryTwin(params)
     texts: dict = {}
+    from .. import progress
+
+    progress.step(f"measuring 2x2 FRFs and mass runs at {len(xs)} table positions")
     frfs, mass_logs, axis_log, axis_frf = _measure(twin, xs, seed, engine, texts, keep_raw)
+    progress.step("identifying the gantry model (eq. 4.16) and the mass distribution")
     fit, mass, m_x = _identify(twin, xs, frfs, mass_logs, axis_log, texts)
+    progress.step("tuning x-axis loop shaping, MIMO and PIDs under the same limits")
     designs, runtimes = _design(twin, fit, frfs, frfs[xs.index(0.0)], axis_frf, texts, policy)
     rows = [{"test": "design:", **{c: {k: designs[c][k] for k in ("crossover_hz", "ms")} for c in CONTROLLERS}}]
+    progress.step("rope snap, tracking and contours on the twin")
     rows += _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts)
     for row in rows[1:]:
         row["better"] = {c: {k: w for _, k, w in better_per_figure([row], "mimo", c)} for c in CONTROLLERS[1:]}

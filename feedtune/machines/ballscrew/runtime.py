@@ -288,7 +288,7 @@ class GainsRuntime:
         """DataError unless the file was made for sample rate ``fs`` [Hz]."""
         if not math.isclose(self.fs, fs, rel_tol=1e-9):
             raise DataError(f"{where or self.source}: gains were designed for fs = {self.fs:g} Hz, "
-                            f"but the target samples at {fs:g} Hz; design again with --fs {fs:g}")
+                            f"but the target samples at {fs:g} Hz; design again with fs={fs:g}", parameter="fs")
 
     def to_dict(self) -> dict:
         """JSON-ready description (gains with units, sampling, section counts, pre-filter, friction)."""

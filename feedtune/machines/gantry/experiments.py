@@ -229,6 +229,24 @@ class AxisHoldingController:
                 "kp": p.kp, "ki": p.ki, "kd": p.kd, "units": {"kp": "V/m", "ki": "V/(m s)", "kd": "V s/m"}}
 
 
+def holding_state(gantry: HoldingController, axis: AxisHoldingController) -> tuple[np.ndarray, np.ndarray]:
+    """``(gains, states)`` of both holding controllers as the twin's compiled holding loop takes them: gains
+    ``(kp, ki, kd, a, fs)`` of the CoM, yaw and x PIDs, then ``alpha1`` and ``L``; states (previous error, has one,
+    integral, rate) of each PID."""
+    pids = (gantry._com, gantry._yaw, axis._pid)
+    hp = np.array([v for p in pids for v in (p.kp, p.ki, p.kd, p.a, p.fs)] + [gantry.alpha1, gantry.L], float)
+    hs = np.array([v for p in pids for v in (0.0 if p.e_prev is None else p.e_prev, float(p.e_prev is not None),
+                                             p.integral, p.rate)], float)
+    return hp, hs
+
+
+def set_holding_state(gantry: HoldingController, axis: AxisHoldingController, hs: np.ndarray) -> None:
+    """Write the states of the compiled holding loop back into the controllers (as if they had been stepped)."""
+    for i, p in enumerate((gantry._com, gantry._yaw, axis._pid)):
+        p.e_prev = float(hs[4 * i]) if hs[4 * i + 1] else None
+        p.integral, p.rate = float(hs[4 * i + 2]), float(hs[4 * i + 3])
+
+
 def _controllers(twin: GantryTwin, gantry, axis):
     return (gantry if gantry is not None else HoldingController.for_twin(twin),
             axis if axis is not None else AxisHoldingController.for_twin(twin))

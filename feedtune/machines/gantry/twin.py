@@ -1057,6 +1057,15 @@ class GantryTwin:
             k, status = loop(total, pg, pa, y0, x0, yr, xr, *arrays, *gantry.law.args(), gantry.law.out,
                              *axis.law.args())
             return int(k), int(status), arrays[8].reshape(total, N_REC)
+        if choose_engine(engine) == "numba" and _holding(gantry, axis):
+            from .experiments import holding_state, set_holding_state
+
+            hp, hs = holding_state(gantry, axis)
+            yr = np.ascontiguousarray(y_full - y0)
+            xr = np.ascontiguousarray(x_full - x0)
+            k, status = _compiled_holding_loop()(total, pg, pa, y0, x0, yr, xr, *arrays, hp, hs)
+            set_holding_state(gantry, axis, hs)
+            return int(k), int(status), arrays[8].reshape(total, N_REC)
         measure, step = kernel(_measure, engine), kernel(_step, engine)
         if choose_engine(engine) == "python":
             arrays = [a.tolist() for a in arrays]
@@ -1124,6 +1133,76 @@ def _closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, par, nz, ex,
         if k < total - 1:
             y1, y2, x = _m(k + 1, z, par, nz, rec)
     return k, status
+
+
+def _holding(gantry, axis) -> bool:
+    """Both controllers are the built-in holding controllers of the identification runs, which the compiled
+    holding loop runs."""
+    from .experiments import AxisHoldingController, HoldingController
+
+    return type(gantry) is HoldingController and type(axis) is AxisHoldingController
+
+
+def _pid(hs, i, hp, j, e):
+    """One step of the holding controllers' PID (:class:`~feedtune.machines.gantry.experiments._PidState`, the same
+    operations in the same order): state ``hs[i:i + 4]`` = (previous error, has one, integral, rate), gains
+    ``hp[j:j + 5]`` = (kp, ki, kd, low-pass pole a, fs)."""
+    if hs[i + 1] == 0.0:
+        hs[i] = e
+        hs[i + 1] = 1.0
+    a = hp[j + 3]
+    fs = hp[j + 4]
+    hs[i + 3] = a * hs[i + 3] + (1.0 - a) * (e - hs[i]) * fs
+    hs[i] = e
+    hs[i + 2] += e / fs
+    return hp[j] * e + hp[j + 1] * hs[i + 2] + hp[j + 2] * hs[i + 3]
+
+
+_p = None  # the compiled PID step, set by _compiled_holding_loop before it is compiled
+
+
+def _holding_closed_loop(total, pg, pa, y0, x0, yr, xr, z, znew, buf, work, par, nz, ex, rf, rec, cptr, ccol, cval,
+                         vptr, vcol, vtab, vdif, hp, hs):
+    """Plant and the holding controllers (:class:`~feedtune.machines.gantry.experiments.HoldingController`,
+    :class:`~feedtune.machines.gantry.experiments.AxisHoldingController`), one sample per iteration: the loop of
+    :meth:`GantryTwin._run` with their ``step`` written out. ``hp``: gains (CoM PID, yaw PID, x PID, alpha1, L),
+    ``hs``: their states (see :func:`~feedtune.machines.gantry.experiments.holding_state`)."""
+    y1, y2, x = _m(0, z, par, nz, rec)
+    a1 = hp[15]
+    span = hp[16]
+    status = 0
+    k = 0
+    for k in range(total):
+        yref = yr[k + pg]
+        e1 = yref - (y1 - y0)
+        e2 = yref - (y2 - y0)
+        f_total = _p(hs, 0, hp, 0, a1 * e1 + (1.0 - a1) * e2)
+        tau = _p(hs, 4, hp, 5, (e2 - e1) / span) / span
+        ux = _p(hs, 8, hp, 10, xr[k + pa] - (x - x0))
+        status = _s(k, a1 * f_total - tau, (1.0 - a1) * f_total + tau, ux, z, znew, buf, work, par, nz, ex, rf, rec,
+                    cptr, ccol, cval, vptr, vcol, vtab, vdif)
+        if status != 0:
+            break
+        if k < total - 1:
+            y1, y2, x = _m(k + 1, z, par, nz, rec)
+    return k, status
+
+
+_HOLDING_LOOP: list = []
+
+
+def _compiled_holding_loop():
+    """:func:`_holding_closed_loop` compiled by numba (once per process, cached on disk), its callees inlined, without
+    reference counting (as :func:`_compiled_loop`)."""
+    if not _HOLDING_LOOP:
+        import numba
+
+        from .law import compiled_inline
+
+        global _m, _s, _p
+        _m, _s, _p = compiled_inline(_measure), compiled_inline(_step), compiled_inline(_pid)
+        _HOLDING_LOOP.append(numba.njit(cache=True, nogil=True, _nrt=False)(_holding_closed_loop))
+    return _HOLDING_LOOP[0]
 
 
 _LOOP: list = []

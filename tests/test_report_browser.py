@@ -1,0 +1,124 @@
+"""The demo reports in a real browser: headless Chromium lays out the ball-screw and the gantry demo reports, and a
+small script measures what a reader sees: every figure decoded and inside the page width, no table wider than its
+box, no horizontal scrolling of the page.
+
+Dependency-free: the HTML is copied with one ``<script>`` appended, Chromium prints the resulting DOM
+(``--dump-dom``) and the script's findings are read back from a ``<pre>`` element. Skipped when no Chromium is
+installed (Debian package ``chromium``). Set ``FEEDTUNE_SCREENSHOTS=DIR`` to also save full-page screenshots there.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from feedtune.workflows import run_machine_demo
+from feedtune.workflows.files import write_texts
+
+BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
+DESKTOP, NARROW = 1280, 800
+"""Viewport widths [px]: a laptop screen (every table fits without scrolling) and a narrow window (wide tables
+scroll inside their own box, the page does not)."""
+
+PROBE = """<script>
+window.addEventListener('load', () => {
+  const vw = document.documentElement.clientWidth;
+  const out = {vw: vw, page_scroll_width: document.documentElement.scrollWidth,
+               page_height: document.documentElement.scrollHeight, imgs: [], tables: []};
+  document.querySelectorAll('figure img').forEach(i => {
+    const r = i.getBoundingClientRect();
+    out.imgs.push({id: i.parentElement.id, natural_width: i.naturalWidth, complete: i.complete, left: r.left,
+                   right: r.right, width: r.width});
+  });
+  document.querySelectorAll('table').forEach(t => {
+    const box = t.parentElement, r = t.getBoundingClientRect();
+    out.tables.push({caption: t.caption ? t.caption.textContent : '', scroll_width: t.scrollWidth,
+                     client_width: t.clientWidth, box_class: box.className, box_scroll_width: box.scrollWidth,
+                     box_client_width: box.clientWidth, box_overflow_x: getComputedStyle(box).overflowX,
+                     right: r.right});
+  });
+  const pre = document.createElement('pre');
+  pre.id = 'feedtune-probe';
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+});
+</script>"""
+
+
+def chromium() -> str | None:
+    """The first Chromium-like browser on the PATH, or None."""
+    return next((p for p in map(shutil.which, BROWSERS) if p), None)
+
+
+BROWSER = chromium()
+pytestmark = [pytest.mark.slow,
+              pytest.mark.skipif(BROWSER is None, reason="no Chromium on the PATH (Debian: apt-get install chromium)")]
+
+
+def _run_browser(args: list[str], profile: Path) -> subprocess.CompletedProcess:
+    cmd = [BROWSER, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--no-first-run",
+           f"--user-data-dir={profile}", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=180, check=False)
+
+
+def probe(report: Path, width: int, tmp: Path) -> dict:
+    """Lay out ``report`` at a viewport ``width`` [px] wide and return what the probe script measured."""
+    page = tmp / f"probe_{width}_{report.parent.name}.html"
+    page.write_text(report.read_text(encoding="utf-8").replace("</body>", PROBE + "</body>"), encoding="utf-8")
+    res = _run_browser([f"--window-size={width},900", "--dump-dom", page.as_uri()], tmp / "profile")
+    m = re.search(r'<pre id="feedtune-probe">(.*?)</pre>', res.stdout, re.S)
+    assert m is not None, f"the probe did not run (exit {res.returncode}): {res.stderr[-2000:]}"
+    return json.loads(html.unescape(m.group(1)))
+
+
+def screenshot(report: Path, height: int, out: Path, tmp: Path) -> None:
+    """A full-page screenshot of ``report`` at :data:`DESKTOP` width."""
+    _run_browser([f"--window-size={DESKTOP},{height + 20}", f"--screenshot={out}", report.as_uri()],
+                 tmp / "profile")
+
+
+@pytest.fixture(scope="module", params=["ballscrew", "gantry"])
+def demo_report(request, tmp_path_factory) -> Path:
+    """The report the demo writes (``feedtune demo MACHINE --out DIR``), built from the demo's own files."""
+    from feedtune.cli.demo_cmd import write_demo_report
+
+    machine = request.param
+    out = tmp_path_factory.mktemp(f"demo_{machine}") / "demo_out"
+    write_texts(run_machine_demo(machine, seed=0).texts, out_dir=out)
+    return write_demo_report(out, True, machine)
+
+
+def test_every_figure_is_shown_inside_the_page_and_no_table_overflows(demo_report, tmp_path):
+    n_figures = len(re.findall(r'<figure id="fig-', demo_report.read_text(encoding="utf-8")))
+    desk = probe(demo_report, DESKTOP, tmp_path)
+    assert len(desk["imgs"]) == n_figures > 10
+    for img in desk["imgs"]:
+        assert img["complete"] and img["natural_width"] > 0, img
+        assert img["left"] >= 0 and img["right"] <= desk["vw"] + 0.5, img
+    assert desk["page_scroll_width"] <= desk["vw"]
+    assert len(desk["tables"]) > 10
+    for t in desk["tables"]:
+        assert t["box_class"] == "table-wrap" and t["box_overflow_x"] == "auto", t  # the scroll box by design
+        assert t["scroll_width"] <= t["client_width"] + 1, t  # nothing cut off inside the table
+        assert t["box_scroll_width"] <= t["box_client_width"] + 1, t  # fits the page: no scrolling at 1280 px
+        assert t["right"] <= desk["vw"] + 0.5, t
+
+    narrow = probe(demo_report, NARROW, tmp_path)
+    assert narrow["page_scroll_width"] <= narrow["vw"]  # the page never scrolls sideways
+    for img in narrow["imgs"]:
+        assert img["natural_width"] > 0 and img["right"] <= narrow["vw"] + 0.5, img  # figures scale down
+    for t in narrow["tables"]:
+        assert t["scroll_width"] <= t["client_width"] + 1, t
+        assert t["box_scroll_width"] <= t["box_client_width"] + 1 or t["box_overflow_x"] == "auto", t
+
+    shots = os.environ.get("FEEDTUNE_SCREENSHOTS")
+    if shots:
+        Path(shots).mkdir(parents=True, exist_ok=True)
+        screenshot(demo_report, desk["page_height"], Path(shots) / f"{demo_report.parent.parent.name}.png", tmp_path)
