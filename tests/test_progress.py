@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import io
 
+import pytest
+
 from feedtune import progress
 from feedtune.cli.progress_display import PlainReporter, RichReporter, shown
 
@@ -84,3 +86,56 @@ def test_plain_lines_only_for_steps_still_running_after_the_delay():
         progress.step("slow")
         time.sleep(0.5)
     assert stream.getvalue().splitlines() == ["feedtune: slow ..."]
+
+
+@pytest.mark.slow
+def test_a_terminal_shows_progress_during_the_demo_and_json_stays_alone_on_stdout(tmp_path):
+    """``feedtune demo --json`` with stderr on a pseudo-terminal: a live display there, only JSON on stdout."""
+    import json
+    import os
+    import pty
+    import subprocess
+    import sys
+
+    master, slave = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "feedtune", "demo", "--out", str(tmp_path / "d"), "--json"],
+                            stdout=subprocess.PIPE, stderr=slave, stdin=subprocess.DEVNULL, cwd=tmp_path)
+    os.close(slave)
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # the terminal closed: the process ended
+            break
+        if not chunk:
+            break
+        seen += chunk
+    out, _ = proc.communicate(timeout=300)
+    os.close(master)
+    assert proc.returncode == 0, seen.decode(errors="replace")[-2000:]
+    doc = json.loads(out)  # stdout is one JSON document and nothing else
+    assert doc["kind"] == "demo.ballscrew" and isinstance(doc["warnings"], list)
+    text = seen.decode(errors="replace")
+    for step in ("measuring the FRF on the twin", "tuning MC-PPC and P-PI", "report: drawing"):
+        assert step in text, text[-2000:]
+    assert "\x1b[" in text  # a live display (cursor control), not plain lines
+
+
+def test_quiet_demo_help_and_every_command_has_quiet():
+    import typer.main
+
+    from feedtune.cli.main import app
+
+    group = typer.main.get_command(app)
+
+    def commands(cmd, path=()):
+        subs = getattr(cmd, "commands", None)
+        if subs:
+            for name, sub in subs.items():
+                yield from commands(sub, (*path, name))
+        else:
+            yield path, cmd
+
+    missing = [" ".join(p) for p, cmd in commands(group) if not any("--quiet" in prm.opts for prm in cmd.params
+                                                                   if hasattr(prm, "opts"))]
+    assert not missing, missing
