@@ -50,7 +50,52 @@ def number(x, digits: int = DIGITS) -> str:
         return "inf" if v > 0 else "-inf"
     if v == round(v) and abs(v) < 1e9:  # 20000 Hz, not 2e+04 Hz
         return str(int(v))
-    return f"{v:.{digits}g}"
+    return plain_number(v, digits)
+
+
+def plain_number(x: float, digits: int = DIGITS) -> str:
+    """``x`` rounded to ``digits`` significant digits, plain from 1e-4 up to 1e6 (``0.001936``, ``65080``,
+    ``13``), with a power of ten outside (``2.285e-06``, ``1.079e+07``).
+
+    Examples
+    --------
+    >>> plain_number(65083.2), plain_number(0.0019357), plain_number(2.2851e-6), plain_number(13.0)
+    ('65080', '0.001936', '2.285e-06', '13')
+    """
+    if not math.isfinite(x) or x == 0:
+        return "0" if x == 0 else f"{x:g}"
+    rounded = float(f"{x:.{digits}g}")
+    exponent = math.floor(math.log10(abs(rounded)))
+    if not -4 <= exponent < 6:
+        return f"{x:.{digits}g}"
+    text = f"{rounded:.{max(digits - 1 - exponent, 0)}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+AT_BOUND = 1e-9
+"""A fitted parameter closer to its bound than this fraction of its standard deviation sits on the bound: a bounded
+least-squares fit leaves it there up to rounding (``b1 = 8e-31`` with a std of ``7e-4`` is ``0``)."""
+
+
+def at_lower_bound(value, std=None, lower=None) -> bool:
+    """True when a fitted ``value`` sits on its ``lower`` bound (exactly, or within :data:`AT_BOUND` of its std)."""
+    return lower is not None and value is not None and (
+        value <= lower or (std is not None and math.isfinite(std) and value - lower <= AT_BOUND * std))
+
+
+def param_text(value, unit: str = "", std=None, lower=None, digits: int = DIGITS) -> str:
+    """A fitted parameter for summaries: ``0.01383 V/(rad/s)  (std 0.00034)``; on its lower bound ``lower``
+    (:func:`at_lower_bound`) ``0 V/(rad/s)  (at its lower bound; std 0.00067)``; the std to 2 significant digits.
+
+    Examples
+    --------
+    >>> param_text(8.2e-31, "V/(rad/s)", std=6.7e-4, lower=0.0)
+    '0 V/(rad/s)  (at its lower bound; std 0.00067)'
+    """
+    at_bound = at_lower_bound(value, std, lower)
+    text = quantity(lower if at_bound else value, unit, digits) if value is not None else "-"
+    notes = (["at its lower bound"] if at_bound else []) + ([f"std {plain_number(std, 2)}"] if std is not None else [])
+    return text + (f"  ({'; '.join(notes)})" if notes else "")
 
 
 def quantity(x, unit: str = "", digits: int = DIGITS) -> str:

@@ -66,30 +66,17 @@ def fmt(x, unit: str = "", digits: int = 4) -> str:
 
 
 def _number(x: float, digits: int) -> str:
-    if not math.isfinite(x) or x == 0:
-        return "0" if x == 0 else f"{x:g}"
-    rounded = float(f"{x:.{digits}g}")
-    exponent = math.floor(math.log10(abs(rounded)))
-    if not -4 <= exponent < 6:
-        return f"{x:.{digits}g}"
-    text = f"{rounded:.{max(digits - 1 - exponent, 0)}f}"
-    return text.rstrip("0").rstrip(".") if "." in text else text
+    from ..display import plain_number
 
-
-AT_BOUND = 1e-9
-"""A fitted parameter closer to its bound than this fraction of its standard deviation sits on the bound: a bounded
-least-squares fit leaves it there up to rounding (``b1 = 8e-31`` with a std of ``7e-4`` is ``0``)."""
+    return plain_number(x, digits)
 
 
 def fmt_param(value, unit: str = "", std=None, lower=None, digits: int = 4) -> str:
-    """A fitted parameter for summaries: ``0.01383 V/(rad/s)  (std 0.00034)``; on its lower bound ``lower`` (within
-    :data:`AT_BOUND` of its std, or exactly) ``0 V/(rad/s)  (at its lower bound; std 0.00067)``. The std is given
-    to 2 significant digits."""
-    at_bound = lower is not None and value is not None and (
-        value <= lower or (std is not None and math.isfinite(std) and value - lower <= AT_BOUND * std))
-    text = fmt(lower if at_bound else value, unit, digits)
-    notes = (["at its lower bound"] if at_bound else []) + ([f"std {fmt(std, '', 2)}"] if std is not None else [])
-    return text + (f"  ({'; '.join(notes)})" if notes else "")
+    """A fitted parameter for summaries (:func:`feedtune.display.param_text`: values on their bound printed as the
+    bound, ``(at its lower bound; std ...)``)."""
+    from ..display import param_text
+
+    return param_text(value, unit, std, lower, digits)
 
 
 def fmt_hz(x) -> str:

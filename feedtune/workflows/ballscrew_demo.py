@@ -74,10 +74,17 @@ class DemoResult:
         """What the demo prints: the identified model, both tuned designs with the limits and the rule, and the
         comparison (:meth:`table`)."""
         from ..analysis.limits import Limits
+        from ..display import at_lower_bound, quantity
 
         ident = self.identified
-        lines = ["Identified from the measured FRF: "
-                 + ", ".join(f"{k} = {v:.4g} {ident['units'].get(k, '')}" for k, v in ident["params"].items())]
+        std = ident.get("std") or {}
+
+        def param(k, v):  # the fit's parameters are bounded below by 0 (eq. 3.1): a value on 0 is printed as 0
+            at_bound = at_lower_bound(v, std.get(k), 0.0)
+            return f"{k} = {quantity(0.0 if at_bound else v, ident['units'].get(k, ''))}" + (
+                " (at its lower bound)" if at_bound else "")
+
+        lines = ["Identified from the measured FRF: " + ", ".join(param(k, v) for k, v in ident["params"].items())]
         lim = self.limits
         lines.append("Both controllers tuned under the same limits ("
                      + Limits(lim["ms_max"], lim["pm_min_deg"], lim["gm_min_db"], lim["disk_margin_min"],
