@@ -88,3 +88,10 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))
+
+
+# The facades register their functions in feedtune.display (display.facade), through which the value types' .plot(),
+# .to_control() and .from_control() reach them; importing any feedtune module runs this file first. Both keep their
+# heavy imports (matplotlib, the report, python-control, scipy) inside functions, so this stays cheap.
+from . import interop_control as _interop_control  # noqa: E402, F401
+from . import plotting as _plotting  # noqa: E402, F401

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import html
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -294,3 +294,34 @@ def run_parts(result) -> list[str]:
     if getattr(result.run, "tripped", False):
         parts.append("TRIPPED")
     return parts
+
+
+# ------------------------------------------------------------------------------------------ facades
+_FACADES: dict[str, Callable] = {}
+"""``{name: function}`` registered by the facades above every package (:mod:`feedtune.plotting`,
+:mod:`feedtune.interop_control`)."""
+
+
+def register_facade(name: str, fn: Callable) -> Callable:
+    """Register ``fn`` under ``name`` for the value types' ``.plot()``, ``.to_control()`` and ``.from_control()``.
+
+    The facades call this at import time and the package root imports them, so the value types at the bottom reach
+    them through :func:`facade` without importing them (no import cycle, eager or lazy). Returns ``fn``.
+    """
+    _FACADES[name] = fn
+    return fn
+
+
+def facade(name: str) -> Callable:
+    """The function a facade registered under ``name`` (see :func:`register_facade`).
+
+    Examples
+    --------
+    >>> facade("plot_frf").__module__
+    'feedtune.plotting'
+    """
+    try:
+        return _FACADES[name]
+    except KeyError:
+        raise RuntimeError(f"no facade function {name!r} is registered; feedtune/__init__.py imports "
+                           "feedtune.plotting and feedtune.interop_control, which register theirs") from None

@@ -258,9 +258,9 @@ class Frf:
         -------
         matplotlib.figure.Figure
         """
-        from .plotting import plot_frf
+        from .display import facade
 
-        return plot_frf(self, channels, model=model, title=title)
+        return facade("plot_frf")(self, channels, model=model, title=title)
 
     def to_dataframe(self):
         """A pandas DataFrame: index ``freq_hz`` [Hz], one complex column per channel ``OUT/IN`` [response unit],
@@ -289,14 +289,14 @@ class Frf:
         >>> f.to_control().omega.tolist() == (2 * np.pi * f.freq_hz).tolist()
         True
         """
-        from .interop_control import frf_to_control
+        from .display import facade
 
-        return frf_to_control(self)
+        return facade("frf_to_control")(self)
 
     @classmethod
     def from_control(cls, sys, **kwargs) -> Frf:
         """An :class:`Frf` from a python-control system: a ``FrequencyResponseData`` on its own grid, or an LTI
         system evaluated on ``freq_hz`` (keyword, [Hz]); see :func:`feedtune.interop_control.frf_from_control`."""
-        from .interop_control import frf_from_control
+        from .display import facade
 
-        return frf_from_control(sys, **kwargs)
+        return facade("frf_from_control")(sys, **kwargs)

@@ -44,6 +44,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .display import register_facade
 from .errors import DataError, UsageError
 from .frf import Frf
 from .lti import Zpk
@@ -443,3 +444,13 @@ def from_control(sys, kind: str | None = None, **kwargs):
     if convert is None:
         raise UsageError(f"kind must be one of {', '.join(FROM_KINDS)}, got {kind!r}", parameter="kind")
     return convert(sys, **kwargs)
+
+
+# the value types' .plot()/.to_control()/.from_control() reach these through display.facade()
+for _fn in (
+    frf_to_control, frf_from_control, ballscrew_to_control, ballscrew_from_control, gantry_to_control,
+    gantry_from_control, rigid_to_control, zpk_to_control, zpk_from_control, law_to_control, to_control,
+    from_control,
+):
+    register_facade(_fn.__name__, _fn)
+del _fn

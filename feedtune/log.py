@@ -147,9 +147,9 @@ class Log:
         -------
         matplotlib.figure.Figure
         """
-        from .plotting import plot_log
+        from .display import facade
 
-        return plot_log(self, signals, title=title)
+        return facade("plot_log")(self, signals, title=title)
 
     def to_dataframe(self):
         """A pandas DataFrame: index ``t`` [s], one column per signal; units in ``attrs["units"]``."""

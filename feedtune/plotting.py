@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .display import frf_unit
+from .display import frf_unit, register_facade
 
 LOOP_KINDS = ("loop", "nyquist", "sensitivity", "tracking", "disturbance")
 """What :func:`plot_analysis` draws: ``L`` (magnitude and phase), the Nyquist plot of ``L`` (MIMO: ``det(I + L)``),
@@ -293,3 +293,11 @@ def plot_law(law, freq_hz=None, *, title: str | None = None):
     if title:
         fig.suptitle(title, fontsize=11)
     return fig
+
+
+# the value types' .plot()/.to_control()/.from_control() reach these through display.facade()
+for _fn in (
+    plot_frf, plot_model, plot_friction, plot_analysis, plot_log, plot_run, plot_law,
+):
+    register_facade(_fn.__name__, _fn)
+del _fn

@@ -16,8 +16,8 @@ ROOT = Path(__file__).resolve().parents[1] / "feedtune"
 # Value-type modules at the bottom: everything may import them (numpy only below them).
 BASE = {"errors", "frf", "log", "lti", "quantity", "frf_sampling", "blas", "display", "progress", "__init__",
         "__main__"}
-# Facades above every package that the value types reach lazily from .plot() and .to_control() (python-control's
-# pattern): nothing imports them at module level, so their edges back down close no import cycle.
+# Facades above every package: they register their functions in display (display.facade), through which the value
+# types' .plot() and .to_control() reach them; only the package root imports them, so nothing below has an edge up.
 FACADES = {"plotting", "interop_control"}
 
 ALLOWED = {
@@ -72,8 +72,7 @@ EDGES = _imports()
 def _graph() -> dict[str, set[str]]:
     g: dict[str, set[str]] = {}
     for a, b in EDGES:
-        if b not in FACADES:
-            g.setdefault(a, set()).add(b)
+        g.setdefault(a, set()).add(b)
     return g
 
 
@@ -83,7 +82,7 @@ def test_no_import_cycle_between_packages():
     def reaches(a: str, b: str, seen: frozenset = frozenset()) -> bool:
         return any(x == b or (x not in seen and reaches(x, b, seen | {x})) for x in g.get(a, ()))
 
-    cycles = sorted({" <-> ".join(sorted((a, b))) for a, b in EDGES if b not in FACADES and reaches(b, a)})
+    cycles = sorted({" <-> ".join(sorted((a, b))) for a, b in EDGES if reaches(b, a)})
     assert not cycles, cycles
 
 
@@ -91,7 +90,7 @@ def test_no_import_cycle_between_packages():
 def test_package_imports_only_what_the_architecture_allows(package):
     allowed = ALLOWED[package]
     bad = {b: where for (a, b), where in EDGES.items()
-           if a == package and b not in BASE | FACADES and allowed != "*" and b not in allowed}
+           if a == package and b not in BASE and allowed != "*" and b not in allowed}
     assert not bad, f"{package} imports {sorted(bad)}: {[w[0] for w in bad.values()]}"
 
 
@@ -121,14 +120,31 @@ def test_every_package_is_in_the_table():
     assert packages <= set(ALLOWED), sorted(packages - set(ALLOWED))
 
 
-def test_facades_are_imported_lazily():
-    """plotting and interop_control are imported inside functions only (import feedtune stays light, no cycle)."""
-    eager = []
+def test_only_the_package_root_imports_the_facades():
+    """plotting and interop_control are imported by feedtune/__init__.py only, eager or lazy; everything else reaches
+    their functions through display.facade(), so no package below has an edge up to them."""
+    offenders = []
     for path in ROOT.rglob("*.py"):
-        for node in ast.parse(path.read_text(encoding="utf-8")).body:
-            if isinstance(node, (ast.Import, ast.ImportFrom)):
-                names = [a.name for a in node.names] + [node.module or ""] if isinstance(node, ast.ImportFrom) else \
-                    [a.name for a in node.names]
-                if any(n.split(".")[-1] in FACADES for n in names):
-                    eager.append(f"{path.relative_to(ROOT)}:{node.lineno}")
-    assert not eager, eager
+        rel = path.relative_to(ROOT)
+        if rel == Path("__init__.py"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""] + [a.name for a in node.names]  # also `from . import plotting`
+            else:
+                continue
+            if any(part in FACADES for n in names for part in n.split(".")):
+                offenders.append(f"{rel}:{node.lineno}")
+    assert not offenders, offenders
+    up = sorted((a, b) for a, b in EDGES if b in FACADES and a != "__init__")
+    assert not up, up
+
+
+def test_the_package_root_imports_the_facades():
+    """The root imports both facades, so their functions are registered once any feedtune module is imported."""
+    tree = ast.parse((ROOT / "__init__.py").read_text(encoding="utf-8"))
+    imported = {a.name for node in tree.body if isinstance(node, ast.ImportFrom) and node.level == 1
+                and node.module is None for a in node.names}
+    assert FACADES <= imported, sorted(FACADES - imported)

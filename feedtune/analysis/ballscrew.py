@@ -117,9 +117,9 @@ class CaseResponse:
     def plot(self, kind: str = "loop"):
         """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
         (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..plotting import plot_analysis
+        from ..display import facade
 
-        return plot_analysis(self, kind)
+        return facade("plot_analysis")(self, kind)
 
 
 def _max_lag(f, t, f_max):
@@ -166,9 +166,9 @@ class BallScrewAnalysis:
     def plot(self, kind: str = "loop", *, cases=None):
         """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
         ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..plotting import plot_analysis
+        from ..display import facade
 
-        return plot_analysis(self, kind, cases=cases)
+        return facade("plot_analysis")(self, kind, cases=cases)
 
 
 def default_grid(fs: float, n: int = 4000) -> np.ndarray:

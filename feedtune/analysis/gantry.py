@@ -144,9 +144,9 @@ class GantryCase:
     def plot(self, kind: str = "loop"):
         """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
         (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..plotting import plot_analysis
+        from ..display import facade
 
-        return plot_analysis(self, kind)
+        return facade("plot_analysis")(self, kind)
 
 
 @dataclass(frozen=True)
@@ -188,9 +188,9 @@ class GantryAnalysis:
     def plot(self, kind: str = "loop", *, cases=None):
         """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
         ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..plotting import plot_analysis
+        from ..display import facade
 
-        return plot_analysis(self, kind, cases=cases)
+        return facade("plot_analysis")(self, kind, cases=cases)
 
 
 def zoh_gantry(model: GantryModel, x: float, fs: float, freq_hz) -> np.ndarray:
@@ -437,9 +437,9 @@ class AxisCase:
     def plot(self, kind: str = "loop"):
         """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
         (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..plotting import plot_analysis
+        from ..display import facade
 
-        return plot_analysis(self, kind)
+        return facade("plot_analysis")(self, kind)
 
 
 @dataclass(frozen=True)
@@ -481,9 +481,9 @@ class AxisAnalysis:
     def plot(self, kind: str = "loop", *, cases=None):
         """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
         ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..plotting import plot_analysis
+        from ..display import facade
 
-        return plot_analysis(self, kind, cases=cases)
+        return facade("plot_analysis")(self, kind, cases=cases)
 
 
 def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisCase:

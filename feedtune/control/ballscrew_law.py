@@ -183,17 +183,17 @@ class BallScrewLaw:
 
     def plot(self, freq_hz=None, *, title: str | None = None):
         """``|K1|``, ``|K2|`` and their phase, continuous and discrete (:func:`feedtune.plotting.plot_law`)."""
-        from ..plotting import plot_law
+        from ..display import facade
 
-        return plot_law(self, freq_hz, title=title)
+        return facade("plot_law")(self, freq_hz, title=title)
 
     def to_control(self, *, discrete: bool = False, delay: bool | None = None, form: str = "tf"):
         """The feedback ``u = [K1 K2] [e1; e2]`` as a python-control system (``discrete=True``: ``dt = 1/fs`` with
         the computational delay; ``form="ss"``: sections, accurate near ``z = 1``);
         :func:`feedtune.interop_control.law_to_control`."""
-        from ..interop_control import law_to_control
+        from ..display import facade
 
-        return law_to_control(self, discrete=discrete, delay=delay, form=form)
+        return facade("law_to_control")(self, discrete=discrete, delay=delay, form=form)
 
 
 def _sum_zpk(a: Zpk, b: Zpk) -> Zpk:

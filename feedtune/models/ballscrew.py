@@ -203,24 +203,24 @@ class BallScrewModel:
     def plot(self, freq_hz=None, *, frf=None, title: str | None = None):
         """``x1/u`` and ``x2/u`` magnitude [dB] and phase [deg], with a measured FRF when given
         (:func:`feedtune.plotting.plot_model`); returns the matplotlib Figure."""
-        from ..plotting import plot_model
+        from ..display import facade
 
-        return plot_model(self, freq_hz, frf=frf, title=title)
+        return facade("plot_model")(self, freq_hz, frf=frf, title=title)
 
     def to_control(self, form: str = "ss"):
         """The model as a python-control ``StateSpace`` (eq. 3.3; ``form="tf"``: ``TransferFunction``), inputs
         ``u, d1, d2``, outputs ``x1, x2`` (:func:`feedtune.interop_control.ballscrew_to_control`)."""
-        from ..interop_control import ballscrew_to_control
+        from ..display import facade
 
-        return ballscrew_to_control(self, form)
+        return facade("ballscrew_to_control")(self, form)
 
     @classmethod
     def from_control(cls, sys, **kwargs) -> BallScrewModel:
         """The model of a python-control system with input ``u`` and outputs ``x1, x2``
         (:func:`feedtune.interop_control.ballscrew_from_control`)."""
-        from ..interop_control import ballscrew_from_control
+        from ..display import facade
 
-        return ballscrew_from_control(sys, **kwargs)
+        return facade("ballscrew_from_control")(sys, **kwargs)
 
 
 THESIS_TABLE_3_1 = BallScrewModel(m1=1.858e-3, m2=0.379e-3, b1=1.020e-3, b2=0.0, k=210.02, c=0.014)

@@ -204,9 +204,9 @@ class StribeckFriction:
 
     def plot(self, velocity=None, *, title: str | None = None):
         """The friction curve ``d(v)`` [command unit] over velocity (:func:`feedtune.plotting.plot_friction`)."""
-        from ..plotting import plot_friction
+        from ..display import facade
 
-        return plot_friction(self, velocity, title=title)
+        return facade("plot_friction")(self, velocity, title=title)
 
 
 # ------------------------------------------------------------------------------------------- friction laws

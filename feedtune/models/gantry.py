@@ -245,22 +245,22 @@ class GantryModelAtX:
 
     def plot(self, freq_hz=None, *, frf=None, title: str | None = None):
         """The 2x2 position FRF [dB, deg], with a measured FRF when given (:func:`feedtune.plotting.plot_model`)."""
-        from ..plotting import plot_model
+        from ..display import facade
 
-        return plot_model(self, freq_hz, frf=frf, title=title)
+        return facade("plot_model")(self, freq_hz, frf=frf, title=title)
 
     def to_control(self):
         """A python-control ``StateSpace``, inputs ``u1, u2``, outputs ``y1, y2`` [m]."""
-        from ..interop_control import gantry_to_control
+        from ..display import facade
 
-        return gantry_to_control(self)
+        return facade("gantry_to_control")(self)
 
     @classmethod
     def from_control(cls, sys, *, L: float, x: float = 0.0, **kwargs) -> GantryModelAtX:
         """``M, C, K`` of a 2x2 python-control system (:func:`feedtune.interop_control.gantry_from_control`)."""
-        from ..interop_control import gantry_from_control
+        from ..display import facade
 
-        return gantry_from_control(sys, L=L, x=x, **kwargs)
+        return facade("gantry_from_control")(sys, L=L, x=x, **kwargs)
 
 
 @dataclass(frozen=True)
@@ -405,15 +405,15 @@ class GantryModel:
     def plot(self, freq_hz=None, *, x: float = 0.0, frf=None, title: str | None = None):
         """The 2x2 position FRF at table position ``x`` [m], with a measured FRF when given
         (:func:`feedtune.plotting.plot_model`)."""
-        from ..plotting import plot_model
+        from ..display import facade
 
-        return plot_model(self, freq_hz, frf=frf, x=x, title=title)
+        return facade("plot_model")(self, freq_hz, frf=frf, x=x, title=title)
 
     def to_control(self, x: float = 0.0):
         """A python-control ``StateSpace`` at table position ``x`` [m] (inputs ``u1, u2``, outputs ``y1, y2``)."""
-        from ..interop_control import gantry_to_control
+        from ..display import facade
 
-        return gantry_to_control(self, x)
+        return facade("gantry_to_control")(self, x)
 
 
 def _position(x) -> float:

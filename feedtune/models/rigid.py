@@ -144,16 +144,16 @@ class RigidBodyModel:
 
     def plot(self, velocity=None, *, title: str | None = None):
         """Friction (viscous + Coulomb) [command unit] over velocity (:func:`feedtune.plotting.plot_friction`)."""
-        from ..plotting import plot_friction
+        from ..display import facade
 
-        return plot_friction(self, velocity, title=title)
+        return facade("plot_friction")(self, velocity, title=title)
 
     def to_control(self):
         """The linear part ``1 / (m s^2 + b s)`` as a python-control ``TransferFunction``
         (:func:`feedtune.interop_control.rigid_to_control`)."""
-        from ..interop_control import rigid_to_control
+        from ..display import facade
 
-        return rigid_to_control(self)
+        return facade("rigid_to_control")(self)
 
     def to_dict(self) -> dict:
         """JSON-ready parameters with their units."""

@@ -52,6 +52,6 @@ class ExperimentResult:
 
     def plot(self, signals=None, *, title: str | None = None):
         """The run's key signals over time (:func:`feedtune.plotting.plot_run`); returns the matplotlib Figure."""
-        from ..plotting import plot_run
+        from ..display import facade
 
-        return plot_run(self, signals, title=title)
+        return facade("plot_run")(self, signals, title=title)

@@ -251,9 +251,9 @@ class Trajectory:
 
     def plot(self, *, title: str | None = None):
         """Position, velocity, acceleration, jerk and snap over time (:func:`feedtune.plotting.plot_log`)."""
-        from ..plotting import plot_log
+        from ..display import facade
 
-        return plot_log(self.to_log(), title=title or f"{self.profile} trajectory")
+        return facade("plot_log")(self.to_log(), title=title or f"{self.profile} trajectory")
 
 
 
