@@ -16,6 +16,8 @@ Examples
 (True, 'beta')
 >>> cli_message(err)
 '--beta must be >= 1, got 0.5'
+>>> cli_message(UsageError("out.csv exists; pass force=True to overwrite", parameter="force"))
+'out.csv exists; pass --force to overwrite'
 """
 
 from __future__ import annotations
@@ -77,6 +79,13 @@ CLI_OPTIONS: dict[str, str] = {
     "out_dir": "--out",
     "fit_ballscrew.lead_m_per_rad": "--lead",
     "read_log.mapping": "--map",
+    "read_log.units": "--unit",
+    "read_frf.scale": "--frf-scale",
+    "read_frf.skip_rows": "--frf-skip-rows",
+    "read_frf.auto_channel": "--frf-channel",
+    "read_frf.columns": "--frf-map",
+    "fit_prefilter.lead_m_per_rad": "--gains GAINS",
+    "log_kinds": "--log-kind",
 }
 """How the command line spells a library parameter where it is not ``--`` plus the name with dashes for
 underscores (``lpf_hz`` -> ``--lpf-hz``). Keys are the parameters errors carry, qualified by their owner where one
@@ -105,8 +114,9 @@ def cli_message(exc: BaseException, options: Mapping[str, str] | None = None) ->
 
     A parameter ``owner.name`` appears in the message as ``name``. Where the message writes it as a keyword,
     ``name=`` (``name one with error= or position=``, ``identify it with law=stribeck``), only those occurrences
-    are replaced (``--error``, ``--law stribeck``), so the same word can stay plain English elsewhere; otherwise
-    every whole-word occurrence is.
+    are replaced (``--error``, ``--law stribeck``; a flag's ``name=True`` is the bare option, ``pass force=True``
+    -> ``pass --force``), so the same word can stay plain English elsewhere; otherwise every whole-word occurrence
+    is.
 
     Parameters
     ----------
@@ -122,7 +132,7 @@ def cli_message(exc: BaseException, options: Mapping[str, str] | None = None) ->
         option = option_name(name, options).replace("\\", r"\\")
         keyword = rf"(?<![\w.\-/\\]){word}="
         if re.search(keyword, text):
-            text = re.sub(keyword + r"(?=[\s,.;:)\]]|$)", option, text)
+            text = re.sub(keyword + r"(?:True)?(?=[\s,.;:)\]]|$)", option, text)  # force=True -> --force
             text = re.sub(keyword, option + " ", text)
         else:
             text = re.sub(rf"(?<![\w.\-/\\]){word}(?![\w\-/\\])", option, text)  # not inside a path

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from feedtune.analysis.limits import DEFAULT_LIMITS
 from feedtune.analysis.metrics import ropesnap_metrics, tracking_metrics
 from feedtune.cli import demo_cmd, simulate_cmd, trajectory_cmd
-from feedtune.errors import DataError, UsageError
+from feedtune.errors import DataError, UsageError, cli_message
 from feedtune.io import read_document, read_log, write_document
 from feedtune.machines.ballscrew.runtime import GainsRuntime
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
@@ -158,7 +158,7 @@ def test_trajectory_command_writes_a_log_the_twin_can_track(cli, tmp_path, demo)
     assert {"x_ref", "v_ref", "a_ref", "x1", "x2", "u", "e2"} <= set(tracked.signals)
     assert np.allclose(tracked["x_ref"], log["x_ref"])
     again = cli("simulate", "track", "--gains", gains, "--trajectory", traj, "--out", out)
-    assert isinstance(again.exception, UsageError) and "--force" in str(again.exception)
+    assert isinstance(again.exception, UsageError) and "pass --force" in cli_message(again.exception)
 
 
 @pytest.mark.parametrize(

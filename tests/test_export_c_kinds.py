@@ -214,14 +214,18 @@ def test_anti_windup_holds_the_integrators_and_the_output_leaves_the_limit_at_on
 
 
 def test_options_are_checked():
-    with pytest.raises(UsageError, match="--anti-windup clamp needs --u-max"):
+    with pytest.raises(UsageError, match="anti_windup=clamp needs u_max") as err:
         c_header(PID, anti_windup="clamp")
-    with pytest.raises(UsageError, match="--u-max"):
+    assert err.value.parameters == ("anti_windup", "u_max")
+    with pytest.raises(UsageError, match=r"u_max must be a positive number, got -1\.0") as err:
         c_header(PID, u_max=-1.0)
-    with pytest.raises(UsageError, match="not available for an axis"):
+    assert err.value.parameter == "u_max"
+    with pytest.raises(UsageError, match="anti_windup=clamp is not available for an axis") as err:
         c_header(AXIS, u_max=5.0, anti_windup="clamp")
-    with pytest.raises(UsageError, match="--prefix"):
+    assert err.value.parameter == "anti_windup"
+    with pytest.raises(UsageError, match="prefix '9x' is not a valid C identifier") as err:
         c_header(PID, prefix="9x")
+    assert err.value.parameter == "prefix"
 
 
 def test_export_refuses_what_the_runtime_refuses():

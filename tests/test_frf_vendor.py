@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from feedtune.errors import DataError, UsageError
+from feedtune.errors import DataError, UsageError, cli_message
 from feedtune.io import read_frf
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 
@@ -189,8 +189,9 @@ def test_scale_applies_to_every_format(tmp_path):
         flipped = read_frf(tmp_path / f"bs.{ext}", scale={"x2/u": -1})
         np.testing.assert_allclose(flipped.channel("x2/u"), -frf.channel("x2/u"), rtol=1e-10)
         np.testing.assert_allclose(flipped.channel("x1/u"), frf.channel("x1/u"), rtol=1e-10)
-    with pytest.raises(UsageError, match="do not apply to MATLAB"):
+    with pytest.raises(UsageError, match=r"option\(s\) columns do not apply to MATLAB") as err:
         read_frf(tmp_path / "bs.mat", columns={"x1/u.re": "a", "x1/u.im": "b"})
+    assert err.value.parameter == "read_frf.columns" and "option(s) --frf-map do not" in cli_message(err.value)
 
 
 # ------------------------------------------------------------------------------------------ headers
@@ -262,7 +263,7 @@ BAD_VENDOR = {
                        {"columns": {"freq_hz": "Frequency", "x1/u.mag_db": "Magnitude", "x1/u.phase_deg": "Phase"}},
                        DataError, ["unit is rad/s", "freq_rad_s"]),
     "preamble.csv": ("Analyzer\nFrequency [Hz],Re,Im\n1,1,0\n", {}, DataError,
-                     ["line 2", "is not a number", "--frf-skip-rows"]),
+                     ["line 2", "is not a number", "pass skip_rows=N"]),
     "partial_map.csv": ("Frequency [Hz],Magnitude [dB],Phase [deg]\n1,1,0\n",
                         {"columns": {"x1/u.mag_db": "Magnitude"}}, UsageError,
                         ["channel x1/u has mag_db", "x1/u.phase_deg"]),
@@ -275,9 +276,9 @@ BAD_VENDOR = {
                   {"columns": {"x1/u.mag_db": "Magnitude", "x1/u.phase_deg": "Magnitude [dB]"}}, UsageError,
                   ["'Magnitude [dB]' is mapped twice"]),
     "scale_channel.csv": ("Frequency [Hz],Re,Im\n1,1,0\n", {"scale": {"x2/u": -1}}, UsageError,
-                          ["--frf-scale x2/u=-1", "no channel 'x2/u'", "channels: x1/u"]),
+                          ["scale x2/u=-1", "no channel 'x2/u'", "channels: x1/u"]),
     "native_channel.csv": ("freq_hz,x1/u.re,x1/u.im\n1,1,0\n", {"auto_channel": "x2/u"}, UsageError,
-                           ["--frf-channel", "names its channels"]),
+                           ["auto_channel names the channel", "names its channels"]),
 }
 
 

@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from feedtune.errors import DataError, UsageError
+from feedtune.errors import DataError, UsageError, cli_message
 from feedtune.frf import Frf
 from feedtune.identify.ballscrew import fit_ballscrew
 from feedtune.models.ballscrew import THESIS_TABLE_3_1
@@ -98,8 +98,9 @@ def test_a_channel_counting_the_other_way_is_named_with_its_phase_and_the_fix():
     frf = make_frf(state_space_frf(TABLE_3_1, FREQ))
     flipped = replace(frf, response=frf.response * np.array([1.0, -1.0])[:, None, None])
     with pytest.raises(DataError, match=r"channel x2/u: its phase below the first axial mode is \+0 deg .*"
-                                        r"--frf-scale x2/u=-1"):
+                                        r"scale=x2/u=-1 when reading the FRF") as err:
         fit_ballscrew([flipped])
+    assert err.value.parameter == "read_frf.scale" and "flip it with --frf-scale x2/u=-1" in cli_message(err.value)
 
 
 def test_realistic_data_within_5_percent_and_b1_flagged(realistic_fit):

@@ -100,7 +100,7 @@ def test_write_document_toml_and_json_twin(tmp_path):
 
 def test_write_document_both_or_neither(tmp_path):
     (tmp_path / "g.json").write_text("{}")
-    with pytest.raises(UsageError, match=r"g\.json exists; pass --force"):
+    with pytest.raises(UsageError, match=r"g\.json exists; pass force=True"):
         write_document(tmp_path / "g.toml", {"a": 1})
     assert not (tmp_path / "g.toml").exists()
     write_document(tmp_path / "g.toml", {"a": 1}, force=True)
@@ -232,7 +232,7 @@ def test_atomic_output_leaves_nothing_on_failure(tmp_path):
 def test_atomic_write_refuses_overwrite_and_missing_folder(tmp_path):
     p = tmp_path / "a.txt"
     atomic_write_text(p, "one")
-    with pytest.raises(UsageError, match=r"a\.txt exists; pass --force to overwrite"):
+    with pytest.raises(UsageError, match=r"a\.txt exists; pass force=True to overwrite"):
         atomic_write_text(p, "two")
     assert p.read_text() == "one"
     atomic_write_text(p, "two", force=True)

@@ -163,8 +163,9 @@ def test_csv_writer_refuses_overwrite_without_force(tmp_path):
     frf = _ballscrew_frf(coherence=False)
     p = tmp_path / "a.csv"
     write_frf_csv(frf, p)
-    with pytest.raises(UsageError, match="--force"):
+    with pytest.raises(UsageError, match=r"a\.csv exists; pass force=True to overwrite") as err:
         write_frf_csv(frf, p)
+    assert err.value.parameter == "force"
     write_frf_csv(frf.select(1, 100), p, force=True)
     assert read_frf_csv(p).freq_hz.max() <= 100
 

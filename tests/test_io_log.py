@@ -37,8 +37,9 @@ def test_csv_round_trip_is_exact(tmp_path):
         np.testing.assert_array_equal(back[k], log[k])
     assert back.units == {"x1": "rad", "u": "V", "flag": ""}
     assert back.meta["origin"] == "bench, run 3"
-    with pytest.raises(UsageError, match="--force"):
+    with pytest.raises(UsageError, match=r"run\.csv exists; pass force=True to overwrite") as err:
         write_log_csv(log, tmp_path / "run.csv")
+    assert err.value.parameter == "force"
 
 
 def test_csv_units_from_metadata_and_time_in_ms(tmp_path):
@@ -52,8 +53,9 @@ def test_csv_units_from_metadata_and_time_in_ms(tmp_path):
 def test_csv_mapping_scale_units_and_fs(tmp_path):
     text = "pos,cmd\n0.0,1.0\n0.1,2.0\n0.2,4.0\n0.3,8.0\n"
     p = _write(tmp_path, "nt.csv", text)
-    with pytest.raises(DataError, match=r"nt\.csv: no time column .*--fs"):
+    with pytest.raises(DataError, match=r"nt\.csv: no time column .*pass fs= \(sample rate in Hz\)") as err:
         read_log(p)
+    assert err.value.parameters == ("fs", "time")
     log = read_log(p, fs=100.0, mapping={"x2": "pos", "u": "cmd"}, scale={"u": 35.15}, units={"u": "N"})
     np.testing.assert_array_equal(log.t, np.arange(4) / 100.0)
     np.testing.assert_array_equal(log["u"], np.array([1.0, 2.0, 4.0, 8.0]) * 35.15)

@@ -94,11 +94,11 @@ def test_tracking_velocity_derived_from_the_reference():
 def test_tracking_column_errors_are_one_line_data_errors():
     log, _, _ = _trapezoid_log()
     in_um = log.with_signals({"e2": log["e2"] * 1e6}, {"e2": "um"})
-    with pytest.raises(DataError, match=r"'e2' is in 'um', expected m; convert it with --scale e2="):
+    with pytest.raises(DataError, match=r"'e2' is in 'um', expected m; convert it with scale=e2=FACTOR units=e2=m"):
         analyze_tracking_log(in_um)
     two = Log(log.t, {"x_ref": log["x_ref"], "xa": log["x2_table"], "xb": log["x2_table"]},
               {"x_ref": "m", "xa": "m", "xb": "m"})
-    with pytest.raises(DataError, match=r"several position columns in m \(xa, xb\); choose one with --position"):
+    with pytest.raises(DataError, match=r"several position columns in m \(xa, xb\); choose one with position="):
         analyze_tracking_log(two)
     with pytest.raises(DataError, match="no tracking error 'e2' and no reference 'x_ref'"):
         analyze_tracking_log(Log(log.t, {"x": log["x2_table"]}, {"x": "m"}))

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from feedtune.analysis.limits import DEFAULT_LIMITS
 from feedtune.cli.main import app
-from feedtune.errors import DataError, UsageError
+from feedtune.errors import DataError, UsageError, cli_message
 from feedtune.io import dumps_toml, model_document, write_log_csv
 from feedtune.log import Log
 from feedtune.report.build import build_report
@@ -277,7 +277,7 @@ def test_existing_output_needs_force_and_is_left_untouched(demo_dir, tmp_path):
     out = tmp_path / "r.html"
     out.write_text("mine")
     res = cli("report", demo_dir / "model.toml", "--out", out, "--pdf")
-    assert isinstance(res.exception, UsageError) and "--force" in str(res.exception)
+    assert isinstance(res.exception, UsageError) and "pass --force" in cli_message(res.exception)
     assert out.read_text() == "mine" and sorted(p.name for p in tmp_path.iterdir()) == ["r.html"]
     res = cli("report", demo_dir / "model.toml", "--out", out, "--pdf", "--force")
     assert res.exit_code == 0, res.output
@@ -304,8 +304,10 @@ def test_a_log_without_metadata_needs_its_kind(tmp_path):
     t = np.arange(2000) / 1000.0
     x = np.where(t >= 0.5, 1e-5 * np.exp(-(t - 0.5) * 20) * np.cos(2 * np.pi * 40 * (t - 0.5)), 0.0)
     write_log_csv(Log(t, {"x": x, "u": 0.1 * np.ones_like(t)}, {"x": "m", "u": "V"}), tmp_path / "snap.csv")
-    with pytest.raises(DataError, match=r"--log-kind snap\.csv=KIND"):
+    with pytest.raises(DataError, match=r"pass log_kinds=snap\.csv=KIND") as err:
         build_report([tmp_path / "snap.csv"])
+    assert err.value.parameter == "log_kinds"
+    assert "pass --log-kind snap.csv=KIND" in cli_message(err.value)
     rep = build_report([tmp_path / "snap.csv"], log_kinds={"snap.csv": "ropesnap"}, render=False)
     m = rep.data["ropesnap"]["snap.csv"]["metrics"]
     assert m["peak_abs_m"] == pytest.approx(1e-5, rel=1e-9)  # the decaying cosine starts at its peak

@@ -244,7 +244,7 @@ def test_implausible_and_plausible_time_bases(tmp_path):
     slow = tmp_path / "slow.csv"
     _log_csv(slow, [0.5 * k for k in range(100)], header="t")  # 2 Hz, not integers
     with pytest.raises(DataError, match=r"slow\.csv: column 't': the time stamps give fs = 2 Hz, below 10 Hz; "
-                                        r"check the time unit: convert it to seconds with --scale t=FACTOR"):
+                                        r"check the time unit: convert it to seconds with scale=t=FACTOR"):
         read_log(slow)
     fast = tmp_path / "fast.csv"
     _log_csv(fast, [1e-8 * k for k in range(100)])  # 100 MHz

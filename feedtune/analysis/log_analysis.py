@@ -45,7 +45,7 @@ def _length_signal(log: Log, name: str, role: str) -> np.ndarray:
     unit = log.unit(name)
     if unit not in _LENGTH_UNITS:
         raise DataError(f"{log.source}: {role} {name!r} is in {unit!r}, expected m; convert it with "
-                        f"--scale {name}=FACTOR --unit {name}=m")
+                        f"scale={name}=FACTOR units={name}=m", parameter=("read_log.scale", "read_log.units"))
     return x
 
 
@@ -68,10 +68,10 @@ def pick_position(log: Log, position: str | None, exclude: set[str]) -> str:
         return candidates[0]
     if not candidates:
         raise DataError(f"{log.source}: no position column ({_TABLE_POSITION_NAME!r} or a signal in m); "
-                        f"signals: {', '.join(log.signals) or 'none'}; name it with --position "
-                        "(and --unit NAME=m)")
+                        f"signals: {', '.join(log.signals) or 'none'}; name it with position= "
+                        "(and units=NAME=m)", parameter=("position", "read_log.units"))
     raise DataError(f"{log.source}: several position columns in m ({', '.join(candidates)}); "
-                    "choose one with --position")
+                    "choose one with position=", parameter="position")
 
 
 def _check_name(value: str | None, name: str) -> None:
@@ -137,8 +137,8 @@ def analyze_tracking_log(
     else:
         if reference not in log:
             raise DataError(f"{log.source}: no tracking error {_ERROR_NAME!r} and no reference {reference!r}; "
-                            f"signals: {', '.join(log.signals) or 'none'} (name them with --error or "
-                            "--reference/--position)")
+                            f"signals: {', '.join(log.signals) or 'none'} (name them with error=, or "
+                            "reference= and position=)", parameter=("error", "reference", "position"))
         pos_name = pick_position(log, position, {reference})
         e = _length_signal(log, reference, "reference") - _length_signal(log, pos_name, "position")
     vel, acc = _commanded_motion(log, reference)

@@ -164,7 +164,7 @@ def _check_rates(lpf_hz: float, fs: float) -> tuple[float, float]:
         raise UsageError(f"sample rate must be a finite number > 0 Hz, got {fs!r}")
     if (isinstance(lpf_hz, bool) or not isinstance(lpf_hz, (int, float, np.floating))
             or not (math.isfinite(lpf_hz) and 0 < lpf_hz < fs / 4)):
-        raise UsageError(f"--lpf-hz must be > 0 and below fs/4 = {fs / 4:g} Hz, got {lpf_hz!r}")
+        raise UsageError(f"lpf_hz must be > 0 and below fs/4 = {fs / 4:g} Hz, got {lpf_hz!r}", parameter="lpf_hz")
     return float(lpf_hz), float(fs)
 
 

@@ -495,7 +495,7 @@ def _factor_to(log: Log, name: str, want: str, lead: float | None) -> float:
         raise DataError(f"{log.source}: {name} is in {got!r} but the reference is in {want!r}")
     if lead is None or not (math.isfinite(lead) and lead > 0):
         raise DataError(f"{log.source}: {name} is in {got!r} but the reference is in {want!r}; give the screw lead "
-                        "(e.g. --gains GAINS) to convert")
+                        "(lead_m_per_rad=) to convert", parameter="fit_prefilter.lead_m_per_rad")
     return lead if got == "rad" else 1.0 / lead
 
 

@@ -70,13 +70,16 @@ class COptions:
 
     def __post_init__(self) -> None:
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", self.prefix):
-            raise UsageError(f"--prefix {self.prefix!r} is not a valid C identifier (letters, digits, underscore)")
+            raise UsageError(f"prefix {self.prefix!r} is not a valid C identifier (letters, digits, underscore)",
+                             parameter="prefix")
         if self.u_max is not None and not (math.isfinite(self.u_max) and self.u_max > 0):
-            raise UsageError(f"--u-max must be a positive number, got {self.u_max!r}")
+            raise UsageError(f"u_max must be a positive number, got {self.u_max!r}", parameter="u_max")
         if self.anti_windup not in ANTI_WINDUP:
-            raise UsageError(f"--anti-windup must be one of {', '.join(ANTI_WINDUP)}, got {self.anti_windup!r}")
+            raise UsageError(f"anti_windup must be one of {', '.join(ANTI_WINDUP)}, got {self.anti_windup!r}",
+                             parameter="anti_windup")
         if self.anti_windup == "clamp" and self.u_max is None:
-            raise UsageError("--anti-windup clamp needs --u-max (the limit the integrators must not wind up against)")
+            raise UsageError("anti_windup=clamp needs u_max (the limit the integrators must not wind up against)",
+                             parameter=("anti_windup", "u_max"))
         if self.precision not in PRECISIONS:
             raise UsageError(f"precision must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
 

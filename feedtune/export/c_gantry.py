@@ -260,5 +260,6 @@ def check_axis(opts: COptions) -> None:
     from ..errors import UsageError
 
     if opts.anti_windup == "clamp":
-        raise UsageError("--anti-windup clamp is not available for an axis gains file: its integral action is "
-                         "inside the controller's sections, with no integrator to hold (use --u-max alone)")
+        raise UsageError("anti_windup=clamp is not available for an axis gains file: its integral action is "
+                         "inside the controller's sections, with no integrator to hold (use u_max alone)",
+                         parameter=("anti_windup", "u_max"))

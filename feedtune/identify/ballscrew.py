@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..display import param_text
 from ..errors import DataError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import PARAM_NAMES, BallScrewModel, Mode, param_units
@@ -471,7 +472,7 @@ def _inverted_sign_message(s: _Series, below: np.ndarray) -> str:
     phase = round(float(np.degrees(np.angle(np.median(s.response[below] / np.abs(s.response[below]))))))
     return (f"{s.source}: channel {s.channel}: its phase below the first axial mode is {phase:+d} deg where a "
             "position response of a rigid body has -180 deg: the channel's sign looks inverted (an encoder or a "
-            f"drive counting the other way); flip it with --frf-scale {s.channel}=-1 (library: scale=) or check the "
+            f"drive counting the other way); flip it with scale={s.channel}=-1 when reading the FRF or check the "
             "channels")
 
 
@@ -496,7 +497,7 @@ def _rigid_body_estimates(series: list[_Series], f_mode: float, f_anti: float) -
         masses.append(np.median(inv_acc.real))
         dampings.append(np.median(-inv_acc.imag * w))
         if masses[-1] < 0:
-            raise DataError(_inverted_sign_message(s, m))
+            raise DataError(_inverted_sign_message(s, m), parameter="read_frf.scale")
     total_mass = float(np.median(masses))
     if not (np.isfinite(total_mass) and total_mass > 0):
         raise DataError("cannot read the rigid-body inertia off the FRF below the first axial mode: "
@@ -744,8 +745,9 @@ def _fit_warnings(
         value, sigma = params[name], std[name]
         if not sigma <= _REL_STD_LIMIT * abs(value):
             unit = param_units(model.input_unit)[name]
-            warnings.append(f"{name} poorly determined: {value:.4g} +/- {sigma:.2g} {unit} "
-                            f"(relative std > {100 * _REL_STD_LIMIT:.0f} %)")
+            lower = None if name in _LOG_PARAMS else 0.0  # the fit's bound (m1, m2, k are fitted as logarithms)
+            warnings.append(f"{name} poorly determined (relative std > {100 * _REL_STD_LIMIT:.0f} %): "
+                            f"{param_text(value, unit, sigma, lower)}")
     if not model.modes():
         warnings.append("the fitted model has no oscillatory mode (over-damped): check the band and channels")
     for channel, lines in (outliers or {}).items():

@@ -108,7 +108,7 @@ def parameter_std(jac: np.ndarray, s2: float) -> np.ndarray:
 
 
 SIGN_HINT = ("the command looks mirrored or sign-inverted against the velocity (check the sign of the command "
-             "column or its --scale), or a constant offset such as gravity is larger than the friction")
+             "column or its scale=), or a constant offset such as gravity is larger than the friction")
 
 
 def check_fitted_signs(friction, where: str) -> None:
@@ -123,7 +123,7 @@ def check_fitted_signs(friction, where: str) -> None:
     """
     problems = friction.sign_problems()
     if problems:
-        raise DataError(f"{where}: {problems[0][1]}; {SIGN_HINT}")
+        raise DataError(f"{where}: {problems[0][1]}; {SIGN_HINT}", parameter="read_log.scale")
 
 
 # ------------------------------------------------------------------------------------------- results
@@ -455,7 +455,7 @@ def _check_levels(theta: np.ndarray, blocks: list[_Block], command_unit: str, wh
         for k, stem in enumerate(("dc", "ds")):
             problem = level_sign_problem(f"{stem}_{b.key}", float(theta[b.cols[k]]), command_unit)
             if problem:
-                raise DataError(f"{where}: {problem}; {SIGN_HINT}")
+                raise DataError(f"{where}: {problem}; {SIGN_HINT}", parameter="read_log.scale")
 
 
 def _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, command_unit, velocity_unit,

@@ -40,7 +40,7 @@ def ensure_writable(path: str | os.PathLike[str], force: bool) -> Path:
     if not parent.is_dir():
         raise DataError(f"{p}: folder {parent} does not exist")
     if p.exists() and not force:
-        raise UsageError(f"{p} exists; pass --force to overwrite")
+        raise UsageError(f"{p} exists; pass force=True to overwrite", parameter="force")
     return p
 
 

@@ -268,11 +268,13 @@ def _check_kinds(channel: str, kinds: set[str]) -> None:
     raise UsageError(f"{MAP_OPTION}: channel {channel} has {what}; {hint}")
 
 
-def check_channel_name(channel: str, option: str = "auto_channel") -> str:
-    """``channel`` stripped when it looks like ``OUT/IN``; UsageError naming ``option`` otherwise."""
+def check_channel_name(channel: str, option: str = "auto_channel", parameter: str | None = None) -> str:
+    """``channel`` stripped when it looks like ``OUT/IN``; UsageError naming ``option`` (the error's ``parameter``)
+    otherwise."""
     parts = str(channel).strip().split("/")
     if len(parts) != 2 or not all(p.strip() and p == p.strip() for p in parts) or any("," in p for p in parts):
-        raise UsageError(f"{option} expects a channel name OUT/IN such as x1/u or x2/u, got {channel!r}")
+        raise UsageError(f"{option} expects a channel name OUT/IN such as x1/u or x2/u, got {channel!r}",
+                         parameter=parameter)
     return "/".join(parts)
 
 
@@ -513,7 +515,8 @@ def frf_from_vendor_table(
                 _check_unit(col, kind, f"{channel}.{kind}", name)
                 groups.setdefault(channel, {})[kind] = col
     else:
-        channel = DEFAULT_CHANNEL if auto_channel is None else check_channel_name(auto_channel)
+        channel = (DEFAULT_CHANNEL if auto_channel is None
+                   else check_channel_name(auto_channel, parameter="read_frf.auto_channel"))
         freq_key, freq_col = _auto_freq(cols, name)
         groups = {channel: _auto_channel(cols, channel, name)}
     used = [(freq_key, freq_col)] + [(f"{ch}.{k}", c) for ch, kinds in groups.items() for k, c in kinds.items()]
@@ -658,13 +661,14 @@ def read_frf_csv(
         A malformed column map or channel name, or ``auto_channel`` for a file that names its channels.
     """
     if isinstance(skip_rows, bool) or not isinstance(skip_rows, int) or skip_rows < 0:
-        raise UsageError(f"skip_rows (--frf-skip-rows) expects an integer >= 0, got {skip_rows!r}")
+        raise UsageError(f"skip_rows expects an integer >= 0, got {skip_rows!r}", parameter="read_frf.skip_rows")
     if columns is not None:
         parse_column_map(columns)  # option errors before the file is read
         if auto_channel is not None:
-            raise UsageError(f"{MAP_OPTION} names the channels itself; drop --frf-channel (auto_channel)")
+            raise UsageError(f"{MAP_OPTION} names the channels itself; drop auto_channel",
+                             parameter="read_frf.auto_channel")
     if auto_channel is not None:
-        check_channel_name(auto_channel, "--frf-channel")
+        check_channel_name(auto_channel, parameter="read_frf.auto_channel")
     text, name = read_table_data(source, "CSV")
     head = _inspect_head(text, skip_rows)
     try:
@@ -672,11 +676,12 @@ def read_frf_csv(
     except DataError as exc:
         if head.native or "pass skip_rows" not in str(exc):
             raise
-        raise DataError(str(exc).replace("pass skip_rows", "pass skip_rows (--frf-skip-rows N)")) from None
+        raise DataError(str(exc).replace("pass skip_rows", "pass skip_rows=N"),
+                        parameter="read_frf.skip_rows") from None
     if head.native and columns is None:
         if auto_channel is not None:
-            raise UsageError(f"{name}: --frf-channel (auto_channel) names the channel of a vendor header; this file's "
-                             "header names its channels (OUT/IN.KIND columns)")
+            raise UsageError(f"{name}: auto_channel names the channel of a vendor header; this file's "
+                             "header names its channels (OUT/IN.KIND columns)", parameter="read_frf.auto_channel")
         return frf_from_table(table, quantity)
     return frf_from_vendor_table(table, quantity, columns=columns, units_row=head.units_row,
                                  auto_channel=auto_channel)

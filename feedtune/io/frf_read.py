@@ -78,8 +78,7 @@ def read_frf(
         An option that the file's format does not use, a malformed column map or scale.
     """
     fmt = frf_format(path)
-    csv_only = {"columns (--frf-map)": columns, "skip_rows (--frf-skip-rows)": skip_rows,
-                "auto_channel (--frf-channel)": auto_channel}
+    csv_only = {"columns": columns, "skip_rows": skip_rows, "auto_channel": auto_channel}
     if fmt == "csv":
         _reject_options(path, "CSV", freq_var=freq_var, channels=channels, coherence=coherence)
         from .frf_csv import read_frf_csv
@@ -126,12 +125,14 @@ def scale_channels(frf: Frf, scale: Mapping[str, float]) -> Frf:
         try:
             value = float(factor)
         except (TypeError, ValueError):
-            raise UsageError(f"--frf-scale {channel}={factor}: FACTOR must be a number") from None
+            raise UsageError(f"scale {channel}={factor}: FACTOR must be a number",
+                             parameter="read_frf.scale") from None
         if not math.isfinite(value) or value == 0:
-            raise UsageError(f"--frf-scale {channel}={factor}: FACTOR must be finite and non-zero")
+            raise UsageError(f"scale {channel}={factor}: FACTOR must be finite and non-zero",
+                             parameter="read_frf.scale")
         if not frf.has(channel):
-            raise UsageError(f"--frf-scale {channel}={factor}: {frf.source} has no channel {channel!r}; "
-                             f"channels: {', '.join(frf.channels)}")
+            raise UsageError(f"scale {channel}={factor}: {frf.source} has no channel {channel!r}; "
+                             f"channels: {', '.join(frf.channels)}", parameter="read_frf.scale")
         i, j = frf.index(channel)
         response[i, j] *= value
     record = "; ".join(f"{ch}={float(v):g}" for ch, v in scale.items())
@@ -141,7 +142,8 @@ def scale_channels(frf: Frf, scale: Mapping[str, float]) -> Frf:
 def _reject_options(path: str | os.PathLike[str], fmt: str, **options: object) -> None:
     given = [k for k, v in options.items() if v]
     if given:
-        raise UsageError(f"{path}: option(s) {', '.join(given)} do not apply to {fmt} files")
+        raise UsageError(f"{path}: option(s) {', '.join(given)} do not apply to {fmt} files",
+                         parameter=[f"read_frf.{k}" for k in given])
 
 
 def write_frf(frf: Frf, path: str | os.PathLike[str], *, force: bool = False) -> None:

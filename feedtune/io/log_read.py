@@ -169,8 +169,8 @@ def assemble_log(
     elif fs is not None:
         t = np.arange(_common_length(raw, mapped)) / fs
     else:
-        raise DataError(f"{raw.name}: no time column (t or time); pass --fs (sample rate in Hz) "
-                        "or name the time column")
+        raise DataError(f"{raw.name}: no time column (t or time); pass fs= (sample rate in Hz) "
+                        "or name the time column (time=)", parameter=("fs", "time"))
     n = t.size
     used = {raw.canonical(c) for c in mapping.values()} | ({raw.canonical(time_spec)} if time_spec else set())
     signals: dict[str, np.ndarray] = {}
@@ -194,7 +194,7 @@ def assemble_log(
     if np.any(np.diff(t) <= 0) and fs is None:
         bad = int(np.flatnonzero(np.diff(t) <= 0)[0])
         raise DataError(f"{raw.name}: time column {t_name!r} is not strictly increasing at sample {bad + 1}; "
-                        "pass --fs to use a uniform time base")
+                        "pass fs= to use a uniform time base", parameter="fs")
     if unstated and t is t_read:  # neither the file nor the user said what unit the time stamps are in
         check_time_base(raw.name, raw.canonical(time_spec), t_name, t)
     return Log(t, signals, sig_units, meta)
@@ -215,7 +215,7 @@ def check_time_base(name: str, column: str, t_name: str, t: np.ndarray) -> None:
     column : str
         The file's time column.
     t_name : str
-        The name the user calls the time by (the ``--scale`` key to suggest).
+        The name the user calls the time by (the ``scale`` key to suggest).
     t : ndarray
         The time stamps as read, taken as seconds, strictly increasing.
 
@@ -235,11 +235,11 @@ def check_time_base(name: str, column: str, t_name: str, t: np.ndarray) -> None:
         for (lo, hi), unit, factor in INTEGER_STEP_UNITS:
             if lo <= step <= hi:
                 raise DataError(f"{where}: time stamps are integers with a step of {step:g} (fs would be {fs:.3g} "
-                                f"Hz); if they are {unit}, pass --scale {t_name}={factor}")
+                                f"Hz); if they are {unit}, pass scale={t_name}={factor}", parameter="read_log.scale")
     side = f"below {FS_MIN_HZ:g} Hz" if fs < FS_MIN_HZ else f"above {FS_MAX_HZ / 1e6:g} MHz"
     raise DataError(f"{where}: the time stamps give fs = {fs:.3g} Hz, {side}; check the time unit: convert it to "
-                    f"seconds with --scale {t_name}=FACTOR (1e-3 for ms, 1e-6 for us), or give the sample rate "
-                    "with --fs")
+                    f"seconds with scale={t_name}=FACTOR (1e-3 for ms, 1e-6 for us), or give the sample rate "
+                    "with fs=", parameter=("read_log.scale", "fs"))
 
 
 def _apply_scale(name: str, signals: dict[str, np.ndarray], t: np.ndarray, t_name: str,

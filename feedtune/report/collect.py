@@ -315,7 +315,8 @@ def log_kind(log, path: Path, log_kinds: Mapping[str, str]) -> tuple[str, str]:
     kind = kind_from_columns(set(log.signals), log.meta)
     if kind is None:
         raise DataError(f"{path}: cannot tell which run this log holds (columns {', '.join(log.signals)}); "
-                        f"pass --log-kind {path.name}=KIND with KIND one of {', '.join(LOG_KINDS)}")
+                        f"pass log_kinds={path.name}=KIND with KIND one of {', '.join(LOG_KINDS)}",
+                        parameter="log_kinds")
     return kind, "columns"
 
 
@@ -341,9 +342,9 @@ def parse_log_kinds(items: Iterable[str] | None) -> dict[str, str]:
         name, sep, kind = str(item).partition("=")
         kind = kind.strip().lower()
         if not sep or not name.strip():
-            raise UsageError(f"--log-kind expects FILE=KIND, got {item!r}")
+            raise UsageError(f"log_kinds expects FILE=KIND, got {item!r}", parameter="log_kinds")
         if kind not in LOG_KINDS:
-            raise UsageError(f"--log-kind {item}: kind must be one of {', '.join(LOG_KINDS)}")
+            raise UsageError(f"log_kinds {item}: kind must be one of {', '.join(LOG_KINDS)}", parameter="log_kinds")
         out[name.strip()] = kind
     return out
 
@@ -402,13 +403,14 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
     log_kinds = dict(log_kinds or {})
     for name, kind in log_kinds.items():
         if kind not in LOG_KINDS:
-            raise UsageError(f"--log-kind {name}={kind}: kind must be one of {', '.join(LOG_KINDS)}")
+            raise UsageError(f"log_kinds {name}={kind}: kind must be one of {', '.join(LOG_KINDS)}",
+                             parameter="log_kinds")
     files = expand_paths(paths)
     if not files:
         raise DataError("no input files: give model, gains, FRF or log files, or a folder holding them")
     unmatched = set(log_kinds) - {p.name for p, _ in files} - {str(p) for p, _ in files}
     if unmatched:
-        raise UsageError(f"--log-kind {sorted(unmatched)[0]}: no such file among the inputs")
+        raise UsageError(f"log_kinds {sorted(unmatched)[0]}: no such file among the inputs", parameter="log_kinds")
     items, skipped = [], []
     for path, named in files:
         try:

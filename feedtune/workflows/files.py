@@ -19,7 +19,7 @@ def check_out_dir(out_dir: str | os.PathLike[str], force: bool) -> Path:
     if d.exists() and not d.is_dir():
         raise DataError(f"{d} is a file; out_dir must be a folder", parameter="out_dir")
     if d.is_dir() and any(d.iterdir()) and not force:
-        raise UsageError(f"{d} exists and is not empty; pass --force to write into it")
+        raise UsageError(f"{d} exists and is not empty; pass force=True to write into it", parameter="force")
     parent = d.parent if str(d.parent) else Path(".")
     if not parent.is_dir():
         raise DataError(f"{d}: folder {parent} does not exist")

@@ -222,7 +222,7 @@ def trajectory_from_log(source, fs: float | None = None):
         raise DataError(f"{log.source}: the trajectory must be uniformly sampled")
     if fs is not None and not math.isclose(log.fs, fs, rel_tol=1e-6):
         raise DataError(f"{log.source}: the trajectory is sampled at {log.fs:g} Hz; the twin runs at {fs:g} Hz "
-                        f"(write it with feedtune trajectory --fs {fs:g})")
+                        f"(generate it with fs={fs:g})", parameter="fs")
     derivs = [pos]
     for name in names[1:]:
         derivs.append(log.get(name) if name in log else np.gradient(derivs[-1], log.dt))
@@ -245,7 +245,7 @@ def run_tracking(twin: BallScrewTwin, runtime, trajectory, *, seed: int | None =
 
     if not math.isclose(trajectory.fs, twin.fs, rel_tol=1e-9):
         raise UsageError(f"the trajectory is sampled at {trajectory.fs:g} Hz; the twin runs at {twin.fs:g} Hz "
-                         f"(generate it with --fs {twin.fs:g})")
+                         f"(generate it with fs={twin.fs:g})", parameter="fs")
     run = twin.simulate(runtime, trajectory.pos / twin.lead, d2=d2, seed=seed, engine=engine).from_zero()
     m = run.t.size
     ref = trajectory.to_log()

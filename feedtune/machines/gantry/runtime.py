@@ -67,7 +67,7 @@ def _previewed(x: np.ndarray, preview: int) -> np.ndarray:
 def _check_target(fs_file: float, fs: float, where: str) -> None:
     if not math.isclose(fs_file, fs, rel_tol=1e-9):
         raise DataError(f"{where}: gains were designed for fs = {fs_file:g} Hz, but the target samples at "
-                        f"{fs:g} Hz; design again with --fs {fs:g}")
+                        f"{fs:g} Hz; design again with fs={fs:g}", parameter="fs")
 
 
 def _finite_position(x: float) -> float:
