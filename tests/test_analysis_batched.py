@@ -355,3 +355,27 @@ def test_scatter_on_demand_and_interpolation_tables_equal_the_whole_computation(
 def test_unit_circle_is_the_complex_exponential():
     f = np.logspace(-3, np.log10(10000.0), 1000)
     assert unit_circle(f, 20000.0) == pytest.approx(np.exp(2j * np.pi * f / 20000.0), rel=1e-15, abs=1e-15)
+
+
+def test_values_do_not_depend_on_what_was_asked_before():
+    """The measured parts give the same bits whether a search asked a thousand times before or not (numpy's
+    vectorised log can differ in the last bit between a whole array and a few gathered lines)."""
+    from feedtune.analysis.resolution import LineNoise, interpolate_frf, noise_db
+
+    rng = np.random.default_rng(3)
+    f = np.geomspace(1, 2000, 1537)
+    h = (1 / (1j * f) ** 2 * (1 + 0.05 * rng.standard_normal(f.size)))[None, :] * np.array([[1.0], [2.0 + 1j]])
+    coh = np.clip(1 - 0.3 * rng.random(h.shape), 0, 1)
+    probe = np.array([1.37, 13.7, 137.3, 1373.1])
+    fresh = interpolate_frf(f, h)(probe)
+    busy = interpolate_frf(f, h)
+    for _ in range(50):
+        busy(rng.uniform(1, 2000, 31))
+    assert np.array_equal(busy(probe), fresh)
+    idx = np.array([0, 5, 700, 1536])
+    whole = noise_db(f, h, coh)
+    assert np.array_equal(LineNoise(f, h, coh).lines(idx), whole[idx])
+    many = LineNoise(f, h, coh)
+    for _ in range(20):
+        many.lines(rng.integers(0, f.size, 3))
+    assert np.array_equal(many.lines(idx), whole[idx])

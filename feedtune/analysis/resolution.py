@@ -309,8 +309,8 @@ def refine_peaks(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi:
 INTERPOLATION = "log magnitude and unwrapped phase, linear in log frequency, between the FRF's lines"
 """How a measured response is evaluated between its lines (stated in the analysis output)."""
 INTERPOLATION_TABLE_AFTER = 8
-"""After this many evaluations between the lines, :func:`interpolate_frf` tabulates every line's log magnitude and
-phase step (a search evaluates the same FRF thousands of times; one analysis, a handful)."""
+"""After this many requests, :class:`LineNoise` computes the scatter of every line at once (a search asks thousands
+of times; one analysis, a handful); both ways give the same values, bit for bit."""
 
 
 def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
@@ -320,7 +320,7 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
     without interpolating). Frequencies outside the lines are clamped to the end values. A point between lines ``i``
     and ``i + 1`` is interpolated from those two lines alone, the phase step between them wrapped as
     :func:`numpy.unwrap` wraps it (the unwrapped phase of the whole FRF differs from it by a multiple of ``2 pi``
-    only); nothing is computed ahead until the function has been asked :data:`INTERPOLATION_TABLE_AFTER` times.
+    only); the lines' log magnitudes and phase steps are tabulated at the first evaluation between lines.
     ``response`` is referenced, not copied: it must not be modified afterwards.
     """
     f = np.asarray(freq_hz, float)
@@ -328,7 +328,7 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
     lf = np.log(f)
     shape = h.shape[:-1]
     h2 = h.reshape(-1, f.size)
-    tables: dict = {"calls": 0}
+    tables: dict = {}
 
     def wrapped(d: np.ndarray) -> np.ndarray:
         big = np.abs(d) >= np.pi  # np.unwrap's rule: only steps of at least pi are wrapped
@@ -345,24 +345,16 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
         x = np.log(np.clip(fq, f[0], f[-1])).ravel()
         i = np.clip(np.searchsorted(lf, x) - 1, 0, f.size - 2)
         t = (x - lf[i]) / (lf[i + 1] - lf[i])
-        tables["calls"] += 1
-        if tables["calls"] > INTERPOLATION_TABLE_AFTER and "lm" not in tables:
-            # asked often (a search): log magnitude, angle and wrapped angle steps of every line, once (the same
-            # values the two-line computation gives)
+        if "lm" not in tables:
+            # log magnitude, angle and wrapped angle steps of every line, once: every evaluation then reads the same
+            # tables, so a value never depends on what was asked before (numpy's vectorised log and angle can
+            # differ in the last bit between a whole array and a few gathered lines)
             with np.errstate(divide="ignore"):
                 tables["lm"] = np.log(np.maximum(np.abs(h2), 1e-300))
             tables["pa"] = np.angle(h2)
             tables["dp"] = wrapped(np.diff(tables["pa"], axis=-1))
-        if "lm" in tables:
-            lm, pa, dp = tables["lm"], tables["pa"], tables["dp"]
-            la, lb, p0, d = lm[:, i], lm[:, i + 1], pa[:, i], dp[:, i]
-        else:
-            a, b = h2[:, i], h2[:, i + 1]
-            with np.errstate(divide="ignore"):
-                la = np.log(np.maximum(np.abs(a), 1e-300))
-                lb = np.log(np.maximum(np.abs(b), 1e-300))
-            p0 = np.angle(a)
-            d = wrapped(np.angle(b) - p0)
+        lm, pa, dp = tables["lm"], tables["pa"], tables["dp"]
+        la, lb, p0, d = lm[:, i], lm[:, i + 1], pa[:, i], dp[:, i]
         mag = np.exp(la + t * (lb - la))
         ph = p0 + t * d
         out = np.empty(mag.shape, complex)  # exp(m + j p) from the real exponential, cosine and sine (faster)
@@ -386,8 +378,7 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
     ``20 log10(1 + sqrt((1 - gamma^2) / (2 gamma^2)))`` (one-average H1 error, Bendat and Piersol).
     """
     h = np.asarray(response, complex).reshape(-1, np.asarray(freq_hz).size)
-    with np.errstate(divide="ignore"):
-        db = 20 * np.log10(np.maximum(np.abs(h), 1e-300))
+    db = _db_rows(h)
     n = db.shape[-1]
     out = np.zeros(n)
     if n >= 3:
@@ -399,12 +390,22 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
         med = np.vstack([median_filter(row, size=2 * half_window + 1, mode="nearest") for row in d2])
         out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
     if coherence is not None:
-        g = np.asarray(coherence, float).reshape(-1, n)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * np.clip(g, 1e-6, 1))))
-        c = np.where(np.isfinite(c), c, 0.0)
-        out = np.maximum(out, np.max(c, axis=0))
+        out = np.maximum(out, _coherence_floor_db(np.asarray(coherence, float).reshape(-1, n)))
     return out
+
+
+def _db_rows(h: np.ndarray) -> np.ndarray:
+    """``20 log10 |h|`` of every line (rows x lines), computed on the whole array (one home: the whole-array and
+    the per-line scatter read the same values, bit for bit)."""
+    with np.errstate(divide="ignore"):
+        return 20 * np.log10(np.maximum(np.abs(h), 1e-300))
+
+
+def _coherence_floor_db(g: np.ndarray) -> np.ndarray:
+    """The one-average H1 error floor [dB] per line from the coherence rows ``g`` (largest over rows)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * np.clip(g, 1e-6, 1))))
+    return np.max(np.where(np.isfinite(c), c, 0.0), axis=0)
 
 
 class LineNoise:
@@ -434,6 +435,8 @@ class LineNoise:
         self._coherence = None if coherence is None else np.asarray(coherence, float).reshape(-1, self.freq_hz.size)
         self._half = int(half_window)
         self._full: np.ndarray | None = None
+        self._db: np.ndarray | None = None
+        self._coherence_db: np.ndarray | None = None
         self._asked = 0
 
     @property
@@ -468,6 +471,9 @@ class LineNoise:
             self.full()  # most of the lines, or asked often (a search): the whole array once
         if self._full is not None or idx.size == 0:
             return self.full()[idx] if idx.size else np.empty(0)
+        if self._db is None:  # the same dB and coherence values as the whole array's (bit for bit)
+            self._db = _db_rows(self._h)
+            self._coherence_db = None if self._coherence is None else _coherence_floor_db(self._coherence)
         n, hw = self.size, self._half
         out = np.zeros(idx.shape)
         if n >= 3:
@@ -477,17 +483,12 @@ class LineNoise:
             q = np.clip(win - 1, 0, n - 3)
             need = np.unique(q)
             lines = np.unique(np.r_[need, need + 1, need + 2])
-            with np.errstate(divide="ignore"):
-                db = 20 * np.log10(np.maximum(np.abs(self._h[:, lines]), 1e-300))
+            db = self._db[:, lines]
             pos = np.searchsorted(lines, need)
             d2 = np.abs(db[:, pos] - 2 * db[:, pos + 1] + db[:, pos + 2])  # rows x need
             vals = d2[:, np.searchsorted(need, q)]  # rows x idx... x window
             med = np.median(vals, axis=-1)
             out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
-        if self._coherence is not None:
-            g = self._coherence[:, idx]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * np.clip(g, 1e-6, 1))))
-            c = np.where(np.isfinite(c), c, 0.0)
-            out = np.maximum(out, np.max(c, axis=0))
+        if self._coherence_db is not None:
+            out = np.maximum(out, self._coherence_db[idx])
         return out
