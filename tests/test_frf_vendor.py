@@ -239,10 +239,11 @@ def test_ignored_columns_are_named(tmp_path):
 BAD_VENDOR = {
     # no frequency column: the message shows the header and the map that would work
     "nofreq.csv": ("Magnitude [dB],Phase [deg]\n-20,-170\n", {}, DataError,
-                   ["no frequency column", "expected 'freq_hz'", "--frf-map freq=COLUMN",
+                   ["no frequency column", "expected 'freq_hz'", "or a columns=freq=COLUMN;",
                     "the header is: Magnitude [dB], Phase [deg]"]),
     "two_mags.csv": ("Frequency [Hz],Mag1 [dB],Mag2 [dB],Phase [deg]\n1,0,0,0\n", {}, DataError,
-                     ["several magnitude columns", "Mag1 [dB], Mag2 [dB]", "--frf-map OUT/IN.KIND=COLUMN"]),
+                     ["several magnitude columns", "Mag1 [dB], Mag2 [dB]",
+                      "map the columns with columns=OUT/IN.KIND=COLUMN"]),
     "no_unit.csv": ("Frequency,Magnitude,Phase [deg]\n1,1,0\n", {}, DataError,
                     ["magnitude column 'Magnitude' gives no unit", "x1/u.mag_db=COLUMN"]),
     "phase_unit.csv": ("Frequency,Magnitude [dB],Phase [grad]\n1,1,0\n", {}, DataError,
@@ -254,7 +255,7 @@ BAD_VENDOR = {
                  ["both magnitude/phase and real/imaginary"]),
     "missing_col.csv": ("Frequency [Hz],Magnitude [dB],Phase [deg]\n1,1,0\n",
                         {"columns": {"x1/u.mag_db": "Magnitud", "x1/u.phase_deg": "Phase"}}, DataError,
-                        ["--frf-map x1/u.mag_db=Magnitud: no such column",
+                        ["missing_col.csv: columns=x1/u.mag_db=Magnitud: no such column",
                          "the header is: Frequency [Hz], Magnitude [dB], Phase [deg]"]),
     "wrong_kind.csv": ("Frequency [Hz],Magnitude [dB],Phase [deg]\n1,1,0\n",
                        {"columns": {"x1/u.mag": "Magnitude", "x1/u.phase_deg": "Phase"}}, DataError,
@@ -280,6 +281,9 @@ BAD_VENDOR = {
     "native_channel.csv": ("freq_hz,x1/u.re,x1/u.im\n1,1,0\n", {"auto_channel": "x2/u"}, UsageError,
                            ["auto_channel names the channel", "names its channels"]),
 }
+BAD_VENDOR_PARAMETER = {"preamble.csv": "read_frf.skip_rows", "scale_channel.csv": "read_frf.scale",
+                        "native_channel.csv": "read_frf.auto_channel"}
+"""The ``parameter`` of each BAD_VENDOR error other than ``read_frf.columns`` (the column map, ``--frf-map``)."""
 
 
 @pytest.mark.parametrize("name", sorted(BAD_VENDOR))
@@ -289,6 +293,8 @@ def test_bad_vendor_files_and_maps_are_one_line_errors(tmp_path, name):
         read_frf(_write(tmp_path, name, text), **kwargs)
     msg = str(err.value)
     assert "\n" not in msg
+    assert "--" not in msg, msg  # the library names parameters (columns=), the command line flags
+    assert err.value.parameter == BAD_VENDOR_PARAMETER.get(name, "read_frf.columns"), (err.value.parameters, msg)
     for frag in fragments:
         assert frag in msg, (frag, msg)
 

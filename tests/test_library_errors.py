@@ -97,6 +97,23 @@ def test_frf_read_options(capsys, monkeypatch):
     assert "pass --frf-skip-rows N" in err
 
 
+def test_a_bad_frf_column_map_names_columns(capsys, monkeypatch):
+    exc = _library_error(UsageError, read_frf, VENDOR / "bode_db.csv", columns={"x1/u.magdb": "Magnitude"})
+    assert exc.parameter == "read_frf.columns" and "columns=x1/u.magdb=Magnitude: unknown KIND 'magdb'" in str(exc)
+    err = _cli_error(["identify", "ballscrew", VENDOR / "bode_db.csv", "--frf-map", "x1/u.magdb=Magnitude"], capsys,
+                     monkeypatch, 2)
+    assert "--frf-map x1/u.magdb=Magnitude: unknown KIND 'magdb'" in err and "columns=" not in err
+
+
+def test_an_ambiguous_frf_header_asks_for_a_column_map(capsys, monkeypatch):
+    exc = _library_error(DataError, read_frf, VENDOR / "two_channels.csv")
+    msg = str(exc)
+    assert exc.parameter == "read_frf.columns" and "several magnitude columns" in msg
+    assert "map the columns with columns=OUT/IN.KIND=COLUMN" in msg
+    err = _cli_error(["identify", "ballscrew", VENDOR / "two_channels.csv"], capsys, monkeypatch, 1)
+    assert "several magnitude columns" in err and "map the columns with --frf-map OUT/IN.KIND=COLUMN" in err
+
+
 def test_a_log_of_unknown_kind_names_the_kind_option(tmp_path, capsys, monkeypatch):
     t = np.arange(2000) / 1000.0
     write_log_csv(Log(t, {"x": 1e-5 * np.sin(t), "u": 0.1 * np.ones_like(t)}, {"x": "m", "u": "V"}),

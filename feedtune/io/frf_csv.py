@@ -49,8 +49,9 @@ FREQ_KEYS = {"freq_hz": 1.0, "freq_khz": 1e3, "freq_rad_s": 1.0 / (2.0 * math.pi
 """Column-map keys of the frequency column and their factor to Hz; the key ``freq`` takes the header's unit."""
 DEFAULT_CHANNEL = "x1/u"
 """Channel name of a recognised single-channel vendor header when ``auto_channel`` is not given."""
-MAP_OPTION = "--frf-map"
-"""How messages name the column map (the ``columns`` argument of :func:`read_frf_csv`)."""
+MAP_PARAMETER = "read_frf.columns"
+"""The ``parameter`` of errors about the column map; messages name it ``columns=`` (the argument of
+:func:`read_frf_csv`), the command line prints its option, ``--frf-map`` (:func:`feedtune.errors.cli_message`)."""
 RECOGNISED_FORMAT = "csv, recognised header"
 MAPPED_FORMAT = "csv, column map"
 """``meta["format"]`` of an FRF read from a vendor header without and with a column map (not written to files)."""
@@ -93,7 +94,8 @@ def _group_columns(columns: list[str], name: str) -> dict[str, dict[str, int]]:
         channel, dot, suffix = col.rpartition(".")
         if not dot or suffix not in SUFFIXES:
             raise DataError(f"{name}: column {col!r} is not understood; expected freq_hz or OUT/IN.SUFFIX "
-                            f"with SUFFIX one of {', '.join(SUFFIXES)} (or map the columns with {MAP_OPTION})")
+                            f"with SUFFIX one of {', '.join(SUFFIXES)} (or map the columns with columns=)",
+                            parameter=MAP_PARAMETER)
         parts = channel.split("/")
         if len(parts) != 2 or not all(p.strip() for p in parts):
             raise DataError(f"{name}: column {col!r}: channel {channel!r} must look like OUT/IN, e.g. x2/u")
@@ -138,7 +140,7 @@ def _channel_coherence(channel: str, col: int, table: TextTable) -> np.ndarray:
 
 def _no_freq_message(name: str, header: str) -> str:
     return (f"{name}: no frequency column (expected 'freq_hz', a header such as 'Frequency [Hz]', or a "
-            f"{MAP_OPTION} freq=COLUMN; the header is: {header})")
+            f"columns=freq=COLUMN; the header is: {header})")
 
 
 def _assemble(table: TextTable, f: np.ndarray, channels: dict[str, np.ndarray],
@@ -162,7 +164,7 @@ def frf_from_table(table: TextTable, quantity: str | None = None) -> Frf:
     name = table.name
     lower = [c.lower() for c in table.columns]
     if "freq_hz" not in lower:
-        raise DataError(_no_freq_message(name, ", ".join(table.columns)))
+        raise DataError(_no_freq_message(name, ", ".join(table.columns)), parameter=MAP_PARAMETER)
     f = table.data[:, lower.index("freq_hz")]
     groups = _group_columns(table.columns, name)
     if not groups:
@@ -230,27 +232,30 @@ def parse_column_map(columns: Mapping[str, str]) -> ColumnMap:
     for key, column in columns.items():
         key, column = str(key).strip(), str(column).strip()
         if not key or not column:
-            raise UsageError(f"{MAP_OPTION} expects NAME=COLUMN, got {key}={column}")
+            raise UsageError(f"columns= expects NAME=COLUMN, got {key}={column}", parameter=MAP_PARAMETER)
         if key == "freq" or key in FREQ_KEYS:
             if freq_key is not None:
-                raise UsageError(f"{MAP_OPTION} names the frequency column twice ({freq_key}, {key})")
+                raise UsageError(f"columns= names the frequency column twice ({freq_key}, {key})",
+                                 parameter=MAP_PARAMETER)
             freq_key, freq_column = key, column
             continue
         channel, dot, kind = key.rpartition(".")
         if not dot:
-            raise UsageError(f"{MAP_OPTION} {key}={column}: NAME must be freq, freq_hz, freq_khz, freq_rad_s or "
-                             f"OUT/IN.KIND (KIND one of {kinds}), e.g. x1/u.mag_db")
+            raise UsageError(f"columns={key}={column}: NAME must be freq, freq_hz, freq_khz, freq_rad_s or "
+                             f"OUT/IN.KIND (KIND one of {kinds}), e.g. x1/u.mag_db", parameter=MAP_PARAMETER)
         if kind not in SUFFIXES:
-            raise UsageError(f"{MAP_OPTION} {key}={column}: unknown KIND {kind!r}; expected one of {kinds}")
+            raise UsageError(f"columns={key}={column}: unknown KIND {kind!r}; expected one of {kinds}",
+                             parameter=MAP_PARAMETER)
         parts = channel.split("/")
         if len(parts) != 2 or not all(p.strip() for p in parts):
-            raise UsageError(f"{MAP_OPTION} {key}={column}: channel {channel!r} must look like OUT/IN, e.g. x2/u")
+            raise UsageError(f"columns={key}={column}: channel {channel!r} must look like OUT/IN, e.g. x2/u",
+                             parameter=MAP_PARAMETER)
         if kind in channels.setdefault(channel, {}):
-            raise UsageError(f"{MAP_OPTION} names {key} twice")
+            raise UsageError(f"columns= names {key} twice", parameter=MAP_PARAMETER)
         channels[channel][kind] = column
     if not channels:
-        raise UsageError(f"{MAP_OPTION} maps no channel; give OUT/IN.KIND=COLUMN entries, e.g. "
-                         "x1/u.mag_db='Magnitude [dB]' and x1/u.phase_deg='Phase [deg]'")
+        raise UsageError("columns= maps no channel; give OUT/IN.KIND=COLUMN entries, e.g. "
+                         "x1/u.mag_db='Magnitude [dB]' and x1/u.phase_deg='Phase [deg]'", parameter=MAP_PARAMETER)
     for channel, cols in channels.items():
         _check_kinds(channel, set(cols))
     return ColumnMap(freq_key, freq_column, channels)
@@ -265,7 +270,7 @@ def _check_kinds(channel: str, kinds: set[str]) -> None:
     hint = (f"give {channel}.re + {channel}.im, or {channel}.mag_db (or .mag) + {channel}.phase_deg "
             "(or .phase_rad)")
     what = ", ".join(sorted(has)) if has else "only a coherence"
-    raise UsageError(f"{MAP_OPTION}: channel {channel} has {what}; {hint}")
+    raise UsageError(f"columns=: channel {channel} has {what}; {hint}", parameter=MAP_PARAMETER)
 
 
 def check_channel_name(channel: str, option: str = "auto_channel", parameter: str | None = None) -> str:
@@ -355,7 +360,8 @@ def _freq_key_of(col: _Column, name: str) -> str:
         return "freq_rad_s" if _tokens(col.name) == ["omega"] else "freq_hz"
     if u not in _FREQ_UNITS:
         raise DataError(f"{name}: frequency column {col.label!r}: unit {col.unit!r} not understood (expected Hz, "
-                        f"kHz or rad/s); map it as {MAP_OPTION} freq_hz=COLUMN, freq_khz=... or freq_rad_s=...")
+                        f"kHz or rad/s); map it as columns=freq_hz=COLUMN, freq_khz=... or freq_rad_s=...",
+                        parameter=MAP_PARAMETER)
     return _FREQ_UNITS[u]
 
 
@@ -366,7 +372,8 @@ def _magnitude_kind(col: _Column, name: str, channel: str) -> str:
     if u:
         return "mag"
     raise DataError(f"{name}: magnitude column {col.label!r} gives no unit (dB or linear?); write it in the header "
-                    f"('{col.name} [dB]') or map it as {MAP_OPTION} {channel}.mag_db=COLUMN (or {channel}.mag)")
+                    f"('{col.name} [dB]') or map it as columns={channel}.mag_db=COLUMN (or {channel}.mag)",
+                    parameter=MAP_PARAMETER)
 
 
 def _phase_kind(col: _Column, name: str, channel: str) -> str:
@@ -377,7 +384,8 @@ def _phase_kind(col: _Column, name: str, channel: str) -> str:
         return "phase_rad"
     what = f"unit {col.unit!r} not understood" if u else "gives no unit (deg or rad?)"
     raise DataError(f"{name}: phase column {col.label!r} {what}; write deg or rad in the header "
-                    f"('{col.name} [deg]') or map it as {MAP_OPTION} {channel}.phase_deg=COLUMN (or .phase_rad)")
+                    f"('{col.name} [deg]') or map it as columns={channel}.phase_deg=COLUMN (or .phase_rad)",
+                    parameter=MAP_PARAMETER)
 
 
 def _check_unit(col: _Column, kind: str, key: str, name: str) -> None:
@@ -398,7 +406,8 @@ def _check_unit(col: _Column, kind: str, key: str, name: str) -> None:
     elif kind in FREQ_KEYS and u in _FREQ_UNITS and _FREQ_UNITS[u] != kind:
         wrong = f"{_FREQ_UNITS[u]} (or freq)"
     if wrong:
-        raise DataError(f"{name}: {MAP_OPTION} {key}={col.cell}: the column's unit is {col.unit}; map it as {wrong}")
+        raise DataError(f"{name}: columns={key}={col.cell}: the column's unit is {col.unit}; map it as {wrong}",
+                        parameter=MAP_PARAMETER)
 
 
 def _find_column(spec: str, cols: list[_Column], key: str, name: str) -> _Column:
@@ -411,12 +420,14 @@ def _find_column(spec: str, cols: list[_Column], key: str, name: str) -> _Column
             if len(found) == 1:
                 return found[0]
             if len(found) > 1:
-                raise DataError(f"{name}: {MAP_OPTION} {key}={spec}: several columns are called that "
-                                f"({', '.join(f'col{c.index}' for c in found)}); name one as colK")
+                raise DataError(f"{name}: columns={key}={spec}: several columns are called that "
+                                f"({', '.join(f'col{c.index}' for c in found)}); name one as colK",
+                                parameter=MAP_PARAMETER)
     m = re.fullmatch(r"col(\d+)", spec)
     if m and int(m.group(1)) < len(cols):
         return cols[int(m.group(1))]
-    raise DataError(f"{name}: {MAP_OPTION} {key}={spec}: no such column; the header is: {_header(cols)}")
+    raise DataError(f"{name}: columns={key}={spec}: no such column; the header is: {_header(cols)}",
+                    parameter=MAP_PARAMETER)
 
 
 def _auto_freq(cols: list[_Column], name: str) -> tuple[str, _Column]:
@@ -426,10 +437,10 @@ def _auto_freq(cols: list[_Column], name: str) -> tuple[str, _Column]:
         return "freq_hz", native[0]
     found = [c for c in cols if _role(c) == "freq"]
     if not found:
-        raise DataError(_no_freq_message(name, _header(cols)))
+        raise DataError(_no_freq_message(name, _header(cols)), parameter=MAP_PARAMETER)
     if len(found) > 1:
         raise DataError(f"{name}: several frequency columns ({', '.join(c.label for c in found)}); pick one with "
-                        f"{MAP_OPTION} freq=COLUMN")
+                        "columns=freq=COLUMN", parameter=MAP_PARAMETER)
     return _freq_key_of(found[0], name), found[0]
 
 
@@ -440,16 +451,18 @@ def _auto_channel(cols: list[_Column], channel: str, name: str) -> dict[str, _Co
         r = _role(c)
         if r is not None and r != "freq":
             roles.setdefault(r, []).append(c)
-    hint = f"map the columns with {MAP_OPTION} OUT/IN.KIND=COLUMN"
+    hint = "map the columns with columns=OUT/IN.KIND=COLUMN"
     for r, found in roles.items():
         if len(found) > 1:
             what = {"coh": "coherence", "re": "real-part", "im": "imaginary-part", "mag": "magnitude"}.get(r, r)
             raise DataError(f"{name}: several {what} columns ({', '.join(c.label for c in found)}), so more than "
-                            f"one channel or an ambiguous header; {hint} (the header is: {_header(cols)})")
+                            f"one channel or an ambiguous header; {hint} (the header is: {_header(cols)})",
+                            parameter=MAP_PARAMETER)
     polar, cartesian = {"mag", "phase"} & set(roles), {"re", "im"} & set(roles)
     if polar and cartesian:
         raise DataError(f"{name}: both magnitude/phase and real/imaginary columns; {hint}, e.g. "
-                        f"{channel}.re=COLUMN and {channel}.im=COLUMN (the header is: {_header(cols)})")
+                        f"{channel}.re=COLUMN and {channel}.im=COLUMN (the header is: {_header(cols)})",
+                        parameter=MAP_PARAMETER)
     if polar == {"mag", "phase"}:
         mag, ph = roles["mag"][0], roles["phase"][0]
         out = {_magnitude_kind(mag, name, channel): mag, _phase_kind(ph, name, channel): ph}
@@ -460,7 +473,7 @@ def _auto_channel(cols: list[_Column], channel: str, name: str) -> dict[str, _Co
         missing = {"mag": "phase", "phase": "magnitude", "re": "imaginary-part", "im": "real-part"}
         what = (f"{missing[next(iter(have))]} column to go with {roles[next(iter(have))][0].label!r}" if have
                 else "response columns (magnitude + phase, or real + imaginary part)")
-        raise DataError(f"{name}: no {what}; the header is: {_header(cols)} (or {hint})")
+        raise DataError(f"{name}: no {what}; the header is: {_header(cols)} (or {hint})", parameter=MAP_PARAMETER)
     if "coh" in roles:
         out["coh"] = roles["coh"][0]
     return out
@@ -523,7 +536,8 @@ def frf_from_vendor_table(
     seen: dict[int, str] = {}
     for key, col in used:
         if col.index in seen:
-            raise UsageError(f"{name}: {MAP_OPTION}: column {col.label!r} is mapped twice ({seen[col.index]}, {key})")
+            raise UsageError(f"{name}: columns=: column {col.label!r} is mapped twice ({seen[col.index]}, {key})",
+                             parameter=MAP_PARAMETER)
         seen[col.index] = key
     f = table.data[:, freq_col.index] * FREQ_KEYS[freq_key]
     index_groups = {ch: {k: c.index for k, c in kinds.items()} for ch, kinds in groups.items()}
@@ -665,8 +679,8 @@ def read_frf_csv(
     if columns is not None:
         parse_column_map(columns)  # option errors before the file is read
         if auto_channel is not None:
-            raise UsageError(f"{MAP_OPTION} names the channels itself; drop auto_channel",
-                             parameter="read_frf.auto_channel")
+            raise UsageError("columns= names the channels itself; drop auto_channel",
+                             parameter=("read_frf.auto_channel", MAP_PARAMETER))
     if auto_channel is not None:
         check_channel_name(auto_channel, parameter="read_frf.auto_channel")
     text, name = read_table_data(source, "CSV")
