@@ -325,3 +325,58 @@ def facade(name: str) -> Callable:
     except KeyError:
         raise RuntimeError(f"no facade function {name!r} is registered; feedtune/__init__.py imports "
                            "feedtune.plotting and feedtune.interop_control, which register theirs") from None
+
+
+# ------------------------------------------------------------------------------------------ mixins
+class CaseDisplay:
+    """Notebook access shared by the analysis cases (ball screw, gantry, axis): figures as attributes
+    (``case.ms``), a short repr and ``plot()``. The dataclass using it is declared with ``repr=False``."""
+
+    def __getattr__(self, name: str):
+        """A figure by name: ``case.ms``, ``case.gain_margin_db`` (the metrics', then ``to_dict()``'s)."""
+        return case_attribute(self, name)
+
+    def __dir__(self) -> list[str]:
+        return case_dir(self)
+
+    def __repr__(self) -> str:
+        return case_repr(self)
+
+    def plot(self, kind: str = "loop"):
+        """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
+        (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        return facade("plot_analysis")(self, kind)
+
+
+class AnalysisDisplay:
+    """What the analyses of every machine share (``cases``: ``{name: case or None}``): ``to_dict()``, a case by
+    attribute (``analysis.discrete``), a short repr and HTML table, ``to_dataframe()`` and ``plot()``. The dataclass
+    using it is declared with ``repr=False``."""
+
+    cases: dict
+
+    def to_dict(self) -> dict:
+        """``{case: figures or None}``."""
+        return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
+
+    def __getattr__(self, name: str):
+        """A case by name: ``analysis.discrete`` is ``analysis.cases["discrete"]``."""
+        return analysis_case(self, name)
+
+    def __dir__(self) -> list[str]:
+        return sorted(set(object.__dir__(self)) | set(self.__dict__.get("cases", {})))
+
+    def __repr__(self) -> str:
+        return analysis_repr(self)
+
+    def _repr_html_(self) -> str:
+        return analysis_html(self)
+
+    def to_dataframe(self):
+        """The scalar figures of ``to_dict()`` as a pandas DataFrame, one row per case."""
+        return analysis_frame(self)
+
+    def plot(self, kind: str = "loop", *, cases=None):
+        """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
+        ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
+        return facade("plot_analysis")(self, kind, cases=cases)

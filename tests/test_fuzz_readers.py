@@ -21,7 +21,7 @@ def formats(examples_dir, tmp_path_factory):
     return readers(examples_dir, tmp_path_factory.mktemp("valid"))
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "log mdf" else n for n in NAMES])
 def test_mutated_files_are_read_or_refused_with_feedtunes_own_error(name, formats, tmp_path_factory):
     if name not in formats:
         pytest.skip(f"{name}: its optional extra is not installed")

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..blas import blas_single_threaded
 from ..control.ballscrew_law import BallScrewLaw
+from ..display import AnalysisDisplay, CaseDisplay
 from ..errors import DataError
 from ..frf import Frf
 from ..lti import Zpk
@@ -48,8 +49,8 @@ from .loop import LoopCase, LoopExtension, LoopMetrics, analyze_loops, extension
 from .resolution import lightly_damped
 
 
-@dataclass(frozen=True)
-class CaseResponse:
+@dataclass(frozen=True, repr=False)
+class CaseResponse(CaseDisplay):
     """Responses and figures of one analysis case.
 
     Attributes
@@ -97,78 +98,17 @@ class CaseResponse:
         d["tracking_max_phase_lag_deg_below_100hz"] = _max_lag(self.freq_hz, self.tracking, 100.0)
         return d
 
-    # --------------------------------------------------------------- notebooks
-    def __getattr__(self, name: str):
-        """A figure by name: ``case.ms``, ``case.gain_margin_db`` (the metrics', then ``to_dict()``'s)."""
-        from ..display import case_attribute
-
-        return case_attribute(self, name)
-
-    def __dir__(self) -> list[str]:
-        from ..display import case_dir
-
-        return case_dir(self)
-
-    def __repr__(self) -> str:
-        from ..display import case_repr
-
-        return case_repr(self)
-
-    def plot(self, kind: str = "loop"):
-        """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
-        (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..display import facade
-
-        return facade("plot_analysis")(self, kind)
-
 
 def _max_lag(f, t, f_max):
     m = f <= f_max
     return float(-np.min(np.angle(t[m], deg=True))) if m.any() else None
 
 
-@dataclass(frozen=True)
-class BallScrewAnalysis:
+@dataclass(frozen=True, repr=False)
+class BallScrewAnalysis(AnalysisDisplay):
     """All analysis cases of a design; ``cases[name]`` is None when the case needs a missing FRF."""
 
     cases: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        """``{case: figures or None}``."""
-        return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
-
-    # --------------------------------------------------------------- notebooks
-    def __getattr__(self, name: str):
-        """A case by name: ``analysis.discrete`` is ``analysis.cases["discrete"]``."""
-        from ..display import analysis_case
-
-        return analysis_case(self, name)
-
-    def __dir__(self) -> list[str]:
-        return sorted(set(object.__dir__(self)) | set(self.__dict__.get("cases", {})))
-
-    def __repr__(self) -> str:
-        from ..display import analysis_repr
-
-        return analysis_repr(self)
-
-    def _repr_html_(self) -> str:
-        from ..display import analysis_html
-
-        return analysis_html(self)
-
-    def to_dataframe(self):
-        """The scalar figures of ``to_dict()`` as a pandas DataFrame, one row per case."""
-        from ..display import analysis_frame
-
-        return analysis_frame(self)
-
-    def plot(self, kind: str = "loop", *, cases=None):
-        """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
-        ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..display import facade
-
-        return facade("plot_analysis")(self, kind, cases=cases)
 
 
 def default_grid(fs: float, n: int = 4000) -> np.ndarray:

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..blas import blas_single_threaded
 from ..control.gantry import GantryReference
+from ..display import AnalysisDisplay, CaseDisplay
 from ..errors import DataError
 from ..frf import Frf
 from ..lti import delay_response, zoh_double_integrator, zoh_response
@@ -61,13 +62,9 @@ def _bandwidth(f, t, tol_db: float = 3.0):
     return float(f[np.argmax(dev)]) if dev.any() else None
 
 
-
-
-
-
 # ----------------------------------------------------------------------------------- gantry cases
-@dataclass(frozen=True)
-class GantryCase:
+@dataclass(frozen=True, repr=False)
+class GantryCase(CaseDisplay):
     """Responses and figures of one gantry analysis case.
 
     Attributes
@@ -124,73 +121,12 @@ class GantryCase:
         d["tracking_max_phase_lag_deg_below_100hz"] = _max_lag(f, self.tracking, 100.0)
         return d
 
-    # --------------------------------------------------------------- notebooks
-    def __getattr__(self, name: str):
-        """A figure by name: ``case.ms``, ``case.gain_margin_db`` (the metrics', then ``to_dict()``'s)."""
-        from ..display import case_attribute
 
-        return case_attribute(self, name)
-
-    def __dir__(self) -> list[str]:
-        from ..display import case_dir
-
-        return case_dir(self)
-
-    def __repr__(self) -> str:
-        from ..display import case_repr
-
-        return case_repr(self)
-
-    def plot(self, kind: str = "loop"):
-        """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
-        (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..display import facade
-
-        return facade("plot_analysis")(self, kind)
-
-
-@dataclass(frozen=True)
-class GantryAnalysis:
+@dataclass(frozen=True, repr=False)
+class GantryAnalysis(AnalysisDisplay):
     """All cases; ``cases[name]`` is None when the case needs a missing FRF."""
 
     cases: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        """``{case: figures or None}``."""
-        return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
-
-    # --------------------------------------------------------------- notebooks
-    def __getattr__(self, name: str):
-        """A case by name: ``analysis.discrete`` is ``analysis.cases["discrete"]``."""
-        from ..display import analysis_case
-
-        return analysis_case(self, name)
-
-    def __dir__(self) -> list[str]:
-        return sorted(set(object.__dir__(self)) | set(self.__dict__.get("cases", {})))
-
-    def __repr__(self) -> str:
-        from ..display import analysis_repr
-
-        return analysis_repr(self)
-
-    def _repr_html_(self) -> str:
-        from ..display import analysis_html
-
-        return analysis_html(self)
-
-    def to_dataframe(self):
-        """The scalar figures of ``to_dict()`` as a pandas DataFrame, one row per case."""
-        from ..display import analysis_frame
-
-        return analysis_frame(self)
-
-    def plot(self, kind: str = "loop", *, cases=None):
-        """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
-        ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..display import facade
-
-        return facade("plot_analysis")(self, kind, cases=cases)
 
 
 def zoh_gantry(model: GantryModel, x: float, fs: float, freq_hz) -> np.ndarray:
@@ -380,8 +316,8 @@ def _gantry_coherence(frf: Frf) -> np.ndarray | None:
 
 
 # ------------------------------------------------------------------------------------- axis cases
-@dataclass(frozen=True)
-class AxisCase:
+@dataclass(frozen=True, repr=False)
+class AxisCase(CaseDisplay):
     """Responses and figures of one loop-shaped axis case.
 
     Attributes
@@ -417,73 +353,12 @@ class AxisCase:
         d["tracking_max_phase_lag_deg_below_100hz"] = _max_lag(self.freq_hz, self.tracking, 100.0)
         return d
 
-    # --------------------------------------------------------------- notebooks
-    def __getattr__(self, name: str):
-        """A figure by name: ``case.ms``, ``case.gain_margin_db`` (the metrics', then ``to_dict()``'s)."""
-        from ..display import case_attribute
 
-        return case_attribute(self, name)
-
-    def __dir__(self) -> list[str]:
-        from ..display import case_dir
-
-        return case_dir(self)
-
-    def __repr__(self) -> str:
-        from ..display import case_repr
-
-        return case_repr(self)
-
-    def plot(self, kind: str = "loop"):
-        """This case: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or ``disturbance``
-        (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..display import facade
-
-        return facade("plot_analysis")(self, kind)
-
-
-@dataclass(frozen=True)
-class AxisAnalysis:
+@dataclass(frozen=True, repr=False)
+class AxisAnalysis(AnalysisDisplay):
     """All cases of a loop-shaped axis; ``cases[name]`` is None when the case needs a missing FRF."""
 
     cases: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        """``{case: figures or None}``."""
-        return {name: (c.to_dict() if c is not None else None) for name, c in self.cases.items()}
-
-    # --------------------------------------------------------------- notebooks
-    def __getattr__(self, name: str):
-        """A case by name: ``analysis.discrete`` is ``analysis.cases["discrete"]``."""
-        from ..display import analysis_case
-
-        return analysis_case(self, name)
-
-    def __dir__(self) -> list[str]:
-        return sorted(set(object.__dir__(self)) | set(self.__dict__.get("cases", {})))
-
-    def __repr__(self) -> str:
-        from ..display import analysis_repr
-
-        return analysis_repr(self)
-
-    def _repr_html_(self) -> str:
-        from ..display import analysis_html
-
-        return analysis_html(self)
-
-    def to_dataframe(self):
-        """The scalar figures of ``to_dict()`` as a pandas DataFrame, one row per case."""
-        from ..display import analysis_frame
-
-        return analysis_frame(self)
-
-    def plot(self, kind: str = "loop", *, cases=None):
-        """Every case (or ``cases``) in one figure: ``loop``, ``nyquist``, ``sensitivity``, ``tracking`` or
-        ``disturbance`` (:func:`feedtune.plotting.plot_analysis`); returns the matplotlib Figure."""
-        from ..display import facade
-
-        return facade("plot_analysis")(self, kind, cases=cases)
 
 
 def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisCase:
