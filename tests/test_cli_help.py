@@ -250,3 +250,17 @@ def test_slow_example_runs(command, tmp_path, capsys, monkeypatch):
 
 def test_slow_examples_are_commands():
     assert SLOW_EXAMPLES <= set(COMMANDS)
+
+
+def test_completion_installs_into_a_home_folder(tmp_path):
+    """``feedtune --install-completion bash`` writes the script and sources it from ``~/.bashrc`` (HOME: a temporary
+    folder), and a bash that sources the script registers the completion function for ``feedtune``."""
+    env = {**os.environ, "HOME": str(tmp_path), "SHELL": "/bin/bash"}
+    done = subprocess.run([sys.executable, "-m", "feedtune", "--install-completion", "bash"], capture_output=True,
+                          text=True, env=env, timeout=60)
+    assert done.returncode == 0, done.stderr
+    script = tmp_path / ".bash_completions" / "feedtune.sh"
+    assert script.is_file() and str(script) in (tmp_path / ".bashrc").read_text()
+    registered = subprocess.run(["bash", "-c", f"source '{script}' && complete -p feedtune"], capture_output=True,
+                                text=True, env=env, timeout=60)
+    assert registered.returncode == 0 and "feedtune" in registered.stdout, registered.stderr
