@@ -7,7 +7,7 @@
 * the coarse-to-fine :func:`~feedtune.tune.search.highest_feasible` finds the winner and edge of the plain search
   (a plain top-down scan and bisection of every shape, written here) on synthetic problems, with fewer checks;
 * :func:`~feedtune.tune.search.feasibility_edge` on a known edge with the new early exits and jumps;
-* the worker processes of :mod:`feedtune.workflows.parallel` return what the serial run returns, and an error there
+* the worker processes of :mod:`feedtune.parallel` return what the serial run returns, and an error there
   is raised in the caller;
 * the gantry twin's compiled loop for the holding controllers gives the same samples, bit for bit, as the same
   controllers stepped from Python.
@@ -212,7 +212,7 @@ def test_feasibility_edge_jumps_to_the_cheap_edge_and_exits_early():
 
 # ------------------------------------------------------------------------------------------- workers
 def test_workers_return_what_the_serial_run_returns(monkeypatch):
-    from feedtune.workflows.parallel import plan, run_groups
+    from feedtune.parallel import plan, run_groups
 
     jobs = [(f"j{i}", (lambda i=i: {"i": i, "pid": os.getpid(), "a": np.arange(i + 3)}), float(i)) for i in range(4)]
     monkeypatch.setenv("FEEDTUNE_JOBS", "auto")
@@ -225,7 +225,7 @@ def test_workers_return_what_the_serial_run_returns(monkeypatch):
 
 
 def test_library_callers_run_serially_unless_they_ask(monkeypatch):
-    from feedtune.workflows.parallel import run_groups, usable_cores
+    from feedtune.parallel import run_groups, usable_cores
 
     monkeypatch.delenv("FEEDTUNE_JOBS", raising=False)
     assert usable_cores() == 1
@@ -235,7 +235,7 @@ def test_library_callers_run_serially_unless_they_ask(monkeypatch):
 
 def test_an_error_in_a_worker_is_raised_in_the_caller(monkeypatch):
     from feedtune.errors import DesignError
-    from feedtune.workflows.parallel import run_groups, usable_cores
+    from feedtune.parallel import run_groups, usable_cores
 
     monkeypatch.setenv("FEEDTUNE_JOBS", "auto")
 
@@ -249,7 +249,7 @@ def test_an_error_in_a_worker_is_raised_in_the_caller(monkeypatch):
 
 
 def test_plan_shares_the_cost_out():
-    from feedtune.workflows.parallel import plan
+    from feedtune.parallel import plan
 
     groups = plan([("axis", None, 3.4), ("mimo", None, 1.4), ("pid", None, 1.0), ("own", None, 1.1)], processes=2)
     assert sorted(sorted(n for n, _ in g) for g in groups) == [["axis"], ["mimo", "own", "pid"]]

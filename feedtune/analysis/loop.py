@@ -52,7 +52,6 @@ import numpy as np
 
 from ..errors import DataError
 from .margins import (
-    CHATTER_REL,
     CHATTER_SIGMAS,
     NEGLIGIBLE_LOOP,
     crossings,
@@ -62,6 +61,7 @@ from .margins import (
     merge_chatter,
     phase_crossovers,
     prune_bands,
+    settle_clusters,
 )
 from .resolution import (
     INTERPOLATION,
@@ -856,37 +856,16 @@ def _merge_chatter(wc: np.ndarray, f: np.ndarray, deviation: Callable, scatter: 
     contour points ``i0 .. i1 - 1``, in the deviation's unit) read only over the clusters."""
     if scatter is None or wc.size < 2:
         return wc, []
-    clusters, cur = [], [wc[0]]
-    for x in wc[1:]:
-        if x <= cur[-1] * (1 + CHATTER_REL):
-            cur.append(x)
-        else:
-            clusters.append(cur)
-            cur = [x]
-    clusters.append(cur)
-    kept, merged = [], []
-    for c in clusters:
-        if len(c) == 1:
-            kept.append(c[0])
-            continue
+
+    def measure(c: list[float]) -> tuple[float, float]:
         i0, i1 = int(np.searchsorted(f, c[0], "left")), int(np.searchsorted(f, c[-1], "right"))
         if i1 > i0:
-            excursion = float(np.max(np.abs(deviation(i0, i1))))
-            sigma = float(np.max(scatter(i0, i1)))
-        else:  # between two points: the scatter interpolated at the first crossing
-            j = max(int(np.searchsorted(f, c[0], "right")) - 1, 0)
-            j = min(j, f.size - 2)
-            excursion = 0.0
-            sigma = float(np.interp(c[0], f[j:j + 2], scatter(j, j + 2)))
-        if excursion <= CHATTER_SIGMAS * sigma:
-            keep = c[0] if len(c) % 2 else None
-            if keep is not None:
-                kept.append(keep)
-            merged.append({"of": what, "freq_hz": [float(x) for x in c], "kept_hz": keep, "excursion": excursion,
-                           "scatter": sigma, "unit": unit})
-        else:
-            kept.extend(c)
-    return np.array(kept, float), merged
+            return float(np.max(np.abs(deviation(i0, i1)))), float(np.max(scatter(i0, i1)))
+        # between two points: the scatter interpolated at the first crossing
+        j = min(max(int(np.searchsorted(f, c[0], "right")) - 1, 0), f.size - 2)
+        return 0.0, float(np.interp(c[0], f[j:j + 2], scatter(j, j + 2)))
+
+    return settle_clusters(wc, measure, what, unit)
 
 
 def _prune_bands(bands: list, f: np.ndarray, L: np.ndarray, noise: _ContourNoise) -> list:

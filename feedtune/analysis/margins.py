@@ -106,7 +106,22 @@ def merge_chatter(crossings_hz: np.ndarray, freq_hz: np.ndarray, deviation: np.n
     if noise is None or wc.size < 2:
         return wc, []
     f = np.asarray(freq_hz, float)
-    kept, merged = [], []
+
+    def measure(c: list[float]) -> tuple[float, float]:
+        sel = (f >= c[0]) & (f <= c[-1])
+        excursion = float(np.max(np.abs(deviation[sel]))) if sel.any() else 0.0
+        sigma = float(np.max(noise[sel])) if sel.any() else float(np.interp(c[0], f, noise))
+        return excursion, sigma
+
+    return settle_clusters(wc, measure, what, unit)
+
+
+def settle_clusters(crossings_hz: np.ndarray, measure: Callable[[list[float]], tuple[float, float]], what: str,
+                    unit: str) -> tuple[np.ndarray, list[dict]]:
+    """The rule of :func:`merge_chatter` on sorted crossings [Hz], ``measure(cluster)`` giving the cluster's
+    ``(excursion, scatter)`` in ``unit`` (one home for the clustering and the verdict; the analysis reads the
+    deviation and the scatter its own way)."""
+    wc = np.asarray(crossings_hz, float)
     clusters, cur = [], [wc[0]]
     for x in wc[1:]:  # a handful of crossings
         if x <= cur[-1] * (1 + CHATTER_REL):
@@ -115,13 +130,12 @@ def merge_chatter(crossings_hz: np.ndarray, freq_hz: np.ndarray, deviation: np.n
             clusters.append(cur)
             cur = [x]
     clusters.append(cur)
+    kept, merged = [], []
     for c in clusters:
         if len(c) == 1:
             kept.append(c[0])
             continue
-        sel = (f >= c[0]) & (f <= c[-1])
-        excursion = float(np.max(np.abs(deviation[sel]))) if sel.any() else 0.0
-        sigma = float(np.max(noise[sel])) if sel.any() else float(np.interp(c[0], f, noise))
+        excursion, sigma = measure(c)
         if excursion <= CHATTER_SIGMAS * sigma:
             keep = c[0] if len(c) % 2 else None
             if keep is not None:

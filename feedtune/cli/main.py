@@ -182,7 +182,7 @@ def main() -> None:
 
     for name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
-    os.environ.setdefault("FEEDTUNE_JOBS", "auto")  # independent steps side by side (feedtune.workflows.parallel)
+    os.environ.setdefault("FEEDTUNE_JOBS", "auto")  # independent steps side by side (feedtune.parallel)
     _RECEIVED.clear()
     handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGINT)}
     signal.signal(signal.SIGTERM, _on_signal)

@@ -147,7 +147,7 @@ MIN_FIGURES_PER_PROCESS = 3
 
 def render_processes(n_figures: int) -> int:
     """How many processes draw ``n_figures`` figures: ``$FEEDTUNE_REPORT_PROCESSES`` when set, 1 when
-    ``$FEEDTUNE_JOBS`` is not set or 1 (library callers: :mod:`feedtune.workflows.parallel`), else this one plus
+    ``$FEEDTUNE_JOBS`` is not set or 1 (library callers: :mod:`feedtune.parallel`), else this one plus
     one per core the machine leaves idle (the cores this process may use minus the 1-minute load average, which
     counts this process; a core at least half idle counts), at most 4 in all and one per
     :data:`MIN_FIGURES_PER_PROCESS` figures; 1 where ``os.fork`` does not exist."""
@@ -162,7 +162,7 @@ def render_processes(n_figures: int) -> int:
         except ValueError:
             return 1
     if not os.environ.get("FEEDTUNE_JOBS", "").strip() or os.environ["FEEDTUNE_JOBS"].strip() == "1":
-        return 1  # processes only where asked for (feedtune.workflows.parallel: the command line asks)
+        return 1  # processes only where asked for (feedtune.parallel: the command line asks)
     try:
         cpus = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):

@@ -179,9 +179,9 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     from ..io.gains import gains_document
     from ..machines.ballscrew.experiments import measure_frf
     from ..machines.ballscrew.twin import BallScrewTwin, TwinParams
+    from ..parallel import plan, run_groups
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
-    from .parallel import plan, run_groups
 
     twin = BallScrewTwin(params or TwinParams())
     p = twin.params

@@ -201,11 +201,11 @@ shared out over the cores: on two, the x axis against the three others)."""
 def _tune(twin, fit, frfs, axis_frf, policy) -> dict:
     """The four tuners under ``policy``: MIMO and both PIDs on the identified model and every 2x2 FRF (``frfs``,
     each at its recorded position), the x axis on its FRF. They are independent: they run side by side on the
-    machine's cores (:mod:`feedtune.workflows.parallel`; the results are those of running them one by one)."""
+    machine's cores (:mod:`feedtune.parallel`; the results are those of running them one by one)."""
+    from ..parallel import plan, run_groups
     from ..tune.gantry import tune_gantry_mimo
     from ..tune.loopshape import tune_loopshape
     from ..tune.pid import tune_gantry_pid
-    from .parallel import plan, run_groups
 
     p = twin.params
     model = fit.model

@@ -130,7 +130,7 @@ def _fork(group: list) -> tuple[int, object]:
 
 def _silent():
     """A context in which :mod:`feedtune.progress` reports nothing."""
-    from ..progress import reporting
+    from .progress import reporting
 
     return reporting(None)
 
