@@ -9,7 +9,8 @@ Run by hand: ``python benchmarks/bench_demo.py [--repeat N] [--machine ballscrew
 * The command a user runs, ``python -m feedtune demo [gantry] --out DIR --force``, in a fresh process (imports,
   loading numba's cached kernels, the tuners side by side on the cores, the report): wall time, best of ``N``
   after one unmeasured run that fills numba's cache (feedtune's cache folder is named after a digest of its sources:
-  the first run after an edit compiles the kernels again).
+  the first run after an edit compiles the kernels again) and writes Python's bytecode (``PYTHONDONTWRITEBYTECODE``
+  is dropped from the environment: an installed package has its bytecode).
 * The same command in a fresh process with the time split per step: each step's own time (the steps it calls
   excluded), the tuners one by one (``FEEDTUNE_JOBS=1``, so that each tuner's time shows) and, last, the import of
   the command line (the other imports happen lazily inside the steps that need them).
@@ -85,6 +86,14 @@ def _command(machine: str, out: Path) -> list[str]:
             str(out), "--force"]
 
 
+def user_env(**extra: str) -> dict[str, str]:
+    """The environment of a user's shell: this one without ``PYTHONDONTWRITEBYTECODE`` (some sandboxes and CI
+    images set it; an installed feedtune has its bytecode, ``pip install`` compiles it, and a checkout gets it
+    from the unmeasured first run), plus ``extra``."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return {**env, **extra}
+
+
 def wall(machine: str, repeat: int) -> list[float]:
     """Wall times [s] of the command in fresh processes (after one unmeasured run)."""
     times = []
@@ -92,7 +101,8 @@ def wall(machine: str, repeat: int) -> list[float]:
         out = Path(tmp) / "demo"
         for i in range(repeat + 1):
             t0 = time.perf_counter()
-            subprocess.run(_command(machine, out), check=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            subprocess.run(_command(machine, out), check=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                           env=user_env())
             if i:
                 times.append(time.perf_counter() - t0)
     return times
@@ -101,7 +111,7 @@ def wall(machine: str, repeat: int) -> list[float]:
 def split(machine: str) -> dict[str, float]:
     """The time per step of one run of the command in a fresh process (tuners one by one)."""
     with tempfile.TemporaryDirectory() as tmp:
-        env = {**os.environ, "FEEDTUNE_JOBS": "1"}
+        env = user_env(FEEDTUNE_JOBS="1")
         res = subprocess.run([sys.executable, __file__, "--inner", machine, str(Path(tmp) / "demo")], env=env,
                              check=True, capture_output=True, text=True)
     return json.loads(res.stdout.strip().splitlines()[-1])

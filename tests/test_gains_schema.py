@@ -112,6 +112,19 @@ def test_documents_feedtune_writes_pass_and_the_schemas_are_valid_json_schemas(n
         jsonschema.Draft202012Validator.check_schema(gains_schema(kind))
 
 
+@pytest.mark.parametrize("case", ["nan coefficient", "unstable section", "delay -1", "400-digit integer"])
+def test_a_document_found_valid_once_is_still_refused_after_an_edit(case):
+    """Validation remembers valid documents by content: the same document edited in place is checked again, and
+    the remembered answer of an equal copy is the kind."""
+    doc = copy.deepcopy(DOCS["mimo"])
+    assert validate_gains(doc, "g.toml") == "gantry"
+    assert validate_gains(copy.deepcopy(doc), "h.toml") == "gantry"
+    CASES[case][0]("mimo")(doc)
+    for where in ("g.toml", "h.toml"):
+        with pytest.raises(DataError, match=f"^{where}: "):
+            validate_gains(doc, where)
+
+
 def test_an_integrator_is_allowed_only_in_the_axis_controller():
     axis = copy.deepcopy(AXIS)
     assert any(abs(s[3] + s[4] + s[5]) < 1e-9 for s in axis["filters"]["controller_sos"])  # its PI has z = 1

@@ -94,3 +94,29 @@ def test_every_gantry_design_meets_the_limits_at_every_measured_position(demo, t
     for name in ("mimo", "pid", "pid_own"):
         cert = certify(read_document(tmp_path / f"{name}_gains.toml"), name, frfs)
         assert cert.ok, (name, [c.check.violations for c in cert.frfs])
+
+
+@pytest.mark.slow
+def test_the_reports_certificates_equal_certify_on_the_files(demo, tmp_path):
+    """The report reuses each design's analysis on the FRF of its position for the certificate instead of
+    analysing it again: its certificate must equal ``certify`` run on the files alone, row by row."""
+    from feedtune.io import read_document, read_frf
+    from feedtune.machines.certificate import certify
+    from feedtune.report.build import build_report
+    from feedtune.workflows.files import write_texts
+
+    write_texts(demo.texts, out_dir=tmp_path)
+    data = build_report([tmp_path], render=False).data
+    for name in ("mimo", "pid", "pid_own"):
+        got = data["design"][f"{name}_gains.toml"]["certificate"]
+        files = [row["frf"].split(" ")[0] for row in got["frfs"]]  # the report adds the position to the name
+        assert sorted(files) == ["frf_x-0.3_frf.csv", "frf_x0.3_frf.csv", "frf_x0_frf.csv"]
+        frfs = [(n, read_frf(tmp_path / n)) for n in files]
+        want = certify(read_document(tmp_path / f"{name}_gains.toml"), name, frfs).to_dict()
+        for g, w in zip(got["frfs"], want["frfs"], strict=True):
+            assert {k: v for k, v in g.items() if k != "frf"} == {k: v for k, v in w.items() if k != "frf"}
+        def figures(worst):  # without the FRF names
+            return {k: ({**v, "frf": None} if isinstance(v, dict) else v) for k, v in worst.items()
+                    if not k.endswith("_frf")}
+
+        assert figures(got["worst"]) == figures(want["worst"])

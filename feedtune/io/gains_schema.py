@@ -142,14 +142,48 @@ def _stable_sections(name: str, sos, where: str) -> None:
                                 "section must have its poles inside the unit circle)")
 
 
+VALID_MEMORY = 64
+"""Fingerprints of the documents found valid last, kept so that one document checked again (the report analyses a
+gains file on several FRFs; each analysis reads it) is not walked again."""
+_valid: dict[bytes, str] = {}
+
+
+def _fingerprint(doc: Mapping) -> bytes | None:
+    """A digest of the document's pickle (types, order and every value included: a list and a tuple, 1 and 1.0
+    differ), None when it does not pickle."""
+    import hashlib
+    import pickle
+
+    try:
+        return hashlib.blake2b(pickle.dumps(doc, protocol=pickle.HIGHEST_PROTOCOL), digest_size=20).digest()
+    except Exception:  # anything that does not pickle is simply not remembered
+        return None
+
+
 def validate_gains(doc, where: str) -> str:
     """Validate a gains document (module docstring); returns its ``kind``.
+
+    A document with the same content as one of the last :data:`VALID_MEMORY` found valid is not checked again
+    (validation depends on the content only; invalid documents are always checked, so each error names its
+    ``where``).
 
     Raises
     ------
     DataError
         One line: the file, the key and what was expected.
     """
+    key = _fingerprint(doc) if isinstance(doc, Mapping) else None
+    if key is not None and key in _valid:
+        return _valid[key]
+    kind = _validate_gains(doc, where)
+    if key is not None:
+        if len(_valid) >= VALID_MEMORY:
+            _valid.pop(next(iter(_valid)))
+        _valid[key] = kind
+    return kind
+
+
+def _validate_gains(doc, where: str) -> str:
     if not isinstance(doc, Mapping):
         raise DataError(f"{where}: a gains document must be a table of sections, got {type(doc).__name__}")
     kind = doc.get("kind")

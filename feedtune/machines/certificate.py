@@ -117,7 +117,8 @@ class Certificate:
         return {"limits": self.limits.to_dict(), "frfs": [c.to_dict() for c in self.frfs], "worst": self.worst()}
 
 
-def certify(doc: Mapping, where: str, frfs: Sequence[tuple[str, object]], limits: Limits | None = None) -> Certificate:
+def certify(doc: Mapping, where: str, frfs: Sequence[tuple[str, object]], limits: Limits | None = None,
+            known: Sequence[tuple[object, object]] = ()) -> Certificate:
     """Check a gains document on every FRF (module docstring).
 
     Parameters
@@ -130,13 +131,19 @@ def certify(doc: Mapping, where: str, frfs: Sequence[tuple[str, object]], limits
         The measured FRFs and their names; at least one.
     limits : Limits, optional
         The policy (default: ``textbook``).
+    known : sequence of (Frf, analysis), optional
+        Analyses of this same document already made by :func:`feedtune.machines.analyze_gains` (e.g. the report's
+        analysis on the FRF of the design's position): used for the FRF that *is* (the same object) one of
+        ``frfs`` instead of analysing it again.
     """
     from .registry import analyze_gains
 
     policy = limits or DEFAULT_LIMITS
     out = []
     for name, frf in frfs:
-        done = analyze_gains(doc, where, frf)
-        check, case = check_analysis(done.analysis, policy)
-        out.append(FrfCertificate(name, case, check, done.analysis.cases[case].metrics, done.analysis))
+        analysis = next((a for f, a in known if frf is not None and f is frf), None)
+        if analysis is None:
+            analysis = analyze_gains(doc, where, frf).analysis
+        check, case = check_analysis(analysis, policy)
+        out.append(FrfCertificate(name, case, check, analysis.cases[case].metrics, analysis))
     return Certificate(policy, tuple(out))

@@ -23,7 +23,7 @@ def _s_magnitude(S: np.ndarray) -> np.ndarray:
 
 
 def certificate_blocks(designs: Sequence, frfs: Sequence[tuple[str, object]], docs: Mapping[str, Mapping],
-                       limits: ReportLimits, store: dict) -> list:
+                       limits: ReportLimits, store: dict, analysed_on: Mapping[str, object] | None = None) -> list:
     """With two or more measured FRFs (positions, loads): each design's certificate on every one
     (:func:`feedtune.machines.certificate.certify`, the analysis of ``feedtune analyze GAINS --frf F``; a gantry FRF
     at the table position it records), as a table and the discrete ``|S|`` (``sigma_max(S)`` for a gantry) on each
@@ -40,6 +40,9 @@ def certificate_blocks(designs: Sequence, frfs: Sequence[tuple[str, object]], do
     limits : ReportLimits
     store : dict
         The report's data, by design name.
+    analysed_on : mapping, optional
+        ``{design name: Frf}``: the FRF (one of ``frfs``, the same object) whose ``analyze_gains`` analysis the
+        design already holds as ``analysis``; the certificate uses it instead of analysing that FRF again.
     """
     if len(frfs) < 2:
         return []
@@ -48,7 +51,8 @@ def certificate_blocks(designs: Sequence, frfs: Sequence[tuple[str, object]], do
     blocks: list = []
     for d in designs:
         title = d.label if d.name in d.label else f"{d.label} ({d.name})"
-        cert = certify(docs[d.name], d.name, frfs, limits.policy)
+        on = (analysed_on or {}).get(d.name)
+        cert = certify(docs[d.name], d.name, frfs, limits.policy, known=[(on, d.analysis)] if on is not None else ())
         store[d.name]["certificate"] = cert.to_dict()
         rows = []
         for c, row in zip(cert.frfs, cert.to_dict()["frfs"], strict=True):

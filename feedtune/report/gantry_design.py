@@ -307,7 +307,9 @@ def _subsection(kind: str, designs: list[MachineDesign], store: dict, limits: Re
                 if all(fi.frf.has(ch) for ch in GANTRY_CHANNELS)]
     else:
         frfs = [(names[fi.path], fi.frf) for fi in inputs.frfs if len(fi.frf.channels) == 1]
-    blocks += certificate_blocks(designs, frfs, {names[g.path]: g.doc for g in inputs.gains}, limits, store)
+    frf_of = {names[fi.path]: fi.frf for fi in inputs.frfs}
+    blocks += certificate_blocks(designs, frfs, {names[g.path]: g.doc for g in inputs.gains}, limits, store,
+                                 analysed_on={d.name: frf_of[d.frf] for d in designs if d.frf in frf_of})
     title = "Gantry controllers (y axis, two drives)" if gantry else "x-axis controller"
     return Section(f"design-{kind}", title, blocks)
 

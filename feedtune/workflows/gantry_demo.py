@@ -270,35 +270,48 @@ def _run_figures(res, figures: dict) -> dict:
     return {k: get(res.summary) for k, get in figures.items()}
 
 
+TEST_COST = {"ropesnap": 0.2, "track_1mm_s": 1.0, "track_200mm_s": 0.3, "contour_circle": 1.1, "contour_diamond": 1.6}
+"""Relative time of each twin test (simulation and log text), by which the tests are shared out over the cores."""
+
+
 def _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts) -> list:
+    """Rope snap, tracking and contour runs of every controller; each run's log text into ``texts``. The runs are
+    independent (each seeded with ``seed``, the runtimes reset at its start): they run side by side on the
+    machine's cores (:mod:`feedtune.parallel`), and the rows and texts are those of running them one by one."""
     from ..machines.gantry.experiments import run_contour, run_gantry_ropesnap, run_gantry_tracking, tracking_trajectory
+    from ..parallel import plan, run_groups
     from ..sim.contour import thesis_path
 
     axis = runtimes["axis"]
-    rows = []
-    row = {"test": "rope snap 57 N"}
-    for name in CONTROLLERS:
-        res = run_gantry_ropesnap(twin, runtimes[name], axis, seed=seed, engine=engine)
-        texts.update(_texts_of(res, f"ropesnap_{name}", allow_trip=True))
-        row[name] = _run_figures(res, {"peak_um": lambda s: abs(s["peak_um"]),
-                                       "settling_time_s": lambda s: s["settling_time_s"]})
-    rows.append(row)
+    peak = {"peak_um": lambda s: abs(s["peak_um"]), "settling_time_s": lambda s: s["settling_time_s"]}
+    tests = [("rope snap 57 N", "ropesnap", "ropesnap", peak,
+              lambda name: run_gantry_ropesnap(twin, runtimes[name], axis, seed=seed, engine=engine))]
     for test in tracking:
         tr = tracking_trajectory(test, twin.fs)
-        row = {"test": f"track {test.replace('_', '/')}"}
-        for name in CONTROLLERS:
-            res = run_gantry_tracking(twin, runtimes[name], tr, axis, seed=seed, engine=engine)
-            texts.update(_texts_of(res, f"track_{test}_{name}", allow_trip=True))
-            row[name] = _run_figures(res, ERROR_FIGURES)
-        rows.append(row)
+        tests.append((f"track {test.replace('_', '/')}", f"track_{test}", f"track_{test}", ERROR_FIGURES,
+                      lambda name, tr=tr: run_gantry_tracking(twin, runtimes[name], tr, axis, seed=seed,
+                                                              engine=engine)))
     for shape in shapes:
         path = thesis_path(shape, contour_feature, fs=twin.fs, start=(0.1 if contour_feature == "200mm" else 0.0,
                                                                        0.0))
-        row = {"test": f"{shape} {contour_feature}"}
+        tests.append((f"{shape} {contour_feature}", f"contour_{shape}", f"contour_{shape}_{contour_feature}",
+                      ERROR_FIGURES,
+                      lambda name, path=path: run_contour(twin, runtimes[name], axis, path, seed=seed, engine=engine)))
+
+    def job(k: int, name: str):
+        _, _, prefix, figures, run = tests[k]
+        res = run(name)
+        return _texts_of(res, f"{prefix}_{name}", allow_trip=True), _run_figures(res, figures)
+
+    jobs = [(f"{k}:{name}", (lambda k=k, name=name: job(k, name)), TEST_COST.get(tests[k][1], 1.0))
+            for k in range(len(tests)) for name in CONTROLLERS]
+    done = run_groups(plan(jobs))
+    rows = []
+    for k, (label, *_rest) in enumerate(tests):
+        row = {"test": label}
         for name in CONTROLLERS:
-            res = run_contour(twin, runtimes[name], axis, path, seed=seed, engine=engine)
-            texts.update(_texts_of(res, f"contour_{shape}_{contour_feature}_{name}", allow_trip=True))
-            row[name] = _run_figures(res, ERROR_FIGURES)
+            run_texts, row[name] = done[f"{k}:{name}"]
+            texts.update(run_texts)
         rows.append(row)
     return rows
 
