@@ -86,6 +86,9 @@ CLI_OPTIONS: dict[str, str] = {
     "read_frf.columns": "--frf-map",
     "fit_prefilter.lead_m_per_rad": "--gains GAINS",
     "log_kinds": "--log-kind",
+    "cutoff_hz": "--lpf-hz",
+    "reversal_guard_s": "--reversal-guard",
+    "lead_m_per_rad": "--lead",
 }
 """How the command line spells a library parameter where it is not ``--`` plus the name with dashes for
 underscores (``lpf_hz`` -> ``--lpf-hz``). Keys are the parameters errors carry, qualified by their owner where one

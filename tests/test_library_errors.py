@@ -122,3 +122,28 @@ def test_a_log_of_unknown_kind_names_the_kind_option(tmp_path, capsys, monkeypat
     assert exc.parameter == "log_kinds" and "pass log_kinds=snap.csv=KIND" in str(exc)
     err = _cli_error(["report", tmp_path / "snap.csv", "--out", tmp_path / "r.html"], capsys, monkeypatch, 1)
     assert "pass --log-kind snap.csv=KIND with KIND one of" in err
+
+
+REVERSALS = Path(__file__).resolve().parents[1] / "examples" / "ballscrew_reversals.csv"
+IDENTIFY_OPTIONS = [
+    (["rigid", REVERSALS, "--map", "x=x2", "--lpf-hz", "-1"], "--lpf-hz must be > 0"),
+    (["rigid", REVERSALS, "--map", "x=x2", "--lpf-hz", "1e6"], "--lpf-hz must be below the Nyquist frequency"),
+    (["rigid", REVERSALS, "--map", "x=x2", "--filter-order", "20"], "--filter-order must be an integer from 1 to 12"),
+    (["rigid", REVERSALS, "--map", "x=x2", "--decimate", "0"], "--decimate must be an integer >= 1"),
+    (["friction", REVERSALS, "--map", "x=x2", "--min-speed", "-1"], "--min-speed must be >= 0 rad/s"),
+    (["friction", REVERSALS, "--map", "x=x2", "--reversal-guard", "-1"], "--reversal-guard must be >= 0 s"),
+    (["friction", REVERSALS, "--map", "x=x2", "--bandwidth-hz", "1e9"], "--bandwidth-hz must be below a quarter"),
+    (["friction", REVERSALS, "--map", "x=x2", "--mass", "-1"], "--mass must be > 0"),
+    (["ballscrew", Path(__file__).resolve().parents[1] / "examples" / "ballscrew_frf.csv", "--lead", "-1"],
+     "--lead must be a finite number > 0 m/rad"),
+]
+
+
+@pytest.mark.parametrize(("args", "words"), IDENTIFY_OPTIONS, ids=lambda a: " ".join(map(str, a[3:])) if
+                         isinstance(a, list) else None)
+def test_identify_settings_name_their_options(args, words, capsys, monkeypatch):
+    """A bad identification setting is a usage error (exit 2) whose line names the option as typed, also where the
+    library calls it otherwise (``cutoff_hz`` is ``--lpf-hz``, ``reversal_guard_s`` is ``--reversal-guard``)."""
+    err = _cli_error(["identify", *args], capsys, monkeypatch, 2)
+    assert words in err, err
+    assert "_" not in err.split(" must ")[0], err  # no library spelling left before the message

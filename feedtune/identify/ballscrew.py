@@ -262,7 +262,7 @@ def _check_positive(value: float, name: str, unit: str) -> None:
     except (TypeError, ValueError):
         ok = False
     if not ok:
-        raise UsageError(f"{name} must be a finite number > 0 {unit}, got {value!r}")
+        raise UsageError(f"{name} must be a finite number > 0 {unit}, got {value!r}", parameter=name)
 
 
 def _resolve_channels(channels: Sequence[str] | None) -> list[tuple[str, int, bool]]:
@@ -273,12 +273,13 @@ def _resolve_channels(channels: Sequence[str] | None) -> list[tuple[str, int, bo
         channels = [channels]
     names = list(channels)
     if not 1 <= len(names) <= 2:
-        raise UsageError(f"channels must name the motor-side and table-side channels (1 or 2), got {names}")
+        raise UsageError(f"channels must name the motor-side and table-side channels (1 or 2), got {names}",
+                         parameter="channels")
     for name in names:
         if not isinstance(name, str) or name.count("/") != 1 or not all(name.split("/")):
             raise UsageError(f"channel name {name!r} must look like OUT/IN, e.g. x1/u")
     if len(set(names)) != len(names):
-        raise UsageError(f"channels must be two different names, got {names}")
+        raise UsageError(f"channels must be two different names, got {names}", parameter="channels")
     if len(names) == 1 and names[0].split("/")[0] == "x2":
         raise DataError(f"channel {names[0]} alone cannot separate m1 and m2 (it only determines the total "
                         "inertia and the mode): add the motor-side channel, e.g. channels=['x1/u', 'x2/u']")
@@ -391,9 +392,10 @@ def _check_band_value(band_hz) -> tuple[float, float]:
     try:
         lo, hi = (float(v) for v in band_hz)
     except (TypeError, ValueError):
-        raise UsageError(f"band_hz must be two numbers (low, high) in Hz, got {band_hz!r}") from None
+        raise UsageError(f"band_hz must be two numbers (low, high) in Hz, got {band_hz!r}",
+                         parameter="band_hz") from None
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo < hi):
-        raise UsageError(f"band_hz must satisfy 0 <= low < high (Hz), got ({lo:g}, {hi:g})")
+        raise UsageError(f"band_hz must satisfy 0 <= low < high (Hz), got ({lo:g}, {hi:g})", parameter="band_hz")
     return lo, hi
 
 

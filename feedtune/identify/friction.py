@@ -319,9 +319,10 @@ def _viscous_pair(viscous) -> tuple[float, float]:
     try:
         pos, neg = (float(b) for b in pair)
     except (TypeError, ValueError):
-        raise UsageError(f"viscous must be a number or a (pos, neg) pair, got {viscous!r}") from None
+        raise UsageError(f"viscous must be a number or a (pos, neg) pair, got {viscous!r}",
+                         parameter="viscous") from None
     if not (np.isfinite(pos) and np.isfinite(neg)):
-        raise UsageError(f"viscous must be finite, got {viscous!r}")
+        raise UsageError(f"viscous must be finite, got {viscous!r}", parameter="viscous")
     return pos, neg
 
 
@@ -446,7 +447,7 @@ def fit_stribeck(velocity, disturbance, *, min_speed: float | None = None, per_d
     peak = float(np.max(np.abs(v)))
     threshold = DEFAULT_MIN_SPEED_FRACTION * peak if min_speed is None else float(min_speed)
     if not (np.isfinite(threshold) and threshold >= 0):
-        raise UsageError(f"min_speed must be >= 0 {velocity_unit}, got {min_speed!r}")
+        raise UsageError(f"min_speed must be >= 0 {velocity_unit}, got {min_speed!r}", parameter="min_speed")
     pos, neg = v >= max(threshold, np.finfo(float).tiny), v <= -max(threshold, np.finfo(float).tiny)
     dirs = [_direction(v[pos], d[pos], ">", velocity_unit), _direction(-v[neg], d[neg], "<", velocity_unit)]
     shared = not per_direction_omega
@@ -656,9 +657,10 @@ def _guard_time(value) -> float:
     try:
         guard = float(value)
     except (TypeError, ValueError):
-        raise UsageError(f"reversal_guard_s must be a number of seconds, got {value!r}") from None
+        raise UsageError(f"reversal_guard_s must be a number of seconds, got {value!r}",
+                         parameter="reversal_guard_s") from None
     if not (np.isfinite(guard) and guard >= 0):
-        raise UsageError(f"reversal_guard_s must be >= 0 s, got {value!r}")
+        raise UsageError(f"reversal_guard_s must be >= 0 s, got {value!r}", parameter="reversal_guard_s")
     return guard
 
 
@@ -791,7 +793,7 @@ def _law_fit_of_disturbance(speed: np.ndarray, level: np.ndarray, law: str, min_
         raise IllConditionedError(f"{law} fit: the velocity is zero everywhere")
     threshold = DEFAULT_MIN_SPEED_FRACTION * float(np.max(np.abs(speed))) if min_speed is None else float(min_speed)
     if not (np.isfinite(threshold) and threshold >= 0):
-        raise UsageError(f"min_speed must be >= 0 {estimate.velocity_unit}, got {min_speed!r}")
+        raise UsageError(f"min_speed must be >= 0 {estimate.velocity_unit}, got {min_speed!r}", parameter="min_speed")
     d = level - np.where(speed > 0, b_rest[0], b_rest[1]) * speed
     fit = fit_friction_law(speed, d, law=law, viscous=False, min_speed=threshold,
                            min_points=MIN_SAMPLES_PER_DIRECTION, command_unit=estimate.command_unit,

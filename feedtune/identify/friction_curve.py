@@ -388,7 +388,7 @@ def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=Non
         raise DataError(f"{where}: velocity, force (and acceleration) must have the same length, got {v.size}, "
                         f"{y.size}" + ("" if a is None else f", {a.size}"))
     if not (np.isfinite(min_speed) and min_speed >= 0):
-        raise UsageError(f"min_speed must be >= 0 {velocity_unit}, got {min_speed!r}")
+        raise UsageError(f"min_speed must be >= 0 {velocity_unit}, got {min_speed!r}", parameter="min_speed")
     notes: list[str] = []
     blocks = _blocks(v, y, a, float(min_speed), int(min_points), notes)
     if not blocks:
@@ -522,7 +522,7 @@ def bin_by_speed(velocity, force, *, min_speed: float = 0.0, n_bins: int = SPEED
     if v.size != f.size:
         raise DataError(f"velocity and force have different lengths ({v.size}, {f.size})")
     if n_bins < 1:
-        raise UsageError(f"n_bins must be >= 1, got {n_bins!r}")
+        raise UsageError(f"n_bins must be >= 1, got {n_bins!r}", parameter="n_bins")
     points = []
     for key, sign in (("pos", 1.0), ("neg", -1.0)):
         sel = (sign * v > 0) & (np.abs(v) >= min_speed)

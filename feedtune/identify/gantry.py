@@ -420,9 +420,10 @@ def _resolve_band(freq: np.ndarray, G: np.ndarray, band_hz, where: str) -> tuple
     try:
         lo, hi = (float(v) for v in band_hz)
     except (TypeError, ValueError):
-        raise UsageError(f"band_hz must be two numbers (low, high) in Hz, got {band_hz!r}") from None
+        raise UsageError(f"band_hz must be two numbers (low, high) in Hz, got {band_hz!r}",
+                         parameter="band_hz") from None
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
-        raise UsageError(f"band_hz must satisfy 0 <= low < high (Hz), got ({lo:g}, {hi:g})")
+        raise UsageError(f"band_hz must satisfy 0 <= low < high (Hz), got ({lo:g}, {hi:g})", parameter="band_hz")
     sel = (freq >= lo) & (freq <= hi)
     if int(sel.sum()) < MIN_BAND_POINTS:
         raise DataError(f"{where}: only {int(sel.sum())} frequencies in the band {lo:g}-{hi:g} Hz; "
@@ -449,9 +450,11 @@ def _check_number(value, name: str, unit: str, positive: bool = False) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise UsageError(f"{name} must be a number [{unit}], got {value!r}") from None
+        raise UsageError(f"{name} must be a number [{unit}], got {value!r}",
+                         parameter=name if name.isidentifier() else None) from None
     if not math.isfinite(v) or (positive and v <= 0):
-        raise UsageError(f"{name} must be finite{' and > 0' if positive else ''} [{unit}], got {v:g}")
+        raise UsageError(f"{name} must be finite{' and > 0' if positive else ''} [{unit}], got {v:g}",
+                         parameter=name if name.isidentifier() else None)
     return v
 
 

@@ -294,10 +294,10 @@ def _check_positive(value, name: str, allow_zero: bool = False) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise UsageError(f"{name} must be a number, got {value!r}") from None
+        raise UsageError(f"{name} must be a number, got {value!r}", parameter=name) from None
     ok = x >= 0 if allow_zero else x > 0
     if not (np.isfinite(x) and ok):
-        raise UsageError(f"{name} must be {'>=' if allow_zero else '>'} 0, got {value!r}")
+        raise UsageError(f"{name} must be {'>=' if allow_zero else '>'} 0, got {value!r}", parameter=name)
     return x
 
 
@@ -305,9 +305,9 @@ def _nonzero(value, name: str) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise UsageError(f"{name} must be a number, got {value!r}") from None
+        raise UsageError(f"{name} must be a number, got {value!r}", parameter=name) from None
     if not (np.isfinite(x) and x != 0):
-        raise UsageError(f"{name} must be a finite non-zero number, got {value!r}")
+        raise UsageError(f"{name} must be a finite non-zero number, got {value!r}", parameter=name)
     return x
 
 
@@ -326,7 +326,7 @@ def _disturbance_intensity(mass: float, dt: float, r: float, q_disturbance, band
                                                                                           "bandwidth_hz")
     if f >= 0.25 * fs:
         raise UsageError(f"bandwidth_hz must be below a quarter of the sample rate ({0.25 * fs:g} Hz), "
-                         f"got {f:g}")
+                         f"got {f:g}", parameter="bandwidth_hz")
     return mass**2 * r * dt * (2 * np.pi * f) ** 6
 
 
@@ -371,7 +371,7 @@ def estimate_disturbance(log: Log, *, position: str, command: str, mass: float, 
         Filtered position, velocity and disturbance estimates.
     """
     if method not in METHODS:
-        raise UsageError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+        raise UsageError(f"method must be one of {', '.join(METHODS)}, got {method!r}", parameter="method")
     m = _check_positive(mass, "mass")
     b = _check_positive(viscous, "viscous", allow_zero=True)
     scale = _nonzero(command_scale, "command_scale")

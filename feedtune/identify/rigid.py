@@ -130,9 +130,9 @@ def _positive_float(value, name: str) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise UsageError(f"{name} must be a number, got {value!r}") from None
+        raise UsageError(f"{name} must be a number, got {value!r}", parameter=name) from None
     if not (np.isfinite(x) and x > 0):
-        raise UsageError(f"{name} must be > 0, got {value!r}")
+        raise UsageError(f"{name} must be > 0, got {value!r}", parameter=name)
     return x
 
 
@@ -352,16 +352,18 @@ def _auto_cutoff_of(log: Log, q: np.ndarray, dt: float) -> tuple[float, str]:
 def _check_settings(fs: float, cutoff_hz, filter_order, decimate) -> tuple[float, int, int]:
     cutoff = _positive_float(cutoff_hz, "cutoff_hz")
     if cutoff >= fs / 2:
-        raise UsageError(f"cutoff_hz must be below the Nyquist frequency {fs / 2:g} Hz, got {cutoff:g}")
+        raise UsageError(f"cutoff_hz must be below the Nyquist frequency {fs / 2:g} Hz, got {cutoff:g}",
+                         parameter="cutoff_hz")
     if not (isinstance(filter_order, (int, np.integer)) and 1 <= filter_order <= 12):
-        raise UsageError(f"filter_order must be an integer from 1 to 12, got {filter_order!r}")
+        raise UsageError(f"filter_order must be an integer from 1 to 12, got {filter_order!r}",
+                         parameter="filter_order")
     if decimate is None:
         # EMPS rule: Butterworth at 5x the dynamic bandwidth, decimation filter (0.8 fs / (2 nd)) at 2x it.
         factor = max(1, round(0.8 * (fs / 2) / (0.4 * cutoff)))
     elif isinstance(decimate, (int, np.integer)) and decimate >= 1:
         factor = int(decimate)
     else:
-        raise UsageError(f"decimate must be an integer >= 1 or None, got {decimate!r}")
+        raise UsageError(f"decimate must be an integer >= 1 or None, got {decimate!r}", parameter="decimate")
     return cutoff, int(filter_order), factor
 
 
@@ -394,7 +396,7 @@ def _prepare(log: Log, force: str, position: str, cutoff_hz, filter_order, decim
 
     scale = float(force_scale)
     if not (np.isfinite(scale) and scale != 0):
-        raise UsageError(f"force_scale must be a finite non-zero number, got {force_scale!r}")
+        raise UsageError(f"force_scale must be a finite non-zero number, got {force_scale!r}", parameter="force_scale")
     dt = uniform_sample_time(log)
     q, pos_unit = position_si(log, position)
     if cutoff_hz is None:
