@@ -69,6 +69,30 @@ class IllConditionedError(DataError):
     """A least-squares problem has no reliable solution (reason in the message)."""
 
 
+class Notice(str):
+    """A warning in the library's words: the text (a plain ``str`` everywhere) names parameters, as errors do, and
+    the command line prints it with their options (:func:`cli_message`), or prints ``cli`` when its advice is a
+    different step there (a command instead of a function).
+
+    Examples
+    --------
+    >>> w = Notice("the steps dominate; use a lower cutoff_hz", parameter="cutoff_hz")
+    >>> w.endswith("cutoff_hz"), cli_message(w)
+    (True, 'the steps dominate; use a lower --lpf-hz')
+    >>> cli_message(Notice("call remove_sampling(frf, fs, delay)", cli="run feedtune frf --remove-sampling N"))
+    'run feedtune frf --remove-sampling N'
+    """
+
+    parameters: tuple[str, ...]
+    cli: str | None
+
+    def __new__(cls, text: str, *, parameter: str | Iterable[str] | None = None, cli: str | None = None) -> Notice:
+        self = super().__new__(cls, text)
+        self.parameters = (parameter,) if isinstance(parameter, str) else tuple(parameter or ())
+        self.cli = cli
+        return self
+
+
 # ------------------------------------------------------------------------------ command-line spelling
 CLI_OPTIONS: dict[str, str] = {
     "Kpx": "--kpx",
@@ -111,7 +135,7 @@ def option_name(parameter: str, options: Mapping[str, str] | None = None) -> str
     return "--" + word.lower().replace("_", "-")
 
 
-def cli_message(exc: BaseException, options: Mapping[str, str] | None = None) -> str:
+def cli_message(exc: BaseException | str, options: Mapping[str, str] | None = None) -> str:
     """The message of ``exc`` as the command line prints it, each of its :attr:`~FeedtuneError.parameters` named by
     its option (:func:`option_name`).
 
@@ -123,11 +147,14 @@ def cli_message(exc: BaseException, options: Mapping[str, str] | None = None) ->
 
     Parameters
     ----------
-    exc : BaseException
-        Usually a :class:`FeedtuneError`; other exceptions give ``str(exc)``.
+    exc : BaseException or str
+        Usually a :class:`FeedtuneError` or a :class:`Notice` (whose ``cli`` text, when it has one, is returned as
+        it is); other exceptions and strings give ``str(exc)``.
     options : dict, optional
         Spellings that override :data:`CLI_OPTIONS`.
     """
+    if getattr(exc, "cli", None):
+        return str(exc.cli)
     text = str(exc)
     names = getattr(exc, "parameters", ()) or ()
     for name in sorted(names, key=lambda n: len(n.rsplit(".", 1)[-1]), reverse=True):

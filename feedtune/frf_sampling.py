@@ -29,7 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import DataError, UsageError
+from .errors import DataError, Notice, UsageError
 from .frf import Frf
 
 #: Metadata key holding the sampling state of an FRF.
@@ -188,9 +188,10 @@ def double_counting_warning(frf: Frf, path: object | None = None) -> str | None:
     name = frf.source if path is None else str(path)
     fs = frf.meta.get(SAMPLING_FS_KEY)
     at = f" at {fs} Hz" if fs else ""
-    return (f"{name} was estimated from a sampled log{at} without removing the ZOH and the computational delay; "
-            "if its input is the controller's command, the discrete case counts them twice "
-            "(feedtune frf --remove-sampling DELAY_SAMPLES)")
+    text = (f"{name} was estimated from a sampled log{at} without removing the ZOH and the computational delay; "
+            "if its input is the controller's command, the discrete case counts them twice")
+    return Notice(f"{text} (divide them out with feedtune.frf_sampling.remove_sampling(frf, fs, delay_samples))",
+                  cli=f"{text} (feedtune frf --remove-sampling DELAY_SAMPLES)")
 
 
 def _recorded_number(frf: Frf, key: str, name: str, what: str, ok) -> float | None:

@@ -369,4 +369,7 @@ def test_joint_fit_of_a_one_way_run_gives_the_mass_and_that_direction(tmp_path, 
             got = exc.code
         out, err = capsys.readouterr()
         assert got == code, err
+        if code == 0:  # the fallback's warning names the option
+            said = out + err
+            assert "one way only" in said and "above --min-speed" in said and "min_speed" not in said, said
     assert "one way only" in err or "one way only" in out

@@ -316,12 +316,17 @@ def test_a_coarsely_quantized_position_is_warned_about(emps):
     assert abs(fit.values["mass"] / EMPS_SYMMETRIC["mass"] - 1) > 0.1  # the damage the warning is about
     assert any("quantized to 0.0001 m" in w for w in fit.warnings), fit.warnings
     assert "quantized" in " ".join(fit.to_dict()["warnings"])
+    from feedtune.errors import cli_message
+
+    w = next(w for w in fit.to_dict()["warnings"] if "quantized" in w)  # the library's words, the command line's
+    assert "a lower cutoff_hz" in w and "--" not in w and "a lower --lpf-hz" in cli_message(w)
     # the automatic cut-off sees the quantization floor and filters below it: the mass is back within 2 %
     auto = fit_rigid(quantized(1e-4), force="vir", position="qm", force_scale=GTAU)
     assert auto.cutoff_hz < 50 and abs(auto.values["mass"] / EMPS_SYMMETRIC["mass"] - 1) < 0.02
     assert fit_rigid(quantized(2e-5), force="vir", position="qm", force_scale=GTAU, cutoff_hz=100.0).warnings == ()
-    with pytest.raises(IllConditionedError, match=r"quantized to 0\.001 m"):
+    with pytest.raises(IllConditionedError, match=r"quantized to 0\.001 m") as refused:
         fit_rigid(quantized(1e-3), force="vir", position="qm", force_scale=GTAU, cutoff_hz=100.0)
+    assert "a lower --lpf-hz" in cli_message(refused.value)
 
 
 def test_a_command_clipped_at_30_percent_is_warned_about(emps):

@@ -30,6 +30,7 @@ from .design_cmd import (
     OUT_OPTION,
     QUANTITY_OPTION,
 )
+from .envelope import cli_text
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
@@ -467,7 +468,7 @@ def _print_tuning(tuning: dict) -> None:
         text = "; ".join(chosen) if chosen else filt.get("why", "")
         typer.echo(f"  filters ({filt['choice']}): {text or 'none'}")
     for w in tuning.get("warnings", []):
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
 
 
 def pid(

@@ -109,13 +109,22 @@ def collect(*messages) -> None:
     if bucket is None:
         return
     for m in messages:
-        if m and str(m) not in bucket:
-            bucket.append(str(m))
+        text = cli_text(m) if m else ""
+        if text and text not in bucket:
+            bucket.append(text)
+
+
+def cli_text(message) -> str:
+    """A warning in the command line's words (a library :class:`~feedtune.errors.Notice` names parameters; here
+    they are the options); other messages as they are."""
+    from ..errors import Notice, cli_message
+
+    return cli_message(message) if isinstance(message, Notice) else str(message)
 
 
 def warn(message: str) -> None:
     """Print ``feedtune: warning: MESSAGE`` on stderr and add it to the ``--json`` envelope."""
-    typer.echo(f"feedtune: warning: {message}", err=True)
+    typer.echo(f"feedtune: warning: {cli_text(message)}", err=True)
     collect(message)
 
 
@@ -186,8 +195,9 @@ def build(result: Mapping, *, kind: str | None = None, check: Mapping | None = N
     check = body.pop("check", check)
     warnings: list[str] = []
     for w in own + list(_collected() or []):
-        if w and str(w) not in warnings:
-            warnings.append(str(w))
+        text = cli_text(w) if w else ""
+        if text and text not in warnings:
+            warnings.append(text)
     doc = {"kind": kind or command_kind(), "feedtune_version": __version__, "inputs": command_inputs(), **body,
            "warnings": warnings}
     if check is not None:

@@ -14,7 +14,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, fmt_band, parse_float_pair
-from .envelope import emit
+from .envelope import cli_text, emit
 from .help_text import FRF_METHODS, QUANTITIES, choice
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
 from .progress_display import QUIET_OPTION, show_progress
@@ -117,7 +117,7 @@ def _print_summary(result: dict) -> None:
         typer.echo(f"  {ch}: coherence min {c['min']:.3f}, median {c['median']:.3f}, mean {c['mean']:.3f}; "
                    f"{c['lines_above_0_9']} of {result['lines']} lines >= {GOOD_COHERENCE}")
     for w in result.get("warnings", []):
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
     if "out" in result:
         typer.echo(f"wrote {result['out']}")
 

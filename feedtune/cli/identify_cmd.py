@@ -12,7 +12,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, fmt_band, fmt_param, parse_float_pair
-from .envelope import emit, quantities, quantity
+from .envelope import cli_text, emit, quantities, quantity
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .help_text import FRICTION_LAWS, KALMAN_METHODS, QUANTITIES, choice
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
@@ -104,7 +104,7 @@ def ballscrew(
             f"phase rms {fmt(q.get('phase_rms_deg'), 'deg')}"
         )
     for w in result.get("warnings", []):
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
     if out is not None:
         typer.echo(f"wrote {out}")
 
@@ -274,7 +274,7 @@ def rigid(
         typer.echo(f"  cross-check on {validate}: relative error {fmt(v['relative_error_pct'], '%')}, "
                    f"RMS {fmt(v['residual_rms'], v['units']['residual_rms'])}")
     for w in result.get("warnings", []):
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
     for p in result.get("files", []):
         typer.echo(f"wrote {p}")
 
@@ -376,7 +376,7 @@ def _friction_steady_state_text(result: dict, log_file: Path | str) -> None:
                                for name in ("dc", "ds", "omega", "viscous")))
     typer.echo(f"  fit RMS {fmt(fit['rms_error'], fu['rms_error'])} ({fmt(fit['relative_error_pct'], '%')})")
     for w in result.get("warnings", []):
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
     for p in result.get("files", []):
         typer.echo(f"wrote {p}")
 
@@ -406,7 +406,7 @@ def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: boo
                f"({fmt(jf['law_fit']['relative_error_pct'], '%')}), {jf['n_samples']} samples, filter "
                f"{fmt(jf['cutoff_hz'], 'Hz')}")
     for w in result["warnings"]:
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
     for p in files:
         typer.echo(f"wrote {p}")
 
@@ -632,6 +632,6 @@ def friction(
                f"{fmt(result['viscous'], result['units']['viscous'])} ({source}); observer poles "
                f"{', '.join(fmt(p, 'Hz') for p in result['disturbance']['observer_poles_hz'])}")
     for w in result.get("warnings", []):
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
     for p in result.get("files", []):
         typer.echo(f"wrote {p}")

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION
+from .envelope import cli_text
 from .limits_options import (
     DM_MIN_OPTION,
     GM_MIN_OPTION,
@@ -98,7 +99,7 @@ def report(
     typer.echo(f"report with {result['figures']} figures and {result['tables']} tables: "
                + ", ".join(result["sections"]))
     for w in result["warnings"]:
-        typer.echo(f"warning: {w}")
+        typer.echo(f"warning: {cli_text(w)}")
     for p, size in zip(result["files"], result["sizes_bytes"], strict=True):
         typer.echo(f"wrote {p} ({size / 1e6:.2f} MB)")
 

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import typer
 
+from .envelope import cli_text
+
 #: Computational delay [samples] when neither ``--delay-samples`` nor an FRF gives one.
 DEFAULT_DELAY_SAMPLES = 1
 
@@ -99,7 +101,7 @@ class TargetSampling:
         if as_json:
             return
         for w in self.warnings:
-            typer.echo(f"feedtune: warning: {w}", err=True)
+            typer.echo(f"feedtune: warning: {cli_text(w)}", err=True)
         if self.fs_source in ("frf", "default") or self.delay_source == "frf":
             typer.echo(self.describe(command))
 

@@ -17,6 +17,7 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _load_model
+from .envelope import cli_text
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
@@ -299,7 +300,7 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
     print_filters(result["filters"], record)
     print_certificate(result["certificate"])
     for w in tuning.get("warnings", []):
-        typer.echo(f"  warning: {w}")
+        typer.echo(f"  warning: {cli_text(w)}")
     if out is not None:
         typer.echo(f"wrote {out}")
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import Notice
+
 MIN_LEVELS = 2000
 """A position column should take at least this many quantization steps over the stroke [-]."""
 MIN_STEPS_PER_SAMPLE_MOTION = 4.0
@@ -50,9 +52,10 @@ def quantization_warning(x: np.ndarray, name: str, unit: str) -> str | None:
     per_sample = float(np.percentile(np.abs(np.diff(x)), 90)) / q
     if levels >= MIN_LEVELS and per_sample >= MIN_STEPS_PER_SAMPLE_MOTION:
         return None
-    return (f"{name} is quantized to {q:.3g} {unit} ({levels:.0f} steps over the stroke, {per_sample:.2g} steps "
-            "per sample while moving): velocity and acceleration by differentiation are dominated by the steps, so "
-            "the mass and friction are unreliable; use a finer encoder column or a lower --lpf-hz")
+    return Notice(f"{name} is quantized to {q:.3g} {unit} ({levels:.0f} steps over the stroke, {per_sample:.2g} "
+                  "steps per sample while moving): velocity and acceleration by differentiation are dominated by the "
+                  "steps, so the mass and friction are unreliable; use a finer encoder column or a lower cutoff_hz",
+                  parameter="cutoff_hz")
 
 
 def clipping_warning(u: np.ndarray, name: str, unit: str) -> str | None:

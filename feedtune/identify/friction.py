@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import DataError, IllConditionedError, UsageError
+from ..errors import DataError, IllConditionedError, Notice, UsageError
 from ..log import Log
 from ..models.ballscrew import BallScrewModel
 from ..models.friction import StribeckFriction, check_law
@@ -596,9 +596,10 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
         missing = "v < 0" if "pos" in fit.directions else "v > 0"
         if not one_direction:
             raise OneDirectionError(f"joint friction fit: too few samples with {missing} above min_speed (need at "
-                                    f"least {MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions")
-        warnings.append(f"the data move one way only (no samples with {missing} above min_speed): the friction law "
-                        "of the other direction is not identified")
+                                    f"least {MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions",
+                                    parameter="min_speed")
+        warnings.append(Notice(f"the data move one way only (no samples with {missing} above min_speed): the "
+                               "friction law of the other direction is not identified", parameter="min_speed"))
     return JointFit(law_fit=fit, cutoff_hz=max(c[0] for c in cutoffs),
                     cutoff_rule="given" if cutoff_hz is not None else "; ".join(rules),
                     decimate=max(c[1] for c in cutoffs), dc_gain=cutoffs[0][2], guard_s=cutoffs[0][3],

@@ -596,7 +596,8 @@ def fit_rigid(log: Log | Sequence[Log], *, force: str, position: str, asymmetric
     except IllConditionedError as exc:
         if not warnings:
             raise
-        raise IllConditionedError(f"{exc}; the log: {'; '.join(warnings)}") from None
+        raise IllConditionedError(f"{exc}; the log: {'; '.join(warnings)}",
+                                  parameter=[p for w in warnings for p in getattr(w, "parameters", ())]) from None
     rel = float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y))
     unit_of = {"mass": f"{first.force_unit}/({first.position_unit}/s^2)"}
     warnings = direction_notes + warnings + fit_warnings(rel, values, stds, unit_of)
