@@ -406,3 +406,25 @@ def test_compiled_steady_state_pass_equals_scipy_dlsim_of_the_same_filter():
     _, ref, _ = dlsim((Phi, G, Phi, G, 1.0), np.column_stack([u, y]))
     scale = np.max(np.abs(ref), axis=0)
     assert np.max(np.abs(got.T - ref) / scale) < 1e-10
+
+
+def test_omega_on_its_bound_says_which_samples_min_speed_left_out():
+    """examples/ballscrew_reversals.csv moves slowly through the low speeds (2 mm/s) before 50 and 200 mm/s: the
+    default min_speed (2 % of the peak) leaves those samples out and Omega ends on its bound. The warning counts them
+    and names the parameter (the option on the command line); with a lower min_speed Omega is resolved."""
+    from pathlib import Path
+
+    from feedtune.errors import cli_message
+    from feedtune.io import read_log
+
+    log = read_log(Path(__file__).resolve().parents[1] / "examples" / "ballscrew_reversals.csv")
+    rigid = fit_rigid(log, force="u", position="x2")
+    ident = identify_friction(log, position="x2", command="u", model=rigid.model)
+    assert ident.fit.omega_at_bound
+    w = next(w for w in ident.warnings if "Omega ended on its bound" in w)
+    slow = int(w.split(": ")[1].split(" samples")[0])
+    assert slow >= 100 and "pass a lower min_speed" in w and "--" not in w
+    assert "pass a lower --min-speed" in cli_message(w)
+    lower = identify_friction(log, position="x2", command="u", model=rigid.model, min_speed=0.1)
+    assert not lower.fit.omega_at_bound and not any("Omega" in w for w in lower.warnings)
+    assert lower.n_used >= ident.n_used + 0.5 * slow  # the slow samples entered the fit

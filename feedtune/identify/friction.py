@@ -777,12 +777,24 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
     if fit.relative_error_pct > POOR_FIT_PCT:
         warnings.append(f"poor {law_name} fit: relative error {fit.relative_error_pct:.3g} % > {POOR_FIT_PCT:g} %")
     if fit.omega_at_bound:
-        warnings.append("Omega ended on its bound; the log does not resolve the Stribeck velocity (move slowly "
-                        "through low speeds)")
+        warnings.append(_omega_bound_warning(speed, fit.min_speed, first.velocity_unit, min_speed is None))
     return FrictionIdentification(fit=fit, disturbance=first, mass=first.mass, viscous=first.viscous,
                                   rigid_fit=rigid, n_used=fit.n_pos + fit.n_neg, reversal_guard_s=first_guard,
                                   warnings=tuple(dict.fromkeys(warnings)), n_logs=len(logs), law=law_name,
                                   joint_fit=joint_fit)
+
+
+def _omega_bound_warning(speed: np.ndarray, min_speed: float, unit: str, default: bool) -> str:
+    """Why ``Omega`` ended on its bound, and what to do: a lower ``min_speed`` when the log holds slow samples that
+    it left out, else slower motion."""
+    slow = int(np.count_nonzero((np.abs(speed) < min_speed) & (speed != 0)))
+    head = "Omega ended on its bound; the fit does not resolve the Stribeck velocity"
+    if slow >= MIN_SAMPLES_PER_DIRECTION:
+        rule = f" ({DEFAULT_MIN_SPEED_FRACTION:.0%} of the peak speed, the default)" if default else ""
+        return Notice(f"{head}: {slow} samples move slower than min_speed = {min_speed:.4g} {unit}{rule} and were "
+                      "left out; the Stribeck velocity may lie there: pass a lower min_speed to use them",
+                      parameter="min_speed")
+    return f"{head} (move slowly through low speeds)"
 
 
 def _law_fit_of_disturbance(speed: np.ndarray, level: np.ndarray, law: str, min_speed: float | None,
