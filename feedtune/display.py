@@ -109,6 +109,38 @@ def span(lo, hi, unit: str = "") -> str:
     return quantity(f"{number(lo)}-{number(hi)}", unit)
 
 
+def filter_pack_text(pack) -> str:
+    """A filter pack in a few words: ``notches 420, 1080 Hz, low-pass 2000 Hz (order 1)``, ``no filters``.
+
+    Examples
+    --------
+    >>> from feedtune.control.filters import THESIS_FILTER_PACK
+    >>> filter_pack_text(THESIS_FILTER_PACK)
+    'notches 420, 1080 Hz, low-pass 2000 Hz (order 1)'
+    """
+    parts = []
+    if pack.notches:
+        parts.append(f"notch{'es' if len(pack.notches) > 1 else ''} "
+                     + quantity(", ".join(number(n.freq_hz) for n in pack.notches), "Hz"))
+    if pack.lpf_hz:
+        parts.append(f"low-pass {quantity(pack.lpf_hz, 'Hz')} (order {pack.lpf_order})")
+    if pack.leads:
+        parts.append(f"lead{'s' if len(pack.leads) > 1 else ''} " + ", ".join(
+            f"{quantity(ld.center_hz, 'Hz')} {quantity(ld.phase_deg, 'deg')}" for ld in pack.leads))
+    return ", ".join(parts) or "no filters"
+
+
+def design_repr(name: str, settings: Iterable[str], gains: Mapping[str, float], units: Mapping[str, str],
+                filters=None, fs: float | None = None, delay_samples: int | None = None) -> str:
+    """``Name(settings..., gains with units, filters, fs, delay)`` on one line, for a design's ``repr``."""
+    tail = [] if filters is None else [filter_pack_text(filters)]
+    if fs is not None:
+        tail.append(f"fs={quantity(fs, 'Hz')}")
+    if delay_samples is not None:
+        tail.append(f"delay {delay_samples} sample{'' if delay_samples == 1 else 's'}")
+    return call(name, [*settings, *params(gains, units), *tail])
+
+
 def call(name: str, parts: Iterable[str]) -> str:
     """``name(part, part, ...)``."""
     return f"{name}({', '.join(p for p in parts if p)})"

@@ -76,6 +76,27 @@ def test_reprs_are_short_and_carry_the_key_numbers(flow):
     assert "<table>" in frf._repr_html_() and "<table>" in analysis._repr_html_()
 
 
+def test_fit_and_design_reprs_are_one_line_with_units(flow):
+    """The identification result and the designs: the numbers an engineer checks first, each with its unit."""
+    from feedtune.design.ppi import design_ppi
+
+    fit = fit_ballscrew([flow["frf"]])
+    text = repr(fit)
+    lo, hi = fit.band_hz
+    assert text.startswith("BallScrewFit(BallScrewModel(") and f"band {number(lo)}-{number(hi)} Hz" in text
+    assert f"x1/u {number(100 * fit.fit['x1/u']['nrmse'])} %" in text and "warning" in text
+    design = flow["design"]
+    text = repr(design)
+    assert text.startswith("McppcDesign(beta=4, pole_hz=50 Hz, zeta=0.7, ")
+    assert f"Kx1={number(design.gains['Kx1'])} V/rad" in text and f"Ki2={number(design.gains['Ki2'])} V/(rad s)" in text
+    assert "notches 420, 1080 Hz, low-pass 2000 Hz (order 1)" in text and "fs=20000 Hz" in text
+    ppi = design_ppi(fit.model, Kpx=150.0, Kpv=0.5, Kiv=40.0, filters=THESIS_FILTER_PACK)
+    text = repr(ppi)
+    assert "Kpx=150 1/s" in text and "Kpv=0.5 V/(rad/s)" in text and "Kiv=40 V/rad" in text
+    for obj in (fit, design, ppi):
+        assert "\n" not in repr(obj) and "array(" not in repr(obj) and len(repr(obj)) < 500, repr(obj)
+
+
 # ------------------------------------------------------------------------------------------ figures by attribute
 def test_metrics_by_attribute_equal_to_dict(flow):
     analysis = flow["analysis"]

@@ -58,6 +58,14 @@ class McppcDesign:
 
     kind = "mcppc"
 
+    def __repr__(self) -> str:
+        from ..control.ballscrew_law import gain_units
+        from ..display import design_repr, quantity
+
+        return design_repr("McppcDesign", [f"beta={quantity(self.beta)}", f"pole_hz={quantity(self.pole_hz, 'Hz')}",
+                                           f"zeta={quantity(self.zeta)}"],
+                           self.gains, gain_units(self.model.input_unit), self.filters, self.fs, self.delay_samples)
+
     def law(self) -> BallScrewLaw:
         """The implementable control law (gains, G_fp, G_r, G_ff)."""
         return BallScrewLaw(

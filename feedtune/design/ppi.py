@@ -57,6 +57,13 @@ class PpiDesign:
         """Equivalent gains of the shared law [V/rad, V/rad, V/(rad/s), V/(rad/s), V/(rad s)]."""
         return equivalent_gains(**self.ppi_gains)
 
+    def __repr__(self) -> str:
+        from ..control.ballscrew_law import ppi_units
+        from ..display import design_repr
+
+        return design_repr("PpiDesign", [], self.ppi_gains, ppi_units(self.model.input_unit), self.filters, self.fs,
+                           self.delay_samples)
+
     def law(self) -> BallScrewLaw:
         """The implementable control law."""
         return BallScrewLaw(

@@ -97,6 +97,17 @@ class BallScrewFit:
     delay_std_s: float = 0.0
     detected_mode_hz: float = float("nan")
 
+    def __repr__(self) -> str:
+        """The model, the band, the fit error per channel, the delay and how many warnings (:attr:`warnings`)."""
+        from ..display import call, quantity, span
+
+        errors = ", ".join(f"{ch} {quantity(100.0 * f['nrmse'], '%')}" for ch, f in self.fit.items())
+        parts = [repr(self.model), f"band {span(*self.band_hz, 'Hz')}", f"error {errors}"]
+        if self.delay_s:
+            parts.append(f"delay {quantity(self.delay_s * 1e6, 'us')}")
+        parts.append(f"{len(self.warnings)} warning{'' if len(self.warnings) == 1 else 's'}")
+        return call("BallScrewFit", parts)
+
     def to_dict(self) -> dict:
         """JSON-ready summary; units in the ``"units"`` entry."""
         unit_in = self.model.input_unit
