@@ -23,9 +23,13 @@ Evaluation: ``K1 = G_fp P1`` and ``K2 = G_fp P2`` with ``P1 = Kx1 + Kv1 d``, ``P
 or the backward difference), so that a case's loop is ``G_fp`` times five fixed responses weighted by the gains.
 :func:`analyze_case` keeps those responses, the extension and the filter pack's response on the plant case (a
 tuner's hundreds of laws on the same plant cases pay for them once); :func:`analyze_ballscrew` forms each case's
-loop directly and keeps nothing. The four cases are refined together, every model, FRF, hold and controller
-evaluated once per round for all of them (:func:`feedtune.analysis.loop.analyze_loops`). The exact ZOH model is
-evaluated as ``N(z) / D(z)`` with its exact poles (:class:`_SampledModel`), not from expanded polynomials.
+loop directly, one case after the other, and keeps nothing but the loop: ``S``, the tracking and the disturbance
+responses of a :class:`CaseResponse` are computed when first read (from the loop, the law and the plant case's
+functions, with the same operations as the loop: the same values as computed with it), so that an analysis whose
+curves are not read (a check against limits) costs neither their time nor their memory. The four cases are refined
+together, every model, FRF, hold and controller evaluated once per round for all of them
+(:func:`feedtune.analysis.loop.analyze_loops`). The exact ZOH model is evaluated as ``N(z) / D(z)`` with its exact
+poles (:class:`_SampledModel`), not from expanded polynomials.
 """
 
 from __future__ import annotations
@@ -44,7 +48,16 @@ from ..errors import DataError
 from ..frf import Frf
 from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
-from .cases import PlantCase, analysis_scope, measured_cases, model_cases, unit_circle, work_array
+from .cases import (
+    PlantCase,
+    analysis_scope,
+    imaginary_axis,
+    measured_cases,
+    model_cases,
+    release_shared,
+    unit_circle,
+    work_array,
+)
 from .loop import LoopCase, LoopExtension, LoopMetrics, analyze_loops, extension_grid, junction_scale
 from .resolution import lightly_damped
 
@@ -53,28 +66,83 @@ from .resolution import lightly_damped
 class CaseResponse(CaseDisplay):
     """Responses and figures of one analysis case.
 
+    The loop ``L`` is kept; the other curves are computed from it (and, for tracking and disturbance, from the
+    plant and the law on the grid) when first read, then kept: a search or a summary that reads the figures only
+    does not pay for them, and an analysis holds one curve per case.
+
     Attributes
     ----------
     name : str
     freq_hz : ndarray
         Grid [Hz].
-    L, S : ndarray
-        Loop and sensitivity [-].
-    tracking, tracking_no_ff : ndarray
-        ``x2 / x_r`` with and without feedforward [-].
-    disturbance : ndarray or None
-        ``x2 / d2`` [rad/V] (model cases only).
+    L : ndarray
+        Loop [-].
     metrics : LoopMetrics
+    S : ndarray
+        Sensitivity ``1 / (1 + L)`` [-] (computed on first access).
+    tracking, tracking_no_ff : ndarray or None
+        ``x2 / x_r`` with and without feedforward [-] (computed on first access; None from a search's
+        :func:`analyze_case` without responses).
+    disturbance : ndarray or None
+        ``x2 / d2`` [rad/V] (model cases only; computed on first access).
     """
 
     name: str
     freq_hz: np.ndarray
     L: np.ndarray
-    S: np.ndarray
-    tracking: np.ndarray
-    tracking_no_ff: np.ndarray
-    disturbance: np.ndarray | None
     metrics: LoopMetrics
+    _source: object = field(default=None, repr=False, compare=False)
+    """What the tracking and disturbance responses are computed from: None (not asked for), their values
+    ``(tracking, tracking_no_ff, disturbance)``, or an object whose ``compute(L, S)`` returns them."""
+
+    @property
+    def S(self) -> np.ndarray:
+        """Sensitivity ``1 / (1 + L)`` [-]."""
+        S = self.__dict__.get("_S")
+        if S is None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                S = self.__dict__["_S"] = 1.0 / (1.0 + self.L)
+        return S
+
+    def _curves(self) -> tuple:
+        """``(tracking, tracking_no_ff, disturbance)``, computed once from :attr:`_source`."""
+        curves = self.__dict__.get("_curve_values")
+        if curves is None:
+            src = self._source
+            if src is None:
+                curves = (None, None, None)
+            elif isinstance(src, tuple):
+                curves = src
+            else:
+                curves = tuple(src.compute(self.L, self.S))
+            self.__dict__["_curve_values"] = curves
+            object.__setattr__(self, "_source", None)  # the plant and law are no longer held
+        return curves
+
+    @property
+    def tracking(self) -> np.ndarray | None:
+        """``x2 / x_r`` with feedforward [-]."""
+        return self._curves()[0]
+
+    @property
+    def tracking_no_ff(self) -> np.ndarray | None:
+        """``x2 / x_r`` without feedforward [-]."""
+        return self._curves()[1]
+
+    @property
+    def disturbance(self) -> np.ndarray | None:
+        """``x2 / d2`` [rad/V] (model cases)."""
+        return self._curves()[2]
+
+    def __getstate__(self) -> dict:
+        """Pickled with every curve computed (the source of the lazy ones holds functions)."""
+        self._curves()
+        state = dict(self.__dict__)
+        state["_S"] = self.S
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
     def disturbance_min_real(self) -> tuple[float, float] | tuple[None, None]:
         """Most negative real part of ``x2/d2`` [rad/V] and its frequency [Hz] (chatter indicator)."""
@@ -172,11 +240,13 @@ class _Rational:
         self.fs = fs
 
     def _x(self, f: np.ndarray) -> np.ndarray:
-        return 2j * np.pi * f if self.fs is None else unit_circle(f, self.fs)
+        return imaginary_axis(f) if self.fs is None else unit_circle(f, self.fs)
 
     def _inverse_denominator(self, x: np.ndarray) -> np.ndarray:
+        out = _horner(self.den, x)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return 1.0 / _horner(self.den, x)
+            np.divide(1.0, out, out=out)
+        return out
 
     def stacked(self, freq_hz, keys: tuple[str, ...]) -> np.ndarray:
         """The responses ``keys`` as rows of one array (shape ``(len(keys), len(f))``), one denominator for all."""
@@ -331,20 +401,29 @@ def _zpk_at(z: Zpk, x: np.ndarray) -> np.ndarray:
     n_roots = max(z.zeros.size, z.poles.size)
     if x.size * max(n_roots, 1) <= 4096:
         return z.evaluate(x)
-    out = np.full(x.shape, z.gain, complex)
     if n_roots == 0:
-        return out
+        return np.full(x.shape, z.gain, complex)
     den, tmp = work_array(x.size, 0).reshape(x.shape), work_array(x.size, 1).reshape(x.shape)
+    out = None
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        # the products start from their first factor (gain times it, 1 times it: the same values as multiplied)
         for k in range(0, n_roots, _BLOCK):
-            den.fill(1.0)
             for r in z.zeros[k:k + _BLOCK]:
-                np.subtract(x, r, out=tmp)
-                out *= tmp
-            for r in z.poles[k:k + _BLOCK]:
-                np.subtract(x, r, out=tmp)
-                den *= tmp
-            out /= den
+                if out is None:
+                    out = np.subtract(x, r)
+                    out *= z.gain
+                else:
+                    np.subtract(x, r, out=tmp)
+                    out *= tmp
+            if out is None:
+                out = np.full(x.shape, z.gain, complex)
+            poles = z.poles[k:k + _BLOCK]
+            if poles.size:
+                np.subtract(x, poles[0], out=den)
+                for r in poles[1:]:
+                    np.subtract(x, r, out=tmp)
+                    den *= tmp
+                out /= den
     return out
 
 
@@ -407,6 +486,42 @@ class _Controller:
         p2 += d_inv
         return _zpk_at(self.filter, x), p1, p2
 
+    def paths(self, freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(K1, K2) = (G_fp P1, G_fp P2)`` at frequencies [Hz]: the values of :meth:`at` multiplied out, bit for
+        bit, with two arrays besides the results (no ``d`` or ``1 / d`` arrays: their parts are added as they are
+        formed)."""
+        x = _variable(freq_hz, self.fs, self.discrete)
+        kx1, kv1, kx2, kv2, ki2 = self.gains
+        gfp = _zpk_at(self.filter, x)
+        release_shared(grids=False)  # the filter's work arrays: their memory serves what follows
+        inv = np.empty(x.shape)  # the imaginary part of 1 / d (its real part is a constant)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if self.discrete:
+                fs = self.fs
+                p1 = np.conj(x)
+                np.subtract(1.0, p1, out=p1)
+                p1 *= fs  # d = fs (1 - z^-1)
+                p2 = p1 * kv2
+                p1 *= kv1
+                np.add(x.real, 1.0, out=inv)
+                inv /= x.imag
+                inv *= -0.5 / fs
+                inv_real = 0.5 / fs * ki2
+            else:
+                p1 = x * kv1
+                p2 = x * kv2
+                np.divide(-1.0, x.imag, out=inv)
+                inv_real = 0.0
+            p1 += kx1
+            p2 += kx2
+            inv *= ki2
+            p2.real += inv_real
+            p2.imag += inv
+        del inv
+        p1 *= gfp
+        p2 *= gfp
+        return p1, p2
+
 
 _CONTROLLERS: dict[tuple, tuple] = {}
 
@@ -427,8 +542,8 @@ def _controller(law: BallScrewLaw, discrete: bool) -> _Controller:
 
 
 def _variable(freq_hz: np.ndarray, fs: float, discrete: bool) -> np.ndarray:
-    """``s`` or ``z`` on a grid [Hz]."""
-    return unit_circle(freq_hz, fs) if discrete else 2j * np.pi * np.asarray(freq_hz, float)
+    """``s`` or ``z`` on a grid [Hz] (inside :func:`~feedtune.analysis.cases.analysis_scope` shared: read only)."""
+    return unit_circle(freq_hz, fs) if discrete else imaginary_axis(freq_hz)
 
 
 def _difference(x: np.ndarray, fs: float, discrete: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -475,15 +590,20 @@ def _basis(d: tuple[np.ndarray, np.ndarray], Hg: np.ndarray) -> np.ndarray:
     return out
 
 
+def _first_octave(f: np.ndarray) -> int:
+    """Number of grid lines [-] in the first octave of the sorted grid ``f`` [Hz]."""
+    return int(np.searchsorted(f, f[0] * 2.0, side="right"))
+
+
 def _extension(pc: PlantCase, g: np.ndarray) -> tuple | None:
     """The model below the case's grid (:func:`~feedtune.analysis.loop.model_extension`): ``(f_ext [Hz], scale,
     junction band [Hz], H * scale * model plant on f_ext)``, or None when the grid starts at its lowest frequency;
-    ``g`` is the plant on the grid."""
+    ``g`` is the plant on the grid (on its first octave at least)."""
     f = pc.freq_hz
     f_ext = extension_grid(float(f[0]))
     if not f_ext.size:
         return None
-    m = int(np.searchsorted(f, f[0] * 2.0, side="right"))  # the first octave
+    m = _first_octave(f)
     scale, band = junction_scale(f[:m], g[..., :m], pc.model_plant(f[:m]))
     return f_ext, scale, band, scale * pc.model_plant(f_ext) * pc.hold(f_ext)
 
@@ -631,7 +751,9 @@ def _evaluate_one(c: _CaseLoop, fq: np.ndarray) -> np.ndarray:
 def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: bool) -> list[CaseResponse]:
     """Every case of ``law`` on the plant cases ``pcs``: each resolved on its own, all refined together
     (:func:`~feedtune.analysis.loop.analyze_loops`). With ``keep`` the fixed parts are kept on the plant cases
-    (:class:`_CaseParts`: the loop is then five scaled sums), else the loop is formed directly and nothing is kept."""
+    (:class:`_CaseParts`: the loop is then five scaled sums) and the responses, when asked for, computed at once;
+    else the loop is formed directly, nothing is kept and the responses are computed when first read
+    (:class:`_LazyResponses`)."""
     loops: list[_CaseLoop] = []
     partial: list[tuple] = []
 
@@ -652,7 +774,8 @@ def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: boo
                 resp = _basis_responses(law, pc, ctrl, parts, L, gfp) if responses else None
                 del parts, gfp, gfp_ext
             else:
-                L, ext, resp = _direct(law, pc, ctrl, responses)
+                L, ext = _direct(pc, ctrl)
+                resp = _LazyResponses(law, pc, ctrl) if responses else None
             extension = None
             if ext is not None:
                 f_ext, scale, band, L_ext = ext
@@ -668,23 +791,46 @@ def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: boo
         metrics = analyze_loops(loop_cases(), batch)
     out = []
     for (pc, L, resp), m in zip(partial, metrics, strict=True):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            S = 1.0 / (1.0 + L) if resp is None else resp[0]
-        out.append(CaseResponse(pc.name, pc.freq_hz, L, S, *(resp[1:] if resp else (None, None, None)), m))
+        if isinstance(resp, tuple):  # computed with the loop: S too
+            case = CaseResponse(pc.name, pc.freq_hz, L, m, resp[1:])
+            case.__dict__["_S"] = resp[0]
+        else:
+            case = CaseResponse(pc.name, pc.freq_hz, L, m, resp)
+        out.append(case)
     return out
 
 
-def _direct(law: BallScrewLaw, pc: PlantCase, ctrl: _Controller, responses: bool) -> tuple:
-    """The loop on the case's grid, its extension below the grid and (with ``responses``) the responses, formed
-    directly: ``K1 = G_fp P1``, ``K2 = G_fp P2`` and ``H [G11, G21]`` on the grid (:class:`_Controller`)."""
+def _direct(pc: PlantCase, ctrl: _Controller) -> tuple:
+    """The loop on the case's grid and its extension below the grid, formed directly: ``K1 = G_fp P1``,
+    ``K2 = G_fp P2`` and ``H [G11, G21]`` on the grid (:class:`_Controller`), in place where the arrays are this
+    function's own (the same operations, in the same order, as :meth:`_LazyResponses.compute`: the same bits)."""
     f = pc.freq_hz
-    source, d = getattr(pc.plant, "source", None), None
-    if responses and source is not None and getattr(pc.disturbance, "source", None) is source:
-        both = source.stacked(f, pc.plant.keys + pc.disturbance.keys)  # one denominator for the four responses
-        g, d = both[:2], both[2:]
+    k1, k2 = ctrl.paths(f)
+    lines = getattr(pc.plant, "lines", None)
+    if lines is not None and lines[0] is f:  # a measured FRF on its own lines: its values, read only
+        g = lines[1]
+        fresh = False
     else:
         g = pc.plant(f)
-    ext = _extension(pc, g)
+        fresh = getattr(pc.plant, "source", None) is not None or getattr(pc.plant, "fresh", False)
+    low = g[..., :_first_octave(f)].copy()  # for the extension's junction
+    if getattr(pc.hold, "identity", False):
+        release_shared()  # this case's s or z: the extension and the next case have their own grids
+        k1 *= g[0]
+        k2 *= g[1]
+    else:
+        H = pc.hold(f)
+        release_shared()
+        for k, row in ((k1, g[0]), (k2, g[1])):  # K H G, a row at a time: H G as the product g * H
+            if fresh:
+                row *= H
+                k *= row
+            else:
+                k *= row * H
+        del H
+    del g
+    k1 += k2  # K1 H G11 + K2 H G21
+    ext = _extension(pc, low)
     if ext is not None:
         f_ext, scale, band, He_ge = ext
         gfp_e, p1_e, p2_e = ctrl.at(f_ext)
@@ -692,20 +838,60 @@ def _direct(law: BallScrewLaw, pc: PlantCase, ctrl: _Controller, responses: bool
         L_ext += p2_e * He_ge[1]
         L_ext *= gfp_e
         ext = (f_ext, scale, band, L_ext)
-    if source is not None or getattr(pc.plant, "fresh", False):
-        g *= pc.hold(f)  # a new array from the plant functions of plant_cases: now H [G11, G21]
-        Hg = g
-    else:  # a plant function of the caller's: its array is left alone
-        Hg = g * pc.hold(f)
-    del g
-    gfp, k1, k2 = ctrl.at(f)
-    k1 *= gfp
-    k2 *= gfp
-    del gfp
-    L = k1 * Hg[0]
-    L += k2 * Hg[1]
-    resp = _path_responses(law, pc, ctrl, Hg, k1, k2, L, d) if responses else None
-    return L, ext, resp
+    return k1, ext
+
+
+def _times_hold(plant: Callable, hold: Callable, g: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``H [G11, G21]`` from ``g = plant(f)`` on ``f`` [Hz]: in place when ``g`` is a new array of the plant case's
+    own functions (:func:`plant_cases`), else a new array (a caller's plant function's array is left alone)."""
+    if getattr(plant, "source", None) is not None or getattr(plant, "fresh", False):
+        g *= hold(f)
+        return g
+    return g * hold(f)
+
+
+class _LazyResponses:
+    """What the tracking and disturbance responses of a case are computed from when first read
+    (:class:`CaseResponse`): the law, its paths and the plant case's functions, not the plant case itself (whose
+    measured scatter and interpolation tables are then released with it)."""
+
+    __slots__ = ("ctrl", "disturbance", "freq_hz", "hold", "law", "plant")
+
+    def __init__(self, law: BallScrewLaw, pc: PlantCase, ctrl: _Controller) -> None:
+        self.law, self.ctrl, self.freq_hz = law, ctrl, pc.freq_hz
+        self.plant = _on_lines(pc.plant, pc.freq_hz)
+        self.hold, self.disturbance = pc.hold, pc.disturbance
+
+    def compute(self, L: np.ndarray, S: np.ndarray) -> tuple:
+        """``(tracking, tracking_no_ff, disturbance)`` on the grid (module docstring) for the loop ``L`` and
+        sensitivity ``S`` [-]."""
+        f = self.freq_hz
+        with analysis_scope(), np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            source, d = getattr(self.plant, "source", None), None
+            if source is not None and getattr(self.disturbance, "source", None) is source:
+                both = source.stacked(f, self.plant.keys + self.disturbance.keys)  # one denominator for the four
+                g, d = both[:2], both[2:]
+            else:
+                g = self.plant(f)
+            if not getattr(self.hold, "identity", False):
+                g = _times_hold(self.plant, self.hold, g, f)
+            k1, k2 = self.ctrl.paths(f)
+            return _path_responses(self.law, self.ctrl, f, self.disturbance, g, k1, k2, S, d)
+
+
+def _on_lines(fn: Callable[[np.ndarray], np.ndarray], f: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """``fn``, or for a measured FRF on its own lines (:func:`~feedtune.analysis.resolution.interpolate_frf`) a
+    function giving the same values that holds the measured response only (not its interpolation tables)."""
+    lines = getattr(fn, "lines", None)
+    if lines is None or not (lines[0] is f or np.array_equal(lines[0], f)):
+        return fn
+    h = lines[1]
+
+    def evaluate(fq):
+        return h.copy()
+
+    evaluate.fresh = True
+    return evaluate
 
 
 def _references(law: BallScrewLaw, ctrl: _Controller, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -734,14 +920,15 @@ def _strip_origin(z: Zpk, power: int) -> tuple[Zpk, int]:
     return (Zpk(zeros, poles, z.gain, z.dt), power + (z.zeros.size - zeros.size) - (z.poles.size - poles.size))
 
 
-def _path_responses(law: BallScrewLaw, pc: PlantCase, ctrl: _Controller, Hg: np.ndarray, k1: np.ndarray,
-                    k2: np.ndarray, L: np.ndarray, d: np.ndarray | None = None) -> tuple:
-    """``S``, tracking with and without feedforward and the disturbance response (module docstring) from the plant
-    times the hold ``Hg = H [G11, G21]``, the paths ``k1 = K1``, ``k2 = K2`` on the grid and the disturbance inputs'
-    ``d = [G13, G23]`` (evaluated when not given; ``d`` is used up)."""
-    f = pc.freq_hz
-    S = 1.0 / (1.0 + L)
-    no_ff = k1 + k2
+def _path_responses(law: BallScrewLaw, ctrl: _Controller, f: np.ndarray, disturbance: Callable | None,
+                    Hg: np.ndarray, k1: np.ndarray, k2: np.ndarray, S: np.ndarray,
+                    d: np.ndarray | None = None) -> tuple:
+    """Tracking with and without feedforward and the disturbance response (module docstring) on the grid ``f`` [Hz]
+    from the plant times the hold ``Hg = H [G11, G21]``, the paths ``k1 = K1``, ``k2 = K2``, the sensitivity ``S``
+    and the disturbance inputs ``d = disturbance(f) = [G13, G23]`` (evaluated when not given; ``k2`` and ``d`` are
+    used up; None without ``disturbance``)."""
+    no_ff = k2
+    no_ff += k1  # K1 + K2 (k2 used up)
     no_ff *= Hg[1]
     ff, r1 = _references(law, ctrl, _variable(f, ctrl.fs, ctrl.discrete))
     tracking = ff
@@ -755,15 +942,15 @@ def _path_responses(law: BallScrewLaw, pc: PlantCase, ctrl: _Controller, Hg: np.
     tracking *= S
     no_ff *= S
     dist = None
-    if pc.disturbance is not None:
-        d = pc.disturbance(f) if d is None else d  # [G13, G23]
+    if disturbance is not None:
+        d = disturbance(f) if d is None else d  # [G13, G23]
         dist = Hg[0] * d[1]
         d[0] *= Hg[1]
         dist -= d[0]
         dist *= k1  # H K1 (G11 G23 - G13 G21)
         dist += d[1]
         dist *= S
-    return S, tracking, no_ff, dist
+    return tracking, no_ff, dist
 
 
 def _one_case(batch, k: int) -> Callable[[np.ndarray], np.ndarray]:
@@ -839,7 +1026,7 @@ def loop_on_grid(law: BallScrewLaw, pc: PlantCase) -> np.ndarray:
 
 def analyze_case(law: BallScrewLaw, pc: PlantCase, *, responses: bool = True) -> CaseResponse:
     """One analysis case of a law on a plant case: the figures (refined) and, with ``responses``, the curves on the
-    case's base grid (without: ``L`` and ``S`` only, for searches).
+    case's base grid, computed with the loop (without: ``L``, and ``S`` computed when first read, for searches).
 
     What depends on the plant case alone (the plant and hold on the grid times the gains' basis, the model extension
     below the grid, the filter pack's response) is computed once and kept on ``pc``: a tuner calling this for
@@ -870,6 +1057,8 @@ def analyze_ballscrew(
     Returns
     -------
     BallScrewAnalysis
+        Each case keeps its loop ``L``; ``S``, ``tracking``, ``tracking_no_ff`` and ``disturbance`` are computed when
+        first read (:class:`CaseResponse`).
     """
     cases = plant_cases(model, law.fs, law.delay_samples, frf, freq_hz)
     given = [pc for pc in cases.values() if pc is not None]

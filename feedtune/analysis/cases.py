@@ -110,6 +110,17 @@ def analysis_scope() -> Iterator[None]:
             st["work"] = {}
 
 
+def release_shared(grids: bool = True, work: bool = True) -> None:
+    """Inside :func:`analysis_scope`, forget the shared ``z`` and ``s`` grids and (or) the work arrays: an analysis
+    that is done with them, before it goes on (their memory is then free for what follows)."""
+    st = _scope()
+    if st["depth"]:
+        if grids:
+            st["circles"] = []
+        if work:
+            st["work"] = {}
+
+
 def work_array(n: int, slot: int) -> np.ndarray:
     """A complex work array of ``n`` elements (contents undefined); inside :func:`analysis_scope` the same memory for
     the same ``slot`` each time (a view of one buffer, grown to the largest ``n``), outside a new array."""
@@ -122,25 +133,40 @@ def work_array(n: int, slot: int) -> np.ndarray:
     return buf[:n]
 
 
-def unit_circle(freq_hz, fs: float) -> np.ndarray:
-    """``z = exp(j 2 pi f / fs)`` on a grid [Hz], by cosine and sine (faster than the complex exponential).
-
-    Inside :func:`analysis_scope` the result for the same grid array (and rate) is returned again: do not modify it.
-    """
-    f = np.asarray(freq_hz, float)
+def _shared(f: np.ndarray, fs: float | None, make: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """``make(f)``, inside :func:`analysis_scope` kept for the grid array ``f`` (and ``fs``) and returned again."""
     st = _scope()
     share = st["depth"] > 0 and f.size >= SHARED_MIN_POINTS
     if share:
         for g, r, z in st["circles"]:
             if g is f and r == fs:
                 return z
-    w = (2 * np.pi / fs) * f
-    z = np.empty(w.shape, complex)
-    np.cos(w, out=z.real)
-    np.sin(w, out=z.imag)
+    z = make(f)
     if share:
         st["circles"] = [(f, fs, z), *st["circles"][:SHARED_GRIDS - 1]]
     return z
+
+
+def unit_circle(freq_hz, fs: float) -> np.ndarray:
+    """``z = exp(j 2 pi f / fs)`` on a grid [Hz], by cosine and sine (faster than the complex exponential).
+
+    Inside :func:`analysis_scope` the result for the same grid array (and rate) is returned again: do not modify it.
+    """
+
+    def make(f):
+        w = (2 * np.pi / fs) * f
+        z = np.empty(w.shape, complex)
+        np.cos(w, out=z.real)
+        np.sin(w, out=z.imag)
+        return z
+
+    return _shared(np.asarray(freq_hz, float), float(fs), make)
+
+
+def imaginary_axis(freq_hz) -> np.ndarray:
+    """``s = j 2 pi f`` [rad/s] on a grid [Hz] (complex). Inside :func:`analysis_scope` the result for the same grid
+    array is returned again (the plant and the controller of a case share it): do not modify it."""
+    return _shared(np.asarray(freq_hz, float), None, lambda f: 2j * np.pi * f)
 
 
 def delay_on_circle(freq_hz, n_samples: float, fs: float) -> np.ndarray:
@@ -160,18 +186,26 @@ def delay_on_circle(freq_hz, n_samples: float, fs: float) -> np.ndarray:
 def zoh_on_circle(freq_hz, fs: float) -> np.ndarray:
     """Zero-order hold ``(1 - z^-1) / (j w T)`` on a grid [Hz], 1 at 0 Hz (as :func:`feedtune.lti.zoh_response`)."""
     f = np.asarray(freq_hz, float)
-    out = np.conj(unit_circle(f, fs))
-    np.subtract(1.0, out, out=out)
-    wt = (2 * np.pi / fs) * f
-    nz = wt != 0
+    z = unit_circle(f, fs)
+    r = (2 * np.pi / fs) * f  # w T, then 1 / (w T)
+    nz = r != 0
+    out = np.empty(z.shape, complex)
     with np.errstate(divide="ignore", invalid="ignore"):
-        out *= -1j / wt
+        np.divide(1.0, r, out=r)
+        # (1 - conj z) (-j / (w T)) = (sin / (w T), -(1 - cos) / (w T)): the complex product's terms, bit for bit
+        np.multiply(z.imag, r, out=out.real)
+        np.subtract(1.0, z.real, out=out.imag)
+        out.imag *= r
+    np.negative(out.imag, out=out.imag)
     out[~nz] = 1.0
     return out
 
 
 def _one(f):
     return np.ones(np.shape(f))
+
+
+_one.identity = True  # the analyses skip multiplying by it
 
 
 def discrete_grid(freq_hz: np.ndarray, fs: float) -> np.ndarray:

@@ -702,14 +702,28 @@ class _Contour:
         self.a, self.a1 = a, a1
 
     def insert(self, f_new: np.ndarray, L_new: np.ndarray) -> _Contour:
-        """The contour with the points ``f_new`` [Hz] (not on it, none twice) added in order."""
+        """Add the points ``f_new`` [Hz] (not on the contour, none twice) in order, in place (each old array is
+        released as its successor is made, when nothing else holds it); returns the contour."""
         if f_new.size == 0:
             return self
         order = np.argsort(f_new, kind="stable")
         f_new, L_new = f_new[order], L_new[order]
-        pos = np.searchsorted(self.f, f_new)
-        parts = ((self.f, f_new), (self.L, L_new), (self.a, np.abs(L_new)), (self.a1, np.abs(1.0 + L_new)))
-        return _Contour(*(np.insert(old, pos, new) for old, new in parts))
+        at = np.searchsorted(self.f, f_new)
+        at += np.arange(at.size)  # where the new points go (as numpy.insert places them)
+        keep = np.ones(self.f.size + at.size, bool)
+        keep[at] = False
+
+        def merged(old: np.ndarray, new: np.ndarray) -> np.ndarray:
+            out = np.empty(keep.shape, old.dtype)
+            out[at] = new
+            out[keep] = old
+            return out
+
+        self.f = merged(self.f, f_new)
+        self.L = merged(self.L, L_new)
+        self.a = merged(self.a, np.abs(L_new))
+        self.a1 = merged(self.a1, np.abs(1.0 + L_new))
+        return self
 
 
 def _new_points(f: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -749,6 +763,7 @@ def _resolve_contour(q: _Contour, bad: np.ndarray, f0: np.ndarray, features):
         pairs = []
     pairs.append((f[bad_idx], L[bad_idx], f[bad_idx + 1], L[bad_idx + 1]))
     fl, Ll, fr, Lr = (np.concatenate(p) for p in zip(*pairs, strict=True))
+    del f, L, pairs  # the contour's arrays are replaced when the points are inserted
     keep = pair_unresolved(Ll, Lr)
     keep[len(fl) - bad_idx.size:] = True  # the grid's bad intervals were found bad already
     fl, Ll, fr, Lr = fl[keep], Ll[keep], fr[keep], Lr[keep]
@@ -799,9 +814,8 @@ def _local_maxima(y: np.ndarray, near: float = 0.9) -> tuple[int, np.ndarray]:
     i = int(np.argmax(y))
     if y.size < 3:
         return i, np.empty(0, int)
-    mid = y[1:-1]
-    inner = np.flatnonzero((mid >= y[:-2]) & (mid >= y[2:]) & (mid >= near * y[i])) + 1
-    return i, inner
+    inner = np.flatnonzero(y[1:-1] >= near * y[i]) + 1  # near the largest, then the local maxima among them
+    return i, inner[(y[inner] >= y[inner - 1]) & (y[inner] >= y[inner + 1])]
 
 
 def _root_values(kind: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -834,7 +848,8 @@ class _ContourNoise:
 
     def __init__(self, noise, f: np.ndarray, f0: np.ndarray, first: int) -> None:
         self.f, self.first = f, first
-        self.lf0 = np.log(f0)
+        shared = hasattr(noise, "log_freq") and getattr(noise, "freq_hz", None) is f0  # the FRF's cases share it
+        self.lf0 = noise.log_freq() if shared else np.log(f0)
         self.lines = noise.lines if hasattr(noise, "lines") else np.asarray(noise, float).__getitem__
 
     def at(self, i0: int, i1: int) -> np.ndarray:
@@ -979,6 +994,7 @@ def _loop_analysis(c: LoopCase):
             if extension.evaluate is None:
                 bad[:nx] = False
         q = yield from _resolve_contour(q, bad, f0, c.features)
+        del bad
     g = _GridFigures(q, f0, c.integrators)
     if extension is None and c.below_grid == "refuse":
         check_low_end(q.f, g.slope, g.a_low, g.n_int)
@@ -1064,11 +1080,13 @@ class _GridFigures:
         below = a < 1.0
         idx_c = np.flatnonzero(below[:-1] != below[1:])
         del below
-        big = a >= NEGLIGIBLE_LOOP
         neg = np.signbit(L.imag)
+        idx_p = np.flatnonzero(neg[:-1] != neg[1:])  # the imaginary axis crossed; then on the negative real axis
+        del neg
         re = L.real
-        idx_p = np.flatnonzero((neg[:-1] != neg[1:]) & (re[:-1] + re[1:] < 0) & (big[:-1] | big[1:]))
-        del big, neg, re
+        idx_p = idx_p[(re[idx_p] + re[idx_p + 1] < 0) & ((a[idx_p] >= NEGLIGIBLE_LOOP)
+                                                         | (a[idx_p + 1] >= NEGLIGIBLE_LOOP))]
+        del re
         out_band = a1 > 1.0
         idx_b = np.flatnonzero(out_band[:-1] != out_band[1:])
         self.band_ends = (bool(out_band[0]), bool(out_band[-1]), bool(out_band.any()))

@@ -309,8 +309,55 @@ def refine_peaks(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi:
 INTERPOLATION = "log magnitude and unwrapped phase, linear in log frequency, between the FRF's lines"
 """How a measured response is evaluated between its lines (stated in the analysis output)."""
 INTERPOLATION_TABLE_AFTER = 8
-"""After this many requests, :class:`LineNoise` computes the scatter of every line at once (a search asks thousands
-of times; one analysis, a handful); both ways give the same values, bit for bit."""
+"""After this many requests, :class:`LineNoise` computes the scatter of every line at once and
+:func:`interpolate_frf` every block of its tables (a search asks thousands of times; one analysis, a handful); both
+ways give the same values, bit for bit."""
+
+
+TABLE_BLOCK = 1024
+"""Lines per block of the tables that the measured parts compute on first use (:func:`interpolate_frf`,
+:class:`LineNoise`): a block is always computed whole, from the same lines, so that a value never depends on what
+was asked before (numpy's vectorised log and angle may differ in the last bit between arrays of different lengths
+or alignments), and a few refinement points cost a few blocks, not the whole FRF."""
+NOISE_BLOCK = 128
+"""Lines per block of the dB magnitude and coherence floor :class:`LineNoise` reads (windows of 21 lines)."""
+
+
+def _blocks(cache: dict, n_lines: int, make: Callable[[int, int], np.ndarray], index: np.ndarray,
+            next_line: bool = False, block: int = TABLE_BLOCK) -> tuple[np.ndarray, ...]:
+    """Columns ``index`` (and with ``next_line`` also ``index + 1``) of a table over ``n_lines`` lines that is computed
+    in blocks of ``block`` lines on first use (kept in ``cache``): ``make(start, stop)`` gives the table's columns for
+    the lines ``start .. stop - 1``. With ``next_line`` each block holds one line more, so that both ends of an
+    interval come from the block of its first line."""
+    idx = np.asarray(index, int)
+    blocks = idx // block
+    if not blocks.size:
+        keys = []
+    elif blocks.min() == blocks.max():
+        keys = [int(blocks[0])]
+    else:
+        keys = np.unique(blocks).tolist()
+    for b in keys:
+        if b not in cache:
+            start = b * block
+            cache[b] = make(start, min(start + block + int(next_line), n_lines))
+    offsets = (0, 1) if next_line else (0,)
+    if len(keys) == 1:
+        j = idx - keys[0] * block
+        return tuple(cache[keys[0]][..., j + o] for o in offsets)
+    out = None
+    for b in keys:
+        sel = blocks == b
+        j = idx[sel] - b * block
+        parts = [cache[b][..., j + o] for o in offsets]
+        if out is None:
+            out = tuple(np.empty(parts[0].shape[:-1] + idx.shape, parts[0].dtype) for _ in offsets)
+        for o, part in zip(out, parts, strict=True):
+            o[..., sel] = part
+    if out is None:  # no index
+        empty = make(0, min(2, n_lines))[..., :0]
+        return tuple(empty for _ in offsets)
+    return out
 
 
 def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
@@ -320,15 +367,17 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
     without interpolating). Frequencies outside the lines are clamped to the end values. A point between lines ``i``
     and ``i + 1`` is interpolated from those two lines alone, the phase step between them wrapped as
     :func:`numpy.unwrap` wraps it (the unwrapped phase of the whole FRF differs from it by a multiple of ``2 pi``
-    only); the lines' log magnitudes and phase steps are tabulated at the first evaluation between lines.
-    ``response`` is referenced, not copied: it must not be modified afterwards.
+    only); the lines' log frequencies, log magnitudes, angles and phase steps are tabulated in blocks of
+    :data:`TABLE_BLOCK` lines where points are asked for. ``response`` is referenced, not copied: it must not be
+    modified afterwards.
     """
     f = np.asarray(freq_hz, float)
     h = np.asarray(response, complex)
-    lf = np.log(f)
     shape = h.shape[:-1]
     h2 = h.reshape(-1, f.size)
+    n, ch = f.size, h2.shape[0]
     tables: dict = {}
+    state: dict = {"calls": 0, "stack": None}
 
     def wrapped(d: np.ndarray) -> np.ndarray:
         big = np.abs(d) >= np.pi  # np.unwrap's rule: only steps of at least pi are wrapped
@@ -338,23 +387,48 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
             d[big] = dm
         return d
 
+    def make(start: int, stop: int) -> np.ndarray:
+        # rows: log frequency, log magnitude of each channel, angle of each channel, wrapped angle step to the next
+        # line of each channel (0 after the block's last line)
+        hb = h2[:, start:stop]
+        out = np.zeros((1 + 3 * ch, stop - start))
+        out[0] = np.log(f[start:stop])
+        with np.errstate(divide="ignore"):
+            out[1:1 + ch] = np.log(np.maximum(np.abs(hb), 1e-300))
+        pa = out[1 + ch:1 + 2 * ch]
+        pa[...] = np.angle(hb)
+        out[1 + 2 * ch:, :-1] = wrapped(np.diff(pa, axis=-1))
+        return out
+
     def evaluate(fq: np.ndarray) -> np.ndarray:
         fq = np.asarray(fq, float)
         if fq.shape == f.shape and (fq is f or np.array_equal(fq, f)):
             return h.copy()
-        x = np.log(np.clip(fq, f[0], f[-1])).ravel()
-        i = np.clip(np.searchsorted(lf, x) - 1, 0, f.size - 2)
-        t = (x - lf[i]) / (lf[i + 1] - lf[i])
-        if "lm" not in tables:
-            # log magnitude, angle and wrapped angle steps of every line, once: every evaluation then reads the same
-            # tables, so a value never depends on what was asked before (numpy's vectorised log and angle can
-            # differ in the last bit between a whole array and a few gathered lines)
-            with np.errstate(divide="ignore"):
-                tables["lm"] = np.log(np.maximum(np.abs(h2), 1e-300))
-            tables["pa"] = np.angle(h2)
-            tables["dp"] = wrapped(np.diff(tables["pa"], axis=-1))
-        lm, pa, dp = tables["lm"], tables["pa"], tables["dp"]
-        la, lb, p0, d = lm[:, i], lm[:, i + 1], pa[:, i], dp[:, i]
+        fc = np.minimum(np.maximum(fq.ravel(), f[0]), f[-1])
+        x = np.log(fc)
+        # the interval of each point (by frequency: the log is monotonic); both its ends from the same block
+        i = np.searchsorted(f, fc) - 1
+        np.minimum(np.maximum(i, 0), n - 2, out=i)
+        state["calls"] += 1
+        if state["stack"] is None and state["calls"] > INTERPOLATION_TABLE_AFTER:
+            # asked often (a search): every block, stacked, read with one gather (the same blocks' values)
+            nb = (n - 2) // TABLE_BLOCK + 1
+            stack = np.zeros((nb, 1 + 3 * ch, TABLE_BLOCK + 1))
+            for k in range(nb):
+                blk = tables.get(k)
+                if blk is None:
+                    start = k * TABLE_BLOCK
+                    blk = make(start, min(start + TABLE_BLOCK + 1, n))
+                stack[k, :, :blk.shape[1]] = blk
+            tables.clear()
+            state["stack"] = stack
+        if state["stack"] is not None:
+            k, j = np.divmod(i, TABLE_BLOCK)
+            a, b = state["stack"][k, :, j].T, state["stack"][k, :, j + 1].T
+        else:
+            a, b = _blocks(tables, n, make, i, next_line=True)
+        t = (x - a[0]) / (b[0] - a[0])
+        la, lb, p0, d = a[1:1 + ch], b[1:1 + ch], a[1 + ch:1 + 2 * ch], a[1 + 2 * ch:]
         mag = np.exp(la + t * (lb - la))
         ph = p0 + t * d
         out = np.empty(mag.shape, complex)  # exp(m + j p) from the real exponential, cosine and sine (faster)
@@ -365,6 +439,7 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
         return out.reshape(*shape, fq.size)
 
     evaluate.fresh = True  # every call returns a new array
+    evaluate.lines = (f, h)  # the lines and the measured values on them (read only)
     return evaluate
 
 
@@ -378,7 +453,7 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
     ``20 log10(1 + sqrt((1 - gamma^2) / (2 gamma^2)))`` (one-average H1 error, Bendat and Piersol).
     """
     h = np.asarray(response, complex).reshape(-1, np.asarray(freq_hz).size)
-    db = _db_rows(h)
+    db = _by_blocks(_db_rows, h)
     n = db.shape[-1]
     out = np.zeros(n)
     if n >= 3:
@@ -390,13 +465,22 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
         med = np.vstack([median_filter(row, size=2 * half_window + 1, mode="nearest") for row in d2])
         out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
     if coherence is not None:
-        out = np.maximum(out, _coherence_floor_db(np.asarray(coherence, float).reshape(-1, n)))
+        out = np.maximum(out, _by_blocks(_coherence_floor_db, np.asarray(coherence, float).reshape(-1, n)))
     return out
 
 
+def _by_blocks(fn: Callable[[np.ndarray], np.ndarray], rows: np.ndarray) -> np.ndarray:
+    """``fn`` of the lines (last axis) of ``rows``, computed in blocks of :data:`NOISE_BLOCK` lines, the blocks
+    :class:`LineNoise` computes on demand (the whole-array and the per-line scatter read the same values, bit for
+    bit)."""
+    n = rows.shape[-1]
+    if n <= NOISE_BLOCK:
+        return fn(rows)
+    return np.concatenate([fn(rows[..., k:k + NOISE_BLOCK]) for k in range(0, n, NOISE_BLOCK)], axis=-1)
+
+
 def _db_rows(h: np.ndarray) -> np.ndarray:
-    """``20 log10 |h|`` of every line (rows x lines), computed on the whole array (one home: the whole-array and
-    the per-line scatter read the same values, bit for bit)."""
+    """``20 log10 |h|`` of every line (rows x lines)."""
     with np.errstate(divide="ignore"):
         return 20 * np.log10(np.maximum(np.abs(h), 1e-300))
 
@@ -435,8 +519,8 @@ class LineNoise:
         self._coherence = None if coherence is None else np.asarray(coherence, float).reshape(-1, self.freq_hz.size)
         self._half = int(half_window)
         self._full: np.ndarray | None = None
-        self._db: np.ndarray | None = None
-        self._coherence_db: np.ndarray | None = None
+        self._db: dict = {}  # blocks of the dB magnitude and of the coherence floor (:func:`_blocks`)
+        self._coherence_db: dict = {}
         self._asked = 0
 
     @property
@@ -459,6 +543,14 @@ class LineNoise:
             self._full.setflags(write=False)
         return self._full
 
+    def log_freq(self) -> np.ndarray:
+        """``log(freq_hz)`` of the lines (computed once; read only)."""
+        lf = self.__dict__.get("_log_freq")
+        if lf is None:
+            lf = self.__dict__["_log_freq"] = np.log(self.freq_hz)
+            lf.setflags(write=False)
+        return lf
+
     def __array__(self, dtype=None, copy=None):
         out = self.full()
         return out.astype(dtype) if dtype is not None and np.dtype(dtype) != out.dtype else out.copy()
@@ -471,24 +563,34 @@ class LineNoise:
             self.full()  # most of the lines, or asked often (a search): the whole array once
         if self._full is not None or idx.size == 0:
             return self.full()[idx] if idx.size else np.empty(0)
-        if self._db is None:  # the same dB and coherence values as the whole array's (bit for bit)
-            self._db = _db_rows(self._h)
-            self._coherence_db = None if self._coherence is None else _coherence_floor_db(self._coherence)
         n, hw = self.size, self._half
+        h = self._h
+
+        def db_at(lines: np.ndarray) -> np.ndarray:  # the same dB values as the whole array's (bit for bit)
+            return _blocks(self._db, n, lambda a, b: _db_rows(h[:, a:b]), lines, block=NOISE_BLOCK)[0]
+
         out = np.zeros(idx.shape)
         if n >= 3:
             # second differences d2[q] of the dB magnitude at the interior lines q + 1, padded with the edge values
             # (index p of the padded row is d2[clip(p - 1, 0, n - 3)]); median over the window, clamped at the ends
-            win = np.clip(idx[..., None] + np.arange(-hw, hw + 1), 0, n - 1)
-            q = np.clip(win - 1, 0, n - 3)
-            need = np.unique(q)
-            lines = np.unique(np.r_[need, need + 1, need + 2])
-            db = self._db[:, lines]
-            pos = np.searchsorted(lines, need)
-            d2 = np.abs(db[:, pos] - 2 * db[:, pos + 1] + db[:, pos + 2])  # rows x need
-            vals = d2[:, np.searchsorted(need, q)]  # rows x idx... x window
-            med = np.median(vals, axis=-1)
+            win = np.minimum(np.maximum(idx[..., None] + np.arange(-hw, hw + 1), 0), n - 1)
+            q = np.minimum(np.maximum(win - 1, 0), n - 3)
+            q_lo, q_hi = int(q.min()), int(q.max())
+            if q_hi - q_lo < 4 * q.size:  # the windows cover one stretch of lines: its second differences
+                db = db_at(np.arange(q_lo, q_hi + 3))
+                d2 = np.abs(db[:, :-2] - 2 * db[:, 1:-1] + db[:, 2:])  # rows x (q_lo .. q_hi)
+                vals = d2[:, q - q_lo]
+            else:
+                need = np.unique(q)
+                lines = np.unique(np.r_[need, need + 1, need + 2])
+                db = db_at(lines)
+                pos = np.searchsorted(lines, need)
+                d2 = np.abs(db[:, pos] - 2 * db[:, pos + 1] + db[:, pos + 2])  # rows x need
+                vals = d2[:, np.searchsorted(need, q)]  # rows x idx... x window
+            med = np.partition(vals, hw, axis=-1)[..., hw]  # the median of the 2 hw + 1 values (numpy.median's)
             out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
-        if self._coherence_db is not None:
-            out = np.maximum(out, self._coherence_db[idx])
+        if self._coherence is not None:
+            g = self._coherence
+            floor = _blocks(self._coherence_db, n, lambda a, b: _coherence_floor_db(g[:, a:b]), idx, block=NOISE_BLOCK)
+            out = np.maximum(out, floor[0])
         return out
