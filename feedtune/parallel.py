@@ -11,6 +11,10 @@ its own) runs serially unless it sets the variable. Serial also when fork is not
 default), with one usable core, inside a worker already, or with ``FEEDTUNE_JOBS=1``. An error in a worker is raised
 again in the caller; when the caller is interrupted its workers are terminated. Workers report no progress
 (:mod:`feedtune.progress`): the caller's step covers them.
+
+Two ways to share the work: :func:`run_groups` with groups fixed beforehand (:func:`plan` balances them by an
+expected cost), and :func:`run_queue`, where every process takes the next job from a shared queue as soon as it is
+free (the report's figures, whose costs are not known beforehand).
 """
 
 from __future__ import annotations
@@ -49,13 +53,18 @@ def _can_fork() -> bool:
     return hasattr(os, "fork") and sys.platform.startswith("linux") and not _IN_WORKER
 
 
-def run_groups(groups: Sequence[Sequence[tuple[str, Callable[[], object]]]]) -> dict[str, object]:
+def run_groups(groups: Sequence[Sequence[tuple[str, Callable[[], object]]]],
+               processes: int | None = None) -> dict[str, object]:
     """Run the named jobs of every group; each group in a process of its own (the first in the caller).
 
     Parameters
     ----------
     groups : sequence of sequence of (str, callable)
         Jobs as ``(name, fn)``; the jobs of one group run one after the other, the groups side by side.
+    processes : int, optional
+        Processes the caller allows (default :func:`usable_cores`, which is 1 unless ``FEEDTUNE_JOBS`` asks for
+        more); 1 runs every group here, one after the other. A caller that decided for itself (the report counts
+        the idle cores) passes its number.
 
     Returns
     -------
@@ -63,7 +72,8 @@ def run_groups(groups: Sequence[Sequence[tuple[str, Callable[[], object]]]]) -> 
         ``{name: fn()}`` over every job.
     """
     groups = [list(g) for g in groups if g]
-    if len(groups) <= 1 or usable_cores() <= 1 or not _can_fork():
+    allowed = usable_cores() if processes is None else processes
+    if len(groups) <= 1 or allowed <= 1 or not _can_fork():
         return {name: fn() for g in groups for name, fn in g}
     children: list[tuple[int, object]] = []  # (pid, pipe to read), until reaped
     results: dict[str, object] = {}
@@ -83,6 +93,72 @@ def run_groups(groups: Sequence[Sequence[tuple[str, Callable[[], object]]]]) -> 
         for pid, src in children:  # the caller failed or was interrupted: its workers are not needed any more
             _stop(pid, src)
     return results
+
+
+QUEUE_MAX_JOBS = 4096
+"""Most jobs :func:`run_queue` hands out through its pipe (4 bytes each, written before any worker starts: they
+must fit in the pipe's buffer, 64 KiB on Linux)."""
+
+
+def run_queue(jobs: Sequence[tuple[str, Callable[[], object]]], processes: int | None = None, *,
+              after_each: Callable[[str], None] | None = None) -> dict[str, object]:
+    """Run the named jobs on ``processes`` processes (this one and forked workers), each process taking the next
+    job not yet taken as soon as it is free: jobs of unequal cost end up evenly spread without a cost estimate.
+
+    The job numbers are written into a pipe before the workers are forked; every process reads one number (4
+    bytes: a read that small is atomic, no two processes get the same job) until the pipe is empty. Serially (one
+    process allowed, no fork) this process takes every job in order. Put the costliest jobs first where known:
+    the last job taken decides when the slowest process ends.
+
+    Parameters
+    ----------
+    jobs : sequence of (str, callable)
+        ``(name, fn)``; names unique.
+    processes : int, optional
+        Processes in all (default :func:`usable_cores`); see :func:`run_groups`.
+    after_each : callable, optional
+        Called with the job's name after each job done in this process (not in the workers): progress.
+
+    Returns
+    -------
+    dict
+        ``{name: fn()}`` over every job, in the order of ``jobs``.
+    """
+    import struct
+
+    jobs = list(jobs)
+    n = max(1, min(usable_cores() if processes is None else processes, len(jobs)))
+    if n <= 1 or not _can_fork():
+        out = {}
+        for name, fn in jobs:
+            out[name] = fn()
+            if after_each is not None:
+                after_each(name)
+        return out
+    if len(jobs) > QUEUE_MAX_JOBS:
+        raise ValueError(f"run_queue takes at most {QUEUE_MAX_JOBS} jobs in several processes, got {len(jobs)}")
+    me = os.getpid()
+    r, w = os.pipe()
+    try:
+        os.write(w, b"".join(struct.pack("<I", i) for i in range(len(jobs))))
+    finally:
+        os.close(w)  # before any fork: the workers see the end of the queue once it is empty
+
+    def take() -> dict[str, object]:
+        out = {}
+        while len(got := os.read(r, 4)) == 4:
+            name, fn = jobs[struct.unpack("<I", got)[0]]
+            out[name] = fn()
+            if after_each is not None and os.getpid() == me:
+                after_each(name)
+        return out
+
+    try:
+        parts = run_groups([[(f"queue {k}", take)] for k in range(n)], processes=n)
+    finally:
+        os.close(r)
+    done = {name: value for part in parts.values() for name, value in part.items()}
+    return {name: done[name] for name, _ in jobs}
 
 
 def plan(jobs: Sequence[tuple[str, Callable[[], object], float]], processes: int | None = None) -> list[list]:
@@ -135,9 +211,13 @@ def _silent():
     return reporting(None)
 
 
+class WorkerLostError(RuntimeError):
+    """A worker process ended without sending a result (killed, or out of memory)."""
+
+
 def _unpack(pid: int, data: bytes) -> dict:
     if not data:
-        raise RuntimeError(f"a worker process ({pid}) ended without a result")
+        raise WorkerLostError(f"a worker process ({pid}) ended without a result")
     status, value = pickle.loads(data)
     if status == "error":
         raise value

@@ -11,7 +11,7 @@ from feedtune.analysis.metrics import tracking_metrics
 from feedtune.log import Log
 from feedtune.report.build import build_report
 from feedtune.report.content import Paragraph
-from feedtune.report.html import render_pngs, split_work
+from feedtune.report.html import render_pngs
 from feedtune.report.sections import ReportLimits
 from feedtune.report.time_domain import (
     PEAK_FLOOR_RATIO,
@@ -106,18 +106,45 @@ def test_a_report_of_an_frf_alone_claims_no_stability(examples_dir):
     assert "no poor fit" not in text  # no model was given to judge a fit
 
 
-def test_the_figures_are_the_same_drawn_in_one_process_or_several(examples_dir, tmp_path):
+def test_the_figures_are_the_same_drawn_in_one_process_or_several(examples_dir, tmp_path, monkeypatch):
     pytest.importorskip("matplotlib")
-    rep = build_report([examples_dir / "ballscrew_frf.csv", examples_dir / "ballscrew_track.csv",
-                        examples_dir / "ballscrew_ropesnap.csv"], render=False)
+    import os
+
+    import feedtune.report.html as report_html
+
+    files = [examples_dir / "ballscrew_frf.csv", examples_dir / "ballscrew_track.csv",
+             examples_dir / "ballscrew_ropesnap.csv"]
+    rep = build_report(files, render=False)
     one = render_pngs(rep, processes=1)
-    again = build_report([examples_dir / "ballscrew_frf.csv", examples_dir / "ballscrew_track.csv",
-                          examples_dir / "ballscrew_ropesnap.csv"], render=False)
-    two = render_pngs(again, processes=2)
+    # every figure drawn exactly once, by whichever process took it: each draw appends "pid name" to a file
+    # (appends of one short line are atomic, the forked children inherit the patched function)
+    journal = tmp_path / "drawn.txt"
+    draw = report_html._draw
+
+    def logged(figure):
+        png = draw(figure)
+        with open(journal, "a") as fh:
+            fh.write(f"{os.getpid()} {figure.name}\n")
+        return png
+
+    monkeypatch.setattr(report_html, "_draw", logged)
+    monkeypatch.setenv("FEEDTUNE_REPORT_PROCESSES", "2")
+    two = render_pngs(build_report(files, render=False))
     assert list(one) == list(two) == [f.name for f in rep.figures()]
     assert all(one[k] == two[k] for k in one)  # byte-identical PNGs
-    chunks = split_work(list(range(7)), 3)
-    assert sorted(x for c in chunks for x in c) == list(range(7)) and len(chunks[0]) <= min(map(len, chunks[1:]))
+    entries = [line.split(" ", 1) for line in journal.read_text().splitlines()]
+    assert sorted(name for _, name in entries) == sorted(one)  # each once, none lost
+    # a child that dies (killed, out of memory) leaves its figures to this process
+    parent = os.getpid()
+
+    def dying(figure):
+        if os.getpid() != parent:
+            os._exit(1)
+        return draw(figure)
+
+    monkeypatch.setattr(report_html, "_draw", dying)
+    three = render_pngs(build_report(files, render=False))
+    assert list(three) == list(one) and all(one[k] == three[k] for k in one)
 
 
 def test_friction_curve_documents_are_listed_under_inputs(tmp_path):

@@ -12,6 +12,8 @@ import base64
 import datetime as _dt
 import html
 import json
+from contextlib import contextmanager
+from functools import partial
 
 from .content import Alert, Cell, FigureBlock, Paragraph, Report, Section, Table
 from .figures import figure_png
@@ -176,7 +178,8 @@ def render_processes(n_figures: int) -> int:
 
 
 def _warm_up() -> None:
-    """Draw a tiny figure with text (loads the fonts and the Agg backend, about 0.3 s the first time)."""
+    """Draw a tiny figure with text (imports matplotlib, loads the fonts and the Agg backend: about 0.3 s the first
+    time, a few ms after)."""
     from .figures import new_figure
 
     fig, axes = new_figure(1, height=0.8, width=2.0)
@@ -184,96 +187,57 @@ def _warm_up() -> None:
     figure_png(fig)
 
 
-def _draw(figures, advance=None) -> dict[str, bytes]:
-    """PNG bytes of ``figures`` by name; ``advance()`` after each (progress of this process only: a forked child
-    never calls it, so no lock of the parent's progress display is taken in a child)."""
-    out = {}
-    for f in figures:
-        out[f.name] = figure_png(f.figure)
-        if advance is not None:
-            advance()
-    return out
+@contextmanager
+def _gc_paused():
+    """Python's cycle collector paused inside the block (restored after).
+
+    Drawing a figure allocates tens of thousands of container objects (artists, transforms, paths); the collector
+    runs every few hundred of them and its full passes walk every object of the process (the report's data
+    included): a sixth of the drawing time. Paused, the figures' garbage is collected once, later."""
+    import gc
+
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
 
 
-def _draw_in_children(chunks: list) -> list:
-    """Fork one child per chunk; each draws its figures and sends the PNGs back through a pipe.
-
-    Returns ``[(pid, read_fd, chunk)]``; a child that fails leaves its chunk to the parent."""
-    import os
-    import pickle
-
-    children = []
-    for chunk in chunks:
-        r, w = os.pipe()
-        pid = os.fork()
-        if pid == 0:  # child: draw, send, leave without running the parent's cleanup
-            code = 1
-            try:
-                os.close(r)
-                data = pickle.dumps(_draw(chunk), protocol=pickle.HIGHEST_PROTOCOL)
-                with os.fdopen(w, "wb") as fh:
-                    fh.write(data)
-                code = 0
-            finally:
-                os._exit(code)
-        os.close(w)
-        children.append((pid, r, chunk))
-    return children
-
-
-PARENT_SHARE = 0.6
-"""Figures drawn in this process relative to a child's: it also reads the replies and runs before and after."""
-
-
-def split_work(items: list, n: int) -> list[list]:
-    """``items`` dealt in order to ``n`` chunks, the first (this process) taking :data:`PARENT_SHARE` of a child's
-    share: heavy and light figures alternate in the report, so dealing in order spreads them.
-
-    Examples
-    --------
-    >>> [len(c) for c in split_work(list(range(14)), 2)]
-    [5, 9]
-    """
-    weights = [PARENT_SHARE] + [1.0] * (n - 1)
-    chunks: list[list] = [[] for _ in range(n)]
-    for item in items:
-        k = min(range(n), key=lambda j: (len(chunks[j]) + 1) / weights[j])
-        chunks[k].append(item)
-    return chunks
+def _draw(figure: FigureBlock) -> bytes:
+    return figure_png(figure.figure)
 
 
 def render_pngs(report: Report, processes: int | None = None) -> dict[str, bytes]:
     """Every figure of the report drawn once, as PNG bytes by figure name (the HTML and the PDF use them).
 
-    The figures are built and drawn here (a :class:`FigureBlock` may hold a callable that draws its figure),
-    split over ``processes`` processes (default :func:`render_processes`; forked children send the PNG bytes back,
-    and any figure a child fails to deliver is drawn here). Figure names are unique within a report (they are also
-    the HTML ids ``fig-NAME``)."""
-    import os
-    import pickle
+    The figures are built and drawn here (a :class:`FigureBlock` may hold a callable that draws its figure), on
+    ``processes`` processes (default :func:`render_processes`): this one and forked children, each taking the next
+    figure not yet taken as soon as it is free (:func:`feedtune.parallel.run_queue`), so that the work is evenly
+    spread whatever each figure costs; the children send the PNG bytes back. The images do not depend on the
+    process that drew them. Figure names are unique within a report (they are also the HTML ids ``fig-NAME``)."""
+    from .. import progress
+    from ..parallel import WorkerLostError, run_queue
 
     figures = report.figures()
     if len({f.name for f in figures}) != len(figures):
         raise ValueError("internal error: two report figures share a name")
-    from .. import progress
-
     n = render_processes(len(figures)) if processes is None else max(1, int(processes))
-    if n <= 1 or len(figures) < 2:
-        with progress.task("figures", total=len(figures)) as advance:
-            return _draw(figures, advance)
-    chunks = split_work(figures, n)
-    _warm_up()  # fonts and the Agg backend loaded once, before the children are forked
-    children = _draw_in_children(chunks[1:])
-    with progress.task(f"figures drawn here ({len(figures) - len(chunks[0])} more in {n - 1} other process)",
-                       total=len(chunks[0])) as advance:
-        out = _draw(chunks[0], advance)
-    for pid, r, chunk in children:
-        with os.fdopen(r, "rb") as fh:
-            data = fh.read()
-        _, status = os.waitpid(pid, 0)
-        got = pickle.loads(data) if status == 0 and data else {}
-        out.update(got if set(got) == {f.name for f in chunk} else _draw(chunk))
-    return {f.name: out[f.name] for f in figures}
+    n = min(n, len(figures))
+    label = "figures" if n <= 1 else f"figures ({n} processes)"
+    with progress.task(label, total=len(figures)) as advance, _gc_paused():
+        if n > 1:
+            _warm_up()  # fonts and the Agg backend loaded once, before the children are forked (quick if done)
+        jobs = [(f.name, partial(_draw, f)) for f in figures]
+        drawn_here: list[str] = []
+        try:
+            pngs = run_queue(jobs, processes=n, after_each=lambda name: (drawn_here.append(name), advance()))
+        except WorkerLostError:  # a child was killed (rare): every figure drawn here
+            pngs = run_queue(jobs, processes=1)
+        if len(figures) > len(drawn_here):
+            advance(len(figures) - len(drawn_here))  # the children's
+    return {f.name: pngs[f.name] for f in figures}
 
 
 def render_html(report: Report, *, created: str | None = None, pngs: dict[str, bytes] | None = None) -> str:
