@@ -291,3 +291,17 @@ def test_ppi_tuning_on_a_band_limited_frf_does_not_depend_on_its_lowest_line():
     for name in ("Kpx", "Kpv", "Kiv"):
         assert found[10.0][name] == pytest.approx(found[2.0][name], rel=0.01), name
         assert found[40.0][name] == pytest.approx(found[2.0][name], rel=0.01), name
+
+
+def test_the_indentation_arc_turn_in_closed_form_equals_a_dense_sampling():
+    """``arc_phase_change`` (closed form) against the phase of ``1 + r e^{j theta}`` sampled at 200,001 points and
+    unwrapped, for radii from 1e-3 to 1e3 (0.999 and 1.001 included) and turns of up to two revolutions either way."""
+    from feedtune.analysis.loop import arc_phase_change
+
+    rng = np.random.default_rng(11)
+    t = np.linspace(0.0, 1.0, 200_001)
+    radii = [*10 ** rng.uniform(-3, 3, 300), 0.999, 1.001]
+    for r in radii:
+        theta0, turn = rng.uniform(-np.pi, np.pi), rng.uniform(-4 * np.pi, 4 * np.pi)
+        ph = np.unwrap(np.angle(1.0 + r * np.exp(1j * (theta0 + turn * t))))
+        assert arc_phase_change(r, theta0, turn) == pytest.approx(ph[-1] - ph[0], abs=1e-9), (r, theta0, turn)

@@ -288,9 +288,7 @@ def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: float) -> f
     phi0 = float(np.angle(L0))
     k = np.round((-integrators * np.pi - 2 * phi0) / (2 * np.pi))
     turn = 2 * phi0 + 2 * np.pi * k
-    arc = 1.0 + np.abs(L0) * np.exp(1j * (-phi0 + turn * np.linspace(0.0, 1.0, 721)))
-    arc_ph = np.unwrap(np.angle(arc))
-    arc_change = arc_ph[-1] - arc_ph[0]
+    arc_change = arc_phase_change(abs(L0), -phi0, turn)
     # above the grid: when |L| < 1 at its top, the loop is taken to roll off to 0 without reaching |L| = 1 again
     # (what the band_top limit checks), so 1 + L returns to 1 inside the disk |1 + L - 1| < 1, whose points all
     # have a positive real part: that return adds exactly -angle(1 + L_top). A loop closed at fs / 2 ends on
@@ -300,6 +298,32 @@ def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: float) -> f
     # negative frequencies: conjugate branch from -inf to -0 has the same phase change as 0 -> +inf
     total = 2 * along + arc_change
     return total / (2 * np.pi)
+
+
+def arc_phase_change(r: float, theta0: float, turn: float) -> float:
+    """Change of ``angle(1 + r exp(j theta))`` [rad] while ``theta`` goes linearly from ``theta0`` to
+    ``theta0 + turn`` (the indentation arc of :func:`nyquist_winding`), in closed form.
+
+    For ``r < 1`` the point stays in the right half-plane: the change is the difference of the principal angles at
+    the ends. For ``r > 1``, ``1 + r e^{j theta} = r e^{j theta} (1 + e^{-j theta} / r)`` and the second factor
+    stays in the right half-plane: the change is ``turn`` plus the difference of its principal angles. At ``r = 1``
+    the arc may pass through 0; it is then sampled (721 points) and unwrapped.
+
+    Examples
+    --------
+    >>> round(arc_phase_change(2.0, 0.0, 2 * np.pi) / (2 * np.pi), 12)  # once around: 1 + 2 e^{j t} encircles 0
+    1.0
+    >>> round(arc_phase_change(0.5, 0.0, 2 * np.pi), 12)  # 1 + 0.5 e^{j t} does not
+    0.0
+    """
+    theta1 = theta0 + turn
+    if r < 1.0:
+        return float(np.angle(1.0 + r * np.exp(1j * theta1)) - np.angle(1.0 + r * np.exp(1j * theta0)))
+    if r > 1.0:
+        return float(turn + np.angle(1.0 + np.exp(-1j * theta1) / r) - np.angle(1.0 + np.exp(-1j * theta0) / r))
+    arc = 1.0 + r * np.exp(1j * (theta0 + turn * np.linspace(0.0, 1.0, 721)))
+    ph = np.unwrap(np.angle(arc))
+    return float(ph[-1] - ph[0])
 
 
 def contour_warnings(freq_hz: np.ndarray, slope: float, magnitude_low: float, integrators: int | None,
