@@ -293,15 +293,22 @@ def test_ppi_tuning_on_a_band_limited_frf_does_not_depend_on_its_lowest_line():
         assert found[40.0][name] == pytest.approx(found[2.0][name], rel=0.01), name
 
 
-def test_the_indentation_arc_turn_in_closed_form_equals_a_dense_sampling():
-    """``arc_phase_change`` (closed form) against the phase of ``1 + r e^{j theta}`` sampled at 200,001 points and
-    unwrapped, for radii from 1e-3 to 1e3 (0.999 and 1.001 included) and turns of up to two revolutions either way."""
-    from feedtune.analysis.loop import arc_phase_change
+def test_the_winding_number_in_closed_form_equals_a_dense_unwrap():
+    """``nyquist_winding`` (grid: ends plus unwrap corrections at real-axis crossings; arc: closed form) against the
+    phase of ``1 + L`` unwrapped on the grid and on the arc sampled at 200,001 points, for random loops with 0, 1
+    and 2 integrators, arc radii from 1e-3 to 1e3 (0.999 and 1.001 included)."""
+    from feedtune.analysis.loop import nyquist_winding
 
     rng = np.random.default_rng(11)
     t = np.linspace(0.0, 1.0, 200_001)
-    radii = [*10 ** rng.uniform(-3, 3, 300), 0.999, 1.001]
-    for r in radii:
-        theta0, turn = rng.uniform(-np.pi, np.pi), rng.uniform(-4 * np.pi, 4 * np.pi)
-        ph = np.unwrap(np.angle(1.0 + r * np.exp(1j * (theta0 + turn * t))))
-        assert arc_phase_change(r, theta0, turn) == pytest.approx(ph[-1] - ph[0], abs=1e-9), (r, theta0, turn)
+    f = np.geomspace(1.0, 1000.0, 400)
+    for n, r0 in [(n, r0) for n in (0, 1, 2) for r0 in (*10 ** rng.uniform(-3, 3, 40), 0.999, 1.001)]:
+        phase = -n * np.pi / 2 + np.cumsum(rng.normal(0, 0.15, f.size))
+        L = r0 * np.exp(1j * phase) * (f / f[0]) ** -rng.uniform(0, 2)
+        ph = np.unwrap(np.angle(1.0 + L))
+        along = ph[-1] - ph[0] - (np.angle(1.0 + L[-1]) if abs(L[-1]) < 1 else 0.0)
+        phi0 = np.angle(L[0])
+        turn = 2 * phi0 + 2 * np.pi * np.round((-n * np.pi - 2 * phi0) / (2 * np.pi))
+        arc = np.unwrap(np.angle(1.0 + abs(L[0]) * np.exp(1j * (-phi0 + turn * t))))
+        want = (2 * along + arc[-1] - arc[0]) / (2 * np.pi)
+        assert nyquist_winding(f, L, n) == pytest.approx(want, abs=1e-9), (n, r0)

@@ -278,52 +278,64 @@ def nyquist_winding(freq_hz: np.ndarray, L: np.ndarray, integrators: float) -> f
     ``L`` is any response that behaves like ``c / s^integrators`` on the indentation arc of radius
     ``2 pi freq_hz[0]`` (``integrators`` may be a fitted, non-integer slope: the turn that closes the curve
     nearest to it is used). The MIMO criterion counts ``det(I + L) = 1 + (det(I + L) - 1)`` with it.
+
+    Along the grid (0+ to +inf) the change of the angle of ``1 + L`` is what unwrapping its phase adds up: the
+    change between the ends plus ``np.unwrap``'s corrections, which only steps whose ends lie on either side of the
+    real axis can need (elsewhere both angles lie in one closed half plane), so only those steps are looked at.
+    Above the grid: when ``|L| < 1`` at its top, the loop is taken to roll off to 0 without reaching ``|L| = 1``
+    again (what the band_top limit checks), so ``1 + L`` returns to 1 inside the disk ``|1 + L - 1| < 1``, whose
+    points all have a positive real part: that return adds exactly ``-angle(1 + L_top)`` (0 for a loop closed at
+    ``fs / 2``, which ends on the real axis). The negative frequencies (the conjugate branch) add the same change
+    again, and the indentation arc around ``s = 0`` (``z = 1``) its own (:func:`arc_phase_change`).
     """
-    one_plus = 1.0 + L
-    ph = np.unwrap(np.angle(one_plus))
-    along = ph[-1] - ph[0]  # 0+ -> +inf
-    # indentation arc around s = 0 (z = 1) through the unstable region: L turns clockwise by about n*pi from
-    # L(-j w0) = conj(L0) to L(+j w0) = L0; the exact turn is the one of that size closing the curve
-    L0 = L[0]
-    phi0 = float(np.angle(L0))
-    k = np.round((-integrators * np.pi - 2 * phi0) / (2 * np.pi))
-    turn = 2 * phi0 + 2 * np.pi * k
-    arc_change = arc_phase_change(abs(L0), -phi0, turn)
-    # above the grid: when |L| < 1 at its top, the loop is taken to roll off to 0 without reaching |L| = 1 again
-    # (what the band_top limit checks), so 1 + L returns to 1 inside the disk |1 + L - 1| < 1, whose points all
-    # have a positive real part: that return adds exactly -angle(1 + L_top). A loop closed at fs / 2 ends on
-    # the real axis, where this is 0.
+    L = np.asarray(L)
+    y = np.signbit(L.imag)
+    idx = np.flatnonzero(y[:-1] != y[1:])
+    one_plus = 1.0 + L[np.concatenate([[0], idx, idx + 1, [L.size - 1]])]
+    ph = np.angle(one_plus)
+    along = float(ph[-1] - ph[0])
+    if idx.size:
+        d = ph[1 + idx.size:1 + 2 * idx.size] - ph[1:1 + idx.size]
+        jump = np.abs(d) >= np.pi  # where np.unwrap corrects
+        if jump.any():
+            d = d[jump]
+            dm = np.mod(d + np.pi, 2 * np.pi) - np.pi
+            dm[(dm == -np.pi) & (d > 0)] = np.pi
+            along += float(np.sum(dm - d))
     if abs(L[-1]) < 1:
-        along = along - float(np.angle(one_plus[-1]))
-    # negative frequencies: conjugate branch from -inf to -0 has the same phase change as 0 -> +inf
-    total = 2 * along + arc_change
-    return total / (2 * np.pi)
+        along -= float(np.angle(1.0 + L[-1]))
+    return (2 * along + arc_phase_change(complex(L[0]), integrators)) / (2 * np.pi)
 
 
-def arc_phase_change(r: float, theta0: float, turn: float) -> float:
-    """Change of ``angle(1 + r exp(j theta))`` [rad] while ``theta`` goes linearly from ``theta0`` to
-    ``theta0 + turn`` (the indentation arc of :func:`nyquist_winding`), in closed form.
+def arc_phase_change(L0: complex, integrators: float) -> float:
+    """Change of the angle of ``1 + L`` [rad] along the indentation arc of :func:`nyquist_winding`, in closed form.
 
-    For ``r < 1`` the point stays in the right half-plane: the change is the difference of the principal angles at
-    the ends. For ``r > 1``, ``1 + r e^{j theta} = r e^{j theta} (1 + e^{-j theta} / r)`` and the second factor
-    stays in the right half-plane: the change is ``turn`` plus the difference of its principal angles. At ``r = 1``
-    the arc may pass through 0; it is then sampled (721 points) and unwrapped.
+    ``L`` turns clockwise by about ``integrators * pi`` from ``L(-j w0) = conj(L0)`` to ``L(+j w0) = L0``; the
+    exact turn is the one of that size closing the curve. On the arc ``1 + L`` runs on the circle of radius
+    ``r = |L0|`` around 1 from angle ``-phi0`` through ``turn``: for ``r < 1`` the angle of ``1 + r e^(j phi)``
+    stays within 90 deg of 0, for ``r > 1`` that of ``r + e^(-j phi)`` does, so the change is the difference of
+    principal values (plus the turn itself for ``r > 1``). At ``r = 1`` the arc may pass through 0; it is then
+    sampled (721 points) and unwrapped.
 
     Examples
     --------
-    >>> round(arc_phase_change(2.0, 0.0, 2 * np.pi) / (2 * np.pi), 12)  # once around: 1 + 2 e^{j t} encircles 0
-    1.0
-    >>> round(arc_phase_change(0.5, 0.0, 2 * np.pi), 12)  # 1 + 0.5 e^{j t} does not
+    >>> round(arc_phase_change(-2.0 + 0j, 2) / (2 * np.pi), 12)  # 1 + L encircles 0 once on the arc
+    -1.0
+    >>> abs(round(arc_phase_change(-0.5 + 0j, 2), 12))  # r < 1: it does not
     0.0
     """
-    theta1 = theta0 + turn
-    if r < 1.0:
-        return float(np.angle(1.0 + r * np.exp(1j * theta1)) - np.angle(1.0 + r * np.exp(1j * theta0)))
-    if r > 1.0:
-        return float(turn + np.angle(1.0 + np.exp(-1j * theta1) / r) - np.angle(1.0 + np.exp(-1j * theta0) / r))
-    arc = 1.0 + r * np.exp(1j * (theta0 + turn * np.linspace(0.0, 1.0, 721)))
-    ph = np.unwrap(np.angle(arc))
-    return float(ph[-1] - ph[0])
+    r = abs(L0)
+    phi0 = float(np.angle(L0))
+    k = np.round((-integrators * np.pi - 2 * phi0) / (2 * np.pi))
+    turn = 2 * phi0 + 2 * np.pi * k
+    a, b = -phi0, -phi0 + turn
+    if r < 1:
+        return float(np.angle(1 + r * np.exp(1j * b)) - np.angle(1 + r * np.exp(1j * a)))
+    if r > 1:
+        return float(turn + np.angle(r + np.exp(-1j * b)) - np.angle(r + np.exp(-1j * a)))
+    arc = 1.0 + r * np.exp(1j * (a + turn * np.linspace(0.0, 1.0, 721)))  # through 0: as sampled
+    arc_ph = np.unwrap(np.angle(arc))
+    return float(arc_ph[-1] - arc_ph[0])
 
 
 def contour_warnings(freq_hz: np.ndarray, slope: float, magnitude_low: float, integrators: int | None,
@@ -941,51 +953,6 @@ def _prune_bands(bands: list, f: np.ndarray, L: np.ndarray, noise: _ContourNoise
     return out
 
 
-def _winding(q: _Contour, integrators: float) -> float:
-    """:func:`nyquist_winding` on the contour without an arctangent over all of it: the unwrapped change of the angle of
-    ``1 + L`` is the change between its ends plus ``np.unwrap``'s corrections, which only intervals whose ends lie on
-    either side of the real axis can need (elsewhere both angles lie in one closed half plane)."""
-    L = q.L
-    y = np.signbit(L.imag)
-    idx = np.flatnonzero(y[:-1] != y[1:])
-    one_plus = 1.0 + L[np.concatenate([[0], idx, idx + 1, [L.size - 1]])]
-    ph = np.angle(one_plus)
-    along = float(ph[-1] - ph[0])
-    if idx.size:
-        d = ph[1 + idx.size:1 + 2 * idx.size] - ph[1:1 + idx.size]
-        jump = np.abs(d) >= np.pi  # where np.unwrap corrects
-        if jump.any():
-            d = d[jump]
-            dm = np.mod(d + np.pi, 2 * np.pi) - np.pi
-            dm[(dm == -np.pi) & (d > 0)] = np.pi
-            along += float(np.sum(dm - d))
-    if abs(L[-1]) < 1:
-        along -= float(np.angle(1.0 + L[-1]))
-    return (2 * along + _arc_change(complex(L[0]), integrators)) / (2 * np.pi)
-
-
-def _arc_change(L0: complex, integrators: float) -> float:
-    """Change of the angle of ``1 + L`` [rad] along the indentation arc of :func:`nyquist_winding`.
-
-    On the arc ``1 + L`` runs on the circle of radius ``r = |L0|`` around 1 from angle ``-phi0`` through ``turn``:
-    for ``r < 1`` the angle of ``1 + r e^(j phi)`` stays within 90 deg of 0, for ``r > 1`` that of
-    ``r + e^(-j phi)`` does, so the change is the difference of principal values (plus the turn itself for
-    ``r > 1``); exactly what the 721-point unwrapped arc of :func:`nyquist_winding` gives, without sampling it.
-    """
-    r = abs(L0)
-    phi0 = float(np.angle(L0))
-    k = np.round((-integrators * np.pi - 2 * phi0) / (2 * np.pi))
-    turn = 2 * phi0 + 2 * np.pi * k
-    a, b = -phi0, -phi0 + turn
-    if r < 1:
-        return float(np.angle(1 + r * np.exp(1j * b)) - np.angle(1 + r * np.exp(1j * a)))
-    if r > 1:
-        return float(turn + np.angle(r + np.exp(-1j * b)) - np.angle(r + np.exp(-1j * a)))
-    arc = 1.0 + r * np.exp(1j * (a + turn * np.linspace(0.0, 1.0, 721)))  # through 0: as sampled
-    arc_ph = np.unwrap(np.angle(arc))
-    return float(arc_ph[-1] - arc_ph[0])
-
-
 def _loop_analysis(c: LoopCase):
     """Generator computing :class:`LoopMetrics` of one loop: yields ``("resolve", f)`` while it resolves the
     contour and ``("refine", f)`` in each joint refinement round, and is sent ``L`` at ``f`` [Hz]."""
@@ -1030,7 +997,7 @@ def _loop_analysis(c: LoopCase):
                      "extend the frequency grid for a valid Nyquist count")
     if extension is not None:
         later += extension.warnings(g.ms_grid, g.ms_below)
-    winding = _winding(q, g.n_int)
+    winding = nyquist_winding(q.f, q.L, g.n_int)
     f_low, n_points = float(q.f[0]), int(q.f.size)
     noise = None if c.noise_db is None else _ContourNoise(c.noise_db, q.f, f0, g.first)
 
