@@ -27,7 +27,9 @@ controller's integrators. The figures other than stability are those of the grid
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -40,11 +42,93 @@ from ..lti import delay_response, zoh_double_integrator, zoh_response
 from ..models.gantry import GantryModel
 from .cases import CASES as CASES  # re-exported: the case names
 from .cases import PlantCase, measured_cases, model_cases
-from .loop import LoopExtension, LoopMetrics, analyze_loop, model_extension
-from .mimo import MimoMetrics, analyze_mimo, com_loop, level_bands, matmul, matvec, sensitivity, singular_values
+from .loop import (
+    EXTENSION_LOW_HZ,
+    LoopExtension,
+    LoopMetrics,
+    analyze_loop,
+    extension_grid,
+    junction_scale,
+    model_extension,
+    scalar_loops,
+)
+from .mimo import (
+    MimoMetrics,
+    analyze_mimo,
+    com_loop,
+    level_bands,
+    matmul,
+    matvec,
+    resolve_rounds,
+    sensitivity,
+    singular_values,
+)
 from .resolution import lightly_damped
 
 GANTRY_CHANNELS = (("y1/u1", "y1/u2"), ("y2/u1", "y2/u2"))
+
+
+# ------------------------------------------------------------------------------------ plant-case parts
+_PARTS: dict[int, tuple] = {}
+
+
+def _case_parts(pc: PlantCase) -> dict:
+    """What the analyses of many controllers on one plant case share and keep (a search analyses hundreds): the
+    plant with its hold on the base grid, at the last line and on the extension's grid below it, each computed once
+    by the code that would compute it for every analysis (the same values: nothing depends on what was asked
+    before). Kept while the plant case lives."""
+    key = id(pc)
+    hit = _PARTS.get(key)
+    if hit is not None and hit[0]() is pc:
+        return hit[1]
+    parts: dict = {}
+    _PARTS[key] = (weakref.ref(pc, lambda _, key=key: _PARTS.pop(key, None)), parts)
+    return parts
+
+
+def _grid_plant(pc: PlantCase) -> tuple[np.ndarray, np.ndarray]:
+    """``(G, G H)`` on the plant case's base grid (kept; not to be modified)."""
+    parts = _case_parts(pc)
+    if "grid" not in parts:
+        f = pc.freq_hz
+        G = pc.plant(f)
+        parts["grid"] = (G, G * pc.hold(f))
+    return parts["grid"]
+
+
+def plant_at_top(pc: PlantCase) -> np.ndarray:
+    """The plant with its hold at the case's last line (kept): what the tuners' band-top rule multiplies the
+    controller by."""
+    parts = _case_parts(pc)
+    if "top" not in parts:
+        top = pc.freq_hz[-1:]
+        parts["top"] = pc.plant(top) * pc.hold(top)
+    return parts["top"]
+
+
+def _extension(pc: PlantCase, G: np.ndarray, controller_loop) -> LoopExtension | None:
+    """:func:`~feedtune.analysis.loop.model_extension` of the case with the loop ``controller_loop(f, g h)`` (the
+    controller applied to the plant with its hold): the junction factor and the scaled model with its hold on the
+    extension's grid depend on the plant case alone and are kept."""
+    parts = _case_parts(pc)
+    if "extension" not in parts:
+        f = pc.freq_hz
+        f_ext = extension_grid(float(f[0]), EXTENSION_LOW_HZ)
+        if f_ext.size == 0:
+            parts["extension"] = None
+        else:
+            sel = f <= f[0] * 2.0
+            scale, band = junction_scale(f[sel], np.asarray(G)[..., sel], pc.model_plant(f[sel]))
+            parts["extension"] = (f_ext, scale, band, scale * pc.model_plant(f_ext) * pc.hold(f_ext))
+    if parts["extension"] is None:
+        return None
+    f_ext, scale, band, gh_ext = parts["extension"]
+
+    def evaluate(fe):
+        return controller_loop(fe, scale * pc.model_plant(fe) * pc.hold(fe))
+
+    fr, L = resolve_rounds(f_ext, evaluate, scalar_loops, known=controller_loop(f_ext, gh_ext))
+    return LoopExtension(fr, L, scale, band, evaluate)
 
 
 def default_grid(fs: float, n: int = 4000) -> np.ndarray:
@@ -179,33 +263,38 @@ def analyze_gantry_case(law, pc: PlantCase, weights, reference: GantryReference 
         For the tracking curves (None: no tracking curves, for searches).
     integrators : int, optional
         Open-loop poles at the origin; default ``2 + law.integrators`` (rigid body and integrating channels).
-    figures : {"all", "limits"}
-        ``"limits"``: only the figures the limits policy reads (:func:`~feedtune.analysis.mimo.analyze_mimo`), for
-        the candidates of a search.
+    figures : {"all", "limits", "stability"}
+        ``"limits"``: only the figures the limits policy reads, ``"stability"`` only the Nyquist count
+        (:func:`~feedtune.analysis.mimo.analyze_mimo`), for the candidates of a search; without a ``reference``
+        the case then holds no ``S`` and ``SG`` (None), and its ``G`` and ``G_open`` are the plant case's own
+        (kept for the next candidate: not to be modified).
     disk_margin : bool
         With ``figures="limits"``: also the disk margin.
     """
     f = pc.freq_hz
-    K = law.response_discrete if pc.discrete else law.response
     n_int = 2 + law.integrators if integrators is None else int(integrators)
-    G = pc.plant(f)
-    H = pc.hold(f)
-    Ge = G * H
-    Kf = K(f)
-    L = matmul(Ge, Kf)
-    S = sensitivity(L)
+    G, Ge = _grid_plant(pc)
+    if figures == "all":  # returned to the caller
+        G, Ge = G.copy(), Ge.copy()
+    K = law.response_discrete if pc.discrete else law.response
 
     def evaluate(fr):
         return matmul(pc.plant(fr) * pc.hold(fr), K(fr))
 
-    def ext_loop(fr, g):
-        return matmul(g * pc.hold(fr), K(fr))
+    Kf = K(f)
+    L = matmul(Ge, Kf)
 
-    extension = model_extension(f, G, pc.model_plant, ext_loop)
+    def controller_loop(fr, gh):
+        return matmul(gh, K(fr))
+
+    extension = _extension(pc, G, controller_loop)
     feats = np.vstack([pc.features, law_features(law, pc.discrete)])
     metrics = analyze_mimo(f, L, evaluate=evaluate, features=feats, weights=weights, integrators=n_int,
                            open_loop_rhp_poles=law.rhp_poles(pc.discrete), extension=extension, noise_db=pc.noise_db,
                            measured=pc.measured, figures=figures, disk_margin=disk_margin)
+    if reference is None and figures != "all":  # a search's candidate: the figures alone
+        return GantryCase(pc.name, f, Ge, L, None, None, G, None, None, tuple(weights), metrics)
+    S = sensitivity(L)
     SG = matmul(S, G)
     if reference is None:
         return GantryCase(pc.name, f, Ge, L, S, SG, G, None, None, tuple(weights), metrics)
@@ -240,12 +329,18 @@ def gantry_extension(f, G, model: GantryModel, x: float, controller, fs: float |
 
 
 def law_features(law, discrete: bool) -> np.ndarray:
-    """Lightly damped poles and zeros (Hz, damping) of a gantry law's filter pack."""
+    """Lightly damped poles and zeros (Hz, damping) of a gantry law's filter pack (found once per pack and rate: the
+    laws of a search share one pack)."""
+    return _pack_features(law.filters, float(law.fs), bool(discrete)).copy()
+
+
+@lru_cache(maxsize=32)
+def _pack_features(pack, fs: float, discrete: bool) -> np.ndarray:
     from ..control.discretize import matched
 
-    h = law.filters.zpk()
+    h = pack.zpk()
     if discrete:
-        h = matched(h, law.fs).tf
+        h = matched(h, fs).tf
     return np.vstack([lightly_damped(h.poles, h.dt), lightly_damped(h.zeros, h.dt)])
 
 
@@ -261,8 +356,10 @@ def gantry_plant_cases(model: GantryModel, x: float, fs: float, delay_samples: f
     ``(2, 2, n)`` [m/V]; ``measured``/``discrete`` None without an FRF."""
     f = default_grid(fs) if freq_hz is None else np.asarray(freq_hz, float)
 
+    at_x = model.at(x)  # the model at the position, made once (the extension evaluates it for every candidate)
+
     def model_plant(fr):
-        return model.frequency_response(fr, x)
+        return at_x.frequency_response(fr)
 
     zoh_model = _zoh_gantry_fn(model, x, fs)
     cases: dict[str, PlantCase | None] = dict(model_cases(f, fs, delay_samples, model_plant=model_plant,
@@ -371,18 +468,18 @@ def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisC
     C = design.controller_discrete() if pc.discrete else design.controller()
     rhp = int(np.sum(np.abs(C.poles) > 1 + 1e-9)) if pc.discrete else int(np.sum(C.poles.real > 1e-9))
     f = pc.freq_hz
-    G, H = pc.plant(f), pc.hold(f)
+    G, GH = _grid_plant(pc)
     Cf = C.freqresp(f)
-    L = G * H * Cf
+    L = GH * Cf
     S = 1.0 / (1.0 + L)
 
     def evaluate(fr):
         return pc.plant(fr) * pc.hold(fr) * C.freqresp(fr)
 
-    def ext_loop(fe, g):
-        return g * pc.hold(fe) * C.freqresp(fe)
+    def controller_loop(fe, gh):
+        return gh * C.freqresp(fe)
 
-    extension = model_extension(f, G, pc.model_plant, ext_loop)
+    extension = _extension(pc, G, controller_loop)
     feats = np.vstack([pc.features, lightly_damped(C.poles, C.dt), lightly_damped(C.zeros, C.dt)])
     metrics = analyze_loop(f, L, evaluate=evaluate, features=feats, open_loop_rhp_poles=rhp, extension=extension,
                            noise_db=pc.noise_db, measured=pc.measured)
@@ -395,7 +492,7 @@ def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisC
     else:
         ff = design.feedforward().freqresp(f)
         pre = prefilter_response(design.prefilter, design.prefilter_hz, f)
-    tracking = G * H * (ff + Cf * pre) * S
+    tracking = GH * (ff + Cf * pre) * S
     return AxisCase(pc.name, f, L, S, tracking, L * S, G * S, metrics)
 
 

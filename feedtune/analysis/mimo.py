@@ -33,6 +33,7 @@ import numpy as np
 
 from .loop import (
     LoopExtension,
+    Margins,
     check_low_end,
     contour_warnings,
     line_resolution_warnings,
@@ -44,8 +45,18 @@ from .loop import (
     scatter_of,
     worst,
 )
-from .margins import crossings, disk_margins, level_bands, peak, prune_bands
-from .resolution import INTERPOLATION, check_samples, resolve
+from .margins import NEGLIGIBLE_LOOP, crossings, disk_margins, level_bands, merge_chatter, peak, prune_bands
+from .resolution import (
+    INTERPOLATION,
+    MAX_ROUNDS,
+    SPLIT,
+    check_samples,
+    feature_points,
+    pair_unresolved,
+    peak_rounds,
+    resolve,
+    root_rounds,
+)
 
 
 # ---------------------------------------------------------------------------------------- 2x2 algebra
@@ -101,6 +112,19 @@ def singular_values(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(divide="ignore", invalid="ignore"):
         smin = np.where(smax > 0, np.abs(det2(A)) / smax, 0.0)
     return smax, smin
+
+
+def sensitivity_gain(L: np.ndarray) -> np.ndarray:
+    """``sigma_max((I + L)^-1)`` per frequency [-] without forming the inverse: ``sigma_max(A) / |det A|`` with
+    ``A = I + L`` (``sigma_max(S) = 1 / sigma_min(A)`` and ``sigma_min sigma_max = |det|``); equal to
+    ``singular_values(sensitivity(L))[0]`` to rounding, at a third of its cost (the tuners' cheap bounds)."""
+    a, b, c, d = 1.0 + L[0, 0], L[0, 1], L[1, 0], 1.0 + L[1, 1]
+    p = a.real ** 2 + a.imag ** 2 + c.real ** 2 + c.imag ** 2
+    g = b.real ** 2 + b.imag ** 2 + d.real ** 2 + d.imag ** 2
+    off = np.abs(np.conj(a) * b + np.conj(c) * d)
+    smax = np.sqrt(0.5 * (p + g) + np.hypot(0.5 * (p - g), off))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return smax / np.abs(a * d - b * c)
 
 
 def sensitivity(L: np.ndarray) -> np.ndarray:
@@ -363,6 +387,193 @@ def _sigma_max(A: np.ndarray) -> np.ndarray:
     return singular_values(A)[0]
 
 
+# ---------------------------------------------------------------------------------------- resolution
+def resolve_rounds(freq_hz, evaluate, loops, features=None, known: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~feedtune.analysis.resolution.resolve` (the same grid and response, point for point), with the rules
+    checked on all scalar loops at once and in each round only on the intervals that round made: a rule reads the
+    two ends of an interval alone, so an interval left as it was keeps its verdict. ``loops(R)`` must act point by
+    point (the scalar loops of a response block). A loop that cannot be resolved is handed to
+    :func:`~feedtune.analysis.resolution.resolve` for its error."""
+    f = np.asarray(freq_hz, float)
+    extra = feature_points(features if features is not None else np.empty((0, 2)), f[0], f[-1])
+    R = evaluate(f) if known is None else np.asarray(known)
+    ls = np.array(loops(R), complex).reshape(-1, f.size)  # every scalar loop, one row each
+    if extra.size:
+        f, R, ls = _merge_points(f, R, ls, extra, evaluate(extra), loops)
+    bad = pair_unresolved(ls[:, :-1], ls[:, 1:]).any(axis=0)  # resolution.unresolved, all loops at once
+    t = np.arange(1, SPLIT + 1) / (SPLIT + 1)
+    for rnd in range(MAX_ROUNDS + 1):
+        if not bad.any():
+            return f, R
+        split = bad & (f[1:] > f[:-1] * (1 + 1e-12))
+        if not split.any() or rnd == MAX_ROUNDS:
+            break
+        i = np.flatnonzero(split)
+        lo, hi = np.log(f[i]), np.log(f[i + 1])
+        fn = np.exp(lo[:, None] + (hi - lo)[:, None] * t[None, :]).ravel()
+        f, R, ls, bad, new = _merge_points(f, R, ls, fn, evaluate(fn), loops, bad)
+        touched = np.flatnonzero(new[:-1] | new[1:])
+        if touched.size:
+            bad[touched] = pair_unresolved(ls[:, touched], ls[:, touched + 1]).any(axis=0)
+    return resolve(freq_hz, evaluate, loops, features, known)  # unresolvable: resolve's own error
+
+
+def _merge_points(f, R, ls, fn, Rn, loops, bad=None):
+    """The grid with the points ``fn`` (response ``Rn``) merged in order as :func:`~feedtune.analysis.resolution.
+    resolve` merges them (a point equal to one on the grid is not added), and the scalar loops ``ls`` (rows) with
+    them; with ``bad`` also the verdicts of the intervals between two points that were neighbours before and a mask of
+    the new points."""
+    fa = np.r_[f, fn]
+    order = np.argsort(fa, kind="stable")
+    fa = fa[order]
+    keep = np.r_[True, np.diff(fa) > 0]
+    order, fa = order[keep], fa[keep]
+    Ra = np.concatenate([R, Rn], axis=-1)[..., order]
+    la = np.concatenate([ls, np.array(loops(Rn), complex).reshape(ls.shape[0], fn.size)], axis=1)[:, order]
+    if bad is None:
+        return fa, Ra, la
+    new = order >= f.size
+    kept = np.zeros(fa.size - 1, bool)  # intervals between two old points keep the verdict of the old interval
+    both_old = ~(new[:-1] | new[1:])
+    kept[both_old] = bad[order[:-1][both_old]]
+    return fa, Ra, la, kept, new
+
+
+# ---------------------------------------------------------------------------------------- joint refinement
+# The limits' figures refine the CoM loop's crossovers and phase crossovers (margins.crossings and phase_crossovers by
+# resolution.refine_roots), the loop at them (loop.loop_margins) and the peaks of sigma_max(S) and sigma_max(S - I/2)
+# (margins.peak by resolution.refine_peaks). Called one after the other, each asks for the loop round by round: some
+# twenty evaluations of a 2x2 loop per analysis. The same refinements as generators (resolution.root_rounds and
+# peak_rounds, which refine_roots and refine_peaks run) ask for exactly the same frequencies with the same arithmetic,
+# and :func:`_jointly` runs them side by side, so that each round is one evaluation for all of them (six in all): the
+# figures are those of the functions named, value for value (the loop is evaluated point by point).
+def _on_loop(rounds, values):
+    """A :func:`~feedtune.analysis.resolution.root_rounds` / :func:`~feedtune.analysis.resolution.peak_rounds`
+    generator driven by the loop: yields the frequencies [Hz] of each round, is sent the loop ``L`` there and sends
+    ``values(L, rows)`` (the real function of the brackets ``rows``, one per point) on; returns its result."""
+    try:
+        f, rows = next(rounds)
+        while True:
+            L = yield f
+            f, rows = rounds.send(values(L, rows))
+    except StopIteration as stop:
+        return stop.value
+
+
+def _jointly(fn, tasks: list) -> list:
+    """Run generators that yield frequencies [Hz] and are sent the loop ``fn(f)`` there, one evaluation of ``fn`` per
+    round for all of them; their return values in order."""
+    results: list = [None] * len(tasks)
+    asked: dict = {}
+
+    def advance(k, block=None, first=False):
+        try:
+            fq = next(tasks[k]) if first else tasks[k].send(block)
+        except StopIteration as stop:
+            results[k] = stop.value
+            asked.pop(k, None)
+        else:
+            asked[k] = fq
+
+    for k in range(len(tasks)):
+        advance(k, first=True)
+    while asked:
+        keys = list(asked)
+        parts = [asked[k] for k in keys]
+        L = fn(np.concatenate(parts))
+        start = 0
+        for k, fq in zip(keys, parts, strict=True):
+            advance(k, L[..., start:start + fq.size])
+            start += fq.size
+    return results
+
+
+def _margin_rounds(f: np.ndarray, lc: np.ndarray, weights, noise):
+    """:func:`~feedtune.analysis.loop.loop_margins` of the CoM loop ``lc`` on the contour ``f`` as a generator: the
+    crossovers (:func:`~feedtune.analysis.margins.crossings` of ``20 log10 |l|``) and phase crossovers
+    (:func:`~feedtune.analysis.margins.phase_crossovers`) refined in the same rounds, then the loop at them."""
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(np.abs(lc))
+    ix = np.flatnonzero(np.signbit(db[:-1]) != np.signbit(db[1:]))
+    a = np.abs(lc)
+    im = lc.imag / np.maximum(a, 1e-300)
+    big = a >= NEGLIGIBLE_LOOP
+    ip = np.flatnonzero((np.signbit(im[:-1]) != np.signbit(im[1:])) & (lc.real[:-1] + lc.real[1:] < 0)
+                        & (big[:-1] | big[1:]))
+    n_x = ix.size
+
+    def values(L, rows):  # 20 log10 |l| in the crossovers' brackets, Im l / |l| in the phase crossovers'
+        v = com_loop(L, weights)
+        a = np.abs(v)
+        with np.errstate(divide="ignore"):
+            return np.where(rows < n_x, 20 * np.log10(a) - 0.0, v.imag / np.maximum(a, 1e-300))
+
+    idx = np.r_[ix, ip]
+    roots = yield from _on_loop(root_rounds(f[idx], f[idx + 1]), values)
+    wc, w180 = roots[:n_x], roots[n_x:]
+    merged: list[dict] = []
+    if noise is not None:
+        wc, merged = merge_chatter(wc, f, db, noise)
+        noise_deg = np.degrees(np.asarray(noise) * np.log(10) / 20)
+        w180, merged_180 = merge_chatter(w180, f, np.degrees(np.angle(-lc)), noise_deg, "phase crossovers", "deg")
+        merged += merged_180
+    at = np.r_[wc, w180]
+    v = com_loop((yield at), weights) if at.size else np.empty(0, complex)
+    Lx, L180 = v[:wc.size], v[wc.size:]
+    pm = [float(x) for x in np.rad2deg(np.angle(-Lx))] if wc.size else []
+    gm = [float(-20 * np.log10(abs(x))) for x in L180]
+    return Margins([float(x) for x in wc], pm, [float(x) for x in w180], gm, merged)
+
+
+def _peaks_rounds(f: np.ndarray, curves: list[tuple[np.ndarray, object]], near: float = 0.9):
+    """:func:`~feedtune.analysis.margins.peak` of each ``(y on f, quantity(L))`` of ``curves`` as a generator, all
+    refined in the same rounds: a list of ``(f [Hz], value)``."""
+    grid, lows, highs, owner = [], [], [], []
+    for c, (y, _) in enumerate(curves):
+        i = int(np.argmax(y))
+        grid.append((float(f[i]), float(y[i])))
+        if f.size < 3:
+            continue
+        inner = np.flatnonzero((y[1:-1] >= y[:-2]) & (y[1:-1] >= y[2:]) & (y[1:-1] >= near * y[i])) + 1
+        lows.append(f[inner - 1])
+        highs.append(f[inner + 1])
+        owner.append(np.full(inner.size, c))
+    if not owner:
+        return grid
+    owner_rows = np.concatenate(owner)
+
+    def values(L, rows):
+        if len(curves) == 1:
+            return curves[0][1](L)
+        which = owner_rows[rows]
+        out = np.empty(rows.size)
+        for c, (_, quantity) in enumerate(curves):
+            sel = which == c
+            if sel.any():
+                out[sel] = quantity(L[..., sel])
+        return out
+
+    fp, yp = yield from _on_loop(peak_rounds(np.concatenate(lows), np.concatenate(highs)), values)
+    out = []
+    for c, at_grid in enumerate(grid):
+        sel = owner_rows == c
+        if not sel.any():
+            out.append(at_grid)
+            continue
+        k = int(np.argmax(yp[sel]))
+        out.append((float(fp[sel][k]), float(yp[sel][k])) if yp[sel][k] >= at_grid[1] else at_grid)
+    return out
+
+
+def _s_peak(L: np.ndarray) -> np.ndarray:
+    return _sigma_max(sensitivity(L))
+
+
+def _half_peak(L: np.ndarray) -> np.ndarray:
+    return _sigma_max(sensitivity(L) - 0.5 * identity2(L.shape[2]))
+
+
 def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, features=None, weights=(0.5, 0.5),
                  integrators: int | None = None, open_loop_rhp_poles: int = 0, S: np.ndarray | None = None,
                  extension: LoopExtension | None = None, noise_db: np.ndarray | None = None, measured: bool = False,
@@ -395,17 +606,20 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
         ``freq_hz`` are an FRF's lines interpolated by ``evaluate`` (a warning names unresolved intervals).
     below_grid : {"refuse", "assume"}
         See :func:`mimo_nyquist`.
-    figures : {"all", "limits"}
+    figures : {"all", "limits", "stability"}
         ``"limits"``: only what :meth:`~feedtune.analysis.limits.Limits.check` and the tuners' acceptance read
         (crossovers, phase and gain margins, ``Ms``, the disk margin, Nyquist stability and its warnings, the band
         top), each exactly as with ``"all"``; the bands (rejection, active, damping) and the ``sigma_max(L)``
         crossovers are left empty. For the many candidates of a search (the winner is analysed in full).
+        ``"stability"``: only the Nyquist count on the resolved contour (``stable``, ``nyquist_reliable`` and the
+        count's own warnings, exactly as with ``"all"``); every other figure is empty or nan. For the cases a
+        candidate need only be stable in (:func:`~feedtune.analysis.limits.check_cases`).
     disk_margin : bool
         With ``figures="limits"``: compute the disk margin (False: ``inf``, for a policy without a disk-margin
         limit).
     """
-    if figures not in ("all", "limits"):
-        raise ValueError(f"figures must be 'all' or 'limits', got {figures!r}")
+    if figures not in ("all", "limits", "stability"):
+        raise ValueError(f"figures must be 'all', 'limits' or 'stability', got {figures!r}")
     full = figures == "all"
     f0 = np.asarray(freq_hz, float)
     extra_warnings: list[str] = []
@@ -415,13 +629,19 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
 
     if evaluate is not None:
         L0 = evaluate(f0) if L is None else np.asarray(L, complex)
-        f, Lg = resolve(f0, evaluate, probe, features, known=L0)
+        f, Lg = resolve_rounds(f0, evaluate, probe, features, known=L0)
         S = None
-        if measured:
+        if measured and figures != "stability":
             extra_warnings += line_resolution_warnings(f0, com_loop(L0, weights))
     else:
         f, Lg = f0, np.asarray(L, complex)
         check_samples(f, probe(Lg))
+    if figures == "stability":
+        ny = mimo_nyquist(f, Lg, integrators=integrators, open_loop_rhp_poles=open_loop_rhp_poles,
+                          extension=extension, below_grid=below_grid)
+        fc = f if extension is None else extension.prepend(f, Lg)[0]
+        return MimoMetrics([], [], None, None, [], [], math.nan, math.nan, [], [], [], None, ny, points=int(fc.size),
+                           disk_margin=math.nan)
     if extension is not None:
         fc, Lc = extension.prepend(f, Lg)
         fn = piecewise(float(f[0]), extension.evaluate, evaluate)
@@ -432,24 +652,21 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     smax_s = _sigma_max(Sc)
     smax_l = _sigma_max(Lc) if full else None
     lc = com_loop(Lc, weights)
-    if fn is None:
-        fns = {"com": None, "s": None, "half": None, "l": None}
-    else:
-        fns = {"com": lambda fq: com_loop(fn(fq), weights),
-               "s": lambda fq: _sigma_max(sensitivity(fn(fq))),
-               "inv_s": lambda fq: 1.0 / _sigma_max(sensitivity(fn(fq))),
-               "half": lambda fq: _sigma_max(sensitivity(fn(fq)) - 0.5 * identity2(np.size(fq))),
-               "l": lambda fq: _sigma_max(fn(fq))}
+    fns = {"l": None, "inv_s": None} if fn is None else {"l": lambda fq: _sigma_max(fn(fq)),
+                                                          "inv_s": lambda fq: 1.0 / _sigma_max(sensitivity(fn(fq)))}
     noise = None
     if noise_db is not None:
         lines = np.interp(np.log(f), np.log(f0), np.asarray(noise_db, float))
         noise = np.r_[np.zeros(fc.size - f.size), lines]
-    mg = loop_margins(fc, lc, fns["com"], noise)
-    ms_f, ms = peak(fc, smax_s, fns["s"])
-    if full or disk_margin:
-        dm_f, dm_peak = peak(fc, _sigma_max(Sc - 0.5 * identity2(fc.size)), fns["half"])
-    else:
-        dm_f, dm_peak = math.nan, 0.0
+    half = _sigma_max(Sc - 0.5 * identity2(fc.size)) if full or disk_margin else None
+    if fn is None:
+        mg = loop_margins(fc, lc, None, noise)
+        (ms_f, ms), dm = peak(fc, smax_s), None if half is None else peak(fc, half)
+    else:  # the crossings, the loop at them and the peaks in joint rounds (as the functions called above)
+        curves = [(smax_s, _s_peak)] + ([] if half is None else [(half, _half_peak)])
+        mg, peaks = _jointly(fn, [_margin_rounds(fc, lc, weights, noise), _peaks_rounds(fc, curves)])
+        (ms_f, ms), dm = peaks[0], (peaks[1] if half is not None else None)
+    dm_f, dm_peak = (math.nan, 0.0) if dm is None else dm
     sl_x: list = []
     active: list = []
     bands: list = []
@@ -470,10 +687,9 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     if mg.merged:
         ny.warnings.append(f"{len(mg.merged)} cluster(s) of CoM crossings within the FRF's scatter were merged "
                            "(merged_crossovers)")
-    if extension is not None:
-        ms_grid = float(np.max(_sigma_max(sensitivity(Lg))))
-        ms_below = float(np.max(_sigma_max(sensitivity(extension.L))))
-        ny.warnings.extend(extension.warnings(ms_grid, ms_below))
+    if extension is not None:  # sigma_max(S) on the grid and below it (the contour's, point by point)
+        nx = extension.freq_hz.size
+        ny.warnings.extend(extension.warnings(float(np.max(smax_s[nx:])), float(np.max(smax_s[:nx]))))
     return MimoMetrics(wc, mg.phase_margins_deg, worst(mg.phase_margins_deg), worst(mg.gain_margins_db),
                        mg.gain_margins_db, mg.phase_crossovers_hz, float(ms), float(ms_f), bands, sl_x, active,
                        damping, ny, [x for x in wc if x < f[0]], float(1.0 / dm_peak) if dm_peak > 0 else float("inf"),

@@ -259,50 +259,77 @@ def resolve(freq_hz, evaluate: Callable[[np.ndarray], np.ndarray],
                           "-1 there)")
 
 
-def refine_roots(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi: np.ndarray,
-                 rounds: int = 3, m: int = 16) -> np.ndarray:
-    """Frequencies [Hz] where the real function ``fn`` changes sign, one per bracket ``[f_lo, f_hi]``.
-
-    Every round evaluates ``m`` log-spaced interior points of all brackets in one call and keeps the first sub-bracket
-    with a sign change; the root is finally interpolated linearly in log frequency.
-    """
+def root_rounds(f_lo: np.ndarray, f_hi: np.ndarray, rounds: int = 3, m: int = 16):
+    """:func:`refine_roots` as a generator, for callers that evaluate several refinements in one call per round
+    (:mod:`feedtune.analysis.mimo`): yields ``(frequencies [Hz], bracket of each)`` and is sent the real function's
+    values there; returns the roots [Hz]. :func:`drive` runs it with one function."""
     lo = np.log(np.asarray(f_lo, float))
     hi = np.log(np.asarray(f_hi, float))
     if lo.size == 0:
         return np.empty(0)
     t = np.linspace(0.0, 1.0, m + 2)
+    rows = np.arange(lo.size)
+    per_point = np.repeat(rows, m + 2)
     for _ in range(rounds):
         x = lo[:, None] + (hi - lo)[:, None] * t[None, :]
-        y = fn(np.exp(x.ravel())).reshape(x.shape)
+        y = np.asarray((yield np.exp(x.ravel()), per_point)).reshape(x.shape)
         s = np.signbit(y)
         change = s[:, :-1] != s[:, 1:]
         j = np.where(change.any(axis=1), np.argmax(change, axis=1), 0)
-        rows = np.arange(lo.size)
         lo, hi = x[rows, j], x[rows, j + 1]
-    ylo, yhi = fn(np.exp(lo)), fn(np.exp(hi))
+    ylo = np.asarray((yield np.exp(lo), rows))
+    yhi = np.asarray((yield np.exp(hi), rows))
     with np.errstate(divide="ignore", invalid="ignore"):
         frac = np.where(ylo != yhi, ylo / (ylo - yhi), 0.5)
     return np.exp(lo + np.clip(frac, 0.0, 1.0) * (hi - lo))
 
 
-def refine_peaks(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi: np.ndarray,
-                 rounds: int = 4, m: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """Local maxima of the real function ``fn`` inside the brackets ``[f_lo, f_hi]``: frequencies [Hz] and values."""
+def peak_rounds(f_lo: np.ndarray, f_hi: np.ndarray, rounds: int = 4, m: int = 16):
+    """:func:`refine_peaks` as a generator (see :func:`root_rounds`): returns the frequencies [Hz] and values of the
+    maxima."""
     lo = np.log(np.asarray(f_lo, float))
     hi = np.log(np.asarray(f_hi, float))
     if lo.size == 0:
         return np.empty(0), np.empty(0)
     t = np.linspace(0.0, 1.0, m + 2)
     rows = np.arange(lo.size)
+    per_point = np.repeat(rows, m + 2)
     for _ in range(rounds):
         x = lo[:, None] + (hi - lo)[:, None] * t[None, :]
-        y = fn(np.exp(x.ravel())).reshape(x.shape)
+        y = np.asarray((yield np.exp(x.ravel()), per_point)).reshape(x.shape)
         j = np.argmax(y, axis=1)
         lo, hi = x[rows, np.maximum(j - 1, 0)], x[rows, np.minimum(j + 1, m + 1)]
     x = lo[:, None] + (hi - lo)[:, None] * t[None, :]
-    y = fn(np.exp(x.ravel())).reshape(x.shape)
+    y = np.asarray((yield np.exp(x.ravel()), per_point)).reshape(x.shape)
     j = np.argmax(y, axis=1)
     return np.exp(x[rows, j]), y[rows, j]
+
+
+def drive(rounds, fn: Callable[[np.ndarray], np.ndarray]):
+    """Run a :func:`root_rounds` or :func:`peak_rounds` generator with ``fn(f)`` (one call per round); its result."""
+    try:
+        f, _ = next(rounds)
+        while True:
+            f, _ = rounds.send(fn(f))
+    except StopIteration as stop:
+        return stop.value
+
+
+def refine_roots(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi: np.ndarray,
+                 rounds: int = 3, m: int = 16) -> np.ndarray:
+    """Frequencies [Hz] where the real function ``fn`` changes sign, one per bracket ``[f_lo, f_hi]``.
+
+    Every round evaluates ``m`` log-spaced interior points of all brackets in one call and keeps the first sub-bracket
+    with a sign change; the root is finally interpolated linearly in log frequency (:func:`root_rounds`).
+    """
+    return drive(root_rounds(f_lo, f_hi, rounds, m), fn)
+
+
+def refine_peaks(fn: Callable[[np.ndarray], np.ndarray], f_lo: np.ndarray, f_hi: np.ndarray,
+                 rounds: int = 4, m: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Local maxima of the real function ``fn`` inside the brackets ``[f_lo, f_hi]``: frequencies [Hz] and values
+    (:func:`peak_rounds`)."""
+    return drive(peak_rounds(f_lo, f_hi, rounds, m), fn)
 
 
 # ------------------------------------------------------------------------------------------ measured parts

@@ -29,10 +29,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
-from ..control.discretize import backward_euler_integrator, check_sampling, matched, matched_stages_response
+from ..control.discretize import backward_euler_integrator, check_sampling, matched_stages_response
 from ..control.filters import TWO_PI, FilterPack, LeadStage, split_lead
 from ..control.friction import FrictionFeedforward, friction_feedforward
 from ..control.gantry import GantrySchedule, MimoLaw
@@ -40,7 +41,7 @@ from ..control.prefilter import PrefilterGains, preview_samples
 from ..errors import DesignError, UsageError
 from ..lti import zoh_double_integrator
 from ..models.gantry import GantryModel
-from .loopshape import wrap_deg
+from .loopshape import matched_pack, wrap_deg
 
 
 # ------------------------------------------------------------------------------------- averaging
@@ -112,6 +113,13 @@ def gantry_schedule(model: GantryModel, x_grid, prefilter1: PrefilterGains | Non
     p1 = np.tile((prefilter1 or PrefilterGains()).values(), (xs.size, 1))
     p2 = np.tile((prefilter2 or PrefilterGains()).values(), (xs.size, 1))
     return GantrySchedule(xs, alphas[:, 0], alphas[:, 1], Ms[:, 0, 0], Ms[:, 0, 1], Ms[:, 1, 1], p1, p2)
+
+
+@lru_cache(maxsize=16)
+def _schedule(model: GantryModel, x_grid: tuple, prefilter1, prefilter2) -> GantrySchedule:
+    """:func:`gantry_schedule`, made once for equal arguments (a search designs hundreds of laws on one schedule;
+    the schedule is a frozen value shared by those designs)."""
+    return gantry_schedule(model, x_grid, prefilter1, prefilter2)
 
 
 # ------------------------------------------------------------------------------ friction feedforward
@@ -324,7 +332,7 @@ def design_gantry_mimo(
     wc = TWO_PI * crossover_hz
     fc = [float(crossover_hz)]
     plant = zoh_double_integrator(model.m, fs, fc)[0] * np.exp(-1j * wc * delay_samples / fs)
-    h = matched(pack.zpk(), fs).tf.freqresp(fc)[0]
+    h = matched_pack(pack, float(fs)).freqresp(fc)[0]
     integ = backward_euler_integrator(fs).freqresp(fc)[0]
     ratio = wc * math.tan(math.radians(integral_lag_deg)) if ki is None else 0.0
     target = -180.0 + pm_deg
@@ -360,8 +368,10 @@ def design_gantry_mimo(
     law = MimoLaw(tuple(float(a) for a in alpha), float(k), stages, beta, ki_value, pack, float(fs),
                   int(delay_samples))
     how = (f"ki = K_D wc tan({integral_lag_deg:g} deg)" if ki is None else "given")
-    grid = default_x_grid(model) if x_grid is None else x_grid
-    return GantryMimoDesign(model, float(x), law, gantry_schedule(model, grid, prefilter1, prefilter2),
+    grid = np.asarray(default_x_grid(model) if x_grid is None else x_grid, float)
+    schedule = (_schedule(model, tuple(grid.tolist()), prefilter1, prefilter2) if grid.ndim == 1
+                else gantry_schedule(model, grid, prefilter1, prefilter2))
+    return GantryMimoDesign(model, float(x), law, schedule,
                             float(crossover_hz), float(pm_deg), float(damping_increase), how, float(prefilter_hz),
                             iterations)
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -81,11 +81,18 @@ class AxisPlant:
     command_unit: str = "V"
 
     def response(self, freq_hz) -> np.ndarray:
-        """Continuous plant response [m/V] on a grid [Hz]: the FRF (interpolated) or ``1/(m s^2)``."""
+        """Continuous plant response [m/V] on a grid [Hz]: the FRF (interpolated as :func:`frf_at`) or
+        ``1/(m s^2)``."""
         f = np.asarray(freq_hz, float)
         if self.frf is None:
             return 1.0 / (self.mass * (TWO_PI * 1j * f) ** 2)
-        return frf_at(self.frf, self.channel, f)
+        return self._interpolate(f)
+
+    @cached_property
+    def _interpolate(self):
+        """:func:`frf_at` of the plant's channel with its tables made once (a search designs at hundreds of
+        crossovers)."""
+        return FrfInterpolator(self.frf, self.channel)
 
     def to_dict(self) -> dict:
         """Description with units."""
@@ -96,16 +103,33 @@ class AxisPlant:
 
 def frf_at(frf: Frf, channel: str, freq_hz: np.ndarray) -> np.ndarray:
     """Position FRF channel interpolated at ``freq_hz`` (log-frequency, magnitude and unwrapped phase)."""
-    pos = frf.as_quantity("position")
-    keep = pos.freq_hz > 0
-    fg, h = pos.freq_hz[keep], pos.channel(channel)[keep]
-    f = np.asarray(freq_hz, float)
-    if np.any(f < fg[0] * (1 - 1e-9)) or np.any(f > fg[-1] * (1 + 1e-9)):
-        raise DataError(f"{frf.source}: the FRF covers {fg[0]:g}-{fg[-1]:g} Hz; {f.min():g}-{f.max():g} Hz needed")
-    lf = np.log(fg)
-    mag = np.interp(np.log(f), lf, np.log(np.abs(h)))
-    ph = np.interp(np.log(f), lf, np.unwrap(np.angle(h)))
-    return np.exp(mag + 1j * ph)
+    return FrfInterpolator(frf, channel)(freq_hz)
+
+
+class FrfInterpolator:
+    """:func:`frf_at` of one FRF channel at any frequencies [Hz], its tables (log frequency, log magnitude and
+    unwrapped phase of the lines) made once (a search designs at hundreds of crossovers); a plain value (pickled with
+    the designs that keep it)."""
+
+    def __init__(self, frf: Frf, channel: str) -> None:
+        pos = frf.as_quantity("position")
+        keep = pos.freq_hz > 0
+        fg, h = pos.freq_hz[keep], pos.channel(channel)[keep]
+        self.source = frf.source
+        self.lines_hz = fg
+        self.log_f = np.log(fg)
+        self.log_mag = np.log(np.abs(h))
+        self.phase = np.unwrap(np.angle(h))
+
+    def __call__(self, freq_hz) -> np.ndarray:
+        fg = self.lines_hz
+        f = np.asarray(freq_hz, float)
+        if np.any(f < fg[0] * (1 - 1e-9)) or np.any(f > fg[-1] * (1 + 1e-9)):
+            raise DataError(f"{self.source}: the FRF covers {fg[0]:g}-{fg[-1]:g} Hz; {f.min():g}-{f.max():g} Hz "
+                            "needed")
+        mag = np.interp(np.log(f), self.log_f, self.log_mag)
+        ph = np.interp(np.log(f), self.log_f, self.phase)
+        return np.exp(mag + 1j * ph)
 
 
 def axis_plant(plant, *, mass: float | None = None, channel: str | None = None,
@@ -325,6 +349,24 @@ def design_plant_response(plant: AxisPlant, fs: float, delay_samples: int, freq_
     return g * delay_response(f, delay_samples, fs)
 
 
+@lru_cache(maxsize=32)
+def matched_pack(pack: FilterPack, fs: float) -> Zpk:
+    """The pole-zero-matched filter pack ``matched(pack.zpk(), fs).tf``, made once per pack and rate [Hz] (a search
+    designs hundreds of controllers with one pack; the result is shared: do not modify it)."""
+    return matched(pack.zpk(), fs).tf
+
+
+def _matched_pi_pack_at(ti_s: float, pack: FilterPack, fs: float, f_hz: float) -> complex:
+    """``matched((Ti s + 1)/s * pack)`` at ``f_hz`` [Hz] as the product of the matched parts: :func:`matched` maps
+    every root on its own and matches the gain at 0 Hz (the integrator's factor removed), which for these parts is
+    the product of their own gains, so the matched PI is ``T / (1 - e^(-T/Ti)) (z - e^(-T/Ti)) / (z - 1)`` (equal to
+    ``matched`` of the whole to rounding, as :func:`~feedtune.control.discretize.matched_stages_response`)."""
+    T = 1.0 / fs
+    zd = math.exp(-T / ti_s)
+    z = complex(np.exp(2j * np.pi * f_hz * T))
+    return T / (1.0 - zd) * (z - zd) / (z - 1.0) * complex(matched_pack(pack, fs).freqresp([f_hz])[0])
+
+
 def wrap_deg(a):
     """Angle [deg] wrapped to (-180, 180]."""
     return -((-np.asarray(a, float) + 180.0) % 360.0 - 180.0)
@@ -416,7 +458,7 @@ def design_loopshape(
                            float(max_stage_deg))
     p_c = design_plant_response(ap, fs, delay_samples, [wc_hz])[0]
     target = -180.0 + pm_deg
-    other = p_c * matched(base.controller(), fs).tf.freqresp([wc_hz])[0]  # K = 1, no lead
+    other = p_c * _matched_pi_pack_at(ti, pack, float(fs), wc_hz)  # matched, K = 1, no lead
     lead = float(wrap_deg(target - np.angle(other, deg=True)))
     # the matched transform maps each root on its own and matches the gain at 0 Hz, so the discrete controller is
     # the product of the matched parts: the loop at the crossover is ``other`` times the matched lead stages there

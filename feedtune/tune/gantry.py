@@ -31,7 +31,7 @@ import numpy as np
 
 from ..analysis.gantry import analyze_gantry_case, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, check_cases
-from ..analysis.mimo import matmul, sensitivity, singular_values
+from ..analysis.mimo import matmul, sensitivity_gain
 from ..control.discretize import check_sampling
 from ..control.filters import FilterPack
 from ..control.gantry import law_at
@@ -41,7 +41,15 @@ from ..frf import Frf
 from ..models.gantry import GantryModel
 from .filter_choice import merge_resonances, tune_with_own_filters
 from .gantry_cases import frf_positions, gantry_resonances, gantry_sensitivity_peaks, schedule_grid, top_line_doubt
-from .search import CROSSOVER_TIE, Candidate, CheckedCases, SearchRecord, highest_feasible, robust_frfs
+from .search import (
+    BOUND_SLACK,
+    CROSSOVER_TIE,
+    Candidate,
+    CheckedCases,
+    SearchRecord,
+    highest_feasible,
+    robust_frfs,
+)
 
 PM_TARGETS_DEG = (30.0, 40.0, 50.0)
 """CoM phase-margin targets searched [deg] (thesis: 40)."""
@@ -149,9 +157,20 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
                                        damping_increase=shape["damping_increase"], filters=filters, fs=fs,
                                        delay_samples=delay_samples, x=x, **(design_options | lag))
                 designs[key] = (d, {xi: law_at(d.law, d.schedule, xi) for xi in xs})
+                laws_of[id(d)] = designs[key][1]
             except FeedtuneError:
                 designs[key] = None
         return designs[key]
+
+    laws_of: dict = {}  # id(design) -> {position: the law there} (the designs are kept: an id names one)
+    analysed: dict = {}  # (id(law), id(plant case)) -> figures of the checked case (the laws and cases are kept)
+
+    def limits_figures(law, pc, weights):
+        key = (id(law), id(pc))
+        if key not in analysed:
+            analysed[key] = analyze_gantry_case(law, pc, weights, figures="limits",
+                                                disk_margin=policy.disk_margin_min is not None).metrics
+        return analysed[key]
 
     def check(shape: dict, crossover_hz: float) -> Candidate | None:
         made = design_of(shape, crossover_hz)
@@ -161,8 +180,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
 
         def metrics_of(c):
             pc, weights, xi = c
-            return analyze_gantry_case(laws[xi], pc, weights, figures="limits",
-                                       disk_margin=policy.disk_margin_min is not None).metrics
+            return limits_figures(laws[xi], pc, weights)
 
         def refuse(c, m) -> bool:
             pc, _, xi = c
@@ -175,7 +193,8 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
 
     def admissible(shape: dict, crossovers_hz) -> list[bool]:
         """``max sigma_max(S)`` on the checked cases' grids within the limit: a necessary condition (the analysis'
-        Ms is the peak over a contour holding every point of the grid)."""
+        Ms is the peak over a contour holding every point of the grid), with the relative slack
+        :data:`~feedtune.tune.search.BOUND_SLACK` for the rounding of the two computations."""
         out = []
         for xc in crossovers_hz:
             made = design_of(shape, float(xc))
@@ -185,19 +204,22 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
                     break
                 law = made[1][xi]
                 K = law.response_discrete(pc.freq_hz) if pc.discrete else law.response(pc.freq_hz)
-                ok = float(np.max(singular_values(sensitivity(matmul(ge, K)))[0])) <= policy.ms_max
+                ok = float(np.max(sensitivity_gain(matmul(ge, K)))) <= policy.ms_max * (1 + BOUND_SLACK)
             out.append(ok)
         return out
 
     def full_check(c: Candidate) -> list:
         """The limits in the checked case and stability in every case, per FRF (the cases of
-        :func:`feedtune.analysis.gantry.analyze_gantry`, the figures the limits read)."""
+        :func:`feedtune.analysis.gantry.analyze_gantry`: the figures the limits read in the checked case, the
+        Nyquist count in the others)."""
         d = c.design
         out = []
         for xi, cases in zip(xs, all_cases, strict=True):
-            law = law_at(d.law, d.schedule, xi)
-            out.append(check_cases(policy, {name: None if pc is None else analyze_gantry_case(
-                law, pc, model.alpha(xi), figures="limits").metrics for name, pc in cases.items()}, [case]))
+            law = laws_of[id(d)][xi]  # the search's law there: its checked case is analysed already
+            w = model.alpha(xi)
+            out.append(check_cases(policy, {name: None if pc is None else limits_figures(law, pc, w) if name == case
+                                            else analyze_gantry_case(law, pc, w, figures="stability").metrics
+                                            for name, pc in cases.items()}, [case]))
         return out
 
     verdicts: dict = {}

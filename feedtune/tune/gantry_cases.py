@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..analysis.gantry import plant_at_top
 from ..analysis.mimo import matmul, sensitivity, singular_values
 from ..control.filters import TWO_PI
 from ..design.gantry_mimo import default_x_grid
@@ -62,10 +63,10 @@ def untrusted(metrics, freq_hz: np.ndarray, fs: float, sigma_l_top: float, ms_ma
 
 def top_line_doubt(law, pc, metrics, policy, fs: float) -> str | None:
     """:func:`untrusted` for a law on a plant case: ``sigma_max(L)`` at the case's last line from the plant with
-    its hold and the law's discrete response."""
+    its hold there (:func:`~feedtune.analysis.gantry.plant_at_top`, kept per plant case) and the law's discrete
+    response."""
     top = pc.freq_hz[-1:]
-    g = pc.plant(top) * pc.hold(top)
-    l_top = float(singular_values(matmul(g, law.response_discrete(top)))[0][0])
+    l_top = float(singular_values(matmul(plant_at_top(pc), law.response_discrete(top)))[0][0])
     return untrusted(metrics, pc.freq_hz, fs, l_top, policy.ms_max)
 
 

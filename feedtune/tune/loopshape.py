@@ -94,6 +94,8 @@ class _AxisSearch:
         self.bounds = bounds
         self.scan = scan
         self._designs: dict = {}
+        self._verdicts: dict = {}  # (case, design) -> the analysis' verdict on the checked case (analysed once)
+        self._elsewhere: dict = {}  # (case, design) -> why it is unstable in another case, or None
         self._relaxed: dict = {}  # shape -> its edge under the limits alone (not pruned)
         self._whole: dict = {}  # shape -> its edge under the whole check
         self._unstable: set = set()  # shapes whose edge under the limits alone is unstable in another case
@@ -129,13 +131,18 @@ class _AxisSearch:
 
     def _check_case(self, c: _AxisCase, d: LoopShapeDesign, xo: float, others: bool = True) -> Probe:
         """The check on one FRF's checked case (limits, the band's top, and with ``others`` stability in its other
-        cases)."""
-        c.checks += 1
-        m = analyze_axis_case(d, c.pc, responses=False).metrics
-        items = c.policy.check(m, c.name)
-        top = c.pc.freq_hz[-1:]
-        l_top = float(np.abs(c.Ge[-1:] * d.controller_discrete().freqresp(top))[0])
-        doubt = unreliable(m.warnings) or band_top_doubt(l_top, float(top[0]), c.fs, c.policy.ms_max)
+        cases). A design is analysed once per case: the search with ``others`` re-checks the scales the search
+        without them has checked."""
+        key = (id(c), id(d))  # the designs are kept (self._designs): an id names one design
+        if key not in self._verdicts:
+            c.checks += 1
+            m = analyze_axis_case(d, c.pc, responses=False).metrics
+            items = c.policy.check(m, c.name)
+            top = c.pc.freq_hz[-1:]
+            l_top = float(np.abs(c.Ge[-1:] * d.controller_discrete().freqresp(top))[0])
+            self._verdicts[key] = (m, items, unreliable(m.warnings)
+                                   or band_top_doubt(l_top, float(top[0]), c.fs, c.policy.ms_max))
+        m, items, doubt = self._verdicts[key]
         ok = all(i.ok for i in items) and doubt is None
         if ok and others:  # stable in every other case too (the check a design is judged by)
             doubt = self._unstable_elsewhere(c, d)
@@ -145,17 +152,20 @@ class _AxisSearch:
         xc = float(m.crossovers_hz[0]) if m.crossovers_hz else math.nan
         return Probe(float(xo), ok, xc, slack, (d, m, items))
 
-    @staticmethod
-    def _unstable_elsewhere(c: _AxisCase, d: LoopShapeDesign) -> str | None:
+    def _unstable_elsewhere(self, c: _AxisCase, d: LoopShapeDesign) -> str | None:
         """Why the design is not stable in one of the FRF's other cases, or None (the discrete model first: the
-        case that fails most often)."""
-        for k, p in sorted(c.cases.items(), key=lambda kv: kv[0] != "ideal_discrete"):
-            if p is None or k == c.name:
-                continue
-            other = analyze_axis_case(d, p, responses=False).metrics
-            if not (other.stable and other.nyquist_reliable):
-                return f"unstable in the {k} case"
-        return None
+        case that fails most often); asked once per design."""
+        key = (id(c), id(d))
+        if key not in self._elsewhere:
+            self._elsewhere[key] = None
+            for k, p in sorted(c.cases.items(), key=lambda kv: kv[0] != "ideal_discrete"):
+                if p is None or k == c.name:
+                    continue
+                other = analyze_axis_case(d, p, responses=False).metrics
+                if not (other.stable and other.nyquist_reliable):
+                    self._elsewhere[key] = f"unstable in the {k} case"
+                    break
+        return self._elsewhere[key]
 
     def edge(self, shape: tuple, ref: tuple | None = None, beat: float | None = None):
         """The largest crossover of one shape whose design passes the check (:func:`feasibility_edge`); with

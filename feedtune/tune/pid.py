@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -51,19 +51,20 @@ from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
 from ..analysis.margins import crossings
-from ..analysis.mimo import com_loop, sensitivity, singular_values
-from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling, matched
+from ..analysis.mimo import com_loop, sensitivity_gain, singular_values
+from ..control.discretize import backward_difference, backward_euler_integrator, check_sampling
 from ..control.filters import TWO_PI, FilterPack
 from ..control.gantry import PidLaw
 from ..control.prefilter import PrefilterGains
 from ..design.gantry_pid import GantryPidDesign, design_gantry_pid, pid_gains
+from ..design.loopshape import matched_pack
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
 from .filter_choice import KEEP_GAIN, merge_resonances
 from .filter_choice import choose_filters as own_filters
 from .gantry_cases import frf_positions, gantry_resonances, gantry_sensitivity_peaks, schedule_grid, top_line_doubt
-from .search import EdgeResult, Probe, SearchResult, feasibility_edge, pattern_search, robust_frfs
+from .search import BOUND_SLACK, EdgeResult, Probe, SearchResult, feasibility_edge, pattern_search, robust_frfs
 
 ZETA_BOUNDS = (0.3, 1.0)
 """Damping of the rigid-body closed-loop pair searched [-]."""
@@ -77,8 +78,6 @@ RTOL = 2e-3
 """Relative width of the final bracket on ``w`` [-]."""
 SHAPE_STEP = 1 / 32
 """Smallest step of the shape search, a fraction of each parameter's log range [-]."""
-BOUND_SLACK = 1e-9
-"""Relative slack of the cheap necessary condition against the check's own figures [-] (rounding)."""
 FILTER_CHOICES = ("own", "identical")
 """Values of ``filter_choice``."""
 
@@ -111,6 +110,7 @@ class _Problem:
     policy: Limits
     cases: list
     checks: int = 0
+    analysed: dict = field(default_factory=dict)  # (id(law), case index) -> (law, figures of its checked case)
 
     @property
     def name(self) -> str:
@@ -141,7 +141,8 @@ class _Search:
     def __init__(self, problem: _Problem, pack: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
         self.problem = problem
         self.pack = pack
-        self.h = [matched(pack.zpk(), problem.fs).tf.freqresp(c.pc.freq_hz) for c in problem.cases]
+        self.h = [matched_pack(pack, problem.fs).freqresp(c.pc.freq_hz) for c in problem.cases]
+        self.gm = [c.Ge * problem.masses[None, :, None] for c in problem.cases]  # column j: G_j h m_j
         self.order = list(range(len(problem.cases)))  # the case that failed last is checked first
         self.bounds = (tuple(zeta_bounds), tuple(rho_bounds))
         self.scan = scan
@@ -152,8 +153,7 @@ class _Search:
         w = TWO_PI * np.asarray(bw_hz, float)[:, None]
         pid = w * w * (1 + 2 * zeta / rho) + w * (2 * zeta + 1 / rho) * c.D + w**3 / rho * c.Iz  # per unit mass
         k = self.h[i] * pid  # (n_bw, n_f)
-        masses = self.problem.masses
-        return c.Ge[:, :, None, :] * (masses[None, :, None, None] * k[None, None, :, :])  # column j: m_j k
+        return self.gm[i][:, :, None, :] * k[None, None, :, :]  # column j: m_j k
 
     def grid_ms(self, bw_hz: np.ndarray, zeta: float, rho: float, *, band_top: bool = False) -> np.ndarray:
         """``max sigma_max(S)`` over every case's base grid for each bandwidth [Hz] of ``bw_hz``; with ``band_top``,
@@ -164,8 +164,7 @@ class _Search:
         for i, c in enumerate(p.cases):
             L = self.grid_loops(i, bw_hz, zeta, rho)
             n_bw, n_f = L.shape[2:]
-            smax = singular_values(sensitivity(L.reshape(2, 2, n_bw * n_f)))[0]
-            ms = np.max(smax.reshape(n_bw, n_f), axis=1)
+            ms = np.max(sensitivity_gain(L.reshape(2, 2, n_bw * n_f)).reshape(n_bw, n_f), axis=1)
             if band_top and c.pc.freq_hz[-1] < 0.999 * p.fs / 2 and p.policy.ms_max is not None:
                 top = singular_values(np.ascontiguousarray(L[:, :, :, -1]))[0]
                 ms = np.where(top > (1.0 - 1.0 / p.policy.ms_max) * (1 + BOUND_SLACK), np.inf, ms)
@@ -210,6 +209,7 @@ class _Search:
             c = p.cases[i]
             m = analyze_gantry_case(law, c.pc, c.weights, figures="limits",
                                     disk_margin=p.policy.disk_margin_min is not None).metrics
+            p.analysed[(id(law), i)] = (law, m)  # the law is kept with it: its id names it
             items = p.policy.check(m, c.name)
             doubt = top_line_doubt(law, c.pc, m, p.policy, p.fs)
             ok = all(i.ok for i in items) and doubt is None and bool(m.crossovers_hz)
@@ -450,9 +450,15 @@ def _full_check(law: PidLaw, problem: _Problem):
     """``({case (and FRF): stable}, LimitCheck per FRF)`` of a candidate: the limits in each FRF's checked case and
     stability in every case of every FRF."""
     stable, checks = {}, []
+    disk = problem.policy.disk_margin_min is not None
     for i, c in enumerate(problem.cases):
         on = f" (FRF {i + 1})" if len(problem.cases) > 1 else ""
-        metrics = {name: None if pc is None else analyze_gantry_case(law, pc, c.weights, figures="limits").metrics
+        # the limits in the checked case (as the search analysed it), the Nyquist count alone in the others (all
+        # check_cases reads there)
+        done = problem.analysed.get((id(law), i))
+        metrics = {name: None if pc is None else done[1] if name == c.name and done and done[0] is law
+                   else analyze_gantry_case(law, pc, c.weights, figures="limits" if name == c.name else "stability",
+                                            disk_margin=disk).metrics
                    for name, pc in c.cases.items()}
         stable.update({name + on: bool(m.stable and m.nyquist_reliable) for name, m in metrics.items() if m})
         checks.append(check_cases(problem.policy, metrics, [c.name]))

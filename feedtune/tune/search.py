@@ -36,6 +36,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+BOUND_SLACK = 1e-9
+"""Relative slack of a cheap necessary condition against the check's own figures [-] (rounding)."""
 CHEAP_MARGIN = 5e-3
 """Relative margin [-] by which a crossover estimated on the base grid must lie below ``beat`` to prune."""
 
