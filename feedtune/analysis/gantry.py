@@ -82,7 +82,7 @@ def _case_parts(pc: PlantCase) -> dict:
     if hit is not None and hit[0]() is pc:
         return hit[1]
     parts: dict = {}
-    _PARTS[key] = (weakref.ref(pc, lambda _, key=key: _PARTS.pop(key, None)), parts)
+    _PARTS[key] = (weakref.ref(pc, lambda _, key=key, kept=_PARTS: kept.pop(key, None)), parts)  # (no global at exit)
     return parts
 
 
