@@ -193,7 +193,7 @@ def _figures(label: str, design, check, checked: str, analysis: dict) -> dict:
             "stable_measured": analysis[checked]["stable"]}
 
 
-TUNING_COST = {"mimo": 1.4, "pid": 1.0, "pid_own": 1.1, "axis": 3.4}
+TUNING_COST = {"mimo": 0.7, "pid": 0.55, "pid_own": 0.7, "axis": 2.3}
 """Time of each tuner on the twin [s] (measured on a 2-core machine; what matters is their ratios, by which they are
 shared out over the cores: on two, the x axis against the three others)."""
 
