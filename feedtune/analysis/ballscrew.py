@@ -35,6 +35,7 @@ poles (:class:`_SampledModel`), not from expanded polynomials.
 from __future__ import annotations
 
 import functools
+import itertools
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -55,6 +56,7 @@ from .cases import (
     measured_cases,
     model_cases,
     release_shared,
+    same_lines,
     unit_circle,
     work_array,
 )
@@ -395,11 +397,16 @@ _BLOCK = 8
 """Roots multiplied together before one division (as :meth:`feedtune.lti.Zpk.evaluate`)."""
 
 
+def _zpk_blocked(z: Zpk, n: int) -> bool:
+    """:func:`_zpk_at` of ``z`` at ``n`` points takes its own route (else :meth:`~feedtune.lti.Zpk.evaluate`'s)."""
+    return n * max(z.zeros.size, z.poles.size, 1) > 4096
+
+
 def _zpk_at(z: Zpk, x: np.ndarray) -> np.ndarray:
     """``z`` at the complex points ``x``: :meth:`~feedtune.lti.Zpk.evaluate` (roots in blocks of :data:`_BLOCK`, one
     division per block) with two work arrays besides the result."""
     n_roots = max(z.zeros.size, z.poles.size)
-    if x.size * max(n_roots, 1) <= 4096:
+    if not _zpk_blocked(z, x.size):
         return z.evaluate(x)
     if n_roots == 0:
         return np.full(x.shape, z.gain, complex)
@@ -595,17 +602,55 @@ def _first_octave(f: np.ndarray) -> int:
     return int(np.searchsorted(f, f[0] * 2.0, side="right"))
 
 
-def _extension(pc: PlantCase, g: np.ndarray) -> tuple | None:
+def _same_input(a, b) -> bool:
+    """``a`` and ``b`` are the same input: one object, or arrays (floats) of the same type, shape and bits."""
+    if a is b:
+        return True
+    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):
+        return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    if type(a) is float and type(b) is float:
+        return np.float64(a).tobytes() == np.float64(b).tobytes()
+    return False
+
+
+class _Memo:
+    """Within one analysis, ``fn(*args)`` computed once for the same function (or bound method) and the same inputs
+    (:func:`_same_input`): the cases' extensions below their grids share the model there, the controller and, on the
+    same lines, the junction. The values are shared: read only."""
+
+    def __init__(self) -> None:
+        self.items: list[tuple] = []
+
+    def __call__(self, fn: Callable, *args):
+        for f, a, out in self.items:
+            if (f is fn or f == fn) and len(a) == len(args) and all(map(_same_input, a, args)):
+                return out
+        out = fn(*args)
+        self.items.append((fn, args, out))
+        return out
+
+    def seed(self, fn: Callable, args: tuple, out) -> None:
+        """``fn(*args)`` is ``out`` (known already)."""
+        self.items.append((fn, args, out))
+
+
+def _call(fn: Callable, *args):
+    return fn(*args)
+
+
+def _extension(pc: PlantCase, g: np.ndarray, memo: Callable = _call) -> tuple | None:
     """The model below the case's grid (:func:`~feedtune.analysis.loop.model_extension`): ``(f_ext [Hz], scale,
     junction band [Hz], H * scale * model plant on f_ext)``, or None when the grid starts at its lowest frequency;
-    ``g`` is the plant on the grid (on its first octave at least)."""
+    ``g`` is the plant on the grid (on its first octave at least); ``memo(fn, *args)`` computes ``fn(*args)``
+    (:class:`_Memo`: once per analysis)."""
     f = pc.freq_hz
-    f_ext = extension_grid(float(f[0]))
+    f_ext = memo(extension_grid, float(f[0]))
     if not f_ext.size:
         return None
     m = _first_octave(f)
-    scale, band = junction_scale(f[:m], g[..., :m], pc.model_plant(f[:m]))
-    return f_ext, scale, band, scale * pc.model_plant(f_ext) * pc.hold(f_ext)
+    fm = f[:m]
+    scale, band = memo(junction_scale, fm, g[..., :m], memo(pc.model_plant, fm))
+    return f_ext, scale, band, scale * memo(pc.model_plant, f_ext) * pc.hold(f_ext)
 
 
 class _CaseParts:
@@ -702,7 +747,7 @@ def _evaluate_batch(loops: list[_CaseLoop]):
         for fn, pieces, sinks in jobs.values():
             sizes = [p.size for p in pieces]
             res = fn(np.concatenate(pieces) if len(pieces) > 1 else pieces[0])
-            ends = np.cumsum(sizes)
+            ends = itertools.accumulate(sizes)
             for (kind, i, sel, scale), e, n in zip(sinks, ends, sizes, strict=True):
                 if kind == "ctrl":
                     ctrls[i] = tuple(r[e - n:e] for r in res)
@@ -756,10 +801,13 @@ def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: boo
     (:class:`_LazyResponses`)."""
     loops: list[_CaseLoop] = []
     partial: list[tuple] = []
+    ctrls = [_controller(law, pc.discrete) for pc in pcs]
+    partners = {} if keep else _path_partners(pcs, ctrls)
+    ready: dict[int, tuple] = {}  # the grid loops formed with an earlier case's paths
+    memo = _Memo()
 
     def loop_cases():
-        for pc in pcs:
-            ctrl = _controller(law, pc.discrete)
+        for i, (pc, ctrl) in enumerate(zip(pcs, ctrls, strict=True)):
             if keep:
                 parts = _case_parts(pc, law.fs, keep)
                 gfp, gfp_ext = parts.filter_response(ctrl)
@@ -774,7 +822,10 @@ def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: boo
                 resp = _basis_responses(law, pc, ctrl, parts, L, gfp) if responses else None
                 del parts, gfp, gfp_ext
             else:
-                L, ext = _direct(pc, ctrl)
+                L, ext = _direct(pc, ctrl, ready.pop(i, None), [(j, pcs[j]) for j in partners.get(i, ())], ready,
+                                 memo)
+                if i == len(pcs) - 1:
+                    memo.items.clear()  # what the cases shared: its memory serves the last case's analysis
                 resp = _LazyResponses(law, pc, ctrl) if responses else None
             extension = None
             if ext is not None:
@@ -800,40 +851,101 @@ def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: boo
     return out
 
 
-def _direct(pc: PlantCase, ctrl: _Controller) -> tuple:
+def _path_partners(pcs: list[PlantCase], ctrls: list[_Controller]) -> dict[int, list[int]]:
+    """For each case, the later cases whose feedback paths on the grid are its own: the same controller on the same
+    lines (the same grid array, equal lines, or the first lines of its grid: ``measured`` on the model grid's lines
+    beside ``ideal``, ``discrete`` beside ``ideal_discrete``, whose grid only adds ``fs / 2``). The paths are then
+    evaluated once (element by element, by the same route: the same bits as on the later case's own grid)."""
+    out: dict[int, list[int]] = {}
+    taken: set[int] = set()
+    for i, (pc, ctrl) in enumerate(zip(pcs, ctrls, strict=True)):
+        f = pc.freq_hz
+        for j in range(i + 1, len(pcs)):
+            fj = pcs[j].freq_hz
+            if (j not in taken and ctrls[j] is ctrl and f.ndim == fj.ndim == 1 and fj.size <= f.size
+                    and _zpk_blocked(ctrl.filter, fj.size) and same_lines(f[:fj.size], fj)):
+                out.setdefault(i, []).append(j)
+                taken.add(j)
+    return out
+
+
+def _plant_on_grid(pc: PlantCase) -> tuple[np.ndarray, bool]:
+    """``[G11, G21]`` on the case's grid and whether it is a new array (else: read only)."""
+    lines = getattr(pc.plant, "lines", None)
+    if lines is not None and lines[0] is pc.freq_hz:  # a measured FRF on its own lines: its values, read only
+        return lines[1], False
+    return pc.plant(pc.freq_hz), getattr(pc.plant, "source", None) is not None or getattr(pc.plant, "fresh", False)
+
+
+def _grid_loop(pc: PlantCase, k1: np.ndarray, k2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(L, plant on the grid's first octave)`` of the case from the paths ``k1 = K1``, ``k2 = K2`` on its grid
+    (left alone): the operations of :func:`_direct`, into new arrays."""
+    f = pc.freq_hz
+    g, fresh = _plant_on_grid(pc)
+    low = g[..., :_first_octave(f)].copy()
+    H = None if getattr(pc.hold, "identity", False) else pc.hold(f)
+    out = []
+    # k * (H G) in this order, as k *= ... forms it (a complex product may differ in the last bit with its factors
+    # swapped, as numpy does for an expression's temporary: written out)
+    for k, row in ((k1, g[0]), (k2, g[1])):
+        if H is None:
+            out.append(np.multiply(k, row))
+        elif fresh:
+            row *= H
+            out.append(np.multiply(k, row))
+        else:
+            hg = row * H
+            out.append(np.multiply(k, hg, out=hg))
+    del g, H
+    L, t = out
+    del out
+    L += t
+    return L, low
+
+
+def _direct(pc: PlantCase, ctrl: _Controller, ready: tuple | None = None, partners: list[tuple] = (),
+            later: dict | None = None, memo: Callable = _call) -> tuple:
     """The loop on the case's grid and its extension below the grid, formed directly: ``K1 = G_fp P1``,
     ``K2 = G_fp P2`` and ``H [G11, G21]`` on the grid (:class:`_Controller`), in place where the arrays are this
-    function's own (the same operations, in the same order, as :meth:`_LazyResponses.compute`: the same bits)."""
+    function's own (the same operations, in the same order, as :meth:`_LazyResponses.compute`: the same bits).
+
+    ``ready``: the grid loop and the plant on the first octave formed already (:func:`_grid_loop`); ``partners``:
+    ``(index, plant case)`` of later cases with the same paths on (the first lines of) this grid
+    (:func:`_path_partners`), their grid loops put in ``later``; ``memo``: :class:`_Memo` of the analysis."""
     f = pc.freq_hz
-    k1, k2 = ctrl.paths(f)
-    lines = getattr(pc.plant, "lines", None)
-    if lines is not None and lines[0] is f:  # a measured FRF on its own lines: its values, read only
-        g = lines[1]
-        fresh = False
+    if ready is not None:
+        k1, low = ready
     else:
-        g = pc.plant(f)
-        fresh = getattr(pc.plant, "source", None) is not None or getattr(pc.plant, "fresh", False)
-    low = g[..., :_first_octave(f)].copy()  # for the extension's junction
-    if getattr(pc.hold, "identity", False):
-        release_shared()  # this case's s or z: the extension and the next case have their own grids
-        k1 *= g[0]
-        k2 *= g[1]
-    else:
-        H = pc.hold(f)
-        release_shared()
-        for k, row in ((k1, g[0]), (k2, g[1])):  # K H G, a row at a time: H G as the product g * H
-            if fresh:
-                row *= H
-                k *= row
-            else:
-                k *= row * H
-        del H
-    del g
-    k1 += k2  # K1 H G11 + K2 H G21
-    ext = _extension(pc, low)
+        k1, k2 = ctrl.paths(f)
+        for j, q in partners:  # before this case's products use up the paths
+            n = q.freq_hz.size
+            later[j] = _grid_loop(q, k1[:n], k2[:n])
+        g, fresh = _plant_on_grid(pc)
+        low = g[..., :_first_octave(f)].copy()  # for the extension's junction
+        if getattr(pc.hold, "identity", False):
+            release_shared()  # this case's s or z: the extension and the next case have their own grids
+            k1 *= g[0]
+            k2 *= g[1]
+        else:
+            H = pc.hold(f)
+            release_shared()
+            for k, row in ((k1, g[0]), (k2, g[1])):  # K H G, a row at a time: H G as the product g * H
+                if fresh:
+                    row *= H
+                    k *= row
+                else:
+                    k *= row * H
+            del H
+        del g
+        k1 += k2  # K1 H G11 + K2 H G21
+        del k2
+    if isinstance(memo, _Memo) and pc.plant is pc.model_plant:
+        # the model on the first octave is the plant's there (the same values, element by element)
+        memo.seed(pc.model_plant, (f[:low.shape[-1]],), low)
+    ext = _extension(pc, low, memo)
     if ext is not None:
         f_ext, scale, band, He_ge = ext
-        gfp_e, p1_e, p2_e = ctrl.at(f_ext)
+        gfp_e, p1_e, p2_e = memo(ctrl.at, f_ext)
         L_ext = p1_e * He_ge[0]
         L_ext += p2_e * He_ge[1]
         L_ext *= gfp_e

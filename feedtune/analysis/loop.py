@@ -725,6 +725,22 @@ def _drive(cases, evaluate_batch: BatchEvaluator | None) -> list[LoopMetrics]:
     return results
 
 
+_CHUNK = 4096
+"""Points per piece where a complex temporary is formed piecewise (the same values, less memory at once)."""
+
+
+def _abs_one(L: np.ndarray, op: np.ufunc) -> np.ndarray:
+    """``abs(op(1, L))`` of a 1-d ``L`` (``op``: :func:`numpy.add` or :func:`numpy.subtract`), the complex ``op(1, L)``
+    formed :data:`_CHUNK` points at a time."""
+    out = np.empty(L.shape)
+    tmp = np.empty(min(L.size, _CHUNK), complex)
+    for k in range(0, L.size, _CHUNK):
+        t = tmp[:min(_CHUNK, L.size - k)]
+        op(1.0, L[k:k + _CHUNK], out=t)
+        np.abs(t, out=out[k:k + _CHUNK])
+    return out
+
+
 class _Contour:
     """A loop on its contour and the magnitudes every figure reads: ``|L|`` and ``|1 + L|``."""
 
@@ -734,7 +750,7 @@ class _Contour:
         self.f, self.L = f, L
         if a is None:
             a = np.abs(L)
-            a1 = np.abs(1.0 + L)
+            a1 = _abs_one(L, np.add)
         self.a, self.a1 = a, a1
 
     def insert(self, f_new: np.ndarray, L_new: np.ndarray) -> _Contour:
@@ -794,7 +810,10 @@ def _resolve_contour(q: _Contour, bad: np.ndarray, f0: np.ndarray, features):
         fl = np.where(first, f[k], np.concatenate([[0.0], extra[:-1]]))
         Ll = np.where(first, L[k], np.concatenate([[0.0], Lx[:-1]]))
         pairs = [(fl, Ll, extra, Lx), (extra[last], Lx[last], f[k[last] + 1], L[k[last] + 1])]
-        bad_idx = bad_idx[~np.isin(bad_idx, k)]  # intervals with new points are replaced by their pieces
+        split = np.zeros(f.size + 1, bool)  # intervals with new points (k + 1: k is -1 below the contour) ...
+        split[k + 1] = True
+        bad_idx = bad_idx[~split[bad_idx + 1]]  # ... are replaced by their pieces
+        del split
     else:
         pairs = []
     pairs.append((f[bad_idx], L[bad_idx], f[bad_idx + 1], L[bad_idx + 1]))
@@ -1085,7 +1104,7 @@ class _GridFigures:
         del out_band
         self.f_ends = (float(f[0]), float(f[-1]))
         i_ms, in_ms = _local_maxima(aS)
-        half = np.abs(1.0 - L)
+        half = _abs_one(L, np.subtract)
         half *= aS
         half /= 2
         i_dm, in_dm = _local_maxima(half)
@@ -1106,10 +1125,11 @@ class _GridFigures:
         else:
             p_idx = self.peak_kind = np.empty(0, int)
         self.peak_lo, self.peak_hi = np.log(f[p_idx - 1]), np.log(f[p_idx + 1])
-        sel = f <= f[0] * 2.0
-        if sel.sum() < 3:
-            sel = np.arange(f.size) < min(3, f.size)
-        self.slope = 0.0 if sel.sum() < 2 else -_fit_slope(np.log(f[sel]), np.log(np.maximum(a[sel], 1e-300)))
+        m = int(np.searchsorted(f, f[0] * 2.0, side="right"))  # the lines f <= 2 f[0]: a prefix of the sorted f
+        if m < 3:
+            m = min(3, f.size)
+        # (copies, as a selection makes them: numpy's log may differ in the last bit with the alignment)
+        self.slope = 0.0 if m < 2 else -_fit_slope(np.log(f[:m].copy()), np.log(np.maximum(a[:m], 1e-300)))
         self.n_int = max(0, int(np.round(self.slope))) if integrators is None else int(integrators)
         self.a_low = float(a[0])
 

@@ -132,16 +132,20 @@ def contour_steps(L: np.ndarray, a: np.ndarray, a1: np.ndarray) -> tuple[np.ndar
     x = L.real + 1.0
     y = L.imag
     cos_wind = x[:-1] * x[1:]
-    cos_wind += y[:-1] * y[1:]
-    del x
+    tmp = x[:-1]  # x's memory serves the temporaries that follow
+    cos_wind += np.multiply(y[:-1], y[1:], out=tmp)
     cos_wind /= a1[:-1]
     cos_wind /= a1[1:]
-    near = np.minimum(a[:-1], a[1:]) <= NEAR_HIGH
-    near &= np.maximum(a[:-1], a[1:]) >= NEAR_LOW
+    near = np.minimum(a[:-1], a[1:], out=tmp) <= NEAR_HIGH
+    near &= np.maximum(a[:-1], a[1:], out=tmp) >= NEAR_LOW
+    del x, tmp
     i = np.flatnonzero(near)
-    l0, l1 = L[i], L[i + 1]
-    phase = np.abs(np.angle(l1 * np.conj(l0), deg=True))
-    mag = np.abs(20 * np.log10(a[i + 1] / a[i]))
+    i1 = i + 1
+    w = L[i]
+    np.conjugate(w, out=w)
+    phase = np.abs(np.angle(np.multiply(L[i1], w, out=w), deg=True))  # the angle of l1 conj(l0), in w's memory
+    del w
+    mag = np.abs(20 * np.log10(a[i1] / a[i]))
     return cos_wind, i, phase, mag
 
 
