@@ -57,6 +57,7 @@ from .margins import (
     crossings,
     disk_margins,
     interp_complex,
+    keep_and_join,
     level_bands,
     merge_chatter,
     phase_crossovers,
@@ -962,14 +963,7 @@ def _prune_bands(bands: list, f: np.ndarray, L: np.ndarray, noise: _ContourNoise
         sigma = a * (noise.at(i0, i1) * np.log(10) / 20)
         return float(np.max(ex / np.maximum(sigma, 1e-300)))
 
-    kept = [b for b in bands if strongest(b[0], b[1], 1.0) >= CHATTER_SIGMAS]
-    out: list[list[float]] = []
-    for b in kept:
-        if out and strongest(out[-1][1], b[0], -1.0) < CHATTER_SIGMAS:
-            out[-1] = [out[-1][0], b[1]]
-        else:
-            out.append(list(b))
-    return out
+    return keep_and_join(bands, strongest)
 
 
 def _loop_analysis(c: LoopCase):

@@ -165,6 +165,13 @@ def prune_bands(bands: list[list[float]], freq_hz: np.ndarray, excess: np.ndarra
         sel = (f >= lo) & (f <= hi)
         return float(np.max(sign * z[sel])) if sel.any() else 0.0
 
+    return keep_and_join(bands, strongest)
+
+
+def keep_and_join(bands: list[list[float]], strongest) -> list[list[float]]:
+    """The pruning rule of :func:`prune_bands`, given ``strongest(lo, hi, sign)``, the largest ``sign * excess /
+    sigma`` between ``lo`` and ``hi`` [Hz]: bands whose strongest excess stays below :data:`CHATTER_SIGMAS` are
+    dropped, then neighbours whose gap's strongest shortfall does are joined."""
     kept = [b for b in bands if strongest(b[0], b[1], 1.0) >= CHATTER_SIGMAS]
     out: list[list[float]] = []
     for b in kept:
