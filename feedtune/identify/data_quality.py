@@ -24,15 +24,23 @@ POOR_STD = 0.1
 """Relative standard deviation of a parameter above which it is called poorly determined [-]."""
 
 
-def quantization_step(x: np.ndarray) -> float:
-    """The quantization step of a sampled signal: the smallest non-zero difference between sorted distinct values
-    (0 for a constant or continuous-valued signal with fewer than 3 distinct values)."""
+def _codes(x: np.ndarray) -> tuple[np.ndarray | None, float]:
+    """``x`` as integer codes of ``span * 1e-9`` (values equal to rounding error merged; integer codes, at most 1e9,
+    sort ~3x faster than the floats) and that unit; ``(None, 0)`` for an empty or constant signal."""
     x = np.asarray(x, float)
     span = float(np.ptp(x)) if x.size else 0.0
     if span <= 0:
+        return None, 0.0
+    return np.round((x - x.min()) / (span * 1e-9)).astype(np.int64), span * 1e-9
+
+
+def quantization_step(x: np.ndarray) -> float:
+    """The quantization step of a sampled signal: the smallest non-zero difference between sorted distinct values
+    (0 for a constant or continuous-valued signal with fewer than 3 distinct values)."""
+    codes, unit = _codes(x)
+    if codes is None:
         return 0.0
-    # merge values equal to rounding error; integer codes (at most 1e9) sort ~3x faster than the floats
-    v = np.unique(np.round((x - x.min()) / (span * 1e-9)).astype(np.int64)) * (span * 1e-9)
+    v = np.unique(codes) * unit
     if v.size < 3:
         return 0.0
     d = np.diff(v)
@@ -45,11 +53,24 @@ def quantization_step(x: np.ndarray) -> float:
 def quantization_warning(x: np.ndarray, name: str, unit: str) -> str | None:
     """A warning when the position ``x`` [unit] is quantized coarsely for its motion, else None."""
     x = np.asarray(x, float)
+    moves = float(np.percentile(np.abs(np.diff(x)), 90)) if x.size > 1 else 0.0
+    span = float(np.ptp(x)) if x.size else 0.0
+    codes, code_unit = _codes(x)
+    if codes is None:
+        return None
+    # the step (the smallest gap between distinct values) is at most the smallest change between two samples: when
+    # even that change passes both rules, the step does too, and the distinct values need not be found (a sort)
+    steps = np.abs(np.diff(codes))
+    steps = steps[steps > 0]
+    if steps.size:
+        bound = float(steps.min()) * code_unit
+        if span / bound >= MIN_LEVELS and moves / bound >= MIN_STEPS_PER_SAMPLE_MOTION:
+            return None
     q = quantization_step(x)
     if q <= 0:
         return None
-    levels = (float(np.max(x)) - float(np.min(x))) / q
-    per_sample = float(np.percentile(np.abs(np.diff(x)), 90)) / q
+    levels = span / q
+    per_sample = moves / q
     if levels >= MIN_LEVELS and per_sample >= MIN_STEPS_PER_SAMPLE_MOTION:
         return None
     return Notice(f"{name} is quantized to {q:.3g} {unit} ({levels:.0f} steps over the stroke, {per_sample:.2g} "
