@@ -61,14 +61,22 @@ def cli_json(*args) -> dict:
     return json.loads(res.output)
 
 
+PEAK_LOCATIONS = ("ms_freq_hz", "disk_margin_freq_hz", "disturbance_peak_freq_hz", "disturbance_min_real_freq_hz")
+"""Keys that give where a curve has its maximum or minimum [Hz]. The value at a smooth extremum moves with the square
+of a shift of its place, so the place is fixed by the curve only to about the square root of the rounding: two
+analyses that differ in the last bits (below) put a flat Ms peak 1e-11 apart (seen once in CI); compared to
+:data:`PEAK_REL`, every value itself to 1e-12."""
+PEAK_REL = 1e-7
+
+
 def assert_same_numbers(got, expected, path="", rel=1e-12):
     """``got == expected`` with floats equal to ``rel`` (two analyses of the same files in one process may differ in
-    the last bits: LAPACK's results depend on the memory alignment of a recomputed discretization); every key,
-    length, string, bool and None exactly."""
+    the last bits: LAPACK's results depend on the memory alignment of a recomputed discretization), the places of
+    extrema (:data:`PEAK_LOCATIONS`) to :data:`PEAK_REL`; every key, length, string, bool and None exactly."""
     if isinstance(expected, dict):
         assert isinstance(got, dict) and set(got) == set(expected), (path, sorted(set(got) ^ set(expected)))
         for k in expected:
-            assert_same_numbers(got[k], expected[k], f"{path}/{k}", rel)
+            assert_same_numbers(got[k], expected[k], f"{path}/{k}", max(rel, PEAK_REL) if k in PEAK_LOCATIONS else rel)
     elif isinstance(expected, list):
         assert isinstance(got, list) and len(got) == len(expected), path
         for i, (g, e) in enumerate(zip(got, expected, strict=True)):
