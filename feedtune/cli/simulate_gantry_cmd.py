@@ -45,6 +45,14 @@ AXIS_GAINS_OPTION = typer.Option(
     help="x-axis gains file (kind axis) from feedtune design loopshape; default: the built-in holding PID.",
 )
 X_OPTION = typer.Option(0.0, "--x", metavar="M", help="Table position [m].")
+FRF_OUT_OPTION = typer.Option(None, "--frf-out", metavar="FILE",
+                              help="FRF file (.csv; default: the log name + _frf.csv).")
+F_LO_OPTION = typer.Option(2.0, "--f-lo", metavar="HZ", help="Lowest excited frequency [Hz].")
+F_HI_OPTION = typer.Option(1000.0, "--f-hi", metavar="HZ", help="Highest excited frequency [Hz].")
+PERIOD_OPTION = typer.Option(0.5, "--period", metavar="S", help="Multisine period [s] (line spacing 1/period).")
+KEEP_SAMPLING_OPTION = typer.Option(False, "--keep-sampling", help="Keep the computational delay and the ZOH half "
+                                    "sample in the FRF (default: removed, so the file is the continuous plant the "
+                                    "analysis expects).")
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -122,18 +130,13 @@ def frf(
         None, "--x", metavar="M",
         help="Table position [m] (repeatable: one run per position; file names get _x<POS> appended).",
     ),
-    frf_out: Path = typer.Option(
-        None, "--frf-out", metavar="FILE",
-        help="FRF file (.csv; default: the log name + _frf.csv).",
-    ),
+    frf_out: Path = FRF_OUT_OPTION,
     rms: float = typer.Option(0.5, "--rms", metavar="V", help="RMS of the multisine added to u1, then u2 [V]."),
-    f_lo: float = typer.Option(2.0, "--f-lo", metavar="HZ", help="Lowest excited frequency [Hz]."),
-    f_hi: float = typer.Option(1000.0, "--f-hi", metavar="HZ", help="Highest excited frequency [Hz]."),
-    period: float = typer.Option(0.5, "--period", metavar="S", help="Multisine period [s] (line spacing 1/period)."),
+    f_lo: float = F_LO_OPTION,
+    f_hi: float = F_HI_OPTION,
+    period: float = PERIOD_OPTION,
     periods: int = typer.Option(4, "--periods", metavar="N", help="Periods per input; the first of each is dropped."),
-    keep_delay: bool = typer.Option(False, "--keep-sampling", help="Keep the computational delay and the ZOH half "
-                                                                   "sample in the FRF (default: removed, so the file "
-                                                                   "is the continuous plant the analysis expects)."),
+    keep_delay: bool = KEEP_SAMPLING_OPTION,
     gains: Path = OPT_GAINS_OPTION,
     axis_gains: Path = AXIS_GAINS_OPTION,
     param: list[str] = PARAM_OPTION,
@@ -181,18 +184,13 @@ def frf(
 def axis_frf(
     out: Path = OUT_OPTION,
     x: float = X_OPTION,
-    frf_out: Path = typer.Option(
-        None, "--frf-out", metavar="FILE",
-        help="FRF file (.csv; default: the log name + _frf.csv).",
-    ),
+    frf_out: Path = FRF_OUT_OPTION,
     rms: float = typer.Option(0.5, "--rms", metavar="V", help="RMS of the multisine added to ux [V]."),
-    f_lo: float = typer.Option(2.0, "--f-lo", metavar="HZ", help="Lowest excited frequency [Hz]."),
-    f_hi: float = typer.Option(1000.0, "--f-hi", metavar="HZ", help="Highest excited frequency [Hz]."),
-    period: float = typer.Option(0.5, "--period", metavar="S", help="Multisine period [s] (line spacing 1/period)."),
+    f_lo: float = F_LO_OPTION,
+    f_hi: float = F_HI_OPTION,
+    period: float = PERIOD_OPTION,
     periods: int = typer.Option(4, "--periods", metavar="N", help="Periods; the first is dropped."),
-    keep_delay: bool = typer.Option(False, "--keep-sampling", help="Keep the computational delay and the ZOH half "
-                                                                   "sample in the FRF (default: removed, so the file "
-                                                                   "is the continuous plant the analysis expects)."),
+    keep_delay: bool = KEEP_SAMPLING_OPTION,
     gains: Path = OPT_GAINS_OPTION,
     axis_gains: Path = AXIS_GAINS_OPTION,
     param: list[str] = PARAM_OPTION,

@@ -38,8 +38,11 @@ def quantization_step(x: np.ndarray) -> float:
     """The quantization step of a sampled signal: the smallest non-zero difference between sorted distinct values
     (0 for a constant or continuous-valued signal with fewer than 3 distinct values)."""
     codes, unit = _codes(x)
-    if codes is None:
-        return 0.0
+    return 0.0 if codes is None else _step_of_codes(codes, unit)
+
+
+def _step_of_codes(codes: np.ndarray, unit: float) -> float:
+    """:func:`quantization_step` of a signal given as its :func:`_codes`."""
     v = np.unique(codes) * unit
     if v.size < 3:
         return 0.0
@@ -66,7 +69,7 @@ def quantization_warning(x: np.ndarray, name: str, unit: str) -> str | None:
         bound = float(steps.min()) * code_unit
         if span / bound >= MIN_LEVELS and moves / bound >= MIN_STEPS_PER_SAMPLE_MOTION:
             return None
-    q = quantization_step(x)
+    q = _step_of_codes(codes, code_unit)
     if q <= 0:
         return None
     levels = span / q
