@@ -377,11 +377,6 @@ def feedback_paths(law: BallScrewLaw, discrete: bool) -> tuple[Zpk, Zpk]:
     return (law.K1d(), law.K2d()) if discrete else (law.K1(), law.K2())
 
 
-def controller_features(paths: tuple[Zpk, Zpk]) -> np.ndarray:
-    """Lightly damped poles and zeros (Hz, damping) of the feedback paths ``(K1, K2)``."""
-    return np.vstack([lightly_damped(r, k.dt) for k in paths for r in (k.poles, k.zeros)])
-
-
 def loop_function(paths: tuple[Zpk, Zpk], pc: PlantCase) -> Callable[[np.ndarray], np.ndarray]:
     """``L(f) = hold (K1 G11 + K2 G21)`` of the feedback paths on a plant case, at any frequency [Hz]."""
     K1, K2 = paths

@@ -34,15 +34,9 @@ def _codes(x: np.ndarray) -> tuple[np.ndarray | None, float]:
     return np.round((x - x.min()) / (span * 1e-9)).astype(np.int64), span * 1e-9
 
 
-def quantization_step(x: np.ndarray) -> float:
-    """The quantization step of a sampled signal: the smallest non-zero difference between sorted distinct values
-    (0 for a constant or continuous-valued signal with fewer than 3 distinct values)."""
-    codes, unit = _codes(x)
-    return 0.0 if codes is None else _step_of_codes(codes, unit)
-
-
 def _step_of_codes(codes: np.ndarray, unit: float) -> float:
-    """:func:`quantization_step` of a signal given as its :func:`_codes`."""
+    """The quantization step of a sampled signal given as its :func:`_codes`: the smallest non-zero difference
+    between sorted distinct values (0 for a continuous-valued signal or one with fewer than 3 distinct values)."""
     v = np.unique(codes) * unit
     if v.size < 3:
         return 0.0
