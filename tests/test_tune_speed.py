@@ -373,7 +373,15 @@ def test_joint_refinement_gives_the_figures_of_the_functions_called_one_by_one(g
     functions the analysis called one after the other) on the same contour, value for value; the extension kept per
     plant case equals :func:`~feedtune.analysis.loop.model_extension`."""
     from feedtune.analysis.gantry import analyze_gantry_case, gantry_plant_cases, law_features
-    from feedtune.analysis.loop import loop_margins, model_extension, piecewise, scalar_loops
+    from feedtune.analysis.loop import (
+        Margins,
+        loop_margins,
+        model_extension,
+        piecewise,
+        possible_crossings,
+        scalar_loops,
+        with_possible,
+    )
     from feedtune.analysis.margins import peak
     from feedtune.analysis.mimo import com_loop, identity2, matmul, resolve_rounds, sensitivity, singular_values
     from feedtune.analysis.resolution import ResolutionError
@@ -405,11 +413,17 @@ def test_joint_refinement_gives_the_figures_of_the_functions_called_one_by_one(g
                                         known=evaluate(f))
                 fc, Lc = ext.prepend(fg, Lg)
                 fn = piecewise(float(fg[0]), ext.evaluate, evaluate)
-                noise = None
+                noise = is_line = None
                 if pc.noise_db is not None:
                     lines = np.interp(np.log(fg), np.log(f), np.asarray(pc.noise_db, float))
                     noise = np.r_[np.zeros(fc.size - fg.size), lines]
-                mg = loop_margins(fc, com_loop(Lc, w), lambda fq, fn=fn, w=w: com_loop(fn(fq), w), noise)
+                    is_line = np.isin(fc, f)  # the FRF's lines: the data of the clusters' smooth fits
+                mg = loop_margins(fc, com_loop(Lc, w), lambda fq, fn=fn, w=w: com_loop(fn(fq), w), noise, is_line)
+                if noise is not None:  # the places the lines leave a crossing open count as crossings
+                    px, p180 = possible_crossings(fc, com_loop(Lc, w), f, np.asarray(pc.noise_db, float).__getitem__,
+                                                  mg.crossovers_hz, mg.phase_crossovers_hz, mg.merged)
+                    mg = Margins(*with_possible(mg.crossovers_hz, mg.phase_margins_deg, px, "pm_deg"),
+                                 *with_possible(mg.phase_crossovers_hz, mg.gain_margins_db, p180, "gm_db"), mg.merged)
                 ms_f, ms = peak(fc, smax(sensitivity(Lc)), lambda fq, fn=fn: smax(sensitivity(fn(fq))))
                 dm_f, dm = peak(fc, smax(sensitivity(Lc) - 0.5 * identity2(fc.size)),
                                 lambda fq, fn=fn: smax(sensitivity(fn(fq)) - 0.5 * identity2(np.size(fq))))

@@ -54,15 +54,19 @@ from ..errors import DataError
 from .margins import (
     CHATTER_SIGMAS,
     NEGLIGIBLE_LOOP,
+    SMOOTH_LINES,
+    ClusterEvidence,
     crossings,
     disk_margins,
     interp_complex,
     keep_and_join,
     level_bands,
     merge_chatter,
+    near_misses,
     phase_crossovers,
     prune_bands,
     settle_clusters,
+    smooth_verdict,
 )
 from .resolution import (
     INTERPOLATION,
@@ -151,6 +155,11 @@ class LoopMetrics:
     band_top_hz, band_top_loop_gain : float or None
         For a measured loop, the FRF's last line [Hz] and ``|L|`` there [-]: above the band the loop is unknown, and
         the limits hold there only if it is small enough (:meth:`feedtune.analysis.limits.Limits.check`).
+    possible_crossovers, possible_phase_crossovers : list of dict
+        For a measured loop, where it comes within the FRF's scatter of ``|L| = 1`` (of -180 deg) without crossing
+        and the lines cannot rule a crossing out (:func:`possible_crossings`), with the phase margin (gain margin)
+        such a crossing would have. They are listed among the crossovers (phase crossovers) too: the first crossover
+        and the worst margins count them.
     """
 
     crossovers_hz: list
@@ -178,6 +187,14 @@ class LoopMetrics:
     nyquist_reliable: bool = True
     band_top_hz: float | None = None
     band_top_loop_gain: float | None = None
+    possible_crossovers: list = field(default_factory=list)
+    possible_phase_crossovers: list = field(default_factory=list)
+
+    @property
+    def first_crossover_hz(self) -> float | None:
+        """The first crossover the plant may have [Hz] (possible crossovers included); None without one. The
+        bandwidth a design guarantees."""
+        return float(self.crossovers_hz[0]) if self.crossovers_hz else None
 
     @property
     def rejection_band_hz(self) -> list | None:
@@ -238,6 +255,9 @@ class LoopMetrics:
             "nyquist_reliable": bool(self.nyquist_reliable),
             "band_top_hz": _f(self.band_top_hz),
             "band_top_loop_gain": _f(self.band_top_loop_gain),
+            "first_crossover_hz": _f(self.first_crossover_hz),
+            "possible_crossovers": list(self.possible_crossovers),
+            "possible_phase_crossovers": list(self.possible_phase_crossovers),
             "warnings": list(self.warnings),
         }
 
@@ -528,26 +548,27 @@ class Margins:
 
 
 def loop_margins(freq_hz: np.ndarray, L: np.ndarray, fn: Callable[[np.ndarray], np.ndarray] | None = None,
-                 noise: np.ndarray | None = None) -> Margins:
+                 noise: np.ndarray | None = None, lines: np.ndarray | None = None) -> Margins:
     """Every crossover and phase crossover of a scalar loop ``L`` on ``freq_hz`` [Hz], refined with ``fn`` (``L``
-    at any frequency) when given; ``noise`` [dB] per frequency (a measured loop's scatter) merges chatter of both
-    (:func:`~feedtune.analysis.margins.merge_chatter`)."""
+    at any frequency) when given; ``noise`` [dB] per frequency (a measured loop's scatter) settles the clusters of
+    both that the scatter may have made (:func:`~feedtune.analysis.margins.merge_chatter`; ``lines``: the points of
+    ``freq_hz`` that are FRF lines, boolean, default all)."""
     with np.errstate(divide="ignore"):
         db = 20 * np.log10(np.abs(L))
     wc = crossings(freq_hz, db, 0.0, None if fn is None else (lambda fq: 20 * np.log10(np.abs(fn(fq)))))
     w180 = phase_crossovers(freq_hz, L, fn)
-    merged: list[dict] = []
-    if noise is not None:
-        wc, merged = merge_chatter(wc, freq_hz, db, noise)
-        noise_deg = np.degrees(np.asarray(noise) * np.log(10) / 20)  # circular scatter: phase [rad] = log-magnitude
-        w180, merged_180 = merge_chatter(w180, freq_hz, np.degrees(np.angle(-L)), noise_deg, "phase crossovers",
-                                         "deg")
-        merged += merged_180
     Lx = fn(wc) if fn is not None and wc.size else interp_complex(freq_hz, L, wc)
     pm = [float(x) for x in np.rad2deg(np.angle(-Lx))] if wc.size else []
     L180 = fn(w180) if fn is not None and w180.size else interp_complex(freq_hz, L, w180)
     gm = [float(-20 * np.log10(abs(x))) for x in L180]
-    return Margins([float(x) for x in wc], pm, [float(x) for x in w180], gm, merged)
+    merged: list[dict] = []
+    if noise is not None:
+        wc, pm, merged = merge_chatter(wc, pm, freq_hz, db, noise, lines=lines)
+        noise_deg = np.degrees(np.asarray(noise) * np.log(10) / 20)  # circular scatter: phase [rad] = log-magnitude
+        w180, gm, merged_180 = merge_chatter(w180, gm, freq_hz, np.degrees(np.angle(-L)), noise_deg,
+                                             "phase crossovers", "deg", lines=lines)
+        merged += merged_180
+    return Margins([float(x) for x in wc], list(pm), [float(x) for x in w180], list(gm), merged)
 
 
 def scatter_of(L: np.ndarray, noise: np.ndarray | None) -> np.ndarray | None:
@@ -903,7 +924,7 @@ class _ContourNoise:
     """The measured scatter [dB] at contour points (0 on the extension), computed only where asked."""
 
     def __init__(self, noise, f: np.ndarray, f0: np.ndarray, first: int) -> None:
-        self.f, self.first = f, first
+        self.f, self.f0, self.first = f, f0, first
         shared = hasattr(noise, "log_freq") and getattr(noise, "freq_hz", None) is f0  # the FRF's cases share it
         self.lf0 = noise.log_freq() if shared else np.log(f0)
         self.lines = noise.lines if hasattr(noise, "lines") else np.asarray(noise, float).__getitem__
@@ -920,23 +941,40 @@ class _ContourNoise:
             out[g0 - i0:] = np.interp(x, self.lf0[jl:jr + 1], self.lines(np.arange(jl, jr + 1)))
         return out
 
+    def around(self, lo_hz: float, hi_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        """The FRF's lines from :data:`~feedtune.analysis.margins.SMOOTH_LINES` below ``lo_hz`` to as many above
+        ``hi_hz`` [Hz]: their contour indices and their scatter [dB]."""
+        j0 = max(int(np.searchsorted(self.f0, lo_hz, "left")) - SMOOTH_LINES, 0)
+        j1 = min(int(np.searchsorted(self.f0, hi_hz, "right")) + SMOOTH_LINES, self.f0.size)
+        j = np.arange(j0, j1)
+        return np.searchsorted(self.f, self.f0[j]), np.asarray(self.lines(j), float)
 
-def _merge_chatter(wc: np.ndarray, f: np.ndarray, deviation: Callable, scatter: Callable | None, what: str,
-                   unit: str) -> tuple[np.ndarray, list[dict]]:
-    """:func:`~feedtune.analysis.margins.merge_chatter` with the deviation and the scatter (``scatter(i0, i1)`` at the
-    contour points ``i0 .. i1 - 1``, in the deviation's unit) read only over the clusters."""
-    if scatter is None or wc.size < 2:
-        return wc, []
 
-    def measure(c: list[float]) -> tuple[float, float]:
+def _merge_chatter(wc: np.ndarray, values: list, f: np.ndarray, deviation: Callable, noise: _ContourNoise | None,
+                   what: str, unit: str, to_unit: Callable = lambda sigma_db: sigma_db
+                   ) -> tuple[np.ndarray, list, list[dict]]:
+    """:func:`~feedtune.analysis.margins.merge_chatter` with the deviation (``deviation(idx)`` at the contour points
+    ``idx``) and the scatter (``to_unit`` of the scatter in dB) read only over the clusters and the lines around
+    them."""
+    if noise is None or wc.size < 2:
+        return wc, values, []
+
+    def measure(c: list[float]) -> ClusterEvidence:
         i0, i1 = int(np.searchsorted(f, c[0], "left")), int(np.searchsorted(f, c[-1], "right"))
         if i1 > i0:
-            return float(np.max(np.abs(deviation(i0, i1)))), float(np.max(scatter(i0, i1)))
-        # between two points: the scatter interpolated at the first crossing
-        j = min(max(int(np.searchsorted(f, c[0], "right")) - 1, 0), f.size - 2)
-        return 0.0, float(np.interp(c[0], f[j:j + 2], scatter(j, j + 2)))
+            excursion, sigma = float(np.max(np.abs(deviation(np.arange(i0, i1))))), float(np.max(to_unit(
+                noise.at(i0, i1))))
+        else:  # between two points: the scatter interpolated at the first crossing
+            j = min(max(int(np.searchsorted(f, c[0], "right")) - 1, 0), f.size - 2)
+            excursion, sigma = 0.0, float(np.interp(c[0], f[j:j + 2], to_unit(noise.at(j, j + 2))))
+        idx, sig = noise.around(c[0], c[-1])
+        below = max(i0 - 1, 0)
+        side = 1.0 if deviation(np.array([below]))[0] >= 0 else -1.0
+        smooth = smooth_verdict(np.log(f[idx]), deviation(idx), to_unit(sig), float(np.log(c[0])),
+                                float(np.log(c[-1])), side)
+        return ClusterEvidence(excursion, sigma, smooth)
 
-    return settle_clusters(wc, measure, what, unit)
+    return settle_clusters(wc, values, measure, what, unit)
 
 
 def _prune_bands(bands: list, f: np.ndarray, L: np.ndarray, noise: _ContourNoise) -> list:
@@ -1017,7 +1055,7 @@ def _loop_analysis(c: LoopCase):
     if fn is None:  # samples: figures interpolated between them
         f, L = q.f, q.L
         noise_arr = None if noise is None else noise.at(0, f.size)
-        mg = loop_margins(f, L, None, noise_arr)
+        mg = loop_margins(f, L, None, noise_arr, np.arange(f.size) >= g.first)
         wc, pm, w180, gm, merged = (mg.crossovers_hz, mg.phase_margins_deg, mg.phase_crossovers_hz,
                                     mg.gain_margins_db, mg.merged)
         bands = level_bands(f, q.a1, 1.0)
@@ -1035,6 +1073,12 @@ def _loop_analysis(c: LoopCase):
     if merged:
         warnings.append(f"{len(merged)} cluster(s) of crossings within the FRF's scatter were merged "
                         "(merged_crossovers)")
+    possible_x, possible_180 = ([], []) if noise is None else possible_crossings(f, L, f0, noise.lines, wc, w180,
+                                                                                   merged)
+    if possible_x or possible_180:
+        warnings.append(possible_warning(possible_x, possible_180))
+        wc, pm = with_possible(wc, pm, possible_x, "pm_deg")
+        w180, gm = with_possible(w180, gm, possible_180, "gm_db")
     warnings += later
     if bands and bands[0][0] == f_low and g.n_int > 0:
         bands[0][0] = 0.0
@@ -1069,7 +1113,68 @@ def _loop_analysis(c: LoopCase):
         abs(winding - n_ccw) <= 0.2,
         float(f0[-1]) if c.measured else None,
         float(abs(L0[-1])) if c.measured else None,
+        possible_x,
+        possible_180,
     )
+
+
+NEAR_BOUND_DB = 7.0
+"""Largest twice-scatter [dB] of a line the possible-crossing search judges: a line whose 2-sigma relative error
+reaches 1 (20 log10 1.5 = 3.5 dB) proves nothing (its disk holds the origin)."""
+
+
+def possible_crossings(f: np.ndarray, L: np.ndarray, lines_hz: np.ndarray, scatter_db: Callable,
+                       crossovers_hz, phase_crossovers_hz, merged: list[dict] = ()) -> tuple[list[dict], list[dict]]:
+    """The possible crossovers and phase crossovers of a measured loop (:func:`~feedtune.analysis.margins.
+    near_misses`) with the margin each would have: ``[{"freq_hz", "pm_deg", "gap_db", "scatter_db", "smooth"}]`` and
+    ``[{"freq_hz", "gm_db", "gap_deg", "scatter_deg", "smooth"}]``.
+
+    ``f``, ``L`` are the contour (the FRF's ``lines_hz`` [Hz] among its points), ``scatter_db(index)`` the scatter [dB]
+    of the lines ``index``; the crossings of the ``merged`` clusters are decided already.
+    """
+    settled = {what: [x for r in merged if r["of"] == what for x in r["freq_hz"]]
+               for what in ("crossovers", "phase crossovers")}
+    at = np.searchsorted(f, lines_hz)
+
+    def db_at(i):
+        with np.errstate(divide="ignore"):
+            return 20 * np.log10(np.abs(L[at[i]]))
+
+    def phase_at(i):  # the angle of -L where L is on the negative real side and not negligible, else 180 deg
+        Li = L[at[i]]
+        return np.where((np.abs(Li) >= NEGLIGIBLE_LOOP) & (Li.real < 0), np.degrees(np.angle(-Li)), 180.0)
+
+    def deg_at(i):
+        return np.degrees(np.asarray(scatter_db(i), float) * np.log(10) / 20)
+
+    out_x = [{"freq_hz": p["freq_hz"], "pm_deg": float(np.degrees(np.angle(-L[at[p["index"]]]))), "gap_db": p["gap"],
+              "scatter_db": p["scatter"], "smooth": p["smooth"]}
+             for p in near_misses(lines_hz, db_at, scatter_db, [*crossovers_hz, *settled["crossovers"]],
+                                  NEAR_BOUND_DB)]
+    out_p = [{"freq_hz": p["freq_hz"], "gm_db": float(-db_at(np.array([p["index"]]))[0]), "gap_deg": p["gap"],
+              "scatter_deg": p["scatter"], "smooth": p["smooth"]}
+             for p in near_misses(lines_hz, phase_at, deg_at, [*phase_crossovers_hz, *settled["phase crossovers"]],
+                                  float(np.degrees(NEAR_BOUND_DB * np.log(10) / 20)))]
+    return out_x, out_p
+
+
+def with_possible(crossings_hz: list, margins: list, possible: list[dict], key: str) -> tuple[list, list]:
+    """The crossings [Hz] and their margins with the possible ones (``possible[i]["freq_hz"]``, ``[key]``) added, in
+    order of frequency."""
+    pairs = sorted([*zip(crossings_hz, margins, strict=True), *((p["freq_hz"], p[key]) for p in possible)])
+    return [float(f) for f, _ in pairs], [float(v) for _, v in pairs]
+
+
+def possible_warning(possible_x: list[dict], possible_180: list[dict]) -> str:
+    """One line naming where the lines leave a crossing open (:func:`possible_crossings`)."""
+    parts = []
+    if possible_x:
+        parts.append("|L| = 1 at " + ", ".join(f"{p['freq_hz']:.4g} Hz" for p in possible_x[:4]))
+    if possible_180:
+        parts.append("-180 deg at " + ", ".join(f"{p['freq_hz']:.4g} Hz" for p in possible_180[:4]))
+    return ("the loop comes within the FRF's scatter of " + " and of ".join(parts) + " without crossing and the "
+            "lines cannot rule a crossing out: counted as possible crossings (the first crossover and the worst "
+            "margins include them; possible_crossovers)")
 
 
 class _GridFigures:
@@ -1131,8 +1236,8 @@ class _GridFigures:
 def _refine(g: _GridFigures, f: np.ndarray | None, L: np.ndarray | None, noise: _ContourNoise | None):
     """Generator: refine every crossing and peak of :class:`_GridFigures` in joint rounds (``("refine", points)``,
     sent ``L`` there) and return ``(crossovers, phase crossovers, band edges, merged clusters, phase margins, gain
-    margins, (f, |S|) peak, (f, |S - 1/2|) peak)``; with ``noise``, clusters of crossings are merged on the contour
-    ``f``, ``L`` first (:func:`_merge_chatter`).
+    margins, (f, |S|) peak, (f, |S - 1/2|) peak)``; with ``noise``, the clusters of crossings that the scatter may
+    have made are settled on the contour ``f``, ``L`` with their margins (:func:`_merge_chatter`).
 
     Rounds: the crossings' brackets sampled :data:`ROOT_ROUNDS` times (then :func:`_crossing`), the peaks' brackets
     :data:`PEAK_ROUNDS` times (each round zooming on the largest sample), and one last round with the loop at the
@@ -1180,15 +1285,6 @@ def _refine(g: _GridFigures, f: np.ndarray | None, L: np.ndarray | None, noise: 
                 roots = np.exp(_crossing(xr, y, j))
                 kind = g.root_kind
                 wc, w180, edges = roots[kind == 0], roots[kind == 1], roots[kind == 2]
-                if noise is not None:
-                    def deg_scatter(i0, i1):
-                        return np.degrees(noise.at(i0, i1) * np.log(10) / 20)
-
-                    wc, merged = _merge_chatter(wc, f, lambda i0, i1: 20 * np.log10(np.abs(L[i0:i1])), noise.at,
-                                                "crossovers", "dB")
-                    w180, merged_180 = _merge_chatter(w180, f, lambda i0, i1: np.degrees(np.angle(-L[i0:i1])),
-                                                      deg_scatter, "phase crossovers", "deg")
-                    merged += merged_180
         if xp is not None:
             y = _peak_values(pk, v[pos:pos + xp.size]).reshape(xp.shape)
             pos += xp.size
@@ -1204,6 +1300,13 @@ def _refine(g: _GridFigures, f: np.ndarray | None, L: np.ndarray | None, noise: 
                                                                                                 + w180.size:]
             pm = [float(x) for x in np.rad2deg(np.angle(-Lx))] if wc.size else []
             gm = [float(x) for x in -20 * np.log10(np.abs(L180))]
+            if noise is not None:  # the clusters the scatter may have made, settled with their members' margins
+                wc, pm, merged = _merge_chatter(wc, pm, f, lambda i: 20 * np.log10(np.abs(L[i])), noise,
+                                                "crossovers", "dB")
+                w180, gm, merged_180 = _merge_chatter(w180, gm, f, lambda i: np.degrees(np.angle(-L[i])), noise,
+                                                      "phase crossovers", "deg",
+                                                      lambda s_db: np.degrees(s_db * np.log(10) / 20))
+                merged += merged_180
             yv = _peak_values(g.peak_kind, Lv)
             take = yv > best_y
             best_x, best_y = np.where(take, vertex, best_x), np.where(take, yv, best_y)

@@ -15,6 +15,7 @@ dB) and phases up to ``2 atan(alpha / 2)`` (the disk phase margin, deg).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -92,59 +93,230 @@ def disk_margins(alpha: float) -> tuple[float, float]:
     return float(20 * np.log10((2 + alpha) / (2 - alpha))), float(np.degrees(2 * np.arctan(alpha / 2)))
 
 
-def merge_chatter(crossings_hz: np.ndarray, freq_hz: np.ndarray, deviation: np.ndarray, noise: np.ndarray | None,
-                  what: str = "crossovers", unit: str = "dB") -> tuple[np.ndarray, list[dict]]:
-    """Merge crossing clusters that measurement scatter explains (kept crossings [Hz], merged records).
+@dataclass(frozen=True)
+class ClusterEvidence:
+    """What a cluster of crossings rests on (:func:`settle_clusters`).
 
-    Crossings closer than :data:`CHATTER_REL` to their neighbour form a cluster. A cluster is chatter when the crossing
-    quantity ``deviation`` (``20 log10 |L|`` [dB] for crossovers, the angle of ``-L`` [deg] for phase crossovers)
-    stays between its first and last crossing within :data:`CHATTER_SIGMAS` times the measured scatter ``noise`` (same
-    unit; :func:`~feedtune.analysis.resolution.noise_db`) of 0: an odd cluster is then one crossing (its first), an
-    even one a touch without a net crossing. Without ``noise`` (a loop that is not measured) nothing is merged.
+    Attributes
+    ----------
+    excursion : float
+        Largest ``|deviation|`` of the crossing quantity from its level between the first and the last crossing
+        (dB for crossovers, deg for phase crossovers).
+    scatter : float
+        Largest 1-sigma measurement scatter there (same unit).
+    smooth : str or None
+        The verdict of a smooth fit of the FRF's lines around the cluster (:func:`smooth_verdict`): ``"excludes"``
+        (the fit stays on the side of the cluster's ends, more than :data:`CHATTER_SIGMAS` standard errors from the
+        level, over the whole cluster: the plant does not cross there), ``"confirms"`` (the fit crosses),
+        ``"undecided"``, or None (too few lines for a fit).
+    """
+
+    excursion: float
+    scatter: float
+    smooth: str | None = None
+
+
+SMOOTH_LINES = 10
+"""Lines on each side of a cluster that the smooth fit of :func:`smooth_verdict` takes at most besides the cluster's
+own."""
+SMOOTH_WINDOWS = (10, 7, 5, 3)
+"""Half widths [lines] of the windows :func:`smooth_verdict` tries, widest first."""
+SMOOTH_MAX_CHI2 = 2.0
+"""A smooth fit whose reduced chi-square exceeds this [-] does not describe the lines: a narrower window is tried."""
+
+
+def smooth_verdict(x: np.ndarray, y: np.ndarray, sigma: np.ndarray, lo: float, hi: float, side: float
+                   ) -> str | None:
+    """Whether the lines ``(x, y)`` (``x`` log frequency, increasing; ``y`` the deviation from the level, 1-sigma
+    scatter ``sigma``) show ``y`` crossing 0 between ``lo`` and ``hi`` (log frequency) or staying on ``side`` (+1 or
+    -1).
+
+    A quadratic in ``x`` is fitted by weighted least squares to the lines from :data:`SMOOTH_WINDOWS` lines below
+    ``lo`` to as many above ``hi``, the widest window whose fit describes its lines (reduced chi-square at most
+    :data:`SMOOTH_MAX_CHI2`: the curve is smooth at that scale) first. The fit and its standard error are evaluated
+    over ``[lo, hi]``: ``"excludes"`` when ``side * fit > CHATTER_SIGMAS * error`` everywhere there, ``"confirms"``
+    when the fit itself reaches the other side, else ``"undecided"`` (also when no window's fit describes its lines).
+    None with fewer than 6 lines.
+    """
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    s = np.maximum(np.asarray(sigma, float), 1e-12)
+    ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(s)
+    x, y, s = x[ok], y[ok], s[ok]
+    if x.size < 6:
+        return None
+    i0 = int(np.searchsorted(x, lo, "left"))
+    i1 = int(np.searchsorted(x, hi, "right"))
+    xe = np.linspace(lo, hi, 9)
+    for half in SMOOTH_WINDOWS:
+        a, b = max(i0 - half, 0), min(i1 + half, x.size)
+        if b - a < 6:
+            continue
+        xw, yw, sw = x[a:b], y[a:b], s[a:b]
+        mid, scale = 0.5 * (xw[0] + xw[-1]), max(0.5 * (xw[-1] - xw[0]), 1e-12)
+        A = np.vander((xw - mid) / scale, 3) / sw[:, None]
+        coef, *_ = np.linalg.lstsq(A, yw / sw, rcond=None)
+        chi2 = float(np.sum((A @ coef - yw / sw) ** 2) / max(xw.size - 3, 1))
+        if not chi2 <= SMOOTH_MAX_CHI2:
+            continue
+        cov = np.linalg.pinv(A.T @ A) * max(chi2, 1.0)
+        X = np.vander((xe - mid) / scale, 3)
+        fit = X @ coef
+        err = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", X, cov, X), 0.0))
+        if np.all(side * fit > CHATTER_SIGMAS * err):
+            return "excludes"
+        if np.any(side * fit < 0):
+            return "confirms"
+        return "undecided"
+    return "undecided"
+
+
+def merge_chatter(crossings_hz: np.ndarray, values, freq_hz: np.ndarray, deviation: np.ndarray,
+                  noise: np.ndarray | None, what: str = "crossovers", unit: str = "dB",
+                  lines: np.ndarray | None = None) -> tuple[np.ndarray, list, list[dict]]:
+    """:func:`settle_clusters` of crossings of a loop sampled on ``freq_hz`` (kept crossings [Hz], their margins,
+    the merged clusters' records).
+
+    ``deviation`` is the crossing quantity on ``freq_hz`` (``20 log10 |L|`` [dB] for crossovers, the angle of ``-L``
+    [deg] for phase crossovers), ``noise`` its measured 1-sigma scatter (same unit; None: not measured, nothing is
+    merged), ``values`` the margins at the crossings and ``lines`` the points of ``freq_hz`` that are an FRF's lines
+    (boolean mask; default: every point), the data of the smooth fit.
     """
     wc = np.asarray(crossings_hz, float)
+    values = list(values)
     if noise is None or wc.size < 2:
-        return wc, []
+        return wc, values, []
     f = np.asarray(freq_hz, float)
+    dev = np.asarray(deviation, float)
+    sig = np.asarray(noise, float)
+    line_idx = np.flatnonzero(np.ones(f.size, bool) if lines is None else lines)
 
-    def measure(c: list[float]) -> tuple[float, float]:
+    def measure(c: list[float]) -> ClusterEvidence:
         sel = (f >= c[0]) & (f <= c[-1])
-        excursion = float(np.max(np.abs(deviation[sel]))) if sel.any() else 0.0
-        sigma = float(np.max(noise[sel])) if sel.any() else float(np.interp(c[0], f, noise))
-        return excursion, sigma
+        excursion = float(np.max(np.abs(dev[sel]))) if sel.any() else 0.0
+        sigma = float(np.max(sig[sel])) if sel.any() else float(np.interp(c[0], f, sig))
+        return ClusterEvidence(excursion, sigma, _smooth_of(f, dev, sig, line_idx, c))
 
-    return settle_clusters(wc, measure, what, unit)
+    return settle_clusters(wc, values, measure, what, unit)
 
 
-def settle_clusters(crossings_hz: np.ndarray, measure: Callable[[list[float]], tuple[float, float]], what: str,
-                    unit: str) -> tuple[np.ndarray, list[dict]]:
-    """The rule of :func:`merge_chatter` on sorted crossings [Hz], ``measure(cluster)`` giving the cluster's
-    ``(excursion, scatter)`` in ``unit`` (one home for the clustering and the verdict; the analysis reads the
-    deviation and the scatter its own way)."""
+def _smooth_of(f: np.ndarray, dev: np.ndarray, sig: np.ndarray, line_idx: np.ndarray, c: list[float]
+               ) -> str | None:
+    """:func:`smooth_verdict` of the cluster ``c`` [Hz] from the lines ``line_idx`` of the contour ``f`` (deviation
+    ``dev`` and scatter ``sig`` on it): :data:`SMOOTH_LINES` lines on each side; the side is that of the contour's
+    point below the cluster."""
+    lf = f[line_idx]
+    j0 = max(int(np.searchsorted(lf, c[0], "left")) - SMOOTH_LINES, 0)
+    j1 = min(int(np.searchsorted(lf, c[-1], "right")) + SMOOTH_LINES, lf.size)
+    pick = line_idx[j0:j1]
+    below = max(int(np.searchsorted(f, c[0], "left")) - 1, 0)
+    side = 1.0 if dev[below] >= 0 else -1.0
+    return smooth_verdict(np.log(f[pick]), dev[pick], sig[pick], float(np.log(c[0])), float(np.log(c[-1])), side)
+
+
+def settle_clusters(crossings_hz: np.ndarray, values, measure: Callable[[list[float]], ClusterEvidence], what: str,
+                    unit: str) -> tuple[np.ndarray, list, list[dict]]:
+    """Settle the clusters of sorted crossings [Hz] that measurement scatter may have made (one home for the rule).
+
+    Crossings closer than :data:`CHATTER_REL` to their neighbour form a cluster; ``measure(cluster)`` gives its
+    :class:`ClusterEvidence`, ``values`` are the margins at the crossings (phase margins [deg] or gain margins [dB]).
+    A cluster whose excursion exceeds :data:`CHATTER_SIGMAS` times the scatter is real: every crossing is kept.
+    Otherwise the scatter explains it, and
+
+    * an odd cluster (one net crossing, place unknown within the cluster) is one crossing: at its first member's
+      frequency (the lowest the plant may cross at: a bandwidth read from it is never claimed past the plant's) with
+      the worst of the members' margins (closest to 0), recorded in the merged list;
+    * an even cluster (a touch: the loop comes to the level and goes back, or dips through it) is dropped only when
+      the smooth fit of the lines around it excludes a crossing (``smooth == "excludes"``): a dip the plant has is
+      kept whenever the lines cannot rule it out. A dropped cluster is recorded with the margins it held.
+
+    Returns the kept crossings [Hz], their margins and the records (``of``, ``freq_hz``, ``margins``, ``kept_hz``,
+    ``kept_margin``, ``worst_at_hz``, ``excursion``, ``scatter``, ``smooth``, ``unit``).
+    """
     wc = np.asarray(crossings_hz, float)
-    clusters, cur = [], [wc[0]]
-    for x in wc[1:]:  # a handful of crossings
-        if x <= cur[-1] * (1 + CHATTER_REL):
-            cur.append(x)
+    values = [float(v) for v in values]
+    if wc.size < 2:
+        return wc, values, []
+    clusters, cur = [], [0]
+    for i in range(1, wc.size):  # a handful of crossings
+        if wc[i] <= wc[cur[-1]] * (1 + CHATTER_REL):
+            cur.append(i)
         else:
             clusters.append(cur)
-            cur = [x]
+            cur = [i]
     clusters.append(cur)
-    kept, merged = [], []
+    kept_f: list[float] = []
+    kept_v: list[float] = []
+    merged: list[dict] = []
     for c in clusters:
+        freqs, vals = [float(wc[i]) for i in c], [values[i] for i in c]
         if len(c) == 1:
-            kept.append(c[0])
+            kept_f.append(freqs[0])
+            kept_v.append(vals[0])
             continue
-        excursion, sigma = measure(c)
-        if excursion <= CHATTER_SIGMAS * sigma:
-            keep = c[0] if len(c) % 2 else None
-            if keep is not None:
-                kept.append(keep)
-            merged.append({"of": what, "freq_hz": [float(x) for x in c], "kept_hz": keep, "excursion": excursion,
-                           "scatter": sigma, "unit": unit})
+        ev = measure(freqs)
+        if ev.excursion > CHATTER_SIGMAS * ev.scatter or (len(c) % 2 == 0 and ev.smooth != "excludes"):
+            kept_f.extend(freqs)
+            kept_v.extend(vals)
+            continue
+        k = min(range(len(vals)), key=lambda j: abs(vals[j]))  # the worst member
+        record = {"of": what, "freq_hz": freqs, "margins": vals, "excursion": ev.excursion, "scatter": ev.scatter,
+                  "smooth": ev.smooth, "unit": unit, "worst_at_hz": freqs[k]}
+        if len(c) % 2:
+            kept_f.append(freqs[0])
+            kept_v.append(vals[k])
+            record |= {"kept_hz": freqs[0], "kept_margin": vals[k]}
         else:
-            kept.extend(c)
-    return np.array(kept, float), merged
+            record |= {"kept_hz": None, "kept_margin": None}
+        merged.append(record)
+    return np.array(kept_f, float), kept_v, merged
+
+
+NEAR_CHUNK = 4096
+"""Lines scanned at a time by :func:`near_misses` (its memory does not grow with the FRF)."""
+
+
+def near_misses(lines_hz: np.ndarray, deviation_at: Callable[[np.ndarray], np.ndarray],
+                sigma_at: Callable[[np.ndarray], np.ndarray], crossings_hz, bound: float) -> list[dict]:
+    """Where the measured loop comes to the level within its scatter without crossing it, and the lines cannot rule
+    out that the plant crosses there (a dip the noise hid).
+
+    ``deviation_at(index)`` is the crossing quantity at the FRF's lines ``lines_hz[index]`` [Hz] (``20 log10 |L|``
+    [dB], or the angle of ``-L`` [deg]) and ``sigma_at(index)`` its 1-sigma scatter there; ``bound`` bounds
+    :data:`CHATTER_SIGMAS` times the scatter of any line judged (lines farther from the level are not looked at
+    again). Every run of lines within :data:`CHATTER_SIGMAS` sigma of the level that holds no crossing (none within
+    :data:`CHATTER_REL` of it) is a candidate at its line closest to the level; :func:`smooth_verdict` of the lines
+    around that line decides: unless the fit excludes a crossing there, it is a possible crossing. ``crossings_hz``
+    are the crossings kept and those of the clusters already settled (a run around them is decided). Returns
+    ``[{"index", "freq_hz", "gap", "scatter", "smooth"}]`` (``index`` into the lines).
+    """
+    f = np.asarray(lines_hz, float)
+    n = f.size
+    cand = [k + np.flatnonzero(np.abs(deviation_at(np.arange(k, min(k + NEAR_CHUNK, n)))) <= bound)
+            for k in range(0, n, NEAR_CHUNK)]
+    idx = np.concatenate(cand) if cand else np.empty(0, int)
+    if idx.size == 0:
+        return []
+    near = idx[np.abs(deviation_at(idx)) <= CHATTER_SIGMAS * np.asarray(sigma_at(idx), float)]
+    if near.size == 0:
+        return []
+    x = np.asarray(crossings_hz, float)
+    breaks = np.flatnonzero(np.diff(near) != 1) + 1
+    out = []
+    for run in np.split(near, breaks):  # runs of consecutive lines
+        a, b = int(run[0]), int(run[-1])
+        if x.size and np.any((x >= f[a] / (1 + CHATTER_REL)) & (x <= f[b] * (1 + CHATTER_REL))):
+            continue
+        k = int(run[np.argmin(np.abs(deviation_at(run)))])
+        w = np.arange(max(k - SMOOTH_LINES, 0), min(k + SMOOTH_LINES + 1, n))
+        dev, sig = deviation_at(w), np.asarray(sigma_at(w), float)
+        side = 1.0 if np.median(dev) >= 0 else -1.0  # the side the loop stays on (not the one line's)
+        lf = np.log(f[w])
+        j = k - int(w[0])
+        verdict = smooth_verdict(lf, dev, sig, lf[max(j - 1, 0)], lf[min(j + 1, w.size - 1)], side)
+        if verdict != "excludes":
+            out.append({"index": k, "freq_hz": float(f[k]), "gap": float(dev[j]), "scatter": float(sig[j]),
+                        "smooth": verdict})
+    return out
 
 
 def prune_bands(bands: list[list[float]], freq_hz: np.ndarray, excess: np.ndarray, sigma: np.ndarray | None

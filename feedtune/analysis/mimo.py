@@ -41,8 +41,11 @@ from .loop import (
     low_frequency_slope,
     nyquist_winding,
     piecewise,
+    possible_crossings,
+    possible_warning,
     scalar_loops,
     scatter_of,
+    with_possible,
     worst,
 )
 from .margins import NEGLIGIBLE_LOOP, crossings, disk_margins, level_bands, merge_chatter, peak, prune_bands
@@ -273,6 +276,9 @@ class MimoMetrics:
     band_top_hz, band_top_loop_gain : float or None
         For a measured loop, the FRF's last line [Hz] and ``sigma_max(L)`` there [-] (see
         :class:`~feedtune.analysis.loop.LoopMetrics`).
+    possible_crossovers, possible_phase_crossovers : list of dict
+        Where the CoM loop comes within the FRF's scatter of a crossing the lines cannot rule out (see
+        :class:`~feedtune.analysis.loop.LoopMetrics`); listed among the crossings too.
     """
 
     crossovers_hz: list
@@ -296,6 +302,13 @@ class MimoMetrics:
     interpolation: str | None = None
     band_top_hz: float | None = None
     band_top_loop_gain: float | None = None
+    possible_crossovers: list = field(default_factory=list)
+    possible_phase_crossovers: list = field(default_factory=list)
+
+    @property
+    def first_crossover_hz(self) -> float | None:
+        """The first CoM crossover the plant may have [Hz] (possible crossovers included), None without one."""
+        return float(self.crossovers_hz[0]) if self.crossovers_hz else None
 
     @property
     def stable(self) -> bool:
@@ -369,6 +382,9 @@ class MimoMetrics:
             "nyquist_reliable": bool(self.nyquist_reliable),
             "band_top_hz": _f(self.band_top_hz),
             "band_top_loop_gain": _f(self.band_top_loop_gain),
+            "first_crossover_hz": _f(self.first_crossover_hz),
+            "possible_crossovers": list(self.possible_crossovers),
+            "possible_phase_crossovers": list(self.possible_phase_crossovers),
             "warnings": list(ny.warnings),
         }
 
@@ -489,10 +505,11 @@ def _jointly(fn, tasks: list) -> list:
     return results
 
 
-def _margin_rounds(f: np.ndarray, lc: np.ndarray, weights, noise):
+def _margin_rounds(f: np.ndarray, lc: np.ndarray, weights, noise, lines: np.ndarray | None = None):
     """:func:`~feedtune.analysis.loop.loop_margins` of the CoM loop ``lc`` on the contour ``f`` as a generator: the
     crossovers (:func:`~feedtune.analysis.margins.crossings` of ``20 log10 |l|``) and phase crossovers
-    (:func:`~feedtune.analysis.margins.phase_crossovers`) refined in the same rounds, then the loop at them."""
+    (:func:`~feedtune.analysis.margins.phase_crossovers`) refined in the same rounds, then the loop at them, then the
+    clusters the scatter ``noise`` [dB] may have made settled (``lines``: the points of ``f`` that are FRF lines)."""
     with np.errstate(divide="ignore"):
         db = 20 * np.log10(np.abs(lc))
     ix = np.flatnonzero(np.signbit(db[:-1]) != np.signbit(db[1:]))
@@ -512,18 +529,19 @@ def _margin_rounds(f: np.ndarray, lc: np.ndarray, weights, noise):
     idx = np.r_[ix, ip]
     roots = yield from _on_loop(root_rounds(f[idx], f[idx + 1]), values)
     wc, w180 = roots[:n_x], roots[n_x:]
-    merged: list[dict] = []
-    if noise is not None:
-        wc, merged = merge_chatter(wc, f, db, noise)
-        noise_deg = np.degrees(np.asarray(noise) * np.log(10) / 20)
-        w180, merged_180 = merge_chatter(w180, f, np.degrees(np.angle(-lc)), noise_deg, "phase crossovers", "deg")
-        merged += merged_180
     at = np.r_[wc, w180]
     v = com_loop((yield at), weights) if at.size else np.empty(0, complex)
     Lx, L180 = v[:wc.size], v[wc.size:]
     pm = [float(x) for x in np.rad2deg(np.angle(-Lx))] if wc.size else []
     gm = [float(-20 * np.log10(abs(x))) for x in L180]
-    return Margins([float(x) for x in wc], pm, [float(x) for x in w180], gm, merged)
+    merged: list[dict] = []
+    if noise is not None:
+        wc, pm, merged = merge_chatter(wc, pm, f, db, noise, lines=lines)
+        noise_deg = np.degrees(np.asarray(noise) * np.log(10) / 20)
+        w180, gm, merged_180 = merge_chatter(w180, gm, f, np.degrees(np.angle(-lc)), noise_deg, "phase crossovers",
+                                             "deg", lines=lines)
+        merged += merged_180
+    return Margins([float(x) for x in wc], list(pm), [float(x) for x in w180], list(gm), merged)
 
 
 def _peaks_rounds(f: np.ndarray, curves: list[tuple[np.ndarray, object]], near: float = 0.9):
@@ -654,17 +672,19 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     lc = com_loop(Lc, weights)
     fns = {"l": None, "inv_s": None} if fn is None else {"l": lambda fq: _sigma_max(fn(fq)),
                                                           "inv_s": lambda fq: 1.0 / _sigma_max(sensitivity(fn(fq)))}
-    noise = None
+    noise = lines = None
     if noise_db is not None:
-        lines = np.interp(np.log(f), np.log(f0), np.asarray(noise_db, float))
-        noise = np.r_[np.zeros(fc.size - f.size), lines]
+        noise = np.r_[np.zeros(fc.size - f.size), np.interp(np.log(f), np.log(f0), np.asarray(noise_db, float))]
+        lines = np.zeros(fc.size, bool)  # the contour's points that are the FRF's lines
+        at = np.clip(np.searchsorted(fc, f0), 0, fc.size - 1)
+        lines[at[fc[at] == f0]] = True
     half = _sigma_max(Sc - 0.5 * identity2(fc.size)) if full or disk_margin else None
     if fn is None:
-        mg = loop_margins(fc, lc, None, noise)
+        mg = loop_margins(fc, lc, None, noise, lines)
         (ms_f, ms), dm = peak(fc, smax_s), None if half is None else peak(fc, half)
     else:  # the crossings, the loop at them and the peaks in joint rounds (as the functions called above)
         curves = [(smax_s, _s_peak)] + ([] if half is None else [(half, _half_peak)])
-        mg, peaks = _jointly(fn, [_margin_rounds(fc, lc, weights, noise), _peaks_rounds(fc, curves)])
+        mg, peaks = _jointly(fn, [_margin_rounds(fc, lc, weights, noise, lines), _peaks_rounds(fc, curves)])
         (ms_f, ms), dm = peaks[0], (peaks[1] if half is not None else None)
     dm_f, dm_peak = (math.nan, 0.0) if dm is None else dm
     sl_x: list = []
@@ -680,6 +700,16 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
                       below_grid=below_grid)
     if bands and bands[0][0] == fc[0] and ny.integrators > 0:
         bands[0][0] = 0.0
+    possible_x: list = []
+    possible_180: list = []
+    if noise is not None:
+        possible_x, possible_180 = possible_crossings(fc, lc, f0, np.asarray(noise_db, float).__getitem__,
+                                                      mg.crossovers_hz, mg.phase_crossovers_hz, mg.merged)
+    if possible_x or possible_180:
+        wc_all, pm_all = with_possible(mg.crossovers_hz, mg.phase_margins_deg, possible_x, "pm_deg")
+        w180_all, gm_all = with_possible(mg.phase_crossovers_hz, mg.gain_margins_db, possible_180, "gm_db")
+        mg = Margins(wc_all, pm_all, w180_all, gm_all, mg.merged)
+        ny.warnings.append(possible_warning(possible_x, possible_180).replace("the loop comes", "the CoM loop comes"))
     wc = mg.crossovers_hz
     first = wc[0] if wc else (sl_x[0] if sl_x else None)
     damping = next((b for b in active if first is not None and b[0] > first * 1.02), None)
@@ -695,4 +725,4 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
                        damping, ny, [x for x in wc if x < f[0]], float(1.0 / dm_peak) if dm_peak > 0 else float("inf"),
                        float(dm_f), mg.merged, int(fc.size), INTERPOLATION if measured else None,
                        float(f0[-1]) if measured else None,
-                       float(_sigma_max(Lg[:, :, -1:])[0]) if measured else None)
+                       float(_sigma_max(Lg[:, :, -1:])[0]) if measured else None, possible_x, possible_180)
