@@ -135,8 +135,9 @@ def test_measured_loop_agrees_with_the_analysis(case):
     measured = analysis.measured
     got = from_control(loop, "frf", outputs=["u"], inputs=["u"]).channel("u/u")
     keep = frf.freq_hz > 0
-    np.testing.assert_array_equal(frf.freq_hz[keep], measured.freq_hz)
-    assert _rel(got[keep], measured.L) < TOL
+    n = int(keep.sum())  # the case continues above the FRF's lines (feedtune.analysis.band_edge)
+    np.testing.assert_array_equal(frf.freq_hz[keep], measured.freq_hz[:n])
+    assert _rel(got[keep], measured.L[:n]) < TOL
 
 
 def test_discrete_law_with_its_delay(case):

@@ -225,4 +225,5 @@ def test_round_trip_through_python_control(flow):
     measured = ct.series(frf.to_control(), law.to_control())
     keep = frf.freq_hz > 0
     h = np.asarray(measured.frdata if hasattr(measured, "frdata") else measured.fresp)[0, 0]
-    assert np.max(np.abs(h[keep] - analysis.measured.L) / np.abs(analysis.measured.L)) < 1e-12
+    L_lines = analysis.measured.L[:int(keep.sum())]  # the case continues above the FRF's lines
+    assert np.max(np.abs(h[keep] - L_lines) / np.abs(L_lines)) < 1e-12

@@ -62,6 +62,7 @@ from .cases import (
 )
 from .loop import LoopCase, LoopExtension, LoopMetrics, analyze_loops, extension_grid, junction_scale
 from .resolution import lightly_damped
+from .trust import averages_of
 
 
 @dataclass(frozen=True, repr=False)
@@ -367,7 +368,9 @@ def plant_cases(model: BallScrewModel, fs: float, delay_samples: float, frf: Frf
         cases["measured"] = cases["discrete"] = None
         return cases
     fm, plant, coh = _plant_from_frf(frf)
-    cases.update(measured_cases(fm, plant, fs, delay_samples, model_plant=model_plant, coherence=coh))
+    cases.update(measured_cases(fm, plant, fs, delay_samples, model_plant=model_plant, coherence=coh,
+                                averages=averages_of(frf.meta), features=_model_features(model),
+                                channels=("x1/u", "x2/u")))
     return cases
 
 
@@ -830,7 +833,7 @@ def _analyze(law: BallScrewLaw, pcs: list[PlantCase], responses: bool, keep: boo
             partial.append((pc, L, resp))
             yield LoopCase(pc.freq_hz, L, _one_case(batch, len(loops) - 1),
                            np.vstack([pc.features, ctrl.features]), ctrl.rhp, extension=extension,
-                           noise_db=pc.noise_db, measured=pc.measured)
+                           noise_db=pc.noise_db, measured=pc.measured, band_edge=pc.band_edge)
 
     batch = _evaluate_batch(loops)
     with analysis_scope():

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..lti import delay_response
+from .band_edge import BandEdge, continue_plant
 from .resolution import LineNoise, interpolate_frf
 
 CASES = ("ideal", "ideal_discrete", "measured", "discrete")
@@ -66,6 +67,10 @@ class PlantCase:
         :class:`~feedtune.analysis.resolution.LineNoise` computes it per line where the analysis reads it).
     disturbance : callable or None
         ``disturbance(f)`` -> the model's disturbance-input responses (machine-specific), model cases only.
+    band_edge : BandEdge or None
+        Measured cases: where the lines prove something and where the plant is continued by the model and its
+        identified roll-off (:mod:`feedtune.analysis.band_edge`); ``freq_hz`` then holds the FRF's lines followed by
+        the continuation up to ``fs / 2``.
     """
 
     name: str
@@ -78,6 +83,12 @@ class PlantCase:
     measured: bool = False
     noise_db: np.ndarray | LineNoise | None = None
     disturbance: Callable[[np.ndarray], np.ndarray] | None = None
+    band_edge: BandEdge | None = None
+
+    @property
+    def lines_top_hz(self) -> float:
+        """The FRF's last line in a measured case, the grid's top in a model case [Hz]."""
+        return float(self.band_edge.last_line_hz) if self.band_edge is not None else float(self.freq_hz[-1])
 
 
 _LOCAL = threading.local()
@@ -267,8 +278,10 @@ def model_cases(freq_hz: np.ndarray, fs: float, delay_samples: float, *, model_p
 
 
 def measured_cases(lines_hz: np.ndarray, response: np.ndarray, fs: float, delay_samples: float, *, model_plant,
-                   coherence: np.ndarray | None = None) -> dict[str, PlantCase]:
-    """``measured`` and ``discrete`` of an FRF.
+                   coherence: np.ndarray | None = None, averages: float | None = None, features=None,
+                   channels: tuple | None = None) -> dict[str, PlantCase]:
+    """``measured`` and ``discrete`` of an FRF, its plant continued where its lines prove nothing
+    (:func:`~feedtune.analysis.band_edge.continue_plant`).
 
     Parameters
     ----------
@@ -281,13 +294,20 @@ def measured_cases(lines_hz: np.ndarray, response: np.ndarray, fs: float, delay_
     delay_samples : float
         Computational delay [samples].
     model_plant : callable
-        The model in the same layout, for the loop below the FRF's band.
+        The model in the same layout, for the loop below the FRF's band and its continuation above it.
     coherence : ndarray, optional
         Coherence of the measured channels (same shape as ``response``), for the scatter estimate.
+    averages : float, optional
+        Averages of the estimate (:func:`~feedtune.analysis.trust.averages_of` of the FRF's metadata).
+    features : ndarray, shape (k, 2), optional
+        Lightly damped roots of the model (Hz, damping): the continuation is resolved around them.
+    channels : tuple of str, optional
+        The channels' names (for what the verdict says it assumes).
     """
-    f = np.asarray(lines_hz, float)
-    plant = interpolate_frf(f, response)
-    noise = LineNoise(f, response, coherence)
+    f, plant_values, coh, edge = continue_plant(lines_hz, response, model_plant, fs, coherence=coherence,
+                                                averages=averages, features=features, channels=channels)
+    plant = interpolate_frf(f, plant_values)
+    noise = LineNoise(f, plant_values, coh)
     none = np.empty((0, 2))
 
     def zoh_delay(fr):
@@ -296,6 +316,6 @@ def measured_cases(lines_hz: np.ndarray, response: np.ndarray, fs: float, delay_
         return out
 
     return {
-        "measured": PlantCase("measured", f, plant, model_plant, False, _one, none, True, noise),
-        "discrete": PlantCase("discrete", f, plant, model_plant, True, zoh_delay, none, True, noise),
+        "measured": PlantCase("measured", f, plant, model_plant, False, _one, none, True, noise, band_edge=edge),
+        "discrete": PlantCase("discrete", f, plant, model_plant, True, zoh_delay, none, True, noise, band_edge=edge),
     }

@@ -64,6 +64,7 @@ from .mimo import (
     singular_values,
 )
 from .resolution import lightly_damped
+from .trust import averages_of
 
 GANTRY_CHANNELS = (("y1/u1", "y1/u2"), ("y2/u1", "y2/u2"))
 
@@ -291,7 +292,7 @@ def analyze_gantry_case(law, pc: PlantCase, weights, reference: GantryReference 
     feats = np.vstack([pc.features, law_features(law, pc.discrete)])
     metrics = analyze_mimo(f, L, evaluate=evaluate, features=feats, weights=weights, integrators=n_int,
                            open_loop_rhp_poles=law.rhp_poles(pc.discrete), extension=extension, noise_db=pc.noise_db,
-                           measured=pc.measured, figures=figures, disk_margin=disk_margin)
+                           measured=pc.measured, figures=figures, disk_margin=disk_margin, band_edge=pc.band_edge)
     if reference is None and figures != "all":  # a search's candidate: the figures alone
         return GantryCase(pc.name, f, Ge, L, None, None, G, None, None, tuple(weights), metrics)
     S = sensitivity(L)
@@ -368,7 +369,9 @@ def gantry_plant_cases(model: GantryModel, x: float, fs: float, delay_samples: f
         cases["measured"] = cases["discrete"] = None
         return cases
     fm, Gm = gantry_frf_matrix(frf)
-    cases.update(measured_cases(fm, Gm, fs, delay_samples, model_plant=model_plant, coherence=_gantry_coherence(frf)))
+    cases.update(measured_cases(fm, Gm, fs, delay_samples, model_plant=model_plant, coherence=_gantry_coherence(frf),
+                                averages=averages_of(frf.meta), features=model_features(model, x),
+                                channels=("y1/u1", "y1/u2", "y2/u1", "y2/u2")))
     return cases
 
 
@@ -482,7 +485,7 @@ def analyze_axis_case(design, pc: PlantCase, *, responses: bool = True) -> AxisC
     extension = _extension(pc, G, controller_loop)
     feats = np.vstack([pc.features, lightly_damped(C.poles, C.dt), lightly_damped(C.zeros, C.dt)])
     metrics = analyze_loop(f, L, evaluate=evaluate, features=feats, open_loop_rhp_poles=rhp, extension=extension,
-                           noise_db=pc.noise_db, measured=pc.measured)
+                           noise_db=pc.noise_db, measured=pc.measured, band_edge=pc.band_edge)
     if not responses:
         return AxisCase(pc.name, f, L, S, None, None, G * S, metrics)
     if pc.discrete:
@@ -526,7 +529,8 @@ def axis_plant_cases(design, frf: Frf | None = None, *, channel: str | None = No
     fm = pos.freq_hz[keep]
     coh = pos.channel_coherence(ch)
     coh = None if coh is None or not np.all(np.isfinite(coh[keep])) else coh[keep]
-    cases.update(measured_cases(fm, pos.channel(ch)[keep], fs, delay, model_plant=rigid, coherence=coh))
+    cases.update(measured_cases(fm, pos.channel(ch)[keep], fs, delay, model_plant=rigid, coherence=coh,
+                                averages=averages_of(meas.meta), channels=(ch,)))
     return cases
 
 

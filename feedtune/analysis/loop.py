@@ -160,6 +160,10 @@ class LoopMetrics:
         and the lines cannot rule a crossing out (:func:`possible_crossings`), with the phase margin (gain margin)
         such a crossing would have. They are listed among the crossovers (phase crossovers) too: the first crossover
         and the worst margins count them.
+    band_edge : dict or None
+        For a measured loop, :meth:`~feedtune.analysis.band_edge.BandEdge.to_dict`: up to where its lines prove the
+        figures (``valid_to_hz``; ``band_top_hz`` is that line) and how the plant is continued above it and where a
+        channel turns to noise (``assumes``).
     """
 
     crossovers_hz: list
@@ -189,6 +193,12 @@ class LoopMetrics:
     band_top_loop_gain: float | None = None
     possible_crossovers: list = field(default_factory=list)
     possible_phase_crossovers: list = field(default_factory=list)
+    band_edge: dict | None = None
+
+    @property
+    def assumes(self) -> list[str]:
+        """What the figures assume beyond the measured band (:func:`assumptions`)."""
+        return assumptions(self.band_edge, self.band_top_loop_gain)
 
     @property
     def first_crossover_hz(self) -> float | None:
@@ -258,12 +268,28 @@ class LoopMetrics:
             "first_crossover_hz": _f(self.first_crossover_hz),
             "possible_crossovers": list(self.possible_crossovers),
             "possible_phase_crossovers": list(self.possible_phase_crossovers),
+            "band_edge": self.band_edge,
+            "assumes": self.assumes,
             "warnings": list(self.warnings),
         }
 
 
 def _f(x):
     return None if x is None or not np.isfinite(x) else float(x)
+
+
+SMALL_LOOP = 0.1
+"""A loop gain [-] at the top of the measured band above which the verdict states what it assumes beyond it."""
+
+
+def assumptions(band_edge: dict | None, top_loop_gain: float | None) -> list[str]:
+    """What a measured case's figures rest on beyond its lines: ``valid to HZ; assumes ...`` (one line per
+    continued channel) when the loop at the top of the band the lines prove is not small (above
+    :data:`SMALL_LOOP`), else nothing."""
+    if not band_edge or top_loop_gain is None or top_loop_gain <= SMALL_LOOP or not band_edge.get("assumes"):
+        return []
+    return [f"valid to {band_edge['valid_to_hz']:.4g} Hz (|L| = {top_loop_gain:.2g} there); assumes "
+            + "; ".join(band_edge["assumes"])]
 
 
 def worst(values) -> float | None:
@@ -603,7 +629,7 @@ def piecewise(first_hz: float, below: Callable | None, above: Callable | None) -
 def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray] | None = None, features=None,
                  open_loop_rhp_poles: int = 0, integrators: int | None = None,
                  extension: LoopExtension | None = None, noise_db: np.ndarray | None = None, measured: bool = False,
-                 below_grid: str = "refuse") -> LoopMetrics:
+                 below_grid: str = "refuse", band_edge=None) -> LoopMetrics:
     """All loop figures of :class:`LoopMetrics` (module docstring).
 
     Parameters
@@ -633,6 +659,9 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
         do not resolve the loop.
     below_grid : {"refuse", "assume"}
         Without an extension, refuse (default) or accept a grid that starts off the loop's asymptote.
+    band_edge : BandEdge, optional
+        A measured case's record of where its plant is continued (:mod:`feedtune.analysis.band_edge`): the band
+        top of the figures is the top of the band the lines prove, and the metrics say what the rest assumes.
 
     Raises
     ------
@@ -642,7 +671,7 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
         See ``below_grid``.
     """
     case = LoopCase(freq_hz, L, evaluate, features, open_loop_rhp_poles, integrators, extension, noise_db, measured,
-                    below_grid)
+                    below_grid, band_edge)
     return analyze_loops([case])[0]
 
 
@@ -673,6 +702,7 @@ class LoopCase:
     noise_db: object = None
     measured: bool = False
     below_grid: str = "refuse"
+    band_edge: object = None
 
     def contour_function(self) -> Callable[[np.ndarray], np.ndarray] | None:
         """``L`` anywhere on the contour (the extension's below the grid); None when the loop is only sampled."""
@@ -1087,6 +1117,7 @@ def _loop_analysis(c: LoopCase):
         warnings.append(f"Nyquist winding number {winding:.2f} is not close to an integer; grid too coarse")
     n_cw = -n_ccw
     stable = n_cw + int(c.open_loop_rhp_poles) == 0
+    i_top = band_top_index(f0, c.band_edge)
     return LoopMetrics(
         wc,
         pm,
@@ -1111,11 +1142,20 @@ def _loop_analysis(c: LoopCase):
         n_points,
         INTERPOLATION if c.measured else None,
         abs(winding - n_ccw) <= 0.2,
-        float(f0[-1]) if c.measured else None,
-        float(abs(L0[-1])) if c.measured else None,
+        float(f0[i_top]) if c.measured else None,
+        float(abs(L0[i_top])) if c.measured else None,
         possible_x,
         possible_180,
+        None if c.band_edge is None else c.band_edge.to_dict(),
     )
+
+
+def band_top_index(f0: np.ndarray, edge) -> int:
+    """Index into the lines ``f0`` [Hz] of a measured case of the last line of the band its lines prove
+    (:attr:`~feedtune.analysis.band_edge.BandEdge.valid_to_hz`; the last line without a band edge)."""
+    if edge is None:
+        return f0.size - 1
+    return min(int(np.searchsorted(f0, edge.valid_to_hz)), f0.size - 1)
 
 
 NEAR_BOUND_DB = 7.0

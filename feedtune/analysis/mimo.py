@@ -34,6 +34,8 @@ import numpy as np
 from .loop import (
     LoopExtension,
     Margins,
+    assumptions,
+    band_top_index,
     check_low_end,
     contour_warnings,
     line_resolution_warnings,
@@ -304,6 +306,12 @@ class MimoMetrics:
     band_top_loop_gain: float | None = None
     possible_crossovers: list = field(default_factory=list)
     possible_phase_crossovers: list = field(default_factory=list)
+    band_edge: dict | None = None
+
+    @property
+    def assumes(self) -> list[str]:
+        """What the figures assume beyond the measured band (:func:`~feedtune.analysis.loop.assumptions`)."""
+        return assumptions(self.band_edge, self.band_top_loop_gain)
 
     @property
     def first_crossover_hz(self) -> float | None:
@@ -385,6 +393,8 @@ class MimoMetrics:
             "first_crossover_hz": _f(self.first_crossover_hz),
             "possible_crossovers": list(self.possible_crossovers),
             "possible_phase_crossovers": list(self.possible_phase_crossovers),
+            "band_edge": self.band_edge,
+            "assumes": self.assumes,
             "warnings": list(ny.warnings),
         }
 
@@ -595,7 +605,8 @@ def _half_peak(L: np.ndarray) -> np.ndarray:
 def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, features=None, weights=(0.5, 0.5),
                  integrators: int | None = None, open_loop_rhp_poles: int = 0, S: np.ndarray | None = None,
                  extension: LoopExtension | None = None, noise_db: np.ndarray | None = None, measured: bool = False,
-                 below_grid: str = "refuse", figures: str = "all", disk_margin: bool = True) -> MimoMetrics:
+                 below_grid: str = "refuse", figures: str = "all", disk_margin: bool = True,
+                 band_edge=None) -> MimoMetrics:
     """All figures of :class:`MimoMetrics` for a 2x2 loop.
 
     Parameters
@@ -635,6 +646,8 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     disk_margin : bool
         With ``figures="limits"``: compute the disk margin (False: ``inf``, for a policy without a disk-margin
         limit).
+    band_edge : BandEdge, optional
+        A measured case's record of where its plant is continued (see :func:`~feedtune.analysis.loop.analyze_loop`).
     """
     if figures not in ("all", "limits", "stability"):
         raise ValueError(f"figures must be 'all', 'limits' or 'stability', got {figures!r}")
@@ -720,9 +733,12 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
     if extension is not None:  # sigma_max(S) on the grid and below it (the contour's, point by point)
         nx = extension.freq_hz.size
         ny.warnings.extend(extension.warnings(float(np.max(smax_s[nx:])), float(np.max(smax_s[:nx]))))
+    i_top = band_top_index(f0, band_edge)
+    L_lines = L0 if evaluate is not None else Lg
     return MimoMetrics(wc, mg.phase_margins_deg, worst(mg.phase_margins_deg), worst(mg.gain_margins_db),
                        mg.gain_margins_db, mg.phase_crossovers_hz, float(ms), float(ms_f), bands, sl_x, active,
                        damping, ny, [x for x in wc if x < f[0]], float(1.0 / dm_peak) if dm_peak > 0 else float("inf"),
                        float(dm_f), mg.merged, int(fc.size), INTERPOLATION if measured else None,
-                       float(f0[-1]) if measured else None,
-                       float(_sigma_max(Lg[:, :, -1:])[0]) if measured else None, possible_x, possible_180)
+                       float(f0[i_top]) if measured else None,
+                       float(_sigma_max(L_lines[:, :, i_top:i_top + 1])[0]) if measured else None, possible_x,
+                       possible_180, None if band_edge is None else band_edge.to_dict())
