@@ -308,3 +308,21 @@ def test_the_same_design_on_the_same_frf_writes_the_same_certificate_whichever_c
     assert lib.document["certificate"]["frfs"][0]["arrays_sha256"] == designed["certificate"]["frfs"][0][
         "arrays_sha256"]
     assert certificate(lib.document, ("sha256", "identity")) == certificate(designed, ("sha256", "identity"))
+
+
+def test_the_report_takes_the_files_certificate_without_an_frf(cli, tmp_path):
+    from feedtune.io import read_document, write_document
+    from feedtune.report.build import build_report
+
+    frf = _axis_frf(tmp_path / "axis_frf.csv")
+    res = cli("design", "loopshape", frf, "--crossover-hz", "200", "--pm-deg", "42", *AXIS_DESIGN,
+              "--out", tmp_path / "axis.toml")
+    assert res.exit_code == 0, res.output
+    doc = read_document(tmp_path / "axis.toml")
+    del doc["certificate"]
+    write_document(tmp_path / "bare.toml", doc)
+    data = build_report([tmp_path / "axis.toml", tmp_path / "bare.toml"], render=False).data["design"]
+    assert data["axis.toml"]["verdict"]["basis"] == "certificate" and data["axis.toml"]["check"]["ok"]
+    assert data["bare.toml"]["verdict"]["basis"] == "model" and not data["bare.toml"]["check"]["ok"]
+    with_frf = build_report([tmp_path / "bare.toml", frf], render=False).data["design"]["bare.toml"]
+    assert with_frf["verdict"]["basis"] == "frfs" and with_frf["check"]["ok"]

@@ -4,7 +4,8 @@
 2-mass model from it, designs MC-PPC (50 Hz, zeta = 0.7, the thesis's filter pack, and the largest
 ``beta`` up to the thesis's 4 whose design meets ``feedtune design ppc``'s default limit Ms <= 3.5 on the
 measured FRF) and a P-PI tuned for the same peak sensitivity with a phase-margin floor no tighter than
-MC-PPC's own, exports both gains files and runs every test
+MC-PPC's own, delivers both gains files with their certificate on the measured FRF
+(:func:`feedtune.workflows.deliver.deliver`; the FRF from memory, identified by its arrays) and runs every test
 through :class:`~feedtune.machines.ballscrew.runtime.GainsRuntime` reading the exported text only: rope snap and
 tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. Then it
 identifies the trajectory pre-filter (§3.2.4) from the MC-PPC tracking run at 500 mm/s, exports

@@ -13,7 +13,9 @@
    (:func:`feedtune.tune.pid.tune_gantry_pid`) twice: with the MIMO design's notches and low-pass (the thesis'
    rule, and the MIMO tuner's: filters fixed, gains searched) and choosing their own filters; the gantry
    controllers on the FRFs of all three positions (each at its position: the limits on every one; tuned at x = 0
-   alone, the MIMO law was unstable at x = 0.3 m), each then checked on the FRF at x = 0;
+   alone, the MIMO law was unstable at x = 0.3 m), each then delivered with its certificate on every FRF it was
+   tuned on (:func:`feedtune.workflows.deliver.deliver`; the FRFs from memory, identified by their arrays) and its
+   figures shown at x = 0;
 4. the gains files exported and read back as the runtimes run them (``GantryRuntime``/``AxisRuntime``), and
    with the three gantry controllers, on the twin with its own trip limits: the 57 N rope snap, tracking at 1 mm/s and
    200 mm/s, and circle and diamond contours (a run that trips is reported as tripped);
