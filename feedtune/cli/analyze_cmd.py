@@ -20,9 +20,9 @@ import typer
 from typer.core import TyperGroup
 
 from .common import JSON_OPTION, fmt, fmt_length
+from .design_cmd import QUANTITY_OPTION
 from .envelope import emit
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
-from .help_text import QUANTITIES, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_LOW_MIN_OPTION,
@@ -78,10 +78,7 @@ def analyze(
              "file's certificate by digest). Without --frf the verdict is the file's certificate while it holds for "
              "its gains, else the design model's.",
     ),
-    quantity: str = typer.Option(
-        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
-        help="Quantity of the --frf file (position, velocity or acceleration) if not in its metadata.",
-    ),
+    quantity: str = QUANTITY_OPTION,
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,

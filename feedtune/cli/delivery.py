@@ -89,3 +89,47 @@ def print_verdict(verdict, *, command: str) -> None:
         print_certificate(verdict.certificate.to_dict(OPTION_NAMES))
     elif not verdict.certified:
         typer.echo(f"  to certify it on measured FRFs: {UNCERTIFIED_HINT.format(command=command)}")
+
+
+def finish_design(delivery, result: dict, *, out: Path | None, force: bool, allow_unstable: bool,
+                  as_json: bool) -> None:
+    """The end of every ``design`` command: the delivery's check (and, on FRFs, its certificate) into ``result``,
+    the gains file written unless the design fails (``--allow-unstable`` writes it with a warning), the summary or
+    the ``--json`` envelope printed; DesignError (exit 1) naming the failing limits by their options otherwise."""
+    from .envelope import collect, design_result, emit
+    from .limits_options import print_check
+    from .summary import print_design_summary
+
+    doc = delivery.document
+    result = {**result, "check": delivery.check_dict(OPTION_NAMES)}
+    if "friction_feedforward" in doc:
+        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
+    if delivery.certified:
+        result["certificate"] = delivery.certificate.to_dict(OPTION_NAMES)
+    warning = write_delivery(delivery, out, force, allow_unstable, "design")
+    if out is not None:
+        result["out"] = str(out)
+    if warning:
+        collect(warning)
+    result = design_result(result, doc.get("kind"))
+    if as_json:
+        emit(result)
+    else:
+        print_design_summary(result)
+        print_check(result["check"])
+        if delivery.certified:
+            print_certificate(result["certificate"])
+        if "friction_feedforward" in result:
+            print_friction(result["friction_feedforward"])
+        if out is not None:
+            typer.echo(f"wrote {out}")
+    if warning:
+        typer.echo(f"feedtune: warning: {warning}", err=True)
+
+
+def print_friction(ff: dict) -> None:
+    """One line on the friction feedforward a gains file holds (levels, Stribeck velocities, linear band)."""
+    levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg"))
+    vu = ff["v_band"].get("unit", "rad/s")  # rad/s (ball screw) or m/s (a linear axis)
+    typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], vu)} / "
+               f"{fmt(ff['omega_neg']['value'], vu)}, linear band +-{fmt(ff['v_band']['value'], vu)}")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt
+from .common import FORCE_OPTION, JSON_OPTION
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .help_text import QUANTITIES, choice
 from .limits_options import (
@@ -15,14 +15,11 @@ from .limits_options import (
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
-    OPTION_NAMES,
     PM_MIN_OPTION,
     limits_from_options,
-    print_check,
 )
 from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import DELAY_OPTION, FS_OVERRIDE_OPTION, fs_option, target_sampling
-from .summary import print_design_summary
 
 app = typer.Typer(
     rich_markup_mode="rich",
@@ -90,48 +87,16 @@ def _finish(design, *, frf_path, frf, limits, out, force, allow_unstable, as_jso
     the :class:`~feedtune.cli.sampling_options.TargetSampling` recorded in the ``--json`` result)."""
     from ..machines.certificate import FrfSource
     from ..workflows.deliver import deliver
-    from .delivery import print_certificate, write_delivery
-    from .envelope import collect, design_result, emit
+    from .delivery import finish_design
 
     friction_model = _load_friction(friction)
     sources = [] if frf is None else [FrfSource.from_file(frf_path, frf)]
     delivery = deliver(design, sources, limits, friction=friction_model, friction_band=friction_band,
                        where="the design")
-    doc = delivery.document
-    result = {**delivery.result, "check": delivery.check_dict(OPTION_NAMES), "design": design.design_dict(),
-              **({} if sampling is None else sampling.to_json())}
+    result = {**delivery.result, "design": design.design_dict(), **({} if sampling is None else sampling.to_json())}
     if design.kind != "ppi":
         result["placed_poles"] = [[float(p.real), float(p.imag)] for p in design.poles]
-    if "friction_feedforward" in doc:
-        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
-    if delivery.certified:
-        result["certificate"] = delivery.certificate.to_dict(OPTION_NAMES)
-    warning = write_delivery(delivery, out, force, allow_unstable, "design")
-    if out is not None:
-        result["out"] = str(out)
-    if warning:
-        collect(warning)
-    result = design_result(result, "ballscrew")
-    if as_json:
-        emit(result)
-    else:
-        print_design_summary(result)
-        print_check(result["check"])
-        if delivery.certified:
-            print_certificate(result["certificate"])
-        if "friction_feedforward" in result:
-            _friction_summary(result["friction_feedforward"])
-        if out is not None:
-            typer.echo(f"wrote {out}")
-    if warning:
-        typer.echo(f"feedtune: warning: {warning}", err=True)
-
-
-def _friction_summary(ff: dict) -> None:
-    levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg"))
-    vu = ff["v_band"].get("unit", "rad/s")  # rad/s (ball screw) or m/s (a linear axis)
-    typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], vu)} / "
-               f"{fmt(ff['omega_neg']['value'], vu)}, linear band +-{fmt(ff['v_band']['value'], vu)}")
+    finish_design(delivery, result, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
 
 
 def _load_model(path: Path):

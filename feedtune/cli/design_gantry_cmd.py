@@ -39,10 +39,8 @@ from .limits_options import (
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
-    OPTION_NAMES,
     PM_MIN_OPTION,
     limits_from_options,
-    print_check,
 )
 from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION, fs_option, target_sampling
@@ -133,42 +131,15 @@ def _deliver_and_report(design, sources, *, limits, targets, out, force, allow_u
     the model, the certificate in the file when on FRFs, the design targets), write it unless it fails, print the
     result; DesignError (exit 1) when it fails without ``--allow-unstable``."""
     from ..workflows.deliver import deliver
-    from .delivery import print_certificate, write_delivery
-    from .envelope import collect, design_result, emit
-    from .summary import print_design_summary
+    from .delivery import finish_design
 
     delivery = deliver(design, sources, limits, targets=targets, where="the design")
     doc = delivery.document
     gains = {**doc["gains"], **(extra_gains or {})}
     result = {**delivery.result, "gains": {k: v["value"] for k, v in gains.items()},
-              "gain_units": {k: v["unit"] for k, v in gains.items()}, "design": doc["design"],
-              "check": delivery.check_dict(OPTION_NAMES), **(extra or {}),
+              "gain_units": {k: v["unit"] for k, v in gains.items()}, "design": doc["design"], **(extra or {}),
               **({} if sampling is None else sampling.to_json())}
-    if "friction_feedforward" in doc:
-        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
-    if delivery.certified:
-        result["certificate"] = delivery.certificate.to_dict(OPTION_NAMES)
-    warning = write_delivery(delivery, out, force, allow_unstable, "design")
-    if out is not None:
-        result["out"] = str(out)
-    if warning:
-        collect(warning)
-    result = design_result(result, doc.get("kind"))
-    if as_json:
-        emit(result)
-    else:
-        print_design_summary(result)
-        print_check(result["check"])
-        if delivery.certified:
-            print_certificate(result["certificate"])
-        if "friction_feedforward" in result:
-            from .design_cmd import _friction_summary
-
-            _friction_summary(result["friction_feedforward"])
-        if out is not None:
-            typer.echo(f"wrote {out}")
-    if warning:
-        typer.echo(f"feedtune: warning: {warning}", err=True)
+    finish_design(delivery, result, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
 
 
 def read_sources_of(path: Path | None, frf) -> list:

@@ -8,8 +8,9 @@ import typer
 
 from ..export.c_common import float_bound_text
 from .common import FORCE_OPTION, JSON_OPTION
+from .design_cmd import QUANTITY_OPTION
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
-from .help_text import ANTI_WINDUP, QUANTITIES, choice
+from .help_text import ANTI_WINDUP, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_LOW_MIN_OPTION,
@@ -62,10 +63,7 @@ def export_c(
              "positions); compared with the file's certificate by digest. Without --frf: the file's certificate "
              "while it holds for its gains, else the design model (the header then says it is uncertified).",
     ),
-    quantity: str = typer.Option(
-        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
-        help="Quantity of the --frf files (position, velocity or acceleration) if not in their metadata.",
-    ),
+    quantity: str = QUANTITY_OPTION,
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
