@@ -87,7 +87,7 @@ def print_verdict(verdict, *, command: str) -> None:
     typer.echo(f"verdict on {verdict.basis_text()}")
     if verdict.basis != "model":
         print_certificate(verdict.certificate.to_dict(OPTION_NAMES))
-    elif not verdict.certified:
+    else:
         typer.echo(f"  to certify it on measured FRFs: {UNCERTIFIED_HINT.format(command=command)}")
 
 
@@ -119,6 +119,9 @@ def finish_design(delivery, result: dict, *, out: Path | None, force: bool, allo
         print_check(result["check"])
         if delivery.certified:
             print_certificate(result["certificate"])
+        else:
+            typer.echo("not certified on a measured FRF (checked on the design model): pass --frf to certify it and "
+                       "write the certificate into the gains file")
         if "friction_feedforward" in result:
             print_friction(result["friction_feedforward"])
         if out is not None:

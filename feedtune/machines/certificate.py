@@ -407,6 +407,7 @@ class GainsVerdict:
 
     @property
     def ok(self) -> bool:
+        """The limits hold on what the verdict rests on."""
         return self.certificate.ok
 
     @property
