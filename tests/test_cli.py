@@ -59,7 +59,7 @@ def test_frf_to_gains_to_header(ext, frf_files, tmp_path, capsys, monkeypatch):
         }
         assert a["stable"] is True
     assert gains.exists() and gains.with_suffix(".json").exists()
-    assert json.loads(gains.with_suffix(".json").read_text())["schema"] == "feedtune.gains/1"
+    assert json.loads(gains.with_suffix(".json").read_text())["schema"] == "feedtune.gains/1.1"
     header = tmp_path / "mcppc.h"
     code, out, err = run(["export", "c", gains, "--out", header], capsys, monkeypatch)
     assert code == 0, err

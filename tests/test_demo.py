@@ -242,3 +242,36 @@ def test_demo_prefilter_from_one_run_improves_every_speed(demo, tmp_path):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["prefilter"]["gains"]["K_acc"] == pytest.approx(demo.prefilter["gains"]["K_acc"])
     assert "MC-PPC+PF" in demo.table()
+
+
+@pytest.mark.slow
+def test_the_demo_writes_the_certificate_design_writes_on_its_frf(demo, tmp_path, capsys, monkeypatch):
+    """Issue 24: one delivery exit. The demo's MC-PPC certified on its twin FRF (from memory: its arrays), and
+    ``design ppc`` with the same settings on the FRF file the demo wrote (a file: its bytes) write the same
+    certificate; the FRF file holds the same arrays the demo certified on."""
+    from cli_run import run
+
+    from feedtune.io import read_document
+
+    write_texts(demo.texts, out_dir=tmp_path)
+    doc = read_document(tmp_path / "mcppc_gains.toml")
+    d, s = doc["design"], doc["sampling"]
+    code, _, err = run(["design", "ppc", tmp_path / "model.toml", "--beta", repr(d["beta"]), "--pole-hz",
+                        repr(d["pole_hz"]), "--zeta", repr(d["zeta"]), "--notch", "420,0.55,0.7", "--notch",
+                        "1080,0.05,0.7", "--lpf", "2000", "--fs", repr(s["fs_hz"]["value"]), "--delay-samples",
+                        str(s["delay_samples"]), "--frf", tmp_path / "frf.csv", "--out", tmp_path / "designed.toml"],
+                       capsys, monkeypatch)
+    assert code == 0, err
+    designed = read_document(tmp_path / "designed.toml")
+    assert designed["gains"] == doc["gains"]
+    a, b = doc["certificate"], designed["certificate"]
+    assert a["frfs"][0]["identity"] == "arrays" and b["frfs"][0]["identity"] == "file"
+    assert a["frfs"][0]["arrays_sha256"] == b["frfs"][0]["arrays_sha256"]
+
+    def figures(c):
+        return {**{k: v for k, v in c.items() if k not in ("frfs", "worst", "gains_sha256", "sections_sha256")},
+                "frfs": [{k: v for k, v in e.items() if k not in ("frf", "sha256", "identity")} for e in c["frfs"]],
+                "worst": {k: ({**v, "frf": None} if isinstance(v, dict) else v) for k, v in c["worst"].items()
+                          if not k.endswith("_frf")}}
+
+    assert figures(a) == figures(b)

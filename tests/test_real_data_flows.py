@@ -41,6 +41,14 @@ def test_two_mass_bench_from_multisine_log_to_c_header_in_amperes(real_data_dir,
     run(["export", "c", gains, "--out", header, "--u-max", "5", "--anti-windup", "clamp"], capsys, monkeypatch)
     text = header.read_text()
     assert "/* A/rad */" in text and "(A)" in text and "/* V" not in text
+    # issue 23: the tuned P-PI is certified on the FRF and exported on that certificate (before, export c judged it
+    # on its design model alone and refused it at GM 5.93 dB although its certificate on the FRF passed)
+    ppi, ppi_header = tmp_path / "tm_ppi.toml", tmp_path / "tm_ppi.h"
+    tuned = run_json(["tune", "ppi", model, "--frf", frf, "--out", ppi], capsys, monkeypatch)
+    assert tuned["certificate"]["ok"] and tuned["certificate"]["frfs"][0]["identity"] == "file"
+    code, out, err = run(["export", "c", ppi, "--out", ppi_header], capsys, monkeypatch)
+    assert code == 0, err
+    assert "verdict on the file's certificate: certified on" in out and ppi_header.exists()
 
 
 def test_emps_published_values_and_friction(real_data_dir, tmp_path, capsys, monkeypatch):

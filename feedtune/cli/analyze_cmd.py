@@ -20,11 +20,12 @@ import typer
 from typer.core import TyperGroup
 
 from .common import JSON_OPTION, fmt, fmt_length
+from .design_cmd import QUANTITY_OPTION
 from .envelope import emit
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
-from .help_text import QUANTITIES, choice
 from .limits_options import (
     DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
@@ -70,14 +71,14 @@ app = typer.Typer(
 @app.command(GAINS_COMMAND)
 def analyze(
     gains_file: Path = typer.Argument(..., metavar="GAINS", help="Gains file (.toml or .json) from 'feedtune design'."),
-    frf: Path = typer.Option(
+    frf: list[Path] = typer.Option(
         None, "--frf", metavar="FRF",
-        help="Measured FRF (x1/u, x2/u) for the measured and discrete cases.",
+        help="Measured FRF (ball screw x1/u, x2/u; gantry 2x2 at its recorded position; x axis SISO), repeatable: the "
+             "analysis is printed on the first, the design certified anew on every one (and compared with the "
+             "file's certificate by digest). Without --frf the verdict is the file's certificate while it holds for "
+             "its gains, else the design model's.",
     ),
-    quantity: str = typer.Option(
-        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
-        help="Quantity of the --frf file (position, velocity or acceleration) if not in its metadata.",
-    ),
+    quantity: str = QUANTITY_OPTION,
     frf_map: list[str] = FRF_MAP_OPTION,
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
@@ -86,6 +87,7 @@ def analyze(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     strict: bool = typer.Option(False, "--check", help="Exit 1 when the design does not meet the limits."),
     fs_override: bool = FS_OVERRIDE_OPTION,
@@ -99,20 +101,25 @@ def analyze(
     show_progress(quiet)
     from ..io import read_document
     from ..machines import analyze_gains
-    from .frf_options import FrfReadOptions, read_optional_frf
+    from ..machines.certificate import gains_verdict
+    from .delivery import read_sources
+    from .frf_options import FrfReadOptions
     from .limits_options import finish_analysis
     from .sampling_options import gains_sampling
 
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     doc = read_document(gains_file)
-    measured = read_optional_frf(frf, quantity, options=frf_options)
-    rate = gains_sampling(doc, str(gains_file), [(frf, measured)], override=fs_override)
+    sources = read_sources(list(frf or []), quantity, frf_options)
+    measured = sources[0].frf if sources else None
+    rate = gains_sampling(doc, str(gains_file), [(s.name, s.frf) for s in sources] or [(None, None)],
+                          override=fs_override)
     if rate is not None:
         rate.report(as_json)
     done = analyze_gains(doc, str(gains_file), measured)
+    verdict = gains_verdict(doc, str(gains_file), sources, policy, known=[(measured, done.analysis)])
     record = rate.to_json() if rate is not None and measured is not None else {}  # checked against an FRF
-    finish_analysis({**done.result, **record}, done.analysis, policy, as_json, strict, gains_kind=doc.get("kind"))
+    finish_analysis({**done.result, **record}, verdict, as_json, strict, gains_kind=doc.get("kind"))
 
 
 # ------------------------------------------------------------------------------------------ logs

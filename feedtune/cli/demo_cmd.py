@@ -11,6 +11,7 @@ from .common import FORCE_OPTION, JSON_OPTION
 from .help_text import ENGINES, MACHINES, choice
 from .limits_options import (
     DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
@@ -39,6 +40,7 @@ def demo(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
@@ -60,7 +62,7 @@ def demo(
     from ..workflows.files import check_out_dir, write_texts
 
     get_machine(machine)
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     check_out_dir(out, force)
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw)
     from .. import progress

@@ -6,22 +6,20 @@ from pathlib import Path
 
 import typer
 
-from .common import FORCE_OPTION, JSON_OPTION, fmt
+from .common import FORCE_OPTION, JSON_OPTION
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .help_text import QUANTITIES, choice
 from .limits_options import (
     DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
-    OPTION_NAMES,
     PM_MIN_OPTION,
     limits_from_options,
-    print_check,
 )
 from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import DELAY_OPTION, FS_OVERRIDE_OPTION, fs_option, target_sampling
-from .summary import print_design_summary
 
 app = typer.Typer(
     rich_markup_mode="rich",
@@ -74,74 +72,31 @@ def _load_friction(path: Path | None):
     return model
 
 
-def _finish(design, *, frf_path, quantity, limits, out, force, allow_unstable, as_json, friction=None,
-            friction_band=None, sampling=None, frf_options=None):
-    """Analyse, check the limits, write the gains file, print the result (``sampling``: the
-    :class:`~feedtune.cli.sampling_options.TargetSampling` recorded in the ``--json`` result)."""
-    from ..analysis.check import check_design
-    from ..errors import DesignError
-    from ..io import write_document
-    from ..io.gains import gains_document, with_friction_feedforward
-    from .envelope import collect, design_result, emit
-    from .frf_options import read_optional_frf
+def _check_out(out: Path | None, force: bool) -> None:
+    """Refuse an existing ``--out`` (without ``--force``) before any design work."""
+    if out is not None:
+        from ..io.atomic import ensure_writable
+
+        ensure_writable(out, force)
+
+
+def _finish(design, *, frf_path, frf, limits, out, force, allow_unstable, as_json, friction=None,
+            friction_band=None, sampling=None):
+    """Deliver the design (:func:`feedtune.workflows.deliver.deliver`: gains document, its check on the FRF or the
+    model, the certificate in the file when on an FRF), write it unless it fails, print the result (``sampling``:
+    the :class:`~feedtune.cli.sampling_options.TargetSampling` recorded in the ``--json`` result)."""
+    from ..machines.certificate import FrfSource
+    from ..workflows.deliver import deliver
+    from .delivery import finish_design
 
     friction_model = _load_friction(friction)
-    frf = read_optional_frf(frf_path, quantity, options=frf_options)
-    check = check_design(design, frf=frf, limits=limits)
-    analysis = check.analysis.to_dict()
-    from ..control.ballscrew_law import all_gain_units
-
-    result = {
-        "kind": design.kind,
-        "controller": design.kind,
-        "gains": dict(design.gains),
-        "gain_units": all_gain_units(design.model.input_unit),
-        "command_unit": design.model.input_unit,
-        "closed_loop_poles": [[float(p.real), float(p.imag)] for p in check.closed_loop_poles],
-        "analysis": analysis,
-        "check": check.to_dict(),
-        "design": design.design_dict(),
-        **({} if sampling is None else sampling.to_json()),
-    }
-    if design.kind == "ppi":
-        result["gains"].update(design.ppi_gains)
-    else:
+    sources = [] if frf is None else [FrfSource.from_file(frf_path, frf)]
+    delivery = deliver(design, sources, limits, friction=friction_model, friction_band=friction_band,
+                       where="the design")
+    result = {**delivery.result, "design": design.design_dict(), **({} if sampling is None else sampling.to_json())}
+    if design.kind != "ppi":
         result["placed_poles"] = [[float(p.real), float(p.imag)] for p in design.poles]
-    doc = gains_document(design, analysis)
-    if friction_model is not None:
-        doc = with_friction_feedforward(doc, friction_model, v_band=friction_band)
-    if friction_model is not None:
-        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
-    written = False
-    if out is not None and (check.ok or allow_unstable):
-        write_document(out, doc, force=force)
-        result["out"] = str(out)
-        written = True
-    msg = "; ".join(check.limit_check.violations_named(OPTION_NAMES))
-    if not check.ok and allow_unstable:
-        collect(f"{msg} (written because of --allow-unstable)")
-    result = design_result(result, "ballscrew")
-    if as_json:
-        emit(result)
-    else:
-        print_design_summary(result)
-        print_check(result["check"])
-        if "friction_feedforward" in result:
-            _friction_summary(result["friction_feedforward"])
-        if written:
-            typer.echo(f"wrote {out}")
-    if not check.ok:
-        if allow_unstable:
-            typer.echo(f"feedtune: warning: {msg} (written because of --allow-unstable)", err=True)
-        else:
-            raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
-
-
-def _friction_summary(ff: dict) -> None:
-    levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg"))
-    vu = ff["v_band"].get("unit", "rad/s")  # rad/s (ball screw) or m/s (a linear axis)
-    typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], vu)} / "
-               f"{fmt(ff['omega_neg']['value'], vu)}, linear band +-{fmt(ff['v_band']['value'], vu)}")
+    finish_design(delivery, result, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
 
 
 def _load_model(path: Path):
@@ -194,6 +149,7 @@ def ppc(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     out: Path = OUT_OPTION,
     friction: Path = FRICTION_OPTION,
@@ -212,11 +168,12 @@ def ppc(
     from ..tune.mcppc import tune_mcppc
     from .frf_options import FrfReadOptions, read_optional_frf
 
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
-    measured = read_optional_frf(frf, quantity, warn=False, options=frf_options)  # warned once, when _finish reads it
+    _check_out(out, force)
+    measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
     rate.report(as_json, "design ppc")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
@@ -227,20 +184,8 @@ def ppc(
         design = design_mcppc(model, beta=4.0 if beta is None else beta, pole_hz=50.0 if pole_hz is None else pole_hz,
                               zeta=0.7 if zeta is None else zeta, filters=filters, fs=fs,
                               delay_samples=delay_samples)
-    _finish(
-        design,
-        frf_path=frf,
-        quantity=quantity,
-        limits=policy,
-        out=out,
-        force=force,
-        allow_unstable=allow_unstable,
-        as_json=as_json,
-        friction=friction,
-        friction_band=friction_band,
-        sampling=rate,
-        frf_options=frf_options,
-    )
+    _finish(design, frf_path=frf, frf=measured, limits=policy, out=out, force=force, allow_unstable=allow_unstable,
+            as_json=as_json, friction=friction, friction_band=friction_band, sampling=rate)
 
 
 @app.command("ppi")
@@ -253,6 +198,7 @@ def ppi(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     kpx: float = typer.Option(
         None, "--kpx", metavar="1/S",
@@ -294,14 +240,15 @@ def ppi(
     from ..tune.ppi import tune_ppi
     from .frf_options import FrfReadOptions, read_optional_frf
 
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
+    _check_out(out, force)
     given = [g is not None for g in (kpx, kpv, kiv)]
     if any(given) and not all(given):
         raise UsageError("give all of --kpx, --kpv and --kiv, or none of them to tune them under the limits")
-    measured = read_optional_frf(frf, quantity, warn=False, options=frf_options)  # warned once, when _finish reads it
+    measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
     rate.report(as_json, "design ppi")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
@@ -316,17 +263,5 @@ def ppi(
             delay_samples=delay_samples,
             frf=measured,
         )
-    _finish(
-        design,
-        frf_path=frf,
-        quantity=quantity,
-        limits=policy,
-        out=out,
-        force=force,
-        allow_unstable=allow_unstable,
-        as_json=as_json,
-        friction=friction,
-        friction_band=friction_band,
-        sampling=rate,
-        frf_options=frf_options,
-    )
+    _finish(design, frf_path=frf, frf=measured, limits=policy, out=out, force=force, allow_unstable=allow_unstable,
+            as_json=as_json, friction=friction, friction_band=friction_band, sampling=rate)

@@ -35,13 +35,12 @@ from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, F
 from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
     DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
-    OPTION_NAMES,
     PM_MIN_OPTION,
     limits_from_options,
-    print_check,
 )
 from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION, fs_option, target_sampling
@@ -126,74 +125,37 @@ def _with_friction(design, friction_model, friction: Path | None, friction_band:
                                 model_where=str(model_file))
 
 
-def _write_and_report(result: dict, doc: dict, check, extra: list[str], *, out, force, allow_unstable,
-                      as_json) -> None:
-    """Write the gains file unless a limit is violated, print the result, raise DesignError on violations.
+def _deliver_and_report(design, sources, *, limits, targets, out, force, allow_unstable, as_json, sampling=None,
+                        extra: dict | None = None, extra_gains: dict | None = None) -> None:
+    """Deliver the design (:func:`feedtune.workflows.deliver.deliver`: gains document, its check on every FRF or on
+    the model, the certificate in the file when on FRFs, the design targets), write it unless it fails, print the
+    result; DesignError (exit 1) when it fails without ``--allow-unstable``."""
+    from ..workflows.deliver import deliver
+    from .delivery import finish_design
 
-    ``check`` is the :class:`~feedtune.analysis.limits.LimitCheck` of the design; ``extra`` further violations
-    (design targets missed).
-    """
-    from ..errors import DesignError
-    from ..io import write_document
-    from .envelope import collect, design_result, emit
-    from .summary import print_design_summary
-
-    violations = check.violations_named(OPTION_NAMES) + list(extra)
-    checked = (result.get("check") or {}).get("checked_case")
-    result["check"] = {"checked_case": checked, **check.to_dict(), "ok": not violations, "violations": violations}
-    written = False
-    if out is not None and (not violations or allow_unstable):
-        write_document(out, doc, force=force)
-        result["out"] = str(out)
-        written = True
-    if violations and allow_unstable:
-        collect(f"{'; '.join(violations)} (written because of --allow-unstable)")
-    result = design_result(result, doc.get("kind"))
-    if as_json:
-        emit(result)
-    else:
-        print_design_summary(result)
-        print_check(result["check"])
-        if "friction_feedforward" in result:
-            from .design_cmd import _friction_summary
-
-            _friction_summary(result["friction_feedforward"])
-        if written:
-            typer.echo(f"wrote {out}")
-    if violations:
-        msg = "; ".join(violations)
-        if allow_unstable:
-            typer.echo(f"feedtune: warning: {msg} (written because of --allow-unstable)", err=True)
-        else:
-            raise DesignError(f"{msg}; no gains file written (use --allow-unstable to write it anyway)")
-
-
-def _gantry_finish(design, frf, *, limits, targets, out, force, allow_unstable, as_json, sampling=None) -> None:
-    from ..analysis.gantry import analyze_gantry, target_violations
-    from ..analysis.limits import check_analysis
-    from ..control.gantry import reference_from_schedule
-    from ..io.gantry_gains import gantry_gains_document, mimo_gain_units, pid_gain_units
-
-    ref = reference_from_schedule(design.schedule, design.x, design.prefilter_hz)
-    full = analyze_gantry(design.law, design.model, x=design.x, frf=frf, reference=ref)
-    analysis = full.to_dict()
-    check, checked = check_analysis(full, limits)
-    extra = [] if targets is None else target_violations(analysis["ideal_discrete"], *targets, name="ideal_discrete")
-    doc = gantry_gains_document(design, analysis)
-    unit = design.model.input_unit
-    units = mimo_gain_units(unit) if design.controller == "mimo" else pid_gain_units(unit)
-    gains = {k: v["value"] for k, v in doc["gains"].items()}
-    result = {"kind": "gantry", "controller": design.controller, "x_m": design.x, "gains": gains,
-              "gain_units": units, "design": doc["design"], "analysis": analysis,
+    delivery = deliver(design, sources, limits, targets=targets, where="the design")
+    doc = delivery.document
+    gains = {**doc["gains"], **(extra_gains or {})}
+    result = {**delivery.result, "gains": {k: v["value"] for k, v in gains.items()},
+              "gain_units": {k: v["unit"] for k, v in gains.items()}, "design": doc["design"], **(extra or {}),
               **({} if sampling is None else sampling.to_json())}
-    if design.controller == "mimo":
-        result["gains"]["lead_gain"] = design.law.lead_gain
-        result["gain_units"]["lead_gain"] = f"{unit}/m"
-    if "friction_feedforward" in doc:
-        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
-    result_check = {"checked_case": checked}
-    _write_and_report(result | {"check": result_check}, doc, check, extra, out=out, force=force,
-                      allow_unstable=allow_unstable, as_json=as_json)
+    finish_design(delivery, result, out=out, force=force, allow_unstable=allow_unstable, as_json=as_json)
+
+
+def read_sources_of(path: Path | None, frf) -> list:
+    """The FRF read from ``--frf`` as a certification source (none without one)."""
+    from ..machines.certificate import FrfSource
+
+    return [] if frf is None else [FrfSource.from_file(path, frf)]
+
+
+def _gantry_finish(design, sources, *, limits, targets, out, force, allow_unstable, as_json, sampling=None) -> None:
+    """Deliver a gantry design; the result also holds the design position and, for MIMO, the lead gain."""
+    lead = ({"lead_gain": {"value": design.law.lead_gain, "unit": f"{design.model.input_unit}/m"}}
+            if design.controller == "mimo" else {})
+    _deliver_and_report(design, sources, limits=limits, targets=targets, out=out, force=force,
+                        allow_unstable=allow_unstable, as_json=as_json, sampling=sampling, extra={"x_m": design.x},
+                        extra_gains=lead)
 
 
 # ------------------------------------------------------------------------------------------ loopshape
@@ -256,6 +218,7 @@ def loopshape(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
@@ -269,14 +232,11 @@ def loopshape(
     the Stribeck friction feedforward of an identified friction model (--friction, levels in the axis' command unit,
     velocities in m/s)."""
     show_progress(quiet)
-    from ..analysis.gantry import analyze_axis, target_violations
-    from ..analysis.limits import check_analysis
     from ..control.friction import friction_feedforward
     from ..control.prefilter import PrefilterGains
     from ..design.loopshape import _command_unit_of, design_loopshape
     from ..errors import UsageError
     from ..frf import Frf
-    from ..io.gantry_gains import axis_gains_document
     from ..tune.loopshape import tune_loopshape
     from .design_cmd import _load_friction
     from .frf_options import FrfReadOptions, read_optional_frf
@@ -295,7 +255,7 @@ def loopshape(
         unit = plant.input_unit if isinstance(plant, Frf) else _command_unit_of(plant)
         friction_feedforward(friction_model, command_unit=unit, lead_m_per_rad=None, v_band=friction_band,
                              where=str(friction), command_where=str(plant_file))
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(plant_file, plant if isinstance(plant, Frf) else None),
                                                (frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
@@ -319,21 +279,32 @@ def loopshape(
     if friction_model is not None:
         design = design.with_friction(friction_model, v_band=friction_band, where=str(friction),
                                       plant_where=str(plant_file))
-    full = analyze_axis(design, measured, channel=channel if measured is not None else None)
-    analysis = full.to_dict()
-    check, checked = check_analysis(full, policy)
-    own = design.design_dict()["checked_case"]
-    extra = target_violations(analysis[own], design.crossover_hz, design.pm_deg, name=own)
-    doc = axis_gains_document(design, analysis)
-    gains = {k: v["value"] for k, v in doc["gains"].items()}
-    result = {"kind": "axis", "controller": "loopshape", "gains": gains,
-              "gain_units": {k: v["unit"] for k, v in doc["gains"].items()},
-              "lead_stages": [s.to_dict() for s in design.lead_stages], "design": doc["design"],
-              "analysis": analysis, "check": {"checked_case": checked}, **rate.to_json()}
-    if "friction_feedforward" in doc:
-        result["friction_feedforward"] = {k: v for k, v in doc["friction_feedforward"].items() if k != "source"}
-    _write_and_report(result, doc, check, extra, out=out, force=force, allow_unstable=allow_unstable,
-                      as_json=as_json)
+    sources = _axis_sources([(plant_file, plant if isinstance(plant, Frf) else None), (frf, measured)], channel)
+    _deliver_and_report(design, sources, limits=policy, targets=(design.crossover_hz, design.pm_deg), out=out,
+                        force=force, allow_unstable=allow_unstable, as_json=as_json, sampling=rate,
+                        extra={"lead_stages": [s.to_dict() for s in design.lead_stages]})
+
+
+def _axis_sources(frfs, channel: str | None) -> list:
+    """The x axis' FRFs as certification sources (each file once): the plant FRF it was designed on and ``--frf``;
+    with ``--channel`` an FRF of several channels is narrowed to that one (named ``FILE [CHANNEL]``)."""
+    from ..frf import Frf
+    from ..machines.certificate import FrfSource
+
+    out, seen = [], set()
+    for path, frf in frfs:
+        if frf is None or str(path) in seen:
+            continue
+        seen.add(str(path))
+        name = str(path)
+        if channel is not None and len(frf.channels) > 1:
+            coh = frf.channel_coherence(channel)
+            frf = Frf.from_channels(frf.freq_hz, {channel: frf.channel(channel)},
+                                    coherence=None if coh is None else {channel: coh}, quantity=frf.quantity,
+                                    input_unit=frf.input_unit, output_unit=frf.output_unit, meta=frf.meta)
+            name = f"{path} [{channel}]"
+        out.append(FrfSource.from_file(path, frf, name))
+    return out
 
 
 # ------------------------------------------------------------------------------------------ gantry
@@ -381,6 +352,7 @@ def gantry(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
@@ -398,7 +370,7 @@ def gantry(
     from ..design.gantry_mimo import design_gantry_mimo
     from .frf_options import FrfReadOptions, read_optional_frf
 
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _gantry_model(model_file)
     friction_model = _gantry_friction_model(friction, friction_band, model, model_file)
@@ -413,7 +385,7 @@ def gantry(
         prefilter1=PrefilterGains.parse(prefilter1, "--prefilter1"),
         prefilter2=PrefilterGains.parse(prefilter2, "--prefilter2"), prefilter_hz=prefilter_hz)
     design = _with_friction(design, friction_model, friction, friction_band, model_file)
-    _gantry_finish(design, measured, limits=policy, targets=(crossover_hz, pm_deg), out=out,
+    _gantry_finish(design, read_sources_of(frf, measured), limits=policy, targets=(crossover_hz, pm_deg), out=out,
                    force=force, allow_unstable=allow_unstable, as_json=as_json, sampling=rate)
 
 
@@ -477,6 +449,7 @@ def pid(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     match: Path = typer.Option(
         None, "--match", metavar="GAINS",
@@ -533,7 +506,7 @@ def pid(
 
     if filter_choice is not None and filter_choice not in FILTER_CHOICES:
         raise UsageError(f"--filters must be own or identical, got {filter_choice!r}")
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     model = _gantry_model(model_file)
     friction_model = _gantry_friction_model(friction, friction_band, model, model_file)
@@ -564,5 +537,6 @@ def pid(
         if not as_json:
             _print_tuning(design.tuning)
     design = _with_friction(design, friction_model, friction, friction_band, model_file)
-    _gantry_finish(design, measured, limits=policy.override(ms_max=ms_max), targets=None, out=out, force=force,
+    _gantry_finish(design, read_sources_of(frf, measured), limits=policy.override(ms_max=ms_max), targets=None,
+                   out=out, force=force,
                    allow_unstable=allow_unstable, as_json=as_json, sampling=rate)  # --match: the MIMO design's Ms

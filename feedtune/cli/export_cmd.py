@@ -8,9 +8,12 @@ import typer
 
 from ..export.c_common import float_bound_text
 from .common import FORCE_OPTION, JSON_OPTION
+from .design_cmd import QUANTITY_OPTION
+from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .help_text import ANTI_WINDUP, choice
 from .limits_options import (
     DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
@@ -52,7 +55,19 @@ def export_c(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
+    frf: list[Path] = typer.Option(
+        None, "--frf", metavar="FRF",
+        help="Measured FRF to certify the gains on before exporting (repeatable; gantry FRFs at their recorded "
+             "positions); compared with the file's certificate by digest. Without --frf: the file's certificate "
+             "while it holds for its gains, else the design model (the header then says it is uncertified).",
+    ),
+    quantity: str = QUANTITY_OPTION,
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
     allow_unstable: bool = typer.Option(False, "--allow-unstable", help="Export a design that fails the limits "
                                                                         "check (the header then says so)."),
     force: bool = FORCE_OPTION,
@@ -63,33 +78,48 @@ def export_c(
 
     Write a self-contained C header that runs the controller sample by sample.
 
-    The design is checked first, as 'feedtune analyze GAINS --check' does (stable in every case, the limits in the
-    checked case); a design that fails is not exported unless --allow-unstable."""
+    The design is checked first: certified anew on the --frf files, else by the file's own certificate while it holds
+    for its gains (its figures judged under the limits asked for), else on the design model alone (then the header
+    and a warning say it is not certified). A design that fails is not exported unless --allow-unstable."""
     show_progress(quiet)
-    from ..analysis.limits import check_analysis
     from ..errors import DesignError
     from ..export.c_header import c_header
     from ..io import atomic_write_text, read_document
     from ..io.atomic import ensure_writable
-    from ..machines import analyze_gains
+    from ..machines.certificate import UNCERTIFIED_HINT, gains_verdict
+    from .delivery import read_sources
+    from .envelope import warn
+    from .frf_options import FrfReadOptions
 
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     precision = "float" if single else "double"
     target = out or gains_file.with_suffix(".h")
     ensure_writable(target, force)
     doc = read_document(gains_file)
     c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup,
              precision=precision)  # options, document
-    check, case = check_analysis(analyze_gains(doc, str(gains_file)).analysis, policy)
+    sources = read_sources(list(frf or []), quantity, frf_options)
+    verdict = gains_verdict(doc, str(gains_file), sources, policy)
+    for note in verdict.notes:
+        if note == verdict.stored.problem():
+            warn(note)
+        elif not as_json:
+            typer.echo(f"note: {note}")
+    hint = "" if verdict.certified else f"; to certify it: {UNCERTIFIED_HINT.format(command='export c')}"
+    basis = verdict.basis_text()
     warning = None
-    if not check.ok:
-        msg = "; ".join(check.violations_named(OPTION_NAMES))
+    if not verdict.ok:
+        msg = "; ".join(verdict.certificate.violations(OPTION_NAMES))
         if not allow_unstable:
-            raise DesignError(f"{gains_file}: {msg}; not exported (use --allow-unstable to export it anyway)")
-        warning = f"this design fails the limits check ({policy.describe()}): {msg}"
-        from .envelope import warn
-
+            raise DesignError(f"{gains_file}: {msg} ({basis}); not exported (use --allow-unstable to export it "
+                              f"anyway{hint})")
+        warning = f"this design fails the limits check ({policy.describe()}; {basis}): {msg}"
         warn(f"{msg} (exported because of --allow-unstable)")
+    elif not verdict.certified:
+        warning = (f"this design is not certified on a measured FRF: it passes the limits ({policy.describe()}) on "
+                   "its design model alone")
+        warn(f"{gains_file}: exported on the design model's check alone, not certified on a measured FRF{hint}")
     text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning,
                     precision=precision)
     atomic_write_text(target, text, force=force)
@@ -98,6 +128,7 @@ def export_c(
 
         emit({"gains_kind": doc.get("kind"), "out": str(target), "prefix": prefix,
               "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup, "precision": precision,
-              "check": {"checked_case": case, **check.to_dict()}})
+              "check": verdict.certificate.check_dict(OPTION_NAMES), "verdict": verdict.to_dict(OPTION_NAMES)})
     else:
+        typer.echo(f"verdict on {basis}: {'passes' if verdict.ok else 'FAILS'} ({policy.describe()})")
         typer.echo(f"wrote {target}")

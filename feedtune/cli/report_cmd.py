@@ -10,6 +10,7 @@ from .common import FORCE_OPTION, JSON_OPTION
 from .envelope import cli_text
 from .limits_options import (
     DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
@@ -67,6 +68,7 @@ def report(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
@@ -84,7 +86,7 @@ def report(
     from ..report.collect import parse_log_kinds
     from ..report.sections import ReportLimits
 
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     check_report_paths(out, pdf, force)
     options = LogOptions.from_cli(map_, fs, time, scale, unit, skip_rows)
     built = build_report(inputs, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict,

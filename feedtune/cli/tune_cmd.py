@@ -16,15 +16,18 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt
+from .delivery import print_certificate
 from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _load_model
 from .envelope import cli_text
 from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
 from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
     DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
     GM_MIN_OPTION,
     LIMITS_OPTION,
     MS_MAX_OPTION,
+    OPTION_NAMES,
     PM_MIN_OPTION,
     limits_from_options,
 )
@@ -79,10 +82,11 @@ def _filter_choice(choice: str | None, notch, lpf) -> str:
     return choice
 
 
-def _frfs(paths: list[Path] | None, quantity: str | None, frf_options=None) -> list[tuple[str, object]]:
-    from .frf_options import read_optional_frf
+def _frfs(paths: list[Path] | None, quantity: str | None, frf_options=None) -> list:
+    """The ``--frf`` files as certification sources (:class:`~feedtune.machines.certificate.FrfSource`)."""
+    from .delivery import read_sources
 
-    return [(str(p), read_optional_frf(p, quantity, options=frf_options)) for p in paths or []]
+    return read_sources(list(paths or []), quantity, frf_options)
 
 
 def print_filters(pack: dict, record: dict) -> None:
@@ -98,58 +102,24 @@ def print_filters(pack: dict, record: dict) -> None:
         typer.echo(f"  {record.get('why', '')}")
 
 
-def print_certificate(cert: dict) -> None:
-    """One line per FRF and the worst case, with the active limit."""
-    typer.echo(f"certificate ({cert['limits']['profile']} limits; discrete case, every FRF):")
-    for c in cert["frfs"]:
-        first = c["crossovers_hz"][0] if c["crossovers_hz"] else None
-        verdict = "ok" if c["ok"] else "FAILS: " + "; ".join(c["violations"])
-        typer.echo(f"  {c['frf']}: first crossover {fmt(first, 'Hz')}, Ms {c['ms']:.3g} at {fmt(c['ms_freq_hz'], 'Hz')}"
-                   f", PM {fmt(c['pm_deg'], 'deg')}, GM {fmt(c['gm_db'], 'dB')}, DM {c['disk_margin']:.3g}, "
-                   f"{'stable' if c['stable'] else 'UNSTABLE'}: {verdict}")
-    w = cert["worst"]
-    act = w["active_limit"]
-    active = "none" if act is None else f"{act['name']} = {act['value']:.4g} (limit {act['limit']:g}) on {act['frf']}"
-    typer.echo(f"  worst: first crossover {fmt(w['first_crossover_hz'], 'Hz')} ({w['first_crossover_hz_frf']}), "
-               f"Ms {w['ms']:.3g} ({w['ms_frf']}); active limit: {active}")
+def _report_tuned(title: str, delivery, result: dict, out: Path | None, force: bool, as_json: bool) -> bool:
+    """Refuse a tuned design that fails its certificate (the gains file as written), write it, print the JSON; True
+    when the JSON was printed (nothing else to print)."""
+    from .delivery import write_delivery
 
-
-def _write_certified(title: str, doc: dict, cert, result: dict, out: Path | None, force: bool,
-                     as_json: bool) -> bool:
-    """Refuse a design that fails its certificate (the gains file as written), write it, print the JSON; True when
-    the JSON was printed (nothing else to print)."""
-    from ..errors import DesignError
-    from ..io import write_document
-
-    if not cert.ok:  # the tuner re-checks its winner on every FRF; this is the gains file as written
-        raise DesignError(f"the tuned {title} fails its certificate: "
-                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
+    write_delivery(delivery, out, force, None, f"tuned {title}")
     if out is not None:
-        write_document(out, doc, force=force)
         result["out"] = str(out)
     if as_json:
         from .envelope import design_result, emit
 
+        doc = delivery.document
         if "gains" not in result:  # the x axis: the gains as the file holds them
             result = {**result, "gains": {k: v["value"] for k, v in doc["gains"].items()},
                       "gain_units": {k: v["unit"] for k, v in doc["gains"].items()}}
-        emit(design_result(result, doc.get("kind")), check=certificate_check(cert))
+        emit(design_result(result, doc.get("kind")), check=delivery.check_dict(OPTION_NAMES))
         return True
     return False
-
-
-def certificate_check(cert) -> dict:
-    """The ``check`` of ``tune --json``: the certificate's verdict in the layout of ``design``'s check. ``violations``
-    and ``items`` of every FRF, each named by its FRF; ``active`` the limit closest to binding over all FRFs."""
-    from .limits_options import OPTION_NAMES
-
-    worst = cert.worst()
-    active = worst.get("active_limit")
-    return {"checked_case": cert.frfs[0].checked_case if cert.frfs else None, "ok": cert.ok,
-            "limits": cert.limits.to_dict(),
-            "violations": [f"{c.name}: {v}" for c in cert.frfs for v in c.check.violations_named(OPTION_NAMES)],
-            "items": [{**i.to_dict(), "frf": c.name} for c in cert.frfs for i in c.check.items],
-            "active": None if active is None else active["name"]}
 
 
 def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pack, filters: str | None,
@@ -158,32 +128,30 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
     """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
     from ..control.ballscrew_law import all_gain_units
     from ..io.atomic import ensure_writable
-    from ..io.document import strip_none
-    from ..io.gains import gains_document
-    from ..machines.certificate import certify
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
+    from ..workflows.deliver import deliver
 
     choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
     if out is not None:
         ensure_writable(out, force)  # refused before the search, not after it
     model = _load_model(model_file)
     frfs = _frfs(frf, quantity, frf_options)
-    rate = target_sampling(fs, delay_samples, frfs, default_fs=DEFAULT_FS[structure], override=fs_override)
+    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in frfs], default_fs=DEFAULT_FS[structure],
+                           override=fs_override)
     rate.report(as_json, f"tune {structure}")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
     tuner = {"mcppc": tune_mcppc, "ppi": tune_ppi}[structure]
     design = tuner(model, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
-                   frf=[f for _, f in frfs] or None, filter_choice=choice)
-    doc = gains_document(design)
-    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
-    doc["certificate"] = strip_none(cert.to_dict())
+                   frf=[s.frf for s in frfs] or None, filter_choice=choice)
+    delivery = deliver(design, frfs, policy, where="tuned design")
     gains = {**design.gains, **getattr(design, "ppi_gains", {})}
     units = all_gain_units(model.input_unit)
     result = {"kind": "ballscrew", "controller": design.kind, "gains": gains, "gain_units": units,
               "filters": design.filters.to_dict(), "filter_choice": design.tuning.get("filters", {"choice": choice}),
-              "design": design.design_dict(), "certificate": cert.to_dict(), **rate.to_json()}
-    if _write_certified(TITLES[structure], doc, cert, result, out, force, as_json):
+              "design": design.design_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
+              **rate.to_json()}
+    if _report_tuned(TITLES[structure], delivery, result, out, force, as_json):
         return
     typer.echo(f"{TITLES[structure]} tuned: " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}"
                                                           for k, v in gains.items()))
@@ -199,10 +167,9 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     """Tune an x axis by loop shaping on every FRF, certify, write, print."""
     from ..io import load_model
     from ..io.atomic import ensure_writable
-    from ..io.document import strip_none
-    from ..io.gantry_gains import axis_gains_document
-    from ..machines.certificate import certify
+    from ..machines.certificate import FrfSource
     from ..tune.loopshape import tune_loopshape
+    from ..workflows.deliver import deliver
     from .frf_options import read_optional_frf
 
     choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
@@ -213,20 +180,20 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     else:
         plant = read_optional_frf(plant_file, quantity, options=frf_options)
     frfs = _frfs(frf, quantity, frf_options)
-    plant_frf = [] if plant_file.suffix.lower() in (".toml", ".json") else [(str(plant_file), plant)]
-    rate = target_sampling(fs, delay_samples, plant_frf + frfs, default_fs=DEFAULT_FS["loopshape"],
-                           override=fs_override)
+    plant_frf = [] if plant_file.suffix.lower() in (".toml", ".json") else [FrfSource.from_file(plant_file, plant)]
+    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in plant_frf + frfs],
+                           default_fs=DEFAULT_FS["loopshape"], override=fs_override)
     rate.report(as_json, "tune loopshape")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
     design = tune_loopshape(plant, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
-                            frf=[f for _, f in frfs] or None, filter_choice=choice)
-    doc = axis_gains_document(design)
-    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
-    doc["certificate"] = strip_none(cert.to_dict())
+                            frf=[s.frf for s in frfs] or None, filter_choice=choice)
+    delivery = deliver(design, plant_frf + [s for s in frfs if s.name != str(plant_file)], policy,
+                       where="tuned design")
     tuning = design.tuning
     result = {"kind": "axis", "controller": "loopshape", "design": design.design_dict(),
-              "filters": design.filters.to_dict(), "certificate": cert.to_dict(), **rate.to_json()}
-    if _write_certified("loop-shaping design", doc, cert, result, out, force, as_json):
+              "filters": design.filters.to_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
+              **rate.to_json()}
+    if _report_tuned("loop-shaping design", delivery, result, out, force, as_json):
         return
     typer.echo(f"x-axis loop shaping tuned: crossover {fmt(tuning['crossover_hz'], 'Hz')}, PM target "
                f"{fmt(tuning['pm_target_deg'], 'deg')}, integral lag {fmt(tuning['pi_lag_deg'], 'deg')}, "
@@ -238,7 +205,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
 
 
 def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity: str | None, frf_options=None):
-    """``[(name, Frf)]`` of gantry FRFs, each carrying its table position (``--x`` or its own ``x_m``)."""
+    """Gantry FRFs as certification sources, each carrying its table position (``--x`` or its own ``x_m``)."""
     from dataclasses import replace
 
     from ..tune.gantry_cases import frf_positions
@@ -248,9 +215,9 @@ def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity:
         from ..errors import UsageError
 
         raise UsageError("--x gives the table position of each --frf; without --frf use --design-x")
-    positions = frf_positions([f for _, f in frfs], xs or None, 0.0)
-    return [(f"{name} (x = {x:g} m)", replace(f, meta={**f.meta, "x_m": repr(float(x))}))
-            for (name, f), x in zip(frfs, positions, strict=True)]
+    positions = frf_positions([s.frf for s in frfs], xs or None, 0.0)
+    return [replace(s, name=f"{s.name} (x = {x:g} m)", frf=replace(s.frf, meta={**s.frf.meta, "x_m": repr(float(x))}))
+            for s, x in zip(frfs, positions, strict=True)]
 
 
 def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: list[float] | None, design_x: float,
@@ -259,38 +226,37 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
                  frf_options=None) -> None:
     """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
     from ..io.atomic import ensure_writable
-    from ..io.document import strip_none
-    from ..io.gantry_gains import gantry_gains_document
-    from ..machines.certificate import certify
     from ..tune.gantry import tune_gantry_mimo
     from ..tune.pid import tune_gantry_pid
+    from ..workflows.deliver import deliver
     from .design_gantry_cmd import _gantry_model
 
     if out is not None:
         ensure_writable(out, force)
     model = _gantry_model(model_file)
     frfs = _positioned_frfs(frf, xs, quantity, frf_options)
-    rate = target_sampling(fs, delay_samples, frfs, default_fs=DEFAULT_FS[structure], override=fs_override)
+    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in frfs], default_fs=DEFAULT_FS[structure],
+                           override=fs_override)
     rate.report(as_json, f"tune {structure}")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
     common = {"limits": policy, "filters": filters_pack, "fs": fs, "delay_samples": delay_samples, "x": design_x,
-              "frf": [f for _, f in frfs] or None}
+              "frf": [s.frf for s in frfs] or None}
     choice = _filter_choice(filters, filters_pack.notches, filters_pack.lpf_hz)
     tuner = tune_gantry_mimo if structure == "gantry" else tune_gantry_pid
     design = tuner(model, filter_choice=choice, **common)
     tuning = design.tuning
     record = tuning.get("filters", {"choice": choice})
-    doc = gantry_gains_document(design)
-    cert = certify(doc, "tuned design", frfs or [("model", None)], policy)
-    doc["certificate"] = strip_none(cert.to_dict())
+    delivery = deliver(design, frfs, policy, where="tuned design")
+    doc = delivery.document
     gains = {k: v["value"] for k, v in doc["gains"].items()}
     units = {k: v["unit"] for k, v in doc["gains"].items()}
     if design.controller == "mimo":
         gains["lead_gain"], units["lead_gain"] = design.law.lead_gain, f"{model.input_unit}/m"
     result = {"kind": "gantry", "controller": design.controller, "design_x_m": design.x, "gains": gains,
               "gain_units": units, "filters": design.law.filters.to_dict(), "filter_choice": record,
-              "design": design.design_dict(), "certificate": cert.to_dict(), **rate.to_json()}
-    if _write_certified(TITLES[structure], doc, cert, result, out, force, as_json):
+              "design": design.design_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
+              **rate.to_json()}
+    if _report_tuned(TITLES[structure], delivery, result, out, force, as_json):
         return
     shape = (f"CoM crossover target {fmt(design.crossover_hz, 'Hz')}, PM target {fmt(design.pm_deg, 'deg')}, "
              f"damping increase {design.damping_increase:g}" if structure == "gantry" else
@@ -343,6 +309,7 @@ def tune(
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
     gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
     dm_min: float = DM_MIN_OPTION,
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
@@ -369,7 +336,7 @@ def tune(
 
     if structure not in TITLES:
         raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
+    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     gantry = structure in ("gantry", "pid")
     if x and not gantry:

@@ -25,9 +25,10 @@ from ..control.prefilter import correction_sos, gain_vector
 from ..errors import DataError, UsageError
 from ..models.ballscrew import PARAM_NAMES, BallScrewModel, param_units
 from ..models.friction import StribeckFriction
-from .document import strip_none
 
-SCHEMA = "feedtune.gains/1"
+SCHEMA = "feedtune.gains/1.1"
+"""The gains documents' schema: major 1 (readers refuse another major), minor 1 (the ``[certificate]`` with its
+digests, :mod:`feedtune.io.gains_certificate`)."""
 
 LAW_TEXT = (
     "every sample k: x1r = rotary(x_r[k+P]); x2r = table(x_r[k+P]); e1 = x1r - x1[k]; e2 = x2r - x2[k]; "
@@ -96,16 +97,15 @@ def model_section(model: BallScrewModel) -> dict:
     }
 
 
-def gains_document(design, analysis: dict | None = None) -> dict:
-    """Build the gains document of a ball-screw design.
+def gains_document(design) -> dict:
+    """Build the gains document of a ball-screw design (without a certificate: :func:`feedtune.workflows.deliver.
+    deliver` certifies it on the FRFs and adds the ``[certificate]``).
 
     Parameters
     ----------
     design : McppcDesign or PpiDesign
         Any design with ``law()``, ``model``, ``kind``, ``gains``, ``filters`` and ``design_dict()`` (and, for a
         P-PI, ``ppi_gains``; for an MC-PPC, ``poles``).
-    analysis : dict, optional
-        Analysis figures to store for information (``BallScrewAnalysis.to_dict()``).
 
     The optional sections are added by :func:`with_prefilter` and :func:`with_friction_feedforward`.
     """
@@ -148,8 +148,6 @@ def gains_document(design, analysis: dict | None = None) -> dict:
         doc["ppi_gains"] = {n: q(v, ppi_units(design.model.input_unit)[n]) for n, v in design.ppi_gains.items()}
     else:
         doc["design"]["closed_loop_poles_rad_s"] = [[float(p.real), float(p.imag)] for p in design.poles]
-    if analysis is not None:
-        doc["analysis"] = strip_none(analysis)
     return refresh_law_text(doc)
 
 

@@ -69,6 +69,24 @@ _CONTINUOUS = {"type": "object", "properties": {
     "lpf_order": {"enum": [1, 2]},
     "lpf_zeta": {"type": "number", "exclusiveMinimum": 0},
 }}
+_SHA256 = {"type": "string", "pattern": "^[0-9a-f]{64}$"}
+_CERTIFICATE = {
+    "type": "object", "required": ["limits", "frfs", "worst"],
+    "properties": {
+        "format": {"type": "string"}, "made_by": {"type": "string"},
+        "date": {"type": "string", "pattern": "^[0-9]{4}-[0-9]{2}-[0-9]{2}$"},
+        "gains_sha256": _SHA256, "sections_sha256": {"type": "object", "additionalProperties": _SHA256},
+        "ok": {"type": "boolean"}, "limits": {"type": "object"}, "worst": {"type": "object"},
+        "frfs": {"type": "array", "minItems": 1, "maxItems": MAX_SECTIONS, "items": {
+            "type": "object", "required": ["frf", "checked_case", "ok"],
+            "properties": {"frf": {"type": "string"}, "sha256": _SHA256, "arrays_sha256": _SHA256,
+                           "identity": {"enum": ["file", "arrays"]}, "checked_case": {"type": "string"},
+                           "ok": {"type": "boolean"}, "items": {"type": "array"}}}},
+    },
+    "dependentRequired": {"gains_sha256": ["sections_sha256", "date"]},
+}
+"""The ``[certificate]`` (:mod:`feedtune.io.gains_certificate`): the certificate of :mod:`feedtune.machines.certificate`
+with the digests of its FRFs and of the gains it certifies (schema 1.1; a 1.0 certificate has no digests)."""
 _COMMON = {
     "schema": {"type": "string"},
     "controller": {"type": "string"},
@@ -77,7 +95,7 @@ _COMMON = {
     "gains": _GAINS,
     "model": {"type": "object"},
     "design": {"type": "object"},
-    "certificate": {"type": "object"},
+    "certificate": _CERTIFICATE,
     "reference": {"type": "object", "patternProperties": {"_sos$": _SOS}},
 }
 _REQUIRED = ["kind", "sampling", "gains", "filters"]

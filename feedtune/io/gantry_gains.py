@@ -1,6 +1,6 @@
 """Gains documents of the gantry (``kind = "gantry"``, MIMO or PID) and of the loop-shaped x axis (``"axis"``).
 
-Schema ``"feedtune.gains/1"`` like the ball-screw gains file (:mod:`feedtune.io.gains`): numbers with a
+Schema ``"feedtune.gains/1.1"`` like the ball-screw gains file (:mod:`feedtune.io.gains`): numbers with a
 unit are ``{"value", "unit"}``, discrete filters are second-order sections ``[b0, b1, b2, a0, a1, a2]`` in
 powers of ``z^-1`` at ``fs`` run as a transposed-direct-form-II cascade (``scipy.signal.sosfilt``), the
 position-dependent quantities of eq. 4.33 are tables over the table position ``x`` (linear interpolation,
@@ -235,7 +235,7 @@ def _sampling(fs: float, delay: int, preview: int) -> dict:
     return {"fs_hz": q(fs, "Hz"), "delay_samples": int(delay), "preview_samples": int(preview)}
 
 
-def gantry_gains_document(design, analysis: dict | None = None) -> dict:
+def gantry_gains_document(design) -> dict:
     """The gains document of a :class:`GantryMimoDesign` or :class:`GantryPidDesign`.
 
     With the design's friction feedforward (``design.friction``, command unit and m/s of the gantry's travel) the
@@ -245,8 +245,8 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
     Parameters
     ----------
     design : GantryMimoDesign or GantryPidDesign
-    analysis : dict, optional
-        ``GantryAnalysis.to_dict()`` to store for information.
+
+    Without a certificate: :func:`feedtune.workflows.deliver.deliver` certifies it and adds the ``[certificate]``.
     """
     from .gantry_model import gantry_model_to_doc
 
@@ -286,12 +286,10 @@ def gantry_gains_document(design, analysis: dict | None = None) -> dict:
     }
     if friction is not None:
         doc["friction_feedforward"] = friction.section(GANTRY_FRICTION_VELOCITY_TEXT)
-    if analysis is not None:
-        doc["analysis"] = strip_none(analysis)
     return doc
 
 
-def axis_gains_document(design, analysis: dict | None = None) -> dict:
+def axis_gains_document(design) -> dict:
     """The gains document of a loop-shaped axis (:class:`~feedtune.design.loopshape.LoopShapeDesign`), in the
     command unit of its plant.
 
@@ -301,8 +299,8 @@ def axis_gains_document(design, analysis: dict | None = None) -> dict:
     Parameters
     ----------
     design : LoopShapeDesign
-    analysis : dict, optional
-        ``AxisAnalysis.to_dict()`` to store for information.
+
+    Without a certificate: :func:`feedtune.workflows.deliver.deliver` certifies it and adds the ``[certificate]``.
     """
     unit = design.plant.command_unit
     pre = design.prefilter
@@ -328,7 +326,6 @@ def axis_gains_document(design, analysis: dict | None = None) -> dict:
         "model": {"kind": AXIS_KIND, "mass": q(design.plant.mass, f"{unit}/(m/s^2)"), "source": design.plant.source,
                   "mass_method": design.plant.mass_method},
         "design": design.design_dict(),
-        "analysis": analysis,
     })
 
 

@@ -135,7 +135,8 @@ def store_bandwidth(store: dict, d, limits: ReportLimits) -> None:
 
 def verdict_paragraph(d, limits: ReportLimits):
     """The pass/fail line of a design (an Alert when it fails)."""
-    text = verdict_line(d.label, d.name, d.result["check"], CASE_TITLES, limits.policy.describe())
+    text = verdict_line(d.label, d.name, d.result["check"], CASE_TITLES, limits.policy.describe(),
+                        (d.result.get("verdict") or {}).get("basis_text"))
     return Paragraph(text) if d.result["check"].get("ok") else Alert(text)
 
 
@@ -147,12 +148,12 @@ def analysis_frf(inputs: Inputs) -> FrfInput | None:
     return None
 
 
-def analyze_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, object, object, dict]:
+def analyze_gains(gi: GainsInput, fi: FrfInput | None, limits: ReportLimits) -> tuple[object, object, object, dict]:
     """``(law, model, analysis, result)`` exactly as ``feedtune analyze`` computes them (result = its JSON)."""
     from ..machines import analyze_gains as analyze_document
 
-    done = analyze_document(gi.doc, str(gi.path), frf)
-    return done.law, done.model, done.analysis, {**done.result, "check": check_result(done.analysis, limits)}
+    done = analyze_document(gi.doc, str(gi.path), None if fi is None else fi.frf)
+    return done.law, done.model, done.analysis, {**done.result, **verdict_result(done.analysis, limits, gi, fi)}
 
 
 def design_label(gi: GainsInput, prefilter) -> str:
@@ -382,16 +383,23 @@ def _controller(d: BallScrewDesign) -> FigureBlock:
 # ------------------------------------------------------------------------------------------ warnings
 def design_warnings(d, limits: ReportLimits) -> list[str]:
     """The design's check under the policy (stability in every case, the limits in its main case), one line per
-    violation, as ``feedtune analyze --check`` reports them."""
-    return [f"{d.label} ({d.name}): {v}" for v in d.result["check"]["violations"]]
+    violation, as ``feedtune analyze --check`` reports them, and what the verdict's notes say (an edited
+    certificate ignored)."""
+    cert = d.result.get("verdict") or {}
+    ignored = [n for n in cert.get("notes", []) if cert.get("stored_status") in ("edited", "undigested")][:1]
+    return [f"{d.label} ({d.name}): {v}" for v in d.result["check"]["violations"]] + ignored
 
 
-def check_result(analysis, limits: ReportLimits) -> dict:
-    """The ``check`` entry of ``feedtune analyze --json`` for an analysis under the report's policy."""
-    from ..analysis.limits import check_analysis
+def verdict_result(analysis, limits: ReportLimits, gi: GainsInput, fi: FrfInput | None = None) -> dict:
+    """The ``check`` and ``certificate`` entries of ``feedtune analyze --json`` for a gains file under the report's
+    policy: its verdict (:func:`feedtune.machines.certificate.gains_verdict`), certified on the FRF ``fi`` the
+    analysis is on, else the file's own certificate while it holds for its gains, else the design model."""
+    from ..machines.certificate import FrfSource, gains_verdict
 
-    check, checked = check_analysis(analysis, limits.policy)
-    return {"checked_case": checked, **check.to_dict()}
+    sources = [] if fi is None else [FrfSource.from_file(fi.path, fi.frf, fi.path.name)]
+    verdict = gains_verdict(gi.doc, str(gi.path), sources, limits.policy,
+                            known=[(None if fi is None else fi.frf, analysis)])
+    return {"check": verdict.certificate.check_dict(), "verdict": verdict.to_dict()}
 
 
 # ------------------------------------------------------------------------------------------ section
@@ -421,7 +429,7 @@ def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
     for g, pre, label in zip(ballscrew, prefilters, labels, strict=True):
         if labels.count(label) > 1:
             label = f"{label} ({g.path.stem})"
-        law, model, analysis, result = analyze_gains(g, frf, limits)
+        law, model, analysis, result = analyze_gains(g, fi, limits)
         d = BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre,
                             case_masks(analysis, frf, BALLSCREW_CHANNELS, limits.coherence_trust), support)
         designs.append(replace(d, bandwidth=bandwidth_table_entry(d)))

@@ -25,13 +25,13 @@ from .design import (
     bandwidth_note,
     bandwidth_table_entry,
     case_masks,
-    check_result,
     controller_grid,
     design_warnings,
     model_band_top,
     store_bandwidth,
     support_of,
     verdict_paragraph,
+    verdict_result,
 )
 from .figures import (
     Curve,
@@ -106,12 +106,12 @@ def axis_frf(inputs: Inputs) -> FrfInput | None:
     return next((f for f in inputs.frfs if len(f.frf.channels) == 1), None)
 
 
-def analyze_machine_gains(gi: GainsInput, frf, limits: ReportLimits) -> tuple[object, dict, object]:
+def analyze_machine_gains(gi: GainsInput, fi: FrfInput | None, limits: ReportLimits) -> tuple[object, dict, object]:
     """``(analysis, result, law)`` of a gantry or axis gains file, ``result`` as ``feedtune analyze --json``."""
     from ..machines import analyze_gains
 
-    done = analyze_gains(gi.doc, str(gi.path), frf)
-    return done.analysis, {**done.result, "check": check_result(done.analysis, limits)}, done.law
+    done = analyze_gains(gi.doc, str(gi.path), None if fi is None else fi.frf)
+    return done.analysis, {**done.result, **verdict_result(done.analysis, limits, gi, fi)}, done.law
 
 
 def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits: ReportLimits) -> list[MachineDesign]:
@@ -125,7 +125,7 @@ def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits
             continue
         fi = gantry_frf(inputs, design_position(gi)) if gi.kind == "gantry" else a_frf
         frf = fi.frf if fi is not None else None
-        analysis, result, law = analyze_machine_gains(gi, frf, limits)
+        analysis, result, law = analyze_machine_gains(gi, fi, limits)
         label = MACHINE_LABELS.get(result["controller"], result["controller"])
         channels = GANTRY_CHANNELS if gi.kind == "gantry" else (tuple(frf.channels) if frf is not None else ())
         band_top = model_band_top(inputs, "gantry") if gi.kind == "gantry" else None

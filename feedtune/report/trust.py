@@ -114,11 +114,12 @@ def bandwidth_entry(value_hz: float | None, case: str, support_hz: Mapping[str, 
     return {"value_hz": value_hz, "supported_to_hz": top, "shown": bool(shown)}
 
 
-ITEM_TEXT = {"ms": ("Ms", "", "<="), "pm_deg": ("PM", " deg", ">="), "gm_db": ("|GM|", " dB", ">="),
-             "disk_margin": ("disk margin", "", ">=")}
+ITEM_TEXT = {"ms": ("Ms", "", "<="), "pm_deg": ("PM", " deg", ">="), "gm_db": ("GM", " dB", ">="),
+             "gm_low_db": ("gain-reduction GM", " dB", ">="), "disk_margin": ("disk margin", "", ">=")}
 
 
-def verdict_line(label: str, name: str, check: Mapping, case_titles: Mapping[str, str], policy_text: str) -> str:
+def verdict_line(label: str, name: str, check: Mapping, case_titles: Mapping[str, str], policy_text: str,
+                 basis_text: str | None = None) -> str:
     """``"MC-PPC (mcppc.toml): PASS under textbook: Ms <= 2.5, ... in the case ...: Ms 2.26 at 176 Hz, ...;
     stable in 4 of 4 analysis cases."`` from a ``check`` entry of ``feedtune analyze --json``."""
     items = check.get("items") or []
@@ -141,4 +142,6 @@ def verdict_line(label: str, name: str, check: Mapping, case_titles: Mapping[str
     text += f"; stable in {n_stable} of {len(stable)} analysis cases."
     if not check.get("ok") and check.get("violations"):
         text += " Violations: " + "; ".join(check["violations"]) + "."
+    if basis_text:
+        text += f" Verdict on {basis_text}."
     return text

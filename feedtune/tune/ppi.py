@@ -194,9 +194,10 @@ class Surrogate:
             t = im[j] / (im[j] - im[j + 1])
             k180 = np.exp(li[j] + t * (li[j + 1] - li[j]))
             out.append(np.c_[k180, k180])
-            if lim.gm_min_db is not None:
-                g = 10 ** (lim.gm_min_db / 20)
-                out.append(np.c_[k180 / g, k180 * g])
+            if lim.gm_min_db is not None or lim.gm_low_min_db is not None:  # gain-increase | gain-reduction margin
+                up = 10 ** ((lim.gm_min_db or 0.0) / 20)
+                down = 10 ** ((lim.gm_low_min_db or 0.0) / 20)
+                out.append(np.c_[k180 / up, k180 * down])
         iv = np.vstack(out)
         return iv[np.all(np.isfinite(iv), axis=1)]
 

@@ -4,7 +4,8 @@
 2-mass model from it, designs MC-PPC (50 Hz, zeta = 0.7, the thesis's filter pack, and the largest
 ``beta`` up to the thesis's 4 whose design meets ``feedtune design ppc``'s default limit Ms <= 3.5 on the
 measured FRF) and a P-PI tuned for the same peak sensitivity with a phase-margin floor no tighter than
-MC-PPC's own, exports both gains files and runs every test
+MC-PPC's own, delivers both gains files with their certificate on the measured FRF
+(:func:`feedtune.workflows.deliver.deliver`; the FRF from memory, identified by its arrays) and runs every test
 through :class:`~feedtune.machines.ballscrew.runtime.GainsRuntime` reading the exported text only: rope snap and
 tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. Then it
 identifies the trajectory pre-filter (§3.2.4) from the MC-PPC tracking run at 500 mm/s, exports
@@ -73,7 +74,6 @@ class DemoResult:
     def summary(self) -> str:
         """What the demo prints: the identified model, both tuned designs with the limits and the rule, and the
         comparison (:meth:`table`)."""
-        from ..analysis.limits import Limits
         from ..display import at_lower_bound, quantity
 
         ident = self.identified
@@ -87,8 +87,7 @@ class DemoResult:
         lines = ["Identified from the measured FRF: " + ", ".join(param(k, v) for k, v in ident["params"].items())]
         lim = self.limits
         lines.append("Both controllers tuned under the same limits ("
-                     + Limits(lim["ms_max"], lim["pm_min_deg"], lim["gm_min_db"], lim["disk_margin_min"],
-                              lim["profile"]).describe()
+                     + Limits.from_dict(lim).describe()
                      + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same rule: the "
                        "highest first crossover; within 2 % of it the highest integral gain Ki2")
         labels = {"mcppc": "MC-PPC", "ppi": "P-PI"}
@@ -172,16 +171,16 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
         No design meets the limits on the measured FRF (with the default twin and limits this does not happen).
     """
     from .. import progress
-    from ..analysis.check import check_design
     from ..control.filters import THESIS_FILTER_PACK
     from ..identify.ballscrew import fit_ballscrew
     from ..io import dumps_json, dumps_toml, model_document
-    from ..io.gains import gains_document
     from ..machines.ballscrew.experiments import measure_frf
     from ..machines.ballscrew.twin import BallScrewTwin, TwinParams
+    from ..machines.certificate import FrfSource
     from ..parallel import plan, run_groups
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
+    from .deliver import deliver
 
     twin = BallScrewTwin(params or TwinParams())
     p = twin.params
@@ -203,15 +202,15 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     progress.step("tuning MC-PPC and P-PI under the same limits")
     tuned = run_groups(plan([("mcppc", lambda: tune_mcppc(fit.model, **common), 1.0),
                              ("ppi", lambda: tune_ppi(fit.model, **common), 0.6)]))  # side by side on the cores
+    measured = FrfSource.from_memory("frf.csv", frf)  # the twin's FRF, written as frf.csv
     for name in CONTROLLERS:
         design = tuned[name]
-        check = check_design(design, frf=frf, limits=policy)
-        if not check.ok:  # the tuners return only designs that pass; this is the exported file's own check
-            raise DesignError(f"{LABELS[name]} design on the identified model: {'; '.join(check.violations)}")
-        doc = gains_document(design, check.analysis.to_dict())
-        texts[f"{name}_gains.toml"], texts[f"{name}_gains.json"] = dumps_toml(doc), dumps_json(doc)
+        delivery = deliver(design, [measured], policy, where=f"{name}_gains.toml")
+        if not delivery.ok:  # the tuners return only designs that pass; this is the exported file's own certificate
+            raise DesignError(f"{LABELS[name]} design on the identified model: {'; '.join(delivery.violations())}")
+        texts.update(delivery.texts(f"{name}_gains"))
         runtimes[name] = _runtime_from_text(texts[f"{name}_gains.toml"], f"{name}_gains.toml")
-        designs[name] = _design_figures(design, check)
+        designs[name] = _design_figures(design, delivery.certificate.frfs[0])
     runs: dict = {}
     progress.step("rope snap, tracking and cutting on the twin")
     rows = _tests(twin, runtimes, speeds, seed, engine, rope_force, include_cut, texts, runs)
@@ -224,11 +223,12 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     return result
 
 
-def _design_figures(design, check) -> dict:
-    """What the demo prints and stores of a design: gains, tuning rule and the checked case's figures."""
-    m = check.analysis.cases[check.worst_case].metrics
-    active = check.limit_check.active()
-    out = {"gains": dict(design.gains), "tuning": design.tuning, "checked_case": check.worst_case,
+def _design_figures(design, checked) -> dict:
+    """What the demo prints and stores of a design: gains, tuning rule and the certified case's figures (``checked``:
+    the :class:`~feedtune.machines.certificate.FrfCertificate` on the measured FRF)."""
+    m = checked.metrics
+    active = checked.check.active()
+    out = {"gains": dict(design.gains), "tuning": design.tuning, "checked_case": checked.checked_case,
            "ms": m.ms, "crossovers_hz": list(m.crossovers_hz), "phase_margin_deg": m.phase_margin_deg,
            "gain_margin_db": m.gain_margin_db, "disk_margin": m.disk_margin,
            "rejection_bands_hz": m.rejection_bands_hz, "active_limit": None if active is None else active.name,

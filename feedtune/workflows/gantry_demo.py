@@ -13,7 +13,9 @@
    (:func:`feedtune.tune.pid.tune_gantry_pid`) twice: with the MIMO design's notches and low-pass (the thesis'
    rule, and the MIMO tuner's: filters fixed, gains searched) and choosing their own filters; the gantry
    controllers on the FRFs of all three positions (each at its position: the limits on every one; tuned at x = 0
-   alone, the MIMO law was unstable at x = 0.3 m), each then checked on the FRF at x = 0;
+   alone, the MIMO law was unstable at x = 0.3 m), each then delivered with its certificate on every FRF it was
+   tuned on (:func:`feedtune.workflows.deliver.deliver`; the FRFs from memory, identified by their arrays) and its
+   figures shown at x = 0;
 4. the gains files exported and read back as the runtimes run them (``GantryRuntime``/``AxisRuntime``), and
    with the three gantry controllers, on the twin with its own trip limits: the 57 N rope snap, tracking at 1 mm/s and
    200 mm/s, and circle and diamond contours (a run that trips is reported as tripped);
@@ -222,41 +224,30 @@ def _tune(twin, fit, frfs, axis_frf, policy) -> dict:
     return run_groups(plan([(name, fn, TUNING_COST[name]) for name, fn in jobs.items()]))
 
 
-def _design(twin, fit, frfs, frf0, axis_frf, texts, policy):
-    """Axis, MIMO and PID designs tuned under ``policy`` (:func:`_tune`), checked on the FRFs measured at x = 0
-    (DesignError when a tuned design fails its own check), exported and read back as runtimes."""
-    from ..analysis.gantry import analyze_axis, analyze_gantry
-    from ..analysis.limits import check_analysis
-    from ..io import dumps_json, dumps_toml
+def _design(twin, fit, frfs, xs, axis_frf, texts, policy):
+    """Axis, MIMO and PID designs tuned under ``policy`` (:func:`_tune`), each delivered with its certificate on every
+    FRF it was tuned on (:func:`feedtune.workflows.deliver.deliver`; the gantry ones at every table position, the x
+    axis on its FRF; DesignError when a tuned design fails it), exported and read back as runtimes; the figures shown
+    are those at x = 0."""
     from ..io.document import loads_document
-    from ..io.gantry_gains import axis_gains_document, gantry_gains_document
     from ..machines import load_runtime
+    from ..machines.certificate import FrfSource
+    from .deliver import deliver
 
-    model = fit.model
     tuned = _tune(twin, fit, frfs, axis_frf, policy)
+    sources = [FrfSource.from_memory(f"frf_x{x:g}_frf.csv", f) for x, f in zip(xs, frfs, strict=True)]
+    at0 = sources[list(xs).index(0.0)].name
     designs, runtimes = {}, {}
-    for name in CONTROLLERS:
-        design = tuned[name]
-        full = analyze_gantry(design.law, model, frf=frf0)
-        check, checked = check_analysis(full, policy)
-        if not check.ok:
-            raise DesignError(f"the tuned {LABELS[name]} design on the identified model: {'; '.join(check.violations)}")
-        an = full.to_dict()
-        designs[name] = _figures(LABELS[name], design, check, checked, an)
-        doc = gantry_gains_document(design, an)
-        texts[f"{name}_gains.toml"], texts[f"{name}_gains.json"] = dumps_toml(doc), dumps_json(doc)
+    for name, label, on in [*((n, LABELS[n], sources) for n in CONTROLLERS),
+                            ("axis", "x axis (loop shaping)", [FrfSource.from_memory("frf_axis_frf.csv", axis_frf)])]:
+        delivery = deliver(tuned[name], on, policy, where=f"{name}_gains.toml")
+        if not delivery.ok:
+            raise DesignError(f"the tuned {label} design fails its certificate: {'; '.join(delivery.violations())}")
+        checked = next((c for c in delivery.certificate.frfs if c.name == at0), delivery.certificate.frfs[0])
+        designs[name] = _figures(label, tuned[name], checked.check, checked.checked_case, checked.result["analysis"])
+        texts.update(delivery.texts(f"{name}_gains"))
         runtimes[name] = load_runtime(loads_document(texts[f"{name}_gains.toml"], "toml", f"{name}_gains.toml"),
-                                       f"{name}_gains.toml")
-    axis = tuned["axis"]
-    full = analyze_axis(axis)
-    check, checked = check_analysis(full, policy)
-    if not check.ok:
-        raise DesignError(f"the tuned x-axis design on the measured x FRF: {'; '.join(check.violations)}")
-    designs["axis"] = _figures("x axis (loop shaping)", axis, check, checked, full.to_dict())
-    doc = axis_gains_document(axis, full.to_dict())
-    texts["axis_gains.toml"], texts["axis_gains.json"] = dumps_toml(doc), dumps_json(doc)
-    runtimes["axis"] = load_runtime(loads_document(texts["axis_gains.toml"], "toml", "axis_gains.toml"),
-                                    "axis_gains.toml")
+                                      f"{name}_gains.toml")
     return designs, runtimes
 
 
@@ -373,7 +364,7 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     progress.step("identifying the gantry model (eq. 4.16) and the mass distribution")
     fit, mass, m_x = _identify(twin, xs, frfs, mass_logs, axis_log, texts)
     progress.step("tuning x-axis loop shaping, MIMO and PIDs under the same limits")
-    designs, runtimes = _design(twin, fit, frfs, frfs[xs.index(0.0)], axis_frf, texts, policy)
+    designs, runtimes = _design(twin, fit, frfs, xs, axis_frf, texts, policy)
     rows = [{"test": "design:", **{c: {k: designs[c][k] for k in ("crossover_hz", "ms")} for c in CONTROLLERS}}]
     progress.step("rope snap, tracking and contours on the twin")
     rows += _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts)
