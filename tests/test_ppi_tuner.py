@@ -286,9 +286,9 @@ def test_readme_ppi_command_passes_and_analyze_shows_the_same_margins(examples_d
 # ------------------------------------------------------------------------------------------ the rule it records
 def test_tuning_records_the_rule_and_the_tie_trades_little_crossover_for_much_low_frequency_gain(example):
     model, frf = example
-    tied = tune_ppi(model, ms_max=3.25, frf=frf)
+    tied = tune_ppi(model, ms_max=3.25, frf=frf, objective="bandwidth")
     t = tied.tuning
-    assert t["objective"] == "first_crossover_hz" and t["checked_case"] == "discrete"
+    assert t["objective"] == "bandwidth" and t["checked_case"] == "discrete"
     assert t["limits"] == README_LIMITS.to_dict() and t["crossover_tie"] == CROSSOVER_TIE
     assert t["active_limit"]["name"] in ("ms", "pm_deg", "gm_db")
     assert t["first_crossover_hz"] >= (1 - CROSSOVER_TIE) * t["best_first_crossover_hz"]
@@ -297,7 +297,7 @@ def test_tuning_records_the_rule_and_the_tie_trades_little_crossover_for_much_lo
     assert t["low_frequency_gain_Ki2"] == pytest.approx(g["Kiv"] * g["Kpx"], rel=1e-12)
     # the highest first crossover alone: up to 2 % more crossover, Kpx on the lower bound of the box (reported),
     # and a much smaller low-frequency gain
-    alone = tune_ppi(model, ms_max=3.25, frf=frf, crossover_tie=0.0)
+    alone = tune_ppi(model, ms_max=3.25, frf=frf, crossover_tie=0.0, objective="bandwidth")
     a = alone.tuning
     assert a["first_crossover_hz"] >= t["first_crossover_hz"]
     assert a["first_crossover_hz"] <= t["first_crossover_hz"] / (1 - CROSSOVER_TIE)
@@ -336,7 +336,7 @@ def test_disconnected_feasible_set_on_the_table_3_1_model():
     """On the ideal 2-mass model the P-PI can cross above the mode (the motor side lifts |L| over the
     anti-resonance): the previous tuner's scan stopped below the gap at 97 Hz."""
     lim = resolve_limits(None, ms_max=3.25)
-    d = tune_ppi(THESIS_TABLE_3_1, ms_max=3.25, filters=THESIS_FILTER_PACK)
+    d = tune_ppi(THESIS_TABLE_3_1, ms_max=3.25, filters=THESIS_FILTER_PACK, objective="bandwidth")
     got = first_crossover(d, None, lim)
     assert got > 400.0
     hand = first_crossover(design_ppi(THESIS_TABLE_3_1, filters=THESIS_FILTER_PACK, **TABLE_HAND), None, lim)

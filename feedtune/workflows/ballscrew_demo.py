@@ -86,11 +86,12 @@ class DemoResult:
 
         lines = ["Identified from the measured FRF: " + ", ".join(param(k, v) for k, v in ident["params"].items())]
         lim = self.limits
+        rules = {d["tuning"].get("objective_rule") for d in self.designs.values() if d.get("tuning")}
         lines.append("Both controllers tuned under the same limits ("
                      + Limits(lim["ms_max"], lim["pm_min_deg"], lim["gm_min_db"], lim["disk_margin_min"],
                               lim["profile"]).describe()
-                     + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same rule: the "
-                       "highest first crossover; within 2 % of it the highest integral gain Ki2")
+                     + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same objective, "
+                     + "; ".join(sorted(r for r in rules if r)))
         labels = {"mcppc": "MC-PPC", "ppi": "P-PI"}
         for name, d in self.designs.items():
             if name not in labels:
@@ -102,6 +103,7 @@ class DemoResult:
             gm = "-" if d["gain_margin_db"] is None else f"{d['gain_margin_db']:.3g} dB"
             lines.append(f"{labels[name]} ({chosen}): crossovers {crossovers} Hz, Ms {d['ms']:.3g}, PM {pm}, GM {gm}, "
                          f"Ki2 {d['gains']['Ki2']:.4g} V/(rad s); limit reached: {d['active_limit']}")
+            lines += [f"  warning: {w}" for w in d["tuning"].get("warnings", [])]
         return "\n".join(lines) + "\n\n" + self.table()
 
     def table(self) -> str:
@@ -142,7 +144,8 @@ def _fmt_s(x) -> str:
 
 # ------------------------------------------------------------------------------------------ demo
 def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str = "auto",
-             rope_force: float = 0.5, include_cut: bool = True, limits: Limits | None = None) -> DemoResult:
+             rope_force: float = 0.5, include_cut: bool = True, limits: Limits | None = None,
+             objective=None) -> DemoResult:
     """Run the whole job on the twin (see the module docstring); nothing is written.
 
     Parameters
@@ -161,6 +164,9 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
         Also run the slotting cut at the first speed.
     limits : Limits, optional
         The limits both controllers are tuned under (default: textbook).
+    objective : str or Objective, optional
+        What both tuners maximise (:class:`feedtune.tune.search.Objective`, default ``stiffness``), with its
+        compliance cap if any.
 
     Returns
     -------
@@ -182,7 +188,9 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     from ..parallel import plan, run_groups
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
+    from ..tune.search import Objective
 
+    Objective.of(objective)  # a bad objective is refused before the twin runs
     twin = BallScrewTwin(params or TwinParams())
     p = twin.params
     progress.step("measuring the FRF on the twin")
@@ -198,7 +206,7 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
 
     policy = limits or DEFAULT_LIMITS
     common = {"limits": policy, "filters": THESIS_FILTER_PACK, "frf": frf, "fs": p.fs,
-              "delay_samples": p.delay_samples}
+              "delay_samples": p.delay_samples, "objective": Objective.of(objective)}
     designs, runtimes = {}, {}
     progress.step("tuning MC-PPC and P-PI under the same limits")
     tuned = run_groups(plan([("mcppc", lambda: tune_mcppc(fit.model, **common), 1.0),
