@@ -239,3 +239,62 @@ def test_mcppc_stiffness_is_within_a_few_percent_of_a_dense_search():
                 best = max(best, design_mcppc(model, beta=beta, pole_hz=pole, zeta=zeta).gains["Ki2"])
     got = tuned("stiffness").gains["Ki2"]
     assert got >= 0.95 * best, (got, best)
+
+
+@pytest.mark.slow
+def test_mimo_stiffness_is_within_a_few_percent_of_a_dense_search(tmp_path):
+    """A 5 x 5 x 4 grid over the PM target [30, 50] deg, the damping increase [2, 8] and the integral lag [5, 20] deg
+    (the tuner's box), each shape's edge in the crossover target found by the tuner restricted to that one shape (the
+    same check): the highest ki. The bandwidth winner's ki is far below (0.55x)."""
+    from feedtune.control.filters import FilterPack, Notch
+    from feedtune.errors import DesignError
+    from feedtune.tune.gantry import tune_gantry_mimo
+
+    code, _, err = cli("identify", "gantry", *(EXAMPLES / f"gantry_frf_x{x}.csv" for x in ("-0.3", "0", "0.3")),
+                       "--x", "-0.3", "--x", "0", "--x", "0.3", "--span", "1.484", "--out", tmp_path / "g.toml")
+    assert code == 0, err
+    from feedtune.io import load_model
+
+    model = load_model(tmp_path / "g.toml")
+    frfs = [read_frf(EXAMPLES / f"gantry_frf_x{x}.csv") for x in ("-0.3", "0", "0.3")]
+    common = {"frf": frfs, "positions": [-0.3, 0.0, 0.3], "filters": FilterPack([Notch(110, 0.5, 0.7)], 450.0, 2, 0.7)}
+    best = 0.0
+    for pm in np.linspace(30, 50, 5):
+        for damping in np.geomspace(2, 8, 5):
+            for lag in np.linspace(5, 20, 4):
+                with contextlib.suppress(DesignError):
+                    d = tune_gantry_mimo(model, objective="stiffness", pm_targets=(pm,), damping_increases=(damping,),
+                                         integral_lags=(lag,), **common)
+                    best = max(best, d.law.ki)
+    got = tune_gantry_mimo(model, objective="stiffness", **common)
+    band = tune_gantry_mimo(model, objective="bandwidth", **common)
+    assert got.law.ki >= 0.97 * best, (got.law.ki, best)  # 77.9e6 against 77.8e6
+    assert band.law.ki < 0.6 * got.law.ki
+
+
+@pytest.mark.slow
+def test_x_axis_stiffness_is_within_a_few_percent_of_a_dense_search():
+    """A 6 x 6 grid over the PM target and the integral lag for 1, 2 and 3 lead stages, each shape's edge found by
+    the tuner restricted to it (the same check), on a double integrator with a 600 Hz mode: the highest K."""
+    from feedtune.control.filters import FilterPack, Notch
+    from feedtune.errors import DesignError
+    from feedtune.frf import Frf
+    from feedtune.tune.loopshape import tune_loopshape
+
+    f = np.arange(1.0, 2001.0)
+    s, wn = 2j * np.pi * f, 2 * np.pi * 600.0
+    g = 1 / (0.6977 * s * s) * wn * wn / (s * s + 2 * 0.02 * wn * s + wn * wn)
+    frf = Frf(f, g[None, None, :], ("x",), ("u",), "position", meta={"source": "double integrator with a mode"})
+    pack = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
+    best = 0.0
+    for n in (1, 2, 3):
+        for pm in np.linspace(30.01, 75, 6):
+            for lag in np.linspace(5, 20, 6):
+                with contextlib.suppress(DesignError):
+                    d = tune_loopshape(frf, filters=pack, objective="stiffness", pm_bounds=(pm, pm),
+                                       pi_lag_bounds=(lag, lag), stages=(n,))
+                    best = max(best, d.gain)
+    got = tune_loopshape(frf, filters=pack, objective="stiffness")
+    band = tune_loopshape(frf, filters=pack, objective="bandwidth")
+    assert got.gain >= 0.97 * best, (got.gain, best)  # 8.66e6 against 8.67e6
+    assert band.gain < 0.8 * got.gain  # 6.48e6

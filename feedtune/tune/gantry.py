@@ -57,6 +57,7 @@ from .search import (
     Objective,
     SearchRecord,
     highest_feasible,
+    refine_shape,
     robust_frfs,
     shape_bound_warnings,
 )
@@ -260,6 +261,19 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
                                  gain=_ki, objective=obj, accept=accept, admissible=cheap)
         if other is not None:
             best = obj.order([best, other], lambda c: c.objective, _ki)[0]
+    refined = None
+    names = ("pm_deg", "damping_increase") + (() if fixed_ki else ("integral_lag_deg",))
+    box = tuple((float(min(v)), float(max(v))) for v in (pm_targets, damping_increases, integral_lags)[:len(names)])
+    if best is not None and obj.by_gain and any(b[1] > b[0] for b in box):
+
+        def gain_at(shape: dict, crossover_hz: float) -> float:
+            made = design_of(shape, crossover_hz)
+            return float("nan") if made is None else float(made[0].law.ki)
+
+        best, refined = refine_shape(check, best, names, box, *crossover_range_hz, gain=_ki, objective=obj,
+                                     gain_at=gain_at, admissible=cheap, accept=accept, min_step=1 / 8,
+                                     diagonal=False)
+        record.evaluations += 0 if refined is None else refined.checks
     if best is None:
         if not verdicts:
             raise DesignError(f"no gantry MIMO design meets the limits ({policy.describe()}) in the {case} case")
@@ -273,12 +287,15 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     active = min(actives, key=lambda a: a.slack) if actives else None
     front = None
     if obj.name == "pareto":
+        edges = record.found + ([] if refined is None else [p.result for _, p in refined.edges()])
         front = [{"shape": dict(c.shape), "crossover_target_hz": c.bandwidth, "first_crossover_hz": c.objective,
-                  "integral_gain": _ki(c)} for c in obj.front(record.found, lambda c: c.objective, _ki)]
+                  "integral_gain": _ki(c)} for c in obj.front(edges, lambda c: c.objective, _ki)]
     tuning = {
         "method": "the edge of every shape (PM target, damping increase) in the CoM crossover target (bisected to "
                   "the largest meeting the limits in the checked case of every FRF), ranked by the objective, then "
-                  "the same over the integral lag at the best shape; the winner stable in every case",
+                  "the same over the integral lag at the best shape; under stiffness and pareto the winner's shape "
+                  "refined by a local search over continuous PM target, damping increase and integral lag within "
+                  "the values listed; the winner stable in every case",
         **obj.record("ki", f"{model.input_unit}/(m s)", _ki(best), front),
         "rule": f"gantry MIMO tuned by feedtune.tune.gantry for {obj.name} under {policy.describe()}",
         "limits": policy.to_dict(),

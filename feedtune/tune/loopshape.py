@@ -50,6 +50,7 @@ from ..frf import Frf
 from .filter_choice import choose_filters, merge_resonances, resonance_peaks, sensitivity_peaks
 from .gantry_cases import gantry_objective
 from .search import (
+    GAIN_EXPONENT,
     EdgeResult,
     Objective,
     Probe,
@@ -196,7 +197,7 @@ class _AxisSearch:
             if beat is not None and not self.objective.by_gain:
                 start = beat  # the scale is the crossover target
             elif beat is not None and start is not None and self.merit(ref[1]) > 0:
-                start *= math.sqrt(beat / self.merit(ref[1]))  # K grows about as the crossover squared
+                start *= (beat / self.merit(ref[1])) ** (1 / GAIN_EXPONENT)  # K = m wc^3 tan(lag) on a mass
             e = feasibility_edge(lambda xo: self.check(xo, pm, lag, others=False), self.scan, rtol=RTOL, start=start,
                                  beat=beat if start is not None else None, merit=self.merit)
             if e.best is None:

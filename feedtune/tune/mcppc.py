@@ -35,11 +35,13 @@ from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
 from .compliance import AxialCompliance
 from .filter_choice import tune_with_own_filters
 from .search import (
+    REFINE_RTOL,
     Candidate,
     CheckedCases,
     Objective,
     SearchRecord,
     highest_feasible,
+    refine_shape,
     robust_frfs,
     shape_bound_warnings,
 )
@@ -157,13 +159,27 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     checked = CheckedCases(pcs)
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
+    box = ((min(betas), max(betas)), (min(zetas), max(zetas)))
+    refine = obj.by_gain and any(b[1] > b[0] for b in box)  # the integral gain varies between the listed shapes
     best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz", gain=_ki2, objective=obj,
-                            admissible=admissible if policy.ms_max is not None else None)
+                            admissible=admissible if policy.ms_max is not None else None,
+                            rtol=3 * REFINE_RTOL if refine else 2e-3)
     if best is None:
         cap = "" if obj.compliance_max is None else f" and the compliance cap {obj.compliance_max:.4g} rad/V"
         raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
                           f"{', '.join(f'{z:g}' for z in zetas)}; pole {pole_range_hz[0]:g}-{pole_range_hz[1]:g} Hz) "
                           f"meets the limits ({policy.describe()}){cap} in the {case} case")
+    refined = None
+    if refine:
+
+        def gain_at(shape: dict, pole_hz: float) -> float:
+            made = design_of(shape, pole_hz)
+            return float("nan") if made is None else float(made[0].gains["Ki2"])
+
+        best, refined = refine_shape(check, best, ("beta", "zeta"), box, *pole_range_hz, gain=_ki2, objective=obj,
+                                     gain_at=gain_at, admissible=admissible if policy.ms_max is not None else None,
+                                     min_step=1 / 8)
+        record.evaluations += 0 if refined is None else refined.checks
     finals = [check_design(best.design, frf=f, limits=policy) for f in (frfs or [None])]
     for i, final in enumerate(finals):
         if not final.ok:
@@ -174,12 +190,14 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     active = min(actives, key=lambda a: a.slack) if actives else None
     front = None
     if obj.name == "pareto":
+        edges = record.found + ([] if refined is None else [p.result for _, p in refined.edges()])
         front = [{"shape": dict(c.shape), "pole_hz": c.bandwidth, "first_crossover_hz": c.objective,
-                  "integral_gain": _ki2(c)} for c in obj.front(record.found, lambda c: c.objective, _ki2)]
+                  "integral_gain": _ki2(c)} for c in obj.front(edges, lambda c: c.objective, _ki2)]
     tuning = {
         "method": "the edge of every shape (beta, zeta) in the pole frequency (bisected to the largest pole "
-                  "frequency meeting the limits in the checked case), ranked by the objective; the winner stable in "
-                  "every case",
+                  "frequency meeting the limits in the checked case), ranked by the objective; under stiffness and "
+                  "pareto the winner's shape refined by a local search over continuous beta and zeta within the "
+                  "values listed; the winner stable in every case",
         **obj.record("Ki2", f"{model.input_unit}/(rad s)", _ki2(best), front),
         "rule": f"MC-PPC tuned by feedtune.tune.mcppc for {obj.name} under {policy.describe()}",
         "limits": policy.to_dict(),

@@ -190,7 +190,7 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
                      admissible: Callable[[np.ndarray], np.ndarray] | None = None, rtol: float = 2e-3,
                      start: float | None = None, beat: float | None = None,
                      cheap_crossover: Callable[[float], float] | None = None,
-                     merit: Callable[[Probe], float] | None = None) -> EdgeResult:
+                     merit: Callable[[Probe], float] | None = None, step: float | None = None) -> EdgeResult:
     """Largest scale passing ``check`` (module docstring); ``best`` is None when no point passes.
 
     Parameters
@@ -217,6 +217,10 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
     merit : callable, optional
         ``merit(probe)``: the figure ``beat`` is compared with, growing with the scale (default the first crossover
         [Hz]; the integral gain under the stiffness objective, :class:`Objective`).
+    step : float, optional
+        First step up from a passing ``start`` [-] (squared after each pass, up to 2; default 1.15): given, the
+        search climbs from a passing ``start`` by it before it tries the cheap edge (the start is known to lie close
+        below the edge).
     """
     merit = merit or crossover_merit
     scan = np.asarray(scan, float)
@@ -285,17 +289,17 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
         return None, s, p
 
     def climb(p: Probe) -> tuple[Probe, float | None, Probe | None]:
-        """Real steps up from a passing ``p`` (15 %, the step squared after each pass up to a factor 2) to the first
+        """Real steps up from a passing ``p`` (``step``, squared after each pass up to a factor 2) to the first
         failure: ``(last pass, first failing scale or None at the top, its probe)``."""
-        step = 1.15
+        up = step or 1.15
         while True:
             if p.scale >= top:
                 return p, None, None
-            u = min(p.scale * step, top)
+            u = min(p.scale * up, top)
             q = real(u) if cheap(u) else None
             if q is None or not q.ok:
                 return p, u, q
-            p, step = q, min(step * step, 2.0)
+            p, up = q, min(up * up, 2.0)
 
     try:
         lo_p: Probe | None = None
@@ -336,6 +340,8 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
                         return EdgeResult(None, None, n)
                     a, b = cheap_edge(t, u)
                     target = below(a, b)
+                if step is not None and p is not None and p.ok and target > s * step:  # the edge is near: climb
+                    target, b = s * step, None
                 q = p if p is not None and target == s else real(target)
                 if q.ok:
                     lo_p, hi, hi_p = (q, b, None) if b is not None else climb(q)
@@ -437,7 +443,7 @@ def pattern_search(edge_of: EdgeOf, names: Sequence[str], bounds: Sequence[tuple
                    starts: int = 3, restarts: int = 2, min_step: float = 1 / 16, improve: float = 1e-3,
                    initial: Sequence[float] | None = None, ref: tuple | None = None,
                    initial_step: float = 1 / 8,
-                   merit: Callable[[Probe], float] = crossover_merit) -> SearchResult | None:
+                   merit: Callable[[Probe], float] = crossover_merit, diagonal: bool = True) -> SearchResult | None:
     """Maximise the merit (the first crossover, or the integral gain) at the feasibility edge over a box of shape
     parameters (module docstring).
 
@@ -469,6 +475,9 @@ def pattern_search(edge_of: EdgeOf, names: Sequence[str], bounds: Sequence[tuple
     merit : callable
         ``merit(probe)`` maximised at the edge: the first crossover [Hz] (bandwidth objective) or the integral gain
         (stiffness, :meth:`Objective.merit`); it must grow with the scale.
+    diagonal : bool
+        Moves along the diagonals too (else along one parameter at a time: ``2 n`` neighbours instead of
+        ``3^n - 1``).
 
     Returns
     -------
@@ -509,7 +518,7 @@ def pattern_search(edge_of: EdgeOf, names: Sequence[str], bounds: Sequence[tuple
         return _objective(cache[k], merit)
 
     moves = [d for d in np.array(np.meshgrid(*[[-1, 0, 1] if f else [0] for f in free], indexing="ij"))
-             .reshape(dims, -1).T if np.any(d != 0)]
+             .reshape(dims, -1).T if np.any(d != 0) and (diagonal or np.count_nonzero(d) == 1)]
 
     def local(k: tuple, step: int) -> tuple:
         while True:
@@ -746,7 +755,8 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
                      record: SearchRecord | None = None, *, bound_name: str = "bandwidth", unit: str = "Hz",
                      gain: Callable[[Candidate], float] | None = None, objective: Objective | None = None,
                      accept: Callable[[Candidate], bool] | None = None,
-                     admissible: Callable[[dict, np.ndarray], np.ndarray] | None = None) -> Candidate | None:
+                     admissible: Callable[[dict, np.ndarray], np.ndarray] | None = None,
+                     rtol: float = 2e-3) -> Candidate | None:
     """The best candidate over a fixed list of shapes: each shape's :func:`feasibility_edge` in the scale (a top-down
     scan of :data:`COARSE_POINTS` log-spaced scales in ``[lo, hi]``, then bisection to 0.2 %), the edges ranked by
     the ``objective`` (:meth:`Objective.order`: the highest first crossover, ties by ``gain``; or the highest
@@ -786,6 +796,9 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
         ``admissible(shape, scales) -> bool array``: a necessary condition (False: the check certainly fails). The
         scan skips the scales it refuses without a check, save the one just above a shape's highest passing scale
         (checked: its figures bound the merit and start the bisection, as in the plain scan).
+    rtol : float
+        Relative width of each bisected bracket [-] (looser when :func:`refine_shape` follows: it bisects its
+        winner to 0.2 %).
     """
     rec = record if record is not None else SearchRecord()
     obj = objective or Objective("bandwidth")
@@ -840,7 +853,7 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
     def fine(k: int) -> None:
         p, above = brackets[k]
         pts = [p.scale] if above is None else [p.scale, above.scale]
-        edge = feasibility_edge(lambda s, k=k: probe(k, s), np.array(pts))
+        edge = feasibility_edge(lambda s, k=k: probe(k, s), np.array(pts), rtol=rtol)
         found[k] = edge.best.result
 
     def least_to_tie() -> float:
@@ -890,3 +903,101 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
 
 def _no_gain(c: Candidate) -> float:
     return 0.0
+
+
+REFINE_RTOL = 1e-2
+"""Relative bracket of the edges [-] while :func:`refine_shape` still moves (its winner is then bisected to 0.2 %)."""
+GAIN_EXPONENT = 3.0
+"""How the integral gain grows with the scale at a fixed shape [-]: ``Ki2 ~ pole^3`` (MC-PPC), ``ki ~ wc^3`` (MIMO,
+PID), ``K ~ wc^3`` (the x axis: ``K = m wc^3 tan(lag)`` on a mass), the integral gain of a loop on a mass; used only to
+place the first check of a neighbouring shape's edge."""
+
+
+def refine_shape(check: Callable[[dict, float], Candidate | None], best: Candidate, names: Sequence[str],
+                 bounds: Sequence[tuple[float, float]], lo: float, hi: float, *, gain: Callable[[Candidate], float],
+                 objective: Objective, gain_at: Callable[[dict, float], float] | None = None,
+                 admissible: Callable[[dict, np.ndarray], np.ndarray] | None = None, min_step: float = 1 / 16,
+                 accept: Callable[[Candidate], bool] | None = None, diagonal: bool = True,
+                 rtol: float = REFINE_RTOL) -> tuple[Candidate, SearchResult | None]:
+    """A local search over continuous shapes from the best of a fixed list (:func:`highest_feasible`'s winner):
+    :func:`pattern_search` over ``names`` in ``bounds`` from ``best.shape``, each shape's edge in the scale by
+    :func:`feasibility_edge` with ``check`` (pruned as soon as it cannot beat the merit to beat), ranked by the
+    ``objective``. A fixed list of shapes holds a few values per parameter; the integral gain at the edge varies
+    between them by tens of percent (MC-PPC on the example family: ``Ki2`` 171k at zeta 0.5, 182k at 0.55, 166k at
+    0.6), so the stiffness objective refines.
+
+    Parameters
+    ----------
+    check, lo, hi, gain, objective, admissible, accept
+        As for :func:`highest_feasible` (``accept`` refuses a refined winner: the best of the list is kept).
+    best : Candidate
+        The winner of the fixed list (its shape's other keys are kept fixed).
+    names, bounds : sequence
+        The shape parameters refined and their ``(low, high)`` bounds (> 0).
+    gain_at : callable, optional
+        ``gain_at(shape, scale)``: the integral gain of a design without checking it (the first check of a shape is
+        placed where it reaches the merit to beat, :data:`GAIN_EXPONENT`).
+    min_step : float
+        Smallest step of the search as a fraction of each parameter's log range [-].
+    diagonal : bool
+        Diagonal moves too (:func:`pattern_search`).
+    rtol : float
+        Relative width of each shape's bracket in the scale during the search [-]; the winner's is then bisected to
+        0.2 % (as the fixed list's).
+
+    Returns
+    -------
+    (Candidate, SearchResult or None)
+        The better of ``best`` and the refined winner under the objective, and the search (its ``evaluated`` edges:
+        points of the Pareto front).
+    """
+    scan = np.geomspace(lo, hi, COARSE_POINTS)
+
+    def merit(p: Probe) -> float:
+        c = p.result
+        return math.nan if c is None or c.design is None else objective.merit(c.objective, gain(c))
+
+    def shape_at(point: tuple) -> dict:
+        return {**best.shape, **dict(zip(names, (float(v) for v in point), strict=True))}
+
+    def prober(shape: dict) -> Callable[[float], Probe]:
+        def probe(scale: float) -> Probe:
+            try:
+                c = check(shape, scale)
+            except ArithmeticError:
+                c = None
+            return Probe(scale, c is not None and c.passed, math.nan if c is None else c.objective, None, c)
+        return probe
+
+    def edge_of(point: tuple, ref: tuple | None, beat: float | None) -> EdgeResult:
+        shape = shape_at(point)
+        probe = prober(shape)
+
+        start = None if ref is None else ref[1].scale
+        if start is not None and beat is not None and gain_at is not None and objective.by_gain:
+            g0 = gain_at(shape, start)
+            if math.isfinite(g0) and g0 > 0:
+                start = float(np.clip(start * (beat / g0) ** (1 / GAIN_EXPONENT), lo, hi))
+        cheap = None
+        if gain_at is not None and objective.by_gain:
+            def cheap(s: float) -> float:
+                return gain_at(shape, s)
+        return feasibility_edge(probe, scan, rtol=rtol, start=start, beat=beat if start is not None else None,
+                                step=1 + 3 * rtol,
+                                admissible=None if admissible is None else (lambda s: admissible(shape, s)),
+                                cheap_crossover=cheap, merit=merit)
+
+    point = tuple(float(best.shape[n]) for n in names)
+    ref = Probe(best.bandwidth, True, best.objective, None, best)
+    r = pattern_search(edge_of, names, bounds, initial=point, ref=(point, ref), merit=merit, min_step=min_step,
+                       diagonal=diagonal)
+    if r is None or r.edge.best is None:
+        return best, r
+    found = r.edge.best.result
+    top = r.edge.fail_scale
+    if found is not best and top is not None and top / found.bandwidth > 1 + 2e-3:  # the winner's bracket to 0.2 %
+        fine = feasibility_edge(prober(found.shape), np.array([found.bandwidth, top]), rtol=2e-3)
+        found = fine.best.result if fine.best is not None else found
+    if accept is not None and found is not best and not accept(found):
+        return best, r
+    return objective.order([best, found], lambda c: c.objective, gain)[0], r
