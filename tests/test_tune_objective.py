@@ -122,9 +122,8 @@ def test_stiffness_on_the_example_family_has_at_least_1_2x_the_bandwidth_winners
         assert all(check_design(d, frf=f, limits=DEFAULT_LIMITS).ok for f in frfs)
     assert stiff.tuning["objective"] == "stiffness" and band.tuning["objective"] == "bandwidth"
     assert stiff.tuning["integral_gain"] == {"name": "Ki2", "value": stiff.gains["Ki2"], "unit": "V/(rad s)"}
-    # every shape's edge recorded: no recorded edge has more Ki2 than the winner, none more crossover than the
-    # bandwidth winner beyond the tie
-    assert max(p["integral_gain"] for p in stiff.tuning["per_shape"]) == pytest.approx(stiff.gains["Ki2"])
+    # every listed shape's edge recorded: none has more Ki2 than the winner (refined from the best of them)
+    assert max(p["integral_gain"] for p in stiff.tuning["per_shape"]) <= stiff.gains["Ki2"]
     # the bandwidth winner sits on two bounds of the shapes searched, and says so
     assert (band.beta, band.zeta) == (4.0, 0.9)
     assert any("beta = 4 (upper bound" in w for w in band.tuning["warnings"])
@@ -157,8 +156,10 @@ def test_cli_pareto_prints_the_front_and_records_the_objective_everywhere(tmp_pa
     design = json.loads(out.with_suffix(".json").read_text())["design"]
     front = [(p["first_crossover_hz"], p["integral_gain"]) for p in design["pareto_front"]]
     edges = [(p["first_crossover_hz"], p["integral_gain"]) for p in design["per_shape"]]
-    assert sorted(front) == sorted(p for p in edges if not any(q[0] >= p[0] and q[1] >= p[1] and q != p
-                                                               for q in edges))
+    # the front (over the listed shapes' edges and the refinement's): no point of it beats another in both
+    # figures, and every listed shape's edge is beaten or matched by one of it
+    assert not any(q[0] >= p[0] and q[1] >= p[1] and q != p for p in front for q in front)
+    assert all(any(q[0] >= p[0] * (1 - 1e-12) and q[1] >= p[1] * (1 - 1e-12) for q in front) for p in edges)
     assert design["objective"] == "pareto" and design["integral_gain"]["value"] == max(g for _, g in front)
     assert any("upper bound" in w for w in design["warnings"])
     code, js, err = cli("tune", "mcppc", model_path, *frf_args, "--objective", "bandwidth", "--json")

@@ -287,7 +287,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     active = min(actives, key=lambda a: a.slack) if actives else None
     front = None
     if obj.name == "pareto":
-        edges = record.found + ([] if refined is None else [p.result for _, p in refined.edges()])
+        edges = [best, *record.found, *([] if refined is None else [p.result for _, p in refined.edges()])]
         front = [{"shape": dict(c.shape), "crossover_target_hz": c.bandwidth, "first_crossover_hz": c.objective,
                   "integral_gain": _ki(c)} for c in obj.front(edges, lambda c: c.objective, _ki)]
     tuning = {

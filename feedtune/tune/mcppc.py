@@ -190,7 +190,7 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     active = min(actives, key=lambda a: a.slack) if actives else None
     front = None
     if obj.name == "pareto":
-        edges = record.found + ([] if refined is None else [p.result for _, p in refined.edges()])
+        edges = [best, *record.found, *([] if refined is None else [p.result for _, p in refined.edges()])]
         front = [{"shape": dict(c.shape), "pole_hz": c.bandwidth, "first_crossover_hz": c.objective,
                   "integral_gain": _ki2(c)} for c in obj.front(edges, lambda c: c.objective, _ki2)]
     tuning = {
