@@ -164,8 +164,20 @@ def test_cli_pareto_prints_the_front_and_records_the_objective_everywhere(tmp_pa
     assert any("upper bound" in w for w in design["warnings"])
     code, js, err = cli("tune", "mcppc", model_path, *frf_args, "--objective", "bandwidth", "--json")
     assert code == 0, err
-    d = json.loads(js)["design"]
+    envelope = json.loads(js)
+    d = envelope["design"]
     assert d["objective"] == "bandwidth" and d["integral_gain"]["name"] == "Ki2" and d["warnings"]
+    assert set(d["warnings"]) <= set(envelope["warnings"])
+    # the report draws the edges, the front and the chosen design, and its tuning table names the objective
+    from feedtune.report.build import build_report
+
+    rep = build_report([out], render=False)
+    fig = next(f for f in rep.figures() if f.name == "design-objective-mcppc.toml")
+    assert "pareto" in fig.caption
+    ax = fig.figure.axes[0]
+    star = next(line for line in ax.get_lines() if line.get_label() == "chosen design")
+    assert star.get_xdata()[0] == pytest.approx(design["first_crossover_hz"])
+    assert star.get_ydata()[0] == pytest.approx(design["integral_gain"]["value"])
 
 
 # ------------------------------------------------------------------------------------------ on the twin (slow)

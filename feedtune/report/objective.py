@@ -49,5 +49,5 @@ def objective_block(name: str, label: str, design: Mapping | None) -> FigureBloc
     return FigureBlock(f"design-objective-{name}",
                        f"{label}: the integral gain (low-frequency stiffness against a force) against the guaranteed "
                        "first crossover at the edge of every shape the tuner searched (the largest scale meeting the "
-                       f"limits), the Pareto front of both, and the chosen design; objective "
-                       f"{design.get('objective', '-')}: {design.get('objective_rule', '')}.", fig)
+                       "limits), the Pareto front of both, and the chosen design; objective "
+                       f"{design.get('objective_rule') or design.get('objective', '-')}.", fig)

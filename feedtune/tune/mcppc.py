@@ -161,9 +161,26 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
     box = ((min(betas), max(betas)), (min(zetas), max(zetas)))
     refine = obj.by_gain and any(b[1] > b[0] for b in box)  # the integral gain varies between the listed shapes
+    verdicts: dict = {}  # id(design) -> check_design on every FRF (the designs are kept: an id names one)
+
+    def full_check(design) -> list:
+        if id(design) not in verdicts:
+            verdicts[id(design)] = (design, [check_design(design, frf=f, limits=policy) for f in (frfs or [None])])
+        return verdicts[id(design)][1]
+
+    def accept(c: Candidate) -> bool:
+        """The limits on every FRF and stability in every case (the next in the ranking is taken otherwise)."""
+        return all(v.ok for v in full_check(c.design))
+
     best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz", gain=_ki2, objective=obj,
                             admissible=admissible if policy.ms_max is not None else None,
-                            rtol=3 * REFINE_RTOL if refine else 2e-3)
+                            rtol=3 * REFINE_RTOL if refine else 2e-3, accept=accept)
+    if best is None and verdicts:  # every candidate tried met the limits in the checked case, none the full check
+        first = next(iter(verdicts.values()))[1]
+        bad = next(i for i, v in enumerate(first) if not v.ok)
+        on = f" on FRF {bad + 1} of {len(frfs)}" if len(frfs) > 1 else ""
+        raise DesignError(f"the best MC-PPC designs in the {case} case fail the full check{on}: "
+                          f"{'; '.join(first[bad].violations)}")
     if best is None:
         cap = "" if obj.compliance_max is None else f" and the compliance cap {obj.compliance_max:.4g} rad/V"
         raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
@@ -178,14 +195,9 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
 
         best, refined = refine_shape(check, best, ("beta", "zeta"), box, *pole_range_hz, gain=_ki2, objective=obj,
                                      gain_at=gain_at, admissible=admissible if policy.ms_max is not None else None,
-                                     min_step=1 / 8)
+                                     min_step=1 / 8, accept=accept)
         record.evaluations += 0 if refined is None else refined.checks
-    finals = [check_design(best.design, frf=f, limits=policy) for f in (frfs or [None])]
-    for i, final in enumerate(finals):
-        if not final.ok:
-            on = f" on FRF {i + 1} of {len(frfs)}" if len(frfs) > 1 else ""
-            raise DesignError(f"the best MC-PPC in the {case} case fails the full check{on}: "
-                              f"{'; '.join(final.violations)}")
+    finals = full_check(best.design)  # accepted: the limits on every FRF, stable in every case
     actives = [a for a in (f.limit_check.active() for f in finals) if a is not None]
     active = min(actives, key=lambda a: a.slack) if actives else None
     front = None
