@@ -124,10 +124,10 @@ def test_stiffness_on_the_example_family_has_at_least_1_2x_the_bandwidth_winners
     assert stiff.tuning["integral_gain"] == {"name": "Ki2", "value": stiff.gains["Ki2"], "unit": "V/(rad s)"}
     # every listed shape's edge recorded: none has more Ki2 than the winner (refined from the best of them)
     assert max(p["integral_gain"] for p in stiff.tuning["per_shape"]) <= stiff.gains["Ki2"]
-    # the bandwidth winner sits on two bounds of the shapes searched, and says so
-    assert (band.beta, band.zeta) == (4.0, 0.9)
-    assert any("beta = 4 (upper bound" in w for w in band.tuning["warnings"])
-    assert any("zeta = 0.9 (upper bound" in w for w in band.tuning["warnings"])
+    # winners on a bound of the shapes searched say so (the bandwidth one on zeta, the stiffness one on beta)
+    assert band.zeta == 0.9 and any("zeta = 0.9 (upper bound" in w for w in band.tuning["warnings"])
+    assert stiff.beta == 4.0 and any("beta = 4 (upper bound" in w for w in stiff.tuning["warnings"])
+    assert not any("zeta =" in w for w in stiff.tuning["warnings"])  # refined inside the range
 
 
 def test_the_compliance_cap_at_the_thesis_design_keeps_active_damping():
@@ -190,26 +190,39 @@ def rope_snap_iae_um_s(log, t_release: float = 0.6, window_s: float = 0.2) -> fl
 
 @pytest.mark.slow
 def test_stiffness_winner_beats_the_bandwidth_winner_on_the_twin():
+    """The demo's flow: the FRF measured on the ball-screw twin, the model identified, MC-PPC tuned for each objective
+    with the thesis' filter pack under the textbook limits; then on the twin, through the exported gains text, the
+    rope snap (IAE integrated here over 0.2 s and over the whole second logged) and tracking at 1 m/s, seeds 0 and 1.
+    The example family's designs are compared in docs/verdicts.md (tracking -31 %, IAE -1 % over 0.2 s)."""
+    from feedtune.control.filters import THESIS_FILTER_PACK
     from feedtune.io import dumps_toml
     from feedtune.io.document import loads_document
     from feedtune.io.gains import gains_document
-    from feedtune.machines.ballscrew.experiments import run_ropesnap, run_tracking
+    from feedtune.machines.ballscrew.experiments import measure_frf, run_ropesnap, run_tracking
     from feedtune.machines.ballscrew.runtime import GainsRuntime
     from feedtune.machines.ballscrew.twin import BallScrewTwin, TwinParams
     from feedtune.sim.trajectory import point_to_point
 
     twin = BallScrewTwin(TwinParams())
+    frf = measure_frf(twin, seed=0).frf
+    model = fit_ballscrew(frf).model
     move = point_to_point(0.25, v_max=1.0, a_max=9.81, j_max=1000.0, fs=twin.fs, dwell_before=0.05, dwell_after=0.2)
     figures = {}
     for objective in ("bandwidth", "stiffness"):
-        text = dumps_toml(gains_document(tuned(objective)))
+        d = tune_mcppc(model, frf=frf, filters=THESIS_FILTER_PACK, fs=twin.fs,
+                       delay_samples=twin.params.delay_samples, objective=objective)
+        text = dumps_toml(gains_document(d))
         rt = GainsRuntime.from_document(loads_document(text, "toml", "gains.toml"), "gains.toml")
-        iae = [rope_snap_iae_um_s(run_ropesnap(twin, rt, force=0.5, seed=s).log) for s in (0, 1)]
-        rms = [run_tracking(twin, rt, move, seed=s).summary["rms_um"] for s in (0, 1)]
-        figures[objective] = (float(np.mean(iae)), float(np.mean(rms)))
-    (iae_b, rms_b), (iae_s, rms_s) = figures["bandwidth"], figures["stiffness"]
-    assert iae_s < 0.95 * iae_b  # 0.116 against 0.134 um s
-    assert rms_s < 0.8 * rms_b  # 0.71 against 1.17 um
+        logs = [run_ropesnap(twin, rt, force=0.5, seed=s).log for s in (0, 1)]
+        figures[objective] = (d, np.mean([rope_snap_iae_um_s(g) for g in logs]),
+                              np.mean([rope_snap_iae_um_s(g, window_s=1.0) for g in logs]),
+                              np.mean([run_tracking(twin, rt, move, seed=s).summary["rms_um"] for s in (0, 1)]))
+    band, iae_b, iae1_b, rms_b = figures["bandwidth"]
+    stiff, iae_s, iae1_s, rms_s = figures["stiffness"]
+    assert stiff.gains["Ki2"] > 1.2 * band.gains["Ki2"]  # 98.1k against 77.4k
+    assert stiff.beta > 1 == band.beta  # the stiffness winner damps the axial mode actively
+    assert iae_s < 0.98 * iae_b and iae1_s < 0.98 * iae1_b  # about -4 % in both windows
+    assert rms_s < 0.9 * rms_b  # 0.78 against 0.95 um
 
 
 # ------------------------------------------------------------------------------------------ dense searches (slow)

@@ -21,11 +21,17 @@ too).
 to fine: every shape scanned down to its highest passing scale, then only the brackets that can still win or tie
 bisected (the winner is the plain search's).
 
-:func:`pattern_search` maximises the first crossover at the edge over the box of shapes, in log coordinates: a
+Which edge wins is the objective, one ranking for every tuner (:class:`Objective`): the highest integral gain
+(``stiffness``, the default), the highest first crossover (``bandwidth``), or the stiffness winner with the front of
+both (``pareto``). The searches below maximise its *merit* at the edge (the integral gain or the first crossover:
+both grow with the scale); a shape asked to beat a merit is pruned as above with the merit in place of the crossover.
+
+:func:`pattern_search` maximises the merit at the edge over the box of shapes, in log coordinates: a
 lattice of starts (3 per parameter, the corners included), then a local search from the best lattice points
 (``restarts``) moving to the best improving neighbour, diagonals included (ridges where two limits meet run
 diagonally), with steps halved down to ``min_step`` of the box. Shapes are points of the lattice of the smallest
-step, so that equal problems give equal shapes.
+step, so that equal problems give equal shapes. :func:`refine_shape` runs it from the winner of a fixed list (the
+stiffness objective: the integral gain varies between a list's values by tens of percent).
 """
 
 from __future__ import annotations
