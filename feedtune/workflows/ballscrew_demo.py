@@ -1,10 +1,9 @@
 """The main job in one command, on the twin: measure, identify, design, test, compare (thesis §3.4, Table 3.2).
 
 :func:`run_demo` measures the FRF of the ball-screw twin under a weak stabilising controller, identifies the
-2-mass model from it, designs MC-PPC (50 Hz, zeta = 0.7, the thesis's filter pack, and the largest
-``beta`` up to the thesis's 4 whose design meets ``feedtune design ppc``'s default limit Ms <= 3.5 on the
-measured FRF) and a P-PI tuned for the same peak sensitivity with a phase-margin floor no tighter than
-MC-PPC's own, exports both gains files and runs every test
+2-mass model from it, tunes MC-PPC and P-PI with the thesis's filter pack under the same limits on the measured FRF
+for the same objective (:class:`feedtune.tune.search.Objective`, default ``stiffness``: the highest integral gain
+``Ki2``), exports both gains files and runs every test
 through :class:`~feedtune.machines.ballscrew.runtime.GainsRuntime` reading the exported text only: rope snap and
 tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. Then it
 identifies the trajectory pre-filter (§3.2.4) from the MC-PPC tracking run at 500 mm/s, exports
