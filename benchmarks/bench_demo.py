@@ -81,9 +81,13 @@ def anchor() -> float:
     return best
 
 
+OBJECTIVE: list[str] = []
+"""``["--objective", NAME]`` when ``--objective`` is given (the demos' tuning under another objective)."""
+
+
 def _command(machine: str, out: Path) -> list[str]:
     return [sys.executable, "-m", "feedtune", "demo", *([machine] if machine != "ballscrew" else []), "--out",
-            str(out), "--force"]
+            str(out), "--force", *OBJECTIVE]
 
 
 def user_env(**extra: str) -> dict[str, str]:
@@ -112,7 +116,8 @@ def split(machine: str) -> dict[str, float]:
     """The time per step of one run of the command in a fresh process (tuners one by one)."""
     with tempfile.TemporaryDirectory() as tmp:
         env = user_env(FEEDTUNE_JOBS="1")
-        res = subprocess.run([sys.executable, __file__, "--inner", machine, str(Path(tmp) / "demo")], env=env,
+        res = subprocess.run([sys.executable, __file__, "--inner", machine, str(Path(tmp) / "demo"), *OBJECTIVE],
+                             env=env,
                              check=True, capture_output=True, text=True)
     return json.loads(res.stdout.strip().splitlines()[-1])
 
@@ -147,7 +152,7 @@ def _inner(machine: str, out: str) -> None:
         setattr(mod, name, timed(getattr(mod, name), label))
     from typer.testing import CliRunner
 
-    args = ["demo", *([machine] if machine != "ballscrew" else []), "--out", out, "--force"]
+    args = ["demo", *([machine] if machine != "ballscrew" else []), "--out", out, "--force", *OBJECTIVE]
     t1 = time.perf_counter()
     res = CliRunner().invoke(app, args)
     total = time.perf_counter() - t1
@@ -164,7 +169,11 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3, help="measured runs of each command (best taken)")
     parser.add_argument("--machine", choices=sorted(STEPS), action="append", help="only this demo (repeatable)")
     parser.add_argument("--inner", nargs=2, metavar=("MACHINE", "OUT"), help=argparse.SUPPRESS)
+    parser.add_argument("--objective", choices=("stiffness", "bandwidth", "pareto"),
+                        help="the demos' tuning objective (default: the tuners' default)")
     args = parser.parse_args()
+    if args.objective:
+        OBJECTIVE[:] = ["--objective", args.objective]
     if args.inner:
         _inner(*args.inner)
         return

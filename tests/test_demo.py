@@ -68,7 +68,8 @@ def test_demo_identifies_the_twin_and_tunes_both_controllers_under_the_same_limi
     for name in ("mcppc", "ppi"):
         d = demo.designs[name]
         assert d["tuning"]["limits"] == demo.limits == DEFAULT_LIMITS.to_dict()
-        assert "highest first crossover" in d["tuning"]["method"]
+        assert d["tuning"]["objective"] == "stiffness"  # both by the same objective, the default
+        assert d["tuning"]["objective_rule"] == demo.designs["mcppc"]["tuning"]["objective_rule"]
         code = _analyze(tmp_path / "out" / f"{name}_gains.toml", frf)
         assert code == 0, name
     # the verdict names the baseline where it wins

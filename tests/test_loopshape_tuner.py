@@ -98,10 +98,10 @@ def brute_force(plant, filters, policy, *, pms=None, lags=None, stages=STAGES) -
 _TUNED: dict = {}
 
 
-def _tuned(plant, filters):
-    key = (id(plant) if isinstance(plant, Frf) else plant, repr(filters))
+def _tuned(plant, filters, objective="bandwidth"):  # the brute force's objective unless told
+    key = (id(plant) if isinstance(plant, Frf) else plant, repr(filters), objective)
     if key not in _TUNED:
-        d = tune_loopshape(plant, limits=POLICY, filters=filters, fs=FS)
+        d = tune_loopshape(plant, limits=POLICY, filters=filters, fs=FS, objective=objective)
         _TUNED[key] = (d, d.tuning["crossover_hz"])
     return _TUNED[key]
 
@@ -191,7 +191,8 @@ def test_cli_loopshape_tunes_without_a_crossover(tmp_path, capsys, monkeypatch):
     assert code == 0, err
     res = json.loads(out)
     assert res["check"]["ok"]
-    assert res["analysis"]["ideal_discrete"]["crossovers_hz"][0] == pytest.approx(_tuned(M_X, AXIS_FILTERS)[1],
+    assert res["analysis"]["ideal_discrete"]["crossovers_hz"][0] == pytest.approx(_tuned(M_X, AXIS_FILTERS,
+                                                                                          "stiffness")[1],
                                                                                    rel=1e-6)
     assert read_document(out_file)["design"]["tuning"]["checked_case"] == "ideal_discrete"
     code, _, err = run(["design", "loopshape", model_file, "--crossover-hz", "130"])

@@ -200,7 +200,7 @@ def bench(real_data_dir, tmp_path_factory):
 def test_example_frf_against_a_coarse_brute_force_and_the_previous_tuner(example):
     model, frf = example
     t0 = time.perf_counter()
-    d = tune_ppi(model, ms_max=3.25, frf=frf)
+    d = tune_ppi(model, ms_max=3.25, frf=frf, objective="bandwidth")  # the brute force's objective
     elapsed = time.perf_counter() - t0
     got = first_crossover(d, frf, README_LIMITS)
     assert got == pytest.approx(d.tuning["first_crossover_hz"], rel=1e-9)
@@ -217,7 +217,7 @@ def test_example_frf_against_a_coarse_brute_force_and_the_previous_tuner(example
 def test_example_frf_cut_at_its_low_end_against_a_dense_brute_force(example, lowest_hz):
     model, frf = example
     cut = frf.select(lowest_hz * (1 - 1e-9))
-    d = tune_ppi(model, ms_max=3.25, frf=cut)
+    d = tune_ppi(model, ms_max=3.25, frf=cut, objective="bandwidth")
     got = first_crossover(d, cut, README_LIMITS)
     bf = brute_force(model, cut, 20000.0, README_LIMITS, FilterPack(), n_shape=8)
     assert d.tuning["best_first_crossover_hz"] >= (1 - SEARCH_TOL) * bf["fc1_hz"], bf
@@ -228,7 +228,7 @@ def test_example_frf_cut_at_its_low_end_against_a_dense_brute_force(example, low
 @pytest.mark.slow
 def test_table_3_1_model_against_a_dense_brute_force():
     lim = resolve_limits(None, ms_max=3.25)
-    d = tune_ppi(THESIS_TABLE_3_1, ms_max=3.25, filters=THESIS_FILTER_PACK)
+    d = tune_ppi(THESIS_TABLE_3_1, ms_max=3.25, filters=THESIS_FILTER_PACK, objective="bandwidth")
     got = first_crossover(d, None, lim)
     bf = brute_force(THESIS_TABLE_3_1, None, 20000.0, lim, THESIS_FILTER_PACK, n_shape=8)
     assert d.tuning["best_first_crossover_hz"] >= (1 - SEARCH_TOL) * bf["fc1_hz"], bf
@@ -240,7 +240,7 @@ def test_table_3_1_model_against_a_dense_brute_force():
 def test_real_two_mass_bench_against_a_dense_brute_force(bench):
     model, frf, _ = bench
     lim = PROFILES["textbook"]
-    d = tune_ppi(model, fs=2500.0, frf=frf)
+    d = tune_ppi(model, fs=2500.0, frf=frf, objective="bandwidth")
     got = first_crossover(d, frf, lim)
     bf = brute_force(model, frf, 2500.0, lim, FilterPack(), n_shape=8)
     assert d.tuning["best_first_crossover_hz"] >= (1 - SEARCH_TOL) * bf["fc1_hz"], bf
@@ -286,9 +286,9 @@ def test_readme_ppi_command_passes_and_analyze_shows_the_same_margins(examples_d
 # ------------------------------------------------------------------------------------------ the rule it records
 def test_tuning_records_the_rule_and_the_tie_trades_little_crossover_for_much_low_frequency_gain(example):
     model, frf = example
-    tied = tune_ppi(model, ms_max=3.25, frf=frf)
+    tied = tune_ppi(model, ms_max=3.25, frf=frf, objective="bandwidth")
     t = tied.tuning
-    assert t["objective"] == "first_crossover_hz" and t["checked_case"] == "discrete"
+    assert t["objective"] == "bandwidth" and t["checked_case"] == "discrete"
     assert t["limits"] == README_LIMITS.to_dict() and t["crossover_tie"] == CROSSOVER_TIE
     assert t["active_limit"]["name"] in ("ms", "pm_deg", "gm_db")
     assert t["first_crossover_hz"] >= (1 - CROSSOVER_TIE) * t["best_first_crossover_hz"]
@@ -297,7 +297,7 @@ def test_tuning_records_the_rule_and_the_tie_trades_little_crossover_for_much_lo
     assert t["low_frequency_gain_Ki2"] == pytest.approx(g["Kiv"] * g["Kpx"], rel=1e-12)
     # the highest first crossover alone: up to 2 % more crossover, Kpx on the lower bound of the box (reported),
     # and a much smaller low-frequency gain
-    alone = tune_ppi(model, ms_max=3.25, frf=frf, crossover_tie=0.0)
+    alone = tune_ppi(model, ms_max=3.25, frf=frf, crossover_tie=0.0, objective="bandwidth")
     a = alone.tuning
     assert a["first_crossover_hz"] >= t["first_crossover_hz"]
     assert a["first_crossover_hz"] <= t["first_crossover_hz"] / (1 - CROSSOVER_TIE)
@@ -336,7 +336,7 @@ def test_disconnected_feasible_set_on_the_table_3_1_model():
     """On the ideal 2-mass model the P-PI can cross above the mode (the motor side lifts |L| over the
     anti-resonance): the previous tuner's scan stopped below the gap at 97 Hz."""
     lim = resolve_limits(None, ms_max=3.25)
-    d = tune_ppi(THESIS_TABLE_3_1, ms_max=3.25, filters=THESIS_FILTER_PACK)
+    d = tune_ppi(THESIS_TABLE_3_1, ms_max=3.25, filters=THESIS_FILTER_PACK, objective="bandwidth")
     got = first_crossover(d, None, lim)
     assert got > 400.0
     hand = first_crossover(design_ppi(THESIS_TABLE_3_1, filters=THESIS_FILTER_PACK, **TABLE_HAND), None, lim)

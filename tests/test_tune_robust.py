@@ -256,8 +256,8 @@ def test_loopshape_own_filters_notch_a_lightly_damped_mode_and_meet_the_limits_i
     h = np.asarray(tf(2j * np.pi * F_AXIS)).ravel()
     assert not np.any(np.isclose(F_AXIS, 242.0, rtol=1e-3))
     frf = Frf(F_AXIS, h[None, None, :], ("x",), ("u",), "position", None, "V", "m", {"source": "mode"})
-    bare = tune_loopshape(AXIS_MASS, frf=frf)
-    own = tune_loopshape(AXIS_MASS, frf=frf, filter_choice="own")
+    bare = tune_loopshape(AXIS_MASS, frf=frf, objective="bandwidth")  # a notch raises the crossover (2 %)
+    own = tune_loopshape(AXIS_MASS, frf=frf, filter_choice="own", objective="bandwidth")
     assert any(abs(n.freq_hz / 242.0 - 1) < 0.05 for n in own.filters.notches), own.filters
     assert own.tuning["first_crossover_hz"] > bare.tuning["first_crossover_hz"] * 1.02
     T = 1 / own.fs

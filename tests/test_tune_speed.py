@@ -27,6 +27,7 @@ import numpy as np
 import pytest
 
 from feedtune.analysis.limits import DEFAULT_LIMITS
+from feedtune.tune.search import Objective
 
 FS = 15000.0
 
@@ -86,7 +87,7 @@ def test_the_cheap_conditions_never_refuse_a_passing_candidate(gantry_cases):
     problem = pid_tuner._problem(model, 0.0, FS, 1, [frf for _, frf, _ in cases], [x for x, _, _ in cases],
                          pid_tuner.default_grid(FS), DEFAULT_LIMITS)
     search = pid_tuner._Search(problem, pid_tuner.FilterPack(), pid_tuner.ZETA_BOUNDS, pid_tuner.RHO_BOUNDS,
-                               np.geomspace(0.2, 375, 24))
+                               np.geomspace(0.2, 375, 24), Objective("bandwidth"))
     passed = 0
     for zeta, rho in ((0.36, 10.0), (1.0, 0.5)):
         cheap = search.admissible(zeta, rho)
@@ -170,7 +171,7 @@ def test_coarse_to_fine_finds_the_plain_search_winner(seed):
         return gain[int(c.shape["k"])]
 
     rec = SearchRecord()
-    best = highest_feasible(check, shapes, 5.0, 500.0, rec, secondary=secondary)
+    best = highest_feasible(check, shapes, 5.0, 500.0, rec, gain=secondary, objective=Objective("bandwidth"))
     ref, n_plain = _plain(check, shapes, 5.0, 500.0, 0.02, secondary)
     assert best.shape == ref.shape and best.bandwidth == ref.bandwidth and best.objective == ref.objective
     assert rec.evaluations < n_plain
@@ -474,7 +475,7 @@ def test_loopshape_search_checks_each_design_once_and_finds_todays_optimum():
     g = 1 / (m_x * s * s) * wn * wn / (s * s + 2 * 0.02 * wn * s + wn * wn)
     frf = Frf(f, g[None, None, :], ("x",), ("u",), "position", meta={"source": "double integrator with a mode"})
     pack = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
-    d = tune_loopshape(frf, filters=pack, fs=FS, stages=(2,))
+    d = tune_loopshape(frf, filters=pack, fs=FS, stages=(2,), objective="bandwidth")
     t = d.tuning
     assert t["crossover_hz"] == pytest.approx(89.77206501142653, rel=1e-9)  # before the speed work (HEAD 5a5ecb1)
     assert d.gain == pytest.approx(3263391.3483751477, rel=1e-9)

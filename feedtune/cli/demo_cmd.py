@@ -36,6 +36,16 @@ def demo(
     ),
     engine: str = typer.Option("auto", "--engine", **choice(ENGINES), help="Simulation engine: auto, numba or python."),
     keep_raw: bool = typer.Option(False, "--keep-raw", help="gantry: also write the FRF and mass runs' raw logs."),
+    objective: str = typer.Option(
+        None, "--objective", metavar="OBJECTIVE",
+        help="What every tuner maximises: stiffness (the integral gain; the default), bandwidth (the first crossover) "
+             "or pareto (the front of both recorded; the stiffness winner chosen).",
+    ),
+    compliance_max: float = typer.Option(
+        None, "--compliance-max", metavar="RAD_PER_V", min=0.0,
+        help="ballscrew: cap on the axial-mode compliance (minus the most negative real part of x2/d2, ideal case) "
+             "[rad/V] of both tuned controllers.",
+    ),
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -60,11 +70,13 @@ def demo(
     from ..machines import get_machine
     from ..workflows import run_machine_demo
     from ..workflows.files import check_out_dir, write_texts
+    from .tune_cmd import objective_options
 
     get_machine(machine)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
+    goal = objective_options(objective, compliance_max, "mcppc" if machine == "ballscrew" else machine)
     check_out_dir(out, force)
-    result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw)
+    result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw, objective=goal)
     from .. import progress
 
     with staged_folder(out) as stage:  # the folder appears whole, the report in it, or not at all

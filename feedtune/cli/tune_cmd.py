@@ -65,6 +65,17 @@ LEAD_OPTION = typer.Option(
     None, "--lead", metavar="HZ,DEG",
     help="gantry, pid, loopshape: extra lead stage HZ,DEG in the filter pack (repeatable), e.g. --lead 154,70.",
 )
+OBJECTIVE_OPTION = typer.Option(
+    None, "--objective", metavar="OBJECTIVE",
+    help="What the tuner maximises at the edge of the limits: stiffness (the integral gain: Ki2, ki, K; the default), "
+         "bandwidth (the first crossover, ties by the integral gain) or pareto (the front of both, printed; the "
+         "stiffness winner chosen).",
+)
+COMPLIANCE_MAX_OPTION = typer.Option(
+    None, "--compliance-max", metavar="RAD_PER_U", min=0.0,
+    help="mcppc, ppi: cap on the axial-mode compliance, minus the most negative real part of x2/d2 in the ideal case "
+         "[rad per command unit] (the 'd2->x2 most negative real part' of 'feedtune analyze'), under any objective.",
+)
 FILTERS_OPTION = typer.Option(
     None, "--filters", **choice(FILTER_CHOICES),
     help="own: the tuner places notches and a low-pass where they raise the guaranteed crossover (--notch/--lpf "
@@ -102,6 +113,40 @@ def print_filters(pack: dict, record: dict) -> None:
         typer.echo(f"  {record.get('why', '')}")
 
 
+def objective_options(objective: str | None, compliance_max: float | None, structure: str):
+    """The objective of ``--objective`` / ``--compliance-max`` (checked before any work)."""
+    from ..errors import UsageError
+    from ..tune.search import OBJECTIVES, Objective
+
+    if objective is not None and objective not in OBJECTIVES:
+        raise UsageError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    if compliance_max is not None and structure not in ("mcppc", "ppi"):
+        raise UsageError(f"--compliance-max caps the ball screw's axial-mode compliance; {structure} has none")
+    return Objective.of(objective, compliance_max)
+
+
+def print_objective(tuning: dict) -> None:
+    """The objective used, the winner's integral gain, the Pareto front when asked for, and the warnings (a winner
+    on a search bound)."""
+    g = tuning.get("integral_gain")
+    if tuning.get("objective_rule"):
+        typer.echo(f"objective: {tuning['objective_rule']}")
+    if g:
+        xo = tuning.get("first_crossover_hz")
+        typer.echo(f"  winner: {g['name']} {g['value']:.5g} {g['unit']}, first crossover {fmt(xo, 'Hz')}"
+                   + ("" if tuning.get("axial_compliance_rad_per_V") is None else
+                      f", axial-mode compliance {tuning['axial_compliance_rad_per_V']:.4g} rad/V"))
+    front = tuning.get("pareto_front")
+    if front:
+        typer.echo(f"  Pareto front ({len(front)} designs; first crossover against {g['name']} [{g['unit']}]):")
+        for p in front:
+            shape = ", ".join(f"{k} {v:.4g}" for k, v in p["shape"].items())
+            mark = "  <- chosen" if abs(p["integral_gain"] - g["value"]) <= 1e-9 * abs(g["value"]) else ""
+            typer.echo(f"    {fmt(p['first_crossover_hz'], 'Hz'):>12s}  {p['integral_gain']:12.5g}  ({shape}){mark}")
+    for w in tuning.get("warnings", []):
+        typer.echo(f"  warning: {cli_text(w)}")
+
+
 def _report_tuned(title: str, delivery, result: dict, out: Path | None, force: bool, as_json: bool) -> bool:
     """Refuse a tuned design that fails its certificate (the gains file as written), write it, print the JSON; True
     when the JSON was printed (nothing else to print)."""
@@ -124,7 +169,7 @@ def _report_tuned(title: str, delivery, result: dict, out: Path | None, force: b
 
 def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pack, filters: str | None,
                     fs: float | None, delay_samples: int | None, quantity: str | None, policy, out: Path | None,
-                    force: bool, as_json: bool, fs_override: bool = False, frf_options=None) -> None:
+                    force: bool, as_json: bool, fs_override: bool = False, frf_options=None, objective=None) -> None:
     """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
     from ..control.ballscrew_law import all_gain_units
     from ..io.atomic import ensure_writable
@@ -143,7 +188,7 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
     fs, delay_samples = rate.fs_hz, rate.delay_samples
     tuner = {"mcppc": tune_mcppc, "ppi": tune_ppi}[structure]
     design = tuner(model, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
-                   frf=[s.frf for s in frfs] or None, filter_choice=choice)
+                   frf=[s.frf for s in frfs] or None, filter_choice=choice, objective=objective)
     delivery = deliver(design, frfs, policy, where="tuned design")
     gains = {**design.gains, **getattr(design, "ppi_gains", {})}
     units = all_gain_units(model.input_unit)
@@ -155,6 +200,7 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
         return
     typer.echo(f"{TITLES[structure]} tuned: " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}"
                                                           for k, v in gains.items()))
+    print_objective(design.tuning)
     print_filters(result["filters"], result["filter_choice"])
     print_certificate(result["certificate"])
     if out is not None:
@@ -163,7 +209,7 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
 
 def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | None, fs: float | None,
                delay_samples: int | None, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool,
-               fs_override: bool = False, frf_options=None) -> None:
+               fs_override: bool = False, frf_options=None, objective=None) -> None:
     """Tune an x axis by loop shaping on every FRF, certify, write, print."""
     from ..io import load_model
     from ..io.atomic import ensure_writable
@@ -186,7 +232,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     rate.report(as_json, "tune loopshape")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
     design = tune_loopshape(plant, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
-                            frf=[s.frf for s in frfs] or None, filter_choice=choice)
+                            frf=[s.frf for s in frfs] or None, filter_choice=choice, objective=objective)
     delivery = deliver(design, plant_frf + [s for s in frfs if s.name != str(plant_file)], policy,
                        where="tuned design")
     tuning = design.tuning
@@ -198,6 +244,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
     typer.echo(f"x-axis loop shaping tuned: crossover {fmt(tuning['crossover_hz'], 'Hz')}, PM target "
                f"{fmt(tuning['pm_target_deg'], 'deg')}, integral lag {fmt(tuning['pi_lag_deg'], 'deg')}, "
                f"{tuning['lead_stages']} lead stage(s)")
+    print_objective(tuning)
     print_filters(result["filters"], tuning.get("filters", {"choice": choice}))
     print_certificate(result["certificate"])
     if out is not None:
@@ -223,7 +270,7 @@ def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity:
 def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: list[float] | None, design_x: float,
                  filters_pack, filters: str | None, fs: float | None, delay_samples: int | None, quantity: str | None,
                  policy, out: Path | None, force: bool, as_json: bool, fs_override: bool = False,
-                 frf_options=None) -> None:
+                 frf_options=None, objective=None) -> None:
     """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
     from ..io.atomic import ensure_writable
     from ..tune.gantry import tune_gantry_mimo
@@ -240,7 +287,7 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
     rate.report(as_json, f"tune {structure}")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
     common = {"limits": policy, "filters": filters_pack, "fs": fs, "delay_samples": delay_samples, "x": design_x,
-              "frf": [s.frf for s in frfs] or None}
+              "frf": [s.frf for s in frfs] or None, "objective": objective}
     choice = _filter_choice(filters, filters_pack.notches, filters_pack.lpf_hz)
     tuner = tune_gantry_mimo if structure == "gantry" else tune_gantry_pid
     design = tuner(model, filter_choice=choice, **common)
@@ -263,10 +310,9 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
              f"bandwidth {fmt(tuning['bandwidth_hz'], 'Hz')}, zeta {tuning['zeta']:.3g}, rho {tuning['rho']:.3g}")
     typer.echo(f"{TITLES[structure]} tuned ({shape}): "
                + ", ".join(f"{k} {fmt(v, units.get(k, ''))}" for k, v in gains.items()))
+    print_objective(tuning)
     print_filters(result["filters"], record)
     print_certificate(result["certificate"])
-    for w in tuning.get("warnings", []):
-        typer.echo(f"  warning: {cli_text(w)}")
     if out is not None:
         typer.echo(f"wrote {out}")
 
@@ -297,6 +343,8 @@ def tune(
     lpf_order: int = LPF_ORDER_OPTION,
     lead: list[str] = LEAD_OPTION,
     filters: str = FILTERS_OPTION,
+    objective: str = OBJECTIVE_OPTION,
+    compliance_max: float = COMPLIANCE_MAX_OPTION,
     fs: float = FS_OPTION,
     delay_samples: int = DELAY_OPTION,
     fs_override: bool = FS_OVERRIDE_OPTION,
@@ -318,7 +366,8 @@ def tune(
 ) -> None:
     """Tune for every measured FRF under the limits, and certify it.
 
-    Tune a controller for the highest first crossover that meets the limits on every measured FRF, and certify it.
+    Tune a controller for the objective (default stiffness: the highest integral gain; bandwidth: the highest first
+    crossover; pareto: both, the front printed) among those that meet the limits on every measured FRF, and certify it.
 
     mcppc tunes beta, the pole frequency and zeta of eq. 3.5-3.13; ppi tunes Kpx, Kpv and Kiv (Figure 3.9) by the
     rule of 'feedtune design ppi'; with --filters own also the notches and low-pass. gantry tunes the MIMO law of
@@ -337,6 +386,7 @@ def tune(
     if structure not in TITLES:
         raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
+    goal = objective_options(objective, compliance_max, structure)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
     gantry = structure in ("gantry", "pid")
     if x and not gantry:
@@ -349,12 +399,13 @@ def tune(
     if gantry:
         pack = _loop_filters(notch, lpf, order, 0.7, lead)
         _tune_gantry(structure, model_file, frf, x, design_x, pack, filters, fs, delay_samples, quantity, policy, out,
-                     force, as_json, fs_override=fs_override, frf_options=frf_options)
+                     force, as_json, fs_override=fs_override, frf_options=frf_options, objective=goal)
         return
     if structure == "loopshape":
         _tune_axis(model_file, frf, _loop_filters(notch, lpf, order, 0.7, lead), filters, fs, delay_samples,
-                   quantity, policy, out, force, as_json, fs_override=fs_override, frf_options=frf_options)
+                   quantity, policy, out, force, as_json, fs_override=fs_override, frf_options=frf_options,
+                   objective=goal)
         return
     _tune_ballscrew(structure, model_file, frf, _loop_filters(notch, lpf, order, 0.7, None), filters, fs,
                     delay_samples, quantity, policy, out, force, as_json, fs_override=fs_override,
-                    frf_options=frf_options)
+                    frf_options=frf_options, objective=goal)

@@ -28,6 +28,7 @@ from .figures import (
     pole_map_figure,
     sensitivity_figure,
 )
+from .objective import objective_block
 from .sections import Colors, ReportLimits, controller_label, parameter_table, quantity_value, tuning_table
 from .trust import (
     BANDWIDTH_DEFINITION,
@@ -477,6 +478,9 @@ def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: d
             blocks.append(verdict_paragraph(d, limits))
         blocks.append(tuning_table([(d.label, next(g.doc for g in inputs.gains if names[g.path] == d.name)
                                       .get("design")) for d in designs]))
+        blocks += [b for b in (objective_block(d.name, d.label, next(g.doc for g in inputs.gains
+                                                                      if names[g.path] == d.name).get("design"))
+                               for d in designs) if b is not None]
         blocks.append(_margins_table(designs, limits))
         blocks.extend(_poles_table(d) for d in designs)
         leaders = feedback_groups(designs)

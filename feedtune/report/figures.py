@@ -1038,3 +1038,27 @@ def det_nyquist_figure(curves: Sequence[Curve], *, title: str = "MIMO Nyquist pl
     set_title(fig, title)
     add_legend(fig)
     return fig
+
+
+def objective_figure(edges: np.ndarray, front: np.ndarray, chosen: tuple[float, float], *, gain_label: str,
+                     title: str):
+    """The tuner's edges in the plane of both objectives: integral gain against the guaranteed first crossover.
+
+    ``edges`` and ``front`` are ``(n, 2)`` arrays of ``(first crossover [Hz], integral gain)`` (every shape's edge the
+    tuner recorded; the Pareto front, drawn as a staircase), ``chosen`` the design in the gains file.
+    """
+    legend = ["edge of a shape (limits met)", "Pareto front", "chosen design"]
+    fig, axes = new_figure(1, 1, height=3.2, legend=legend)
+    ax = axes[0, 0]
+    if edges.size:
+        ax.plot(edges[:, 0], edges[:, 1], "o", mfc="none", color="0.45", ms=5, mew=1.0,
+                label="edge of a shape (limits met)")
+    if front.size:
+        f = front[np.argsort(front[:, 0])]
+        ax.plot(f[:, 0], f[:, 1], "-o", color=PALETTE[0], ms=4, lw=1.3, drawstyle="steps-post", label="Pareto front")
+    ax.plot([chosen[0]], [chosen[1]], "*", color=PALETTE[1], ms=13, label="chosen design")
+    ax.set_xlabel("guaranteed first crossover [Hz]")
+    ax.set_ylabel(gain_label)
+    set_title(fig, title)
+    add_legend(fig)
+    return fig

@@ -43,6 +43,7 @@ from .figures import (
     sensitivity_figure,
     singular_value_figure,
 )
+from .objective import objective_block
 from .sections import Colors, ReportLimits, parameter_table, quantity_value, tuning_table
 from .trust import mask_note
 
@@ -299,6 +300,7 @@ def _subsection(kind: str, designs: list[MachineDesign], store: dict, limits: Re
         warnings.extend(design_warnings(d, limits))
         blocks.append(verdict_paragraph(d, limits))
     blocks.append(tuning_table([(d.label, d.tuning) for d in designs]))
+    blocks += [b for b in (objective_block(d.name, d.label, d.tuning) for d in designs) if b is not None]
     blocks.append(_margins_table(designs, gantry, limits))
     blocks += _gantry_figures(designs, limits) if gantry else _axis_figures(designs, limits)
     blocks += [b for b in (_controller_block(d) for d in designs) if b is not None]

@@ -156,10 +156,14 @@ def tuning_table(entries: list[tuple[str, Mapping | None]]) -> Table:
         active = design.get("active_limit")
         active = active.get("name") if isinstance(active, Mapping) else active
         first, _ = quantity_value(design.get("first_crossover_hz"))
-        rows.append([text_cell(label), text_cell(str(rule)), text_cell(limits.get("profile", "-")),
+        gain = design.get("integral_gain") if isinstance(design.get("integral_gain"), Mapping) else {}
+        rows.append([text_cell(label), text_cell(str(rule)), text_cell(str(design.get("objective", "-"))),
+                     text_cell(limits.get("profile", "-")),
                      text_cell(str(design.get("checked_case", "-"))), text_cell(str(active or "-")),
-                     Cell(first, "Hz")])
+                     Cell(first, "Hz"),
+                     text_cell(f"{gain['name']} {gain['value']:.4g} {gain['unit']}" if gain else "-")])
     return Table("How each design was chosen (the tuning rule in the gains file)",
-                 ["controller", "rule", "limits", "checked case", "limit reached", "first crossover"], rows,
+                 ["controller", "rule", "objective", "limits", "checked case", "limit reached", "first crossover",
+                  "integral gain"], rows,
                  "A comparison is fair when every structure was tuned by the same rule under the same limits "
                  "(docs/verdicts.md).")

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..control.filters import FilterPack, Notch
 from ..errors import DesignError
+from .search import Objective
 
 MAX_OWN_FILTERS = 3
 """Most filters the tuner adds (notches and one low-pass)."""
@@ -200,7 +201,8 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
                    refine: Callable[[FilterPack, Any, Any], Any],
                    resonances: Sequence[tuple[float, float, float, float]],
                    peaks: Callable[[Any], list[float]], fs: float,
-                   quick: Callable[[FilterPack], Any] | None = None) -> tuple[FilterPack, Any, dict]:
+                   quick: Callable[[FilterPack], Any] | None = None, what: str = "first crossover",
+                   unit: str = "Hz") -> tuple[FilterPack, Any, dict]:
     """The tuner's own filter pack (module docstring): ``(pack, outcome or None, record)``.
 
     Parameters
@@ -210,7 +212,8 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
     run : callable
         ``run(pack) -> outcome or None``: the tuner's whole search with a pack (None: nothing meets the limits).
     objective : callable
-        ``objective(outcome) -> float``: the first crossover [Hz] of an outcome.
+        ``objective(outcome) -> float``: the figure the tuner maximises (its objective's merit: the first crossover
+        [Hz] or the integral gain) of an outcome.
     screen : callable
         ``screen(pack, outcome, beat) -> (objective or None, payload, note)``: a cheap check of a pack at the
         outcome's shape, which may give up early when it cannot beat ``beat`` [Hz] (``note`` says why).
@@ -225,7 +228,11 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
     quick : callable, optional
         ``quick(pack) -> outcome or None``: a cheaper search (fewer shapes). When nothing meets the limits without
         filters, the candidates are ranked by it and the whole search runs for the best :data:`QUICK_KEEP` only.
+    what, unit : str
+        The name and unit of ``objective`` in the record (``"first crossover"``, ``"Hz"``; ``"integral gain Ki2"``,
+        ``"V/(rad s)"``).
     """
+    u = f" {unit}" if unit else ""
     pack = replace(given, notches=(), lpf_hz=None)
     result = run(pack)
     rounds = []
@@ -252,15 +259,15 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
             whole = run(given) if (given.notches or given.lpf_hz is not None) else None
             if whole is not None:
                 return given, whole, {"choice": "own", "rounds": rounds, "chosen": [
-                    f"the given filter pack as a whole: first crossover {objective(whole):.4g} Hz (no design without "
+                    f"the given filter pack as a whole: {what} {objective(whole):.4g}{u} (no design without "
                     "filters or with one notch at a resonance)"],
                     "why": "the given filters, kept together, are the only pack found that meets the limits"}
             return pack, None, {"choice": "own", "chosen": [], "rounds": rounds,
                                 "why": "no design met the limits without filters or with one notch at a resonance"}
         top = max(good, key=lambda t: t["crossover_hz"])
         rounds[-1]["kept"] = top["filter"]
-        chosen.append(f"{top['filter']} ({top['why']}): no design without it; first crossover "
-                      f"{top['crossover_hz']:.4g} Hz with it")
+        chosen.append(f"{top['filter']} ({top['why']}): no design without it; {what} "
+                      f"{top['crossover_hz']:.4g}{u} with it")
         pack, result = with_filter(pack, top["item"]), top["result"]
     for _ in range(MAX_OWN_FILTERS - len(chosen)):
         x0 = objective(result)
@@ -287,17 +294,17 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
             rec["kept"] = None
             break
         rec["kept"] = top["filter"]
-        chosen.append(f"{top['filter']} ({top['why']}): first crossover {x0:.4g} -> {objective(local):.4g} Hz")
+        chosen.append(f"{top['filter']} ({top['why']}): {what} {x0:.4g} -> {objective(local):.4g}{u}")
         pack, result = trial, local
-    why = ("no notch or low-pass raised the first crossover by more than "
-           f"{100 * KEEP_GAIN:g} %" if not chosen else "each kept filter raised the first crossover by more than "
+    why = (f"no notch or low-pass raised the {what} by more than "
+           f"{100 * KEEP_GAIN:g} %" if not chosen else f"each kept filter raised the {what} by more than "
            f"{100 * KEEP_GAIN:g} % at the winner's shape")
     if (given.notches or given.lpf_hz is not None) and given != pack:  # the given pack as a whole, by the objective
         whole = run(given)
         if whole is not None and (result is None or objective(whole) > objective(result)):
-            mine = "no design" if result is None else f"{objective(result):.4g} Hz"
-            return given, whole, {"choice": "own", "chosen": [f"the given filter pack as a whole: first crossover "
-                                                              f"{objective(whole):.4g} Hz (own choice: {mine})"],
+            mine = "no design" if result is None else f"{objective(result):.4g}{u}"
+            return given, whole, {"choice": "own", "chosen": [f"the given filter pack as a whole: {what} "
+                                                              f"{objective(whole):.4g}{u} (own choice: {mine})"],
                                   "why": "the given filters, kept together, beat the tuner's own choice",
                                   "rounds": rounds}
         rounds.append({"given_pack_crossover_hz": None if whole is None else objective(whole)})
@@ -306,7 +313,8 @@ def choose_filters(given: FilterPack, *, run: Callable[[FilterPack], Any],
 
 def tune_with_own_filters(tune: Callable[..., object], screen_options: Callable[[object], dict], given: FilterPack,
                           resonances: Sequence[tuple[float, float, float, float]],
-                          peaks: Callable[[object], list[float]], fs: float, quick_options: dict | None = None):
+                          peaks: Callable[[object], list[float]], fs: float, quick_options: dict | None = None,
+                          objective: Objective | None = None):
     """``(design, filter record)``: the best design of ``tune`` over the filter packs :func:`choose_filters` tries.
 
     Parameters
@@ -328,6 +336,9 @@ def tune_with_own_filters(tune: Callable[..., object], screen_options: Callable[
         Sample rate [Hz].
     quick_options : dict, optional
         Options of ``tune`` for a cheaper search that ranks candidates when nothing is feasible without filters.
+    objective : Objective, optional
+        What a filter must raise: the integral gain (``design.tuning["integral_gain"]``) under ``stiffness`` and
+        ``pareto``, the first crossover under ``bandwidth`` (the default without one).
     """
 
     def attempt(pack: FilterPack, **options):
@@ -336,16 +347,18 @@ def tune_with_own_filters(tune: Callable[..., object], screen_options: Callable[
         except DesignError:
             return None
 
-    def objective(design) -> float:
-        return float(design.tuning["first_crossover_hz"])
+    by_gain = objective is not None and objective.by_gain
 
+    def merit(design) -> float:
+        return float(design.tuning["integral_gain"]["value"] if by_gain else design.tuning["first_crossover_hz"])
 
     def screen(pack: FilterPack, design, beat: float):
         d = attempt(pack, **screen_options(design))
-        return (None if d is None else objective(d)), d, None
+        return (None if d is None else merit(d)), d, None
 
+    what, unit = ("first crossover", "Hz") if not by_gain else ("integral gain", "")
     _, design, record = choose_filters(
-        given, run=attempt, objective=objective, screen=screen,
+        given, run=attempt, objective=merit, screen=screen, what=what, unit=unit,
         refine=lambda pack, design, payload: attempt(pack), resonances=resonances, peaks=peaks, fs=fs,
         quick=None if quick_options is None else (lambda pack: attempt(pack, **quick_options)))
     return design, record

@@ -1,5 +1,7 @@
 """The gantry MIMO law (thesis section 4.4.2) at its best under the limits: the CoM crossover, its phase margin
-target and the active-damping increase that give the highest first CoM crossover meeting the limits policy.
+target and the active-damping increase whose edge wins under the objective (:class:`feedtune.tune.search.Objective`:
+the highest actuator-level integral gain ``ki``, or the highest first CoM crossover) among the designs meeting the
+limits policy.
 
 Shapes: the phase-margin target ``pm_deg`` in :data:`PM_TARGETS_DEG` and the damping increase in
 :data:`DAMPING_INCREASES` (thesis: 40 deg and +590 %), then at the best of them the integral gain through its phase lag
@@ -40,15 +42,24 @@ from ..errors import DesignError, FeedtuneError, UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
 from .filter_choice import merge_resonances, tune_with_own_filters
-from .gantry_cases import frf_positions, gantry_resonances, gantry_sensitivity_peaks, schedule_grid, top_line_doubt
+from .gantry_cases import (
+    frf_positions,
+    gantry_objective,
+    gantry_resonances,
+    gantry_sensitivity_peaks,
+    schedule_grid,
+    top_line_doubt,
+)
 from .search import (
     BOUND_SLACK,
-    CROSSOVER_TIE,
     Candidate,
     CheckedCases,
+    Objective,
     SearchRecord,
     highest_feasible,
+    refine_shape,
     robust_frfs,
+    shape_bound_warnings,
 )
 
 PM_TARGETS_DEG = (30.0, 40.0, 50.0)
@@ -69,8 +80,8 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
                      positions: Sequence[float] | None = None, pm_targets=PM_TARGETS_DEG,
                      damping_increases=DAMPING_INCREASES, integral_lags=INTEGRAL_LAGS_DEG,
                      crossover_range_hz=CROSSOVER_RANGE_HZ, filter_choice: str = "identical",
-                     **design_options) -> GantryMimoDesign:
-    """The MIMO design with the highest first CoM crossover that meets ``limits`` (module docstring).
+                     objective: str | Objective | None = None, **design_options) -> GantryMimoDesign:
+    """The MIMO design that wins under ``objective`` among those that meet ``limits`` (module docstring).
 
     Parameters
     ----------
@@ -97,6 +108,9 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
         Bounds of the CoM crossover target [Hz].
     filter_choice : {"identical", "own"}
         Whether the tuner places the notches and low-pass itself.
+    objective : {"stiffness", "bandwidth", "pareto"} or Objective, optional
+        Which edge wins (default :data:`feedtune.tune.search.DEFAULT_OBJECTIVE`; the integral gain is ``ki``
+        [V/(m s)]).
     **design_options
         Passed to :func:`~feedtune.design.gantry_mimo.design_gantry_mimo` (schedule grid, pre-filters, ``ki``);
         the default schedule grid covers every FRF's position.
@@ -107,6 +121,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
         No candidate meets the limits.
     """
     policy = limits or DEFAULT_LIMITS
+    obj = gantry_objective(objective)
     check_sampling(fs, delay_samples)
     filters = filters or FilterPack()
     filters.check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
@@ -121,7 +136,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
         def tune(filters: FilterPack, **shapes) -> GantryMimoDesign:
             return tune_gantry_mimo(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples, x=x,
                                     frf=frfs or None, positions=xs if frfs else None,
-                                    crossover_range_hz=crossover_range_hz,
+                                    crossover_range_hz=crossover_range_hz, objective=obj,
                                     **({"pm_targets": pm_targets, "damping_increases": damping_increases,
                                         "integral_lags": integral_lags} | shapes), **design_options)
 
@@ -134,7 +149,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
             tune, lambda d: {"pm_targets": (d.pm_deg,), "damping_increases": (d.damping_increase,),
                              "integral_lags": (d.tuning["integral_lag_deg"],)},
             filters, merge_resonances([gantry_resonances(pc, fs) for pc in pcs]), peaks, fs,
-            {"pm_targets": QUICK_PM, "damping_increases": QUICK_DAMPING, "integral_lags": (10.0,)})
+            {"pm_targets": QUICK_PM, "damping_increases": QUICK_DAMPING, "integral_lags": (10.0,)}, objective=obj)
         if design is None:
             raise DesignError(f"no gantry MIMO design meets the limits ({policy.describe()}) in the {case} case with "
                               "or without the filters tried")
@@ -236,16 +251,29 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
               for d in damping_increases]
     cheap = admissible if policy.ms_max is not None else None
     best = highest_feasible(check, shapes, *crossover_range_hz, record, bound_name="crossover_hz",
-                            secondary=lambda c: c.design.law.ki, accept=accept, admissible=cheap)
+                            gain=_ki, objective=obj, accept=accept, admissible=cheap)
+    searched = list(shapes)
     if best is not None and not fixed_ki and len(integral_lags) > 1:  # the integral gain at the best shape
         lags = [{**best.shape, "integral_lag_deg": float(v)} for v in integral_lags
                 if float(v) != best.shape["integral_lag_deg"]]
+        searched += lags
         other = highest_feasible(check, lags, *crossover_range_hz, record, bound_name="crossover_hz",
-                                 secondary=lambda c: c.design.law.ki, accept=accept, admissible=cheap)
-        if other is not None and (other.objective > best.objective * (1 + CROSSOVER_TIE)
-                                  or (other.objective >= best.objective * (1 - CROSSOVER_TIE)
-                                      and other.design.law.ki > best.design.law.ki)):
-            best = other
+                                 gain=_ki, objective=obj, accept=accept, admissible=cheap)
+        if other is not None:
+            best = obj.order([best, other], lambda c: c.objective, _ki)[0]
+    refined = None
+    names = ("pm_deg", "damping_increase") + (() if fixed_ki else ("integral_lag_deg",))
+    box = tuple((float(min(v)), float(max(v))) for v in (pm_targets, damping_increases, integral_lags)[:len(names)])
+    if best is not None and obj.by_gain and any(b[1] > b[0] for b in box):
+
+        def gain_at(shape: dict, crossover_hz: float) -> float:
+            made = design_of(shape, crossover_hz)
+            return float("nan") if made is None else float(made[0].law.ki)
+
+        best, refined = refine_shape(check, best, names, box, *crossover_range_hz, gain=_ki, objective=obj,
+                                     gain_at=gain_at, admissible=cheap, accept=accept, min_step=1 / 8,
+                                     diagonal=False)
+        record.evaluations += 0 if refined is None else refined.checks
     if best is None:
         if not verdicts:
             raise DesignError(f"no gantry MIMO design meets the limits ({policy.describe()}) in the {case} case")
@@ -257,13 +285,19 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     finals = verdicts[id(best)]
     actives = [a for a in (f.active() for f in finals) if a is not None]
     active = min(actives, key=lambda a: a.slack) if actives else None
+    front = None
+    if obj.name == "pareto":
+        edges = [best, *record.found, *([] if refined is None else [p.result for _, p in refined.edges()])]
+        front = [{"shape": dict(c.shape), "crossover_target_hz": c.bandwidth, "first_crossover_hz": c.objective,
+                  "integral_gain": _ki(c)} for c in obj.front(edges, lambda c: c.objective, _ki)]
     tuning = {
-        "method": "highest first CoM crossover over the PM target, the damping increase and the crossover target "
-                  "(bisected to the edge), then over the integral lag at the best shape, with the limits in the "
-                  "checked case of every FRF and stability in every case; shapes within "
-                  f"{100 * CROSSOVER_TIE:g} % of the highest first crossover count as equal and the highest "
-                  "actuator-level integral gain ki wins",
-        "rule": f"gantry MIMO tuned by feedtune.tune.gantry under {policy.describe()}",
+        "method": "the edge of every shape (PM target, damping increase) in the CoM crossover target (bisected to "
+                  "the largest meeting the limits in the checked case of every FRF), ranked by the objective, then "
+                  "the same over the integral lag at the best shape; under stiffness and pareto the winner's shape "
+                  "refined by a local search over continuous PM target, damping increase and integral lag within "
+                  "the values listed; the winner stable in every case",
+        **obj.record("ki", f"{model.input_unit}/(m s)", _ki(best), front),
+        "rule": f"gantry MIMO tuned by feedtune.tune.gantry for {obj.name} under {policy.describe()}",
         "limits": policy.to_dict(),
         "checked_case": case,
         "frfs": len(frfs),
@@ -276,6 +310,12 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
         "evaluations": record.evaluations,
         "per_shape": record.per_shape,
         "filters": {"choice": "identical", "why": "the filters given are used as they are"},
-        "warnings": record.warnings,
+        "warnings": shape_bound_warnings(best.shape, searched) + record.warnings,
     }
     return replace(best.design, extra={**best.design.extra, "tuning": tuning})
+
+
+def _ki(c: Candidate) -> float:
+    """The actuator-level integral gain ``ki`` [V/(m s)] of a candidate (the stiffness objective's figure)."""
+    return float(c.design.law.ki)
+

@@ -1,6 +1,6 @@
-"""What the gantry tuners (MIMO, PID) share: the table position of each FRF, a schedule that covers them, the rule by
-which a candidate's verdict on a band-limited FRF is not trusted, and the resonances and sensitivity peaks their own
-filters are placed at."""
+"""What the gantry tuners (MIMO, PID; the x axis too) share: the table position of each FRF, a schedule that covers
+them, the rule by which a candidate's verdict on a band-limited FRF is not trusted, the resonances and sensitivity
+peaks their own filters are placed at, and their objective (no compliance cap)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from ..errors import UsageError
 from ..frf import Frf
 from ..models.gantry import GantryModel
 from .filter_choice import resonance_peaks, sensitivity_peaks
-from .search import band_top_doubt, unreliable
+from .search import Objective, band_top_doubt, unreliable
 
 
 def frf_positions(frfs: Sequence[Frf], positions, x: float) -> list[float]:
@@ -94,3 +94,18 @@ def gantry_sensitivity_peaks(laws_and_cases, above_hz: float, n: int = 2) -> lis
         s = singular_values(sensitivity(matmul(pc.plant(f) * pc.hold(f), K)))[0]
         found.extend((float(np.interp(p, f, s)), p) for p in sensitivity_peaks(f, s, above_hz, n))
     return [p for _, p in sorted(found, reverse=True)[:n]]
+
+
+def gantry_objective(objective) -> Objective:
+    """:meth:`Objective.of` for the gantry and x-axis tuners, which have no axial-mode compliance to cap.
+
+    Raises
+    ------
+    UsageError
+        An unknown objective, or an objective carrying a compliance cap.
+    """
+    obj = Objective.of(objective)
+    if obj.compliance_max is not None:
+        raise UsageError("compliance_max caps the ball screw's axial-mode compliance (x2/d2); the gantry and x-axis "
+                         "tuners have none", parameter="compliance_max")
+    return obj

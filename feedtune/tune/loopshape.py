@@ -1,4 +1,8 @@
-"""Tuner of the x axis' double-lead loop shaping (thesis §4.4.1, eq. 4.17-4.18): the highest crossover under the limits.
+"""Tuner of the x axis' double-lead loop shaping (thesis §4.4.1, eq. 4.17-4.18): the best design under the limits.
+
+Which edge wins is the objective (:class:`feedtune.tune.search.Objective`): the highest integral gain ``K`` of
+``C = K (Ti s + 1)/s ...`` (``C ~ K/s`` at low frequency: the stiffness against a force; ``K/Ti`` in the textbook
+form ``K' (1 + 1/(Ti s))``), or the highest first crossover.
 
 :func:`feedtune.design.loopshape.design_loopshape` places the crossover ``wc`` and its phase margin exactly on the
 discrete loop; its other parameters are the integral's phase lag at ``wc`` and the number of lead stages. The
@@ -44,8 +48,11 @@ from ..design.loopshape import LoopShapeDesign, axis_plant, design_loopshape
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from .filter_choice import choose_filters, merge_resonances, resonance_peaks, sensitivity_peaks
+from .gantry_cases import gantry_objective
 from .search import (
+    GAIN_EXPONENT,
     EdgeResult,
+    Objective,
     Probe,
     SearchResult,
     band_top_doubt,
@@ -87,8 +94,9 @@ class _AxisCase:
 class _AxisSearch:
     """Designs for a number of lead stages: the real check, the edge and the shape search."""
 
-    def __init__(self, cases: list[_AxisCase], make, stages: int, bounds, scan: np.ndarray):
+    def __init__(self, cases: list[_AxisCase], make, stages: int, bounds, scan: np.ndarray, objective: Objective):
         self.cases = list(cases)
+        self.objective = objective
         self.make = make  # make(crossover_hz, pm_deg, pi_lag_deg, stages) -> LoopShapeDesign (or DesignError)
         self.stages = stages
         self.bounds = bounds
@@ -99,6 +107,10 @@ class _AxisSearch:
         self._relaxed: dict = {}  # shape -> its edge under the limits alone (not pruned)
         self._whole: dict = {}  # shape -> its edge under the whole check
         self._unstable: set = set()  # shapes whose edge under the limits alone is unstable in another case
+
+    def merit(self, p: Probe) -> float:
+        """What the objective maximises at an edge: the first crossover [Hz] or the integral gain ``K``."""
+        return self.objective.merit(p.crossover_hz, p.result[0].gain if p.result is not None else math.nan)
 
     def design(self, xo: float, pm: float, lag: float) -> LoopShapeDesign | None:
         key = (xo, pm, lag)
@@ -181,14 +193,18 @@ class _AxisSearch:
         key = (float(pm), float(lag))
         e = self._relaxed.get(key)
         if e is None:  # the edge of a shape is sought once (a later request, with another beat, reuses it)
-            start = beat if beat is not None else (None if ref is None else ref[1].scale)
+            start = None if ref is None else ref[1].scale
+            if beat is not None and not self.objective.by_gain:
+                start = beat  # the scale is the crossover target
+            elif beat is not None and start is not None and self.merit(ref[1]) > 0:
+                start *= (beat / self.merit(ref[1])) ** (1 / GAIN_EXPONENT)  # K = m wc^3 tan(lag) on a mass
             e = feasibility_edge(lambda xo: self.check(xo, pm, lag, others=False), self.scan, rtol=RTOL, start=start,
-                                 beat=beat)
+                                 beat=beat if start is not None else None, merit=self.merit)
             if e.best is None:
                 return e
             self._relaxed[key] = e
-        if beat is not None and e.best.crossover_hz <= beat:
-            return EdgeResult(None, e.fail_scale, e.checks, pruned=True, bound_hz=e.best.crossover_hz)
+        if beat is not None and self.merit(e.best) <= beat:
+            return EdgeResult(None, e.fail_scale, e.checks, pruned=True, bound_hz=self.merit(e.best))
         if key in self._whole:
             return self._whole[key]
         if key not in self._unstable and all(self._unstable_elsewhere(c, e.best.result[0]) is None
@@ -197,19 +213,19 @@ class _AxisSearch:
             return e
         self._unstable.add(key)
         full = feasibility_edge(lambda xo: self.check(xo, pm, lag), self.scan, rtol=RTOL, start=e.best.scale,
-                                beat=beat)
+                                beat=beat, merit=self.merit)
         if not full.pruned:  # a pruned one may be asked again with a lower beat
             self._whole[key] = full
         return replace(full, checks=full.checks + e.checks)
 
     def run(self, ref: tuple | None) -> SearchResult | None:
         """The shape search over the box (the first edge from ``ref``, a passing probe of another stage count)."""
-        return pattern_search(self.edge, ("pm_deg", "pi_lag_deg"), self.bounds, ref=ref)
+        return pattern_search(self.edge, ("pm_deg", "pi_lag_deg"), self.bounds, ref=ref, merit=self.merit)
 
     def run_from(self, shape: tuple, probe: Probe) -> SearchResult | None:
         """A local shape search from ``shape``, whose edge is expected near that of ``probe``."""
         return pattern_search(self.edge, ("pm_deg", "pi_lag_deg"), self.bounds, initial=shape,
-                              ref=(tuple(shape), probe))
+                              ref=(tuple(shape), probe), merit=self.merit)
 
 
 def _stable(metrics) -> bool:
@@ -240,8 +256,9 @@ def tune_loopshape(
     pi_lag_bounds=None,
     stages=STAGES,
     filter_choice: str = "identical",
+    objective: str | Objective | None = None,
 ) -> LoopShapeDesign:
-    """The loop-shaping design of an axis with the highest first crossover that meets the limits.
+    """The loop-shaping design of an axis that wins under ``objective`` among those that meet the limits.
 
     See the module docstring for the search and the check.
 
@@ -278,6 +295,9 @@ def tune_loopshape(
         ``identical``: the filter pack as given; ``own``: the tuner places notches and a low-pass
         (:func:`feedtune.tune.filter_choice.choose_filters`; the given filters are candidates, its leads are kept),
         recorded in ``tuning["filters"]``.
+    objective : {"stiffness", "bandwidth", "pareto"} or Objective, optional
+        Which edge wins (default :data:`feedtune.tune.search.DEFAULT_OBJECTIVE`; the integral gain is ``K``
+        [U/(m s)]).
 
     Returns
     -------
@@ -291,6 +311,7 @@ def tune_loopshape(
     """
     t0 = time.perf_counter()
     policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
+    obj = gantry_objective(objective)
     check_sampling(fs, delay_samples)
     pack = filters if filters is not None else FilterPack()
     pack.check_nyquist(fs)
@@ -339,19 +360,20 @@ def tune_loopshape(
         results = {}
         ref = None
         for n in counts:
-            r = _AxisSearch(axis_cases, maker(filters), n, (pmb, lagb), scan).run(ref)
+            r = _AxisSearch(axis_cases, maker(filters), n, (pmb, lagb), scan, obj).run(ref)
             results[n] = r
             if r is not None:
                 ref = (r.point, r.edge.best)
         found = {n: r for n, r in results.items() if r is not None}
         if not found:
             return None
-        n_best = max(found, key=lambda n: (found[n].edge.best.crossover_hz, -n))
+        n_best = obj.order(sorted(found), lambda n: found[n].edge.best.crossover_hz,
+                           lambda n: found[n].edge.best.result[0].gain)[0]
         return n_best, found[n_best], results
 
     filter_record = {"choice": "identical", "why": "the filters given are used as they are"}
     if filter_choice == "own":
-        pack, outcome, filter_record = _own_filters(pack, search, axis_cases, maker, (pmb, lagb), scan, fs)
+        pack, outcome, filter_record = _own_filters(pack, search, axis_cases, maker, (pmb, lagb), scan, fs, obj)
     else:
         outcome = search(pack)
     if outcome is None:
@@ -373,12 +395,19 @@ def tune_loopshape(
                         "top of the design FRF / 1.25)")
     act = check_cases(policy, {name: metrics}, [name]).active()
     pm, lag = best.point
+    front = None
+    if obj.name == "pareto":
+        edges = [(n, sh, p) for n, r in results.items() if r is not None for sh, p in r.edges()]
+        front = [{"shape": {"pm_deg": float(sh[0]), "pi_lag_deg": float(sh[1]), "lead_stages": int(n)},
+                  "first_crossover_hz": float(p.crossover_hz), "integral_gain": float(p.result[0].gain)}
+                 for n, sh, p in obj.front(edges, lambda e: e[2].crossover_hz, lambda e: e[2].result[0].gain)]
     tuning = {
-        "method": "highest first crossover under the limits; loop shaping (eq. 4.17-4.18) with the crossover by "
-                  "bisection to the feasibility edge and (PM target, integral lag) by a pattern search, for each "
-                  "number of lead stages",
-        "rule": f"x-axis loop shaping tuned by feedtune.tune.loopshape under {policy.describe()}",
-        "objective": "first crossover of the loop over the whole contour",
+        "method": "the edge of every shape under the limits, ranked by the objective; loop shaping (eq. 4.17-4.18) "
+                  "with the crossover by bisection to the feasibility edge and (PM target, integral lag) by a pattern "
+                  "search, for each number of lead stages",
+        **obj.record("K", f"{design.plant.command_unit}/(m s)", design.gain, front),
+        "rule": f"x-axis loop shaping tuned by feedtune.tune.loopshape for {obj.name} under {policy.describe()}",
+        "crossover_measure": "first crossover of the loop over the whole contour",
         "limits": policy.to_dict(),
         "active_limit": None if act is None else act.to_dict(),
         "checked_case": name,
@@ -403,24 +432,31 @@ def tune_loopshape(
     return replace(design, tuning=tuning)
 
 
-def _own_filters(given: FilterPack, search, axis_cases: list, maker, bounds, scan: np.ndarray, fs: float):
+def _own_filters(given: FilterPack, search, axis_cases: list, maker, bounds, scan: np.ndarray, fs: float,
+                 obj: Objective):
     """The tuner's own filter pack (:func:`feedtune.tune.filter_choice.choose_filters`): ``(pack, outcome of
     search or None, record)``. Resonances: the peaks of the accelerance ``|G| (2 pi f)^2`` of every FRF (the model's
     lightly damped poles without one); sensitivity peaks: of ``|S|`` of the current design on every FRF."""
 
+    def axis_search(pack: FilterPack, n: int) -> _AxisSearch:
+        return _AxisSearch(axis_cases, maker(pack), n, bounds, scan, obj)
+
+    what, unit = ("integral gain", "") if obj.by_gain else ("first crossover", "Hz")
+
     def objective(outcome) -> float:
-        return float(outcome[1].edge.best.crossover_hz)
+        return float(axis_search(given, outcome[0]).merit(outcome[1].edge.best))
 
     def screen(pack: FilterPack, outcome, beat: float):
         n, r, _ = outcome
-        e = _AxisSearch(axis_cases, maker(pack), n, bounds, scan).edge(tuple(r.point), (r.point, r.edge.best), beat)
-        note = None if not e.pruned else (f"fails at {e.fail_scale:.4g} Hz, where the crossover is still below "
-                                          f"{beat:.4g} Hz: it cannot raise it")
-        return (None if e.best is None else e.best.crossover_hz), e.best, note
+        s = axis_search(pack, n)
+        e = s.edge(tuple(r.point), (r.point, r.edge.best), beat)
+        note = None if not e.pruned else (f"fails at {e.fail_scale:.4g} Hz, where the {what} is still below "
+                                          f"{beat:.4g}{' ' + unit if unit else ''}: it cannot raise it")
+        return (None if e.best is None else s.merit(e.best)), e.best, note
 
     def refine(pack: FilterPack, outcome, probe):
         n, r, results = outcome
-        local = _AxisSearch(axis_cases, maker(pack), n, bounds, scan).run_from(tuple(r.point), probe)
+        local = axis_search(pack, n).run_from(tuple(r.point), probe)
         return None if local is None else (n, local, {**results, n: local})
 
     def resonances_of(c: _AxisCase) -> list:
@@ -440,5 +476,5 @@ def _own_filters(given: FilterPack, search, axis_cases: list, maker, bounds, sca
             found.extend((float(np.interp(p, f, s)), p) for p in sensitivity_peaks(f, s, objective(outcome)))
         return [p for _, p in sorted(found, reverse=True)[:2]]
 
-    return choose_filters(given, run=search, objective=objective, screen=screen, refine=refine,
+    return choose_filters(given, run=search, objective=objective, screen=screen, refine=refine, what=what, unit=unit,
                           resonances=merge_resonances([resonances_of(c) for c in axis_cases]), peaks=peaks, fs=fs)

@@ -1,15 +1,18 @@
 """MC-PPC at its best under the limits: the rigid-body pole frequency, its damping and the mode's decay multiplier
-``beta`` that give the highest first crossover meeting the limits policy (issue 10: the proposal is tuned by the same
-search and under the same limits as the baseline).
+``beta`` whose edge wins under the objective (:class:`feedtune.tune.search.Objective`: the highest integral gain
+``Ki2``, or the highest first crossover) among the designs meeting the limits policy (issue 10: the proposal is tuned
+by the same search and under the same limits as the baseline; issue 23: the objective).
 
 Shapes: ``beta`` in :data:`BETAS` (the thesis's drive allowed up to 4, section 3.2.3) and ``zeta`` in :data:`ZETAS`;
 bandwidth parameter: the pole frequency ``pole_hz`` (eq. 3.8), searched by :func:`feedtune.tune.search.
 highest_feasible` on the checked case (``discrete`` with an FRF, else ``ideal_discrete``), with the filter pack given
 (default none); a scale whose peak ``|S|`` on the checked case's lines (a lower bound of the checked ``Ms``) breaks
 the limit is skipped unchecked. With several FRFs (the drive measured at several table positions or loads) a
-candidate passes only when it meets the limits on every one, and its objective is its lowest first crossover over them
-(the bandwidth it guarantees on all). The winner is re-checked in every case on every FRF
-(:func:`feedtune.analysis.check.check_design`).
+candidate passes only when it meets the limits on every one, and its crossover is its lowest first crossover over them
+(the bandwidth it guarantees on all). With a compliance cap a candidate also passes only when its axial-mode
+compliance (:class:`feedtune.tune.compliance.AxialCompliance`, which grows with the pole frequency) is within it. The
+winner is re-checked in every case on every FRF (:func:`feedtune.analysis.check.check_design`); one on a bound of
+the shapes searched is reported in ``tuning["warnings"]``.
 """
 
 from __future__ import annotations
@@ -29,8 +32,19 @@ from ..errors import DesignError, FeedtuneError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
 from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
+from .compliance import AxialCompliance
 from .filter_choice import tune_with_own_filters
-from .search import CROSSOVER_TIE, Candidate, CheckedCases, SearchRecord, highest_feasible, robust_frfs
+from .search import (
+    REFINE_RTOL,
+    Candidate,
+    CheckedCases,
+    Objective,
+    SearchRecord,
+    highest_feasible,
+    refine_shape,
+    robust_frfs,
+    shape_bound_warnings,
+)
 
 BETAS = (1.0, 2.0, 3.0, 4.0)
 """Multipliers of the axial mode's decay rate searched [-] (thesis: up to 4)."""
@@ -44,8 +58,9 @@ POLE_RANGE_HZ = (5.0, 500.0)
 
 def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None = None, fs: float = 20000.0,
                delay_samples: int = 1, frf: Frf | Sequence[Frf] | None = None, betas=BETAS, zetas=ZETAS,
-               pole_range_hz: tuple[float, float] = POLE_RANGE_HZ, filter_choice: str = "identical") -> McppcDesign:
-    """The MC-PPC with the highest first crossover that meets ``limits`` (module docstring).
+               pole_range_hz: tuple[float, float] = POLE_RANGE_HZ, filter_choice: str = "identical",
+               objective: str | Objective | None = None, compliance_max: float | None = None) -> McppcDesign:
+    """The MC-PPC that wins under ``objective`` among those that meet ``limits`` (module docstring).
 
     Parameters
     ----------
@@ -67,6 +82,10 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     filter_choice : {"identical", "own"}
         ``identical``: the filter pack as given; ``own``: the tuner chooses notches and a low-pass
         (:mod:`feedtune.tune.filter_choice`; the given filters are candidates), recorded in ``tuning["filters"]``.
+    objective : {"stiffness", "bandwidth", "pareto"} or Objective, optional
+        Which edge wins (default :data:`feedtune.tune.search.DEFAULT_OBJECTIVE`).
+    compliance_max : float, optional
+        Cap of the axial-mode compliance [rad/V] (minus the most negative real part of ``x2/d2``, ideal case).
 
     Raises
     ------
@@ -74,6 +93,7 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         No candidate meets the limits.
     """
     policy = resolve_limits(limits)
+    obj = Objective.of(objective, compliance_max)
     filters = filters or FilterPack()
     check_sampling(fs, delay_samples)
     filters.check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
@@ -83,13 +103,13 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     if filter_choice == "own":
         def tune(filters: FilterPack, **shapes) -> McppcDesign:
             return tune_mcppc(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
-                              frf=frfs or None, pole_range_hz=pole_range_hz,
+                              frf=frfs or None, pole_range_hz=pole_range_hz, objective=obj,
                               **({"betas": betas, "zetas": zetas} | shapes))
 
         design, record = tune_with_own_filters(
             tune, lambda d: {"betas": (d.beta,), "zetas": (d.zeta,)}, filters, ballscrew_resonances(pcs, fs),
             lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, d.tuning["first_crossover_hz"]), fs,
-            {"betas": QUICK_BETAS, "zetas": QUICK_ZETAS})
+            {"betas": QUICK_BETAS, "zetas": QUICK_ZETAS}, objective=obj)
         if design is None:
             raise DesignError(f"no MC-PPC meets the limits ({policy.describe()}) in the {case} case with or without "
                               "the filters tried")
@@ -112,13 +132,16 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
                 designs[key] = None
         return designs[key]
 
+    compliance = None if obj.compliance_max is None else AxialCompliance(model, fs, delay_samples)
+
     def check(shape: dict, pole_hz: float) -> Candidate | None:
         made = design_of(shape, pole_hz)
         if made is None:
             return None
         design, law = made
         m, xo = checked.judge(lambda pc: analyze_case(law, pc, responses=False).metrics, policy, case)
-        return Candidate(shape, pole_hz, design, m, xo, passed=m is not None)
+        ok = m is not None and (compliance is None or compliance(law) <= obj.compliance_max)
+        return Candidate(shape, pole_hz, design, m, xo, passed=ok)
 
     def admissible(shape: dict, poles_hz) -> list[bool]:
         """Peak |S| on the checked cases' lines within the limit: a necessary condition (the analysis' Ms is the
@@ -136,27 +159,59 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     checked = CheckedCases(pcs)
     record = SearchRecord()
     shapes = [{"beta": float(b), "zeta": float(z)} for b in betas for z in zetas]
-    best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz",
-                            secondary=lambda c: c.design.gains["Ki2"],
-                            admissible=admissible if policy.ms_max is not None else None)
+    box = ((min(betas), max(betas)), (min(zetas), max(zetas)))
+    refine = obj.by_gain and any(b[1] > b[0] for b in box)  # the integral gain varies between the listed shapes
+    verdicts: dict = {}  # id(design) -> check_design on every FRF (the designs are kept: an id names one)
+
+    def full_check(design) -> list:
+        if id(design) not in verdicts:
+            verdicts[id(design)] = (design, [check_design(design, frf=f, limits=policy) for f in (frfs or [None])])
+        return verdicts[id(design)][1]
+
+    def accept(c: Candidate) -> bool:
+        """The limits on every FRF and stability in every case (the next in the ranking is taken otherwise)."""
+        return all(v.ok for v in full_check(c.design))
+
+    best = highest_feasible(check, shapes, *pole_range_hz, record, bound_name="pole_hz", gain=_ki2, objective=obj,
+                            admissible=admissible if policy.ms_max is not None else None,
+                            rtol=3 * REFINE_RTOL if refine else 2e-3, accept=accept)
+    if best is None and verdicts:  # every candidate tried met the limits in the checked case, none the full check
+        first = next(iter(verdicts.values()))[1]
+        bad = next(i for i, v in enumerate(first) if not v.ok)
+        on = f" on FRF {bad + 1} of {len(frfs)}" if len(frfs) > 1 else ""
+        raise DesignError(f"the best MC-PPC designs in the {case} case fail the full check{on}: "
+                          f"{'; '.join(first[bad].violations)}")
     if best is None:
+        cap = "" if obj.compliance_max is None else f" and the compliance cap {obj.compliance_max:.4g} rad/V"
         raise DesignError(f"no MC-PPC (beta {', '.join(f'{b:g}' for b in betas)}; zeta "
                           f"{', '.join(f'{z:g}' for z in zetas)}; pole {pole_range_hz[0]:g}-{pole_range_hz[1]:g} Hz) "
-                          f"meets the limits ({policy.describe()}) in the {case} case")
-    finals = [check_design(best.design, frf=f, limits=policy) for f in (frfs or [None])]
-    for i, final in enumerate(finals):
-        if not final.ok:
-            on = f" on FRF {i + 1} of {len(frfs)}" if len(frfs) > 1 else ""
-            raise DesignError(f"the best MC-PPC in the {case} case fails the full check{on}: "
-                              f"{'; '.join(final.violations)}")
+                          f"meets the limits ({policy.describe()}){cap} in the {case} case")
+    refined = None
+    if refine:
+
+        def gain_at(shape: dict, pole_hz: float) -> float:
+            made = design_of(shape, pole_hz)
+            return float("nan") if made is None else float(made[0].gains["Ki2"])
+
+        best, refined = refine_shape(check, best, ("beta", "zeta"), box, *pole_range_hz, gain=_ki2, objective=obj,
+                                     gain_at=gain_at, admissible=admissible if policy.ms_max is not None else None,
+                                     min_step=1 / 8, accept=accept)
+        record.evaluations += 0 if refined is None else refined.checks
+    finals = full_check(best.design)  # accepted: the limits on every FRF, stable in every case
     actives = [a for a in (f.limit_check.active() for f in finals) if a is not None]
     active = min(actives, key=lambda a: a.slack) if actives else None
+    front = None
+    if obj.name == "pareto":
+        edges = [best, *record.found, *([] if refined is None else [p.result for _, p in refined.edges()])]
+        front = [{"shape": dict(c.shape), "pole_hz": c.bandwidth, "first_crossover_hz": c.objective,
+                  "integral_gain": _ki2(c)} for c in obj.front(edges, lambda c: c.objective, _ki2)]
     tuning = {
-        "method": "highest first crossover over beta, zeta and the pole frequency (bisected to the edge) with the "
-                  "limits in the checked case and stability in every case; shapes within "
-                  f"{100 * CROSSOVER_TIE:g} % of the highest first crossover count as equal and the highest integral "
-                  "gain Ki2 wins (the P-PI tuner's rule)",
-        "rule": f"MC-PPC tuned by feedtune.tune.mcppc under {policy.describe()}",
+        "method": "the edge of every shape (beta, zeta) in the pole frequency (bisected to the largest pole "
+                  "frequency meeting the limits in the checked case), ranked by the objective; under stiffness and "
+                  "pareto the winner's shape refined by a local search over continuous beta and zeta within the "
+                  "values listed; the winner stable in every case",
+        **obj.record("Ki2", f"{model.input_unit}/(rad s)", _ki2(best), front),
+        "rule": f"MC-PPC tuned by feedtune.tune.mcppc for {obj.name} under {policy.describe()}",
         "limits": policy.to_dict(),
         "checked_case": case,
         "frfs": len(frfs),
@@ -164,6 +219,13 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
         "active_limit": None if active is None else active.to_dict(),
         "evaluations": record.evaluations,
         "per_shape": record.per_shape,
-        "warnings": record.warnings,
+        "warnings": shape_bound_warnings(best.shape, shapes) + record.warnings,
     }
+    if compliance is not None:
+        tuning["axial_compliance_rad_per_V"] = compliance(best.design.law())
     return replace(best.design, tuning=tuning)
+
+
+def _ki2(c: Candidate) -> float:
+    """The integral gain ``Ki2`` [V/(rad s)] of a candidate (the stiffness objective's figure)."""
+    return float(c.design.gains["Ki2"])

@@ -63,8 +63,24 @@ from ..frf import Frf
 from ..models.gantry import GantryModel
 from .filter_choice import KEEP_GAIN, merge_resonances
 from .filter_choice import choose_filters as own_filters
-from .gantry_cases import frf_positions, gantry_resonances, gantry_sensitivity_peaks, schedule_grid, top_line_doubt
-from .search import BOUND_SLACK, EdgeResult, Probe, SearchResult, feasibility_edge, pattern_search, robust_frfs
+from .gantry_cases import (
+    frf_positions,
+    gantry_objective,
+    gantry_resonances,
+    gantry_sensitivity_peaks,
+    schedule_grid,
+    top_line_doubt,
+)
+from .search import (
+    BOUND_SLACK,
+    EdgeResult,
+    Objective,
+    Probe,
+    SearchResult,
+    feasibility_edge,
+    pattern_search,
+    robust_frfs,
+)
 
 ZETA_BOUNDS = (0.3, 1.0)
 """Damping of the rigid-body closed-loop pair searched [-]."""
@@ -138,8 +154,10 @@ def _problem(model, x, fs, delay_samples, frfs, positions, grid, policy) -> _Pro
 class _Search:
     """The search for one filter pack: the cheap bound, the real check, the edge and the shape search."""
 
-    def __init__(self, problem: _Problem, pack: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
+    def __init__(self, problem: _Problem, pack: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray,
+                 objective: Objective):
         self.problem = problem
+        self.objective = objective
         self.pack = pack
         self.h = [matched_pack(pack, problem.fs).freqresp(c.pc.freq_hz) for c in problem.cases]
         self.gm = [c.Ge * problem.masses[None, :, None] for c in problem.cases]  # column j: G_j h m_j
@@ -190,6 +208,10 @@ class _Search:
             return None
         return lambda bw: self.grid_ms(np.atleast_1d(bw), zeta, rho, band_top=True) <= ms_max * (1 + BOUND_SLACK)
 
+    def merit(self, p: Probe) -> float:
+        """What the objective maximises at an edge: the first crossover [Hz] or the integral gain (:func:`ki_sum`)."""
+        return self.objective.merit(p.crossover_hz, ki_sum(p.result[0]) if p.result is not None else math.nan)
+
     def law(self, bw_hz: float, zeta: float, rho: float) -> PidLaw:
         p = self.problem
         return PidLaw(**pid_gains(p.model, p.x, bw_hz, zeta, rho), filters=self.pack, fs=p.fs,
@@ -235,24 +257,36 @@ class _Search:
         """
         zeta, rho = shape
         start = None
+        by_gain = self.objective.by_gain
         if ref is not None:
             (z0, r0), p0 = ref
             start = p0.scale
-            if beat is not None and math.isfinite(p0.crossover_hz) and p0.crossover_hz > 0:
-                start = beat * p0.scale / p0.crossover_hz * rigid_crossover(z0, r0) / rigid_crossover(zeta, rho)
+            v0 = self.merit(p0)
+            if beat is not None and math.isfinite(v0) and v0 > 0:
+                # the scale expected to reach ``beat``: the crossover scales with w (times the rigid-body crossover
+                # of the shape), the integral gain with w^3 / rho
+                start = (p0.scale * (beat / v0 * rho / r0) ** (1 / 3) if by_gain else
+                         beat * p0.scale / v0 * rigid_crossover(z0, r0) / rigid_crossover(zeta, rho))
+        cheap = ((lambda bw: ki_sum(self.law(bw, zeta, rho))) if by_gain else
+                 (lambda bw: self.grid_crossover(bw, zeta, rho)))
         return feasibility_edge(lambda bw: self.check(bw, zeta, rho), self.scan,
                                 admissible=self.admissible(zeta, rho), rtol=rtol, start=start,
-                                beat=beat if start is not None else None,
-                                cheap_crossover=lambda bw: self.grid_crossover(bw, zeta, rho))
+                                beat=beat if start is not None else None, cheap_crossover=cheap, merit=self.merit)
 
     def run(self) -> SearchResult | None:
         """The shape search over the whole box."""
-        return pattern_search(self.edge, ("zeta", "rho"), self.bounds, min_step=SHAPE_STEP)
+        return pattern_search(self.edge, ("zeta", "rho"), self.bounds, min_step=SHAPE_STEP, merit=self.merit)
 
     def run_from(self, shape: tuple, probe: Probe) -> SearchResult | None:
         """A local shape search from ``shape``, whose edge is expected near that of ``probe``."""
         return pattern_search(self.edge, ("zeta", "rho"), self.bounds, min_step=SHAPE_STEP, initial=shape,
-                              ref=(tuple(shape), probe))
+                              ref=(tuple(shape), probe), merit=self.merit)
+
+
+def ki_sum(law: PidLaw) -> float:
+    """The integral gains of both sides added [V/(m s)]: the PID pair's low-frequency stiffness against a force at the
+    CoM (what the stiffness objective maximises)."""
+    return float(sum(law.ki))
 
 
 def rigid_crossover(zeta: float, rho: float) -> float:
@@ -299,8 +333,9 @@ def tune_gantry_pid(
     grid_points: int | None = None,
     zeta_bounds=None,
     rho_bounds=None,
+    objective: str | Objective | None = None,
 ) -> GantryPidDesign:
-    """The PID pair with the highest first CoM crossover that meets the limits in the checked case of every FRF.
+    """The PID pair that wins under ``objective`` among those that meet the limits in the checked case of every FRF.
 
     See the module docstring for the parametrisation, the search, the check and the filter choice.
 
@@ -336,6 +371,9 @@ def tune_gantry_pid(
         :func:`feedtune.analysis.gantry.default_grid`, so the analysis' ``ideal_discrete`` case is the check).
     zeta_bounds, rho_bounds : (float, float), optional
         The shape box (default ``ZETA_BOUNDS``, ``RHO_BOUNDS``).
+    objective : {"stiffness", "bandwidth", "pareto"} or Objective, optional
+        Which edge wins (default :data:`feedtune.tune.search.DEFAULT_OBJECTIVE`; the integral gain is the sum of
+        the sides' ``ki`` [V/(m s)], :func:`ki_sum`).
 
     Returns
     -------
@@ -350,6 +388,7 @@ def tune_gantry_pid(
     """
     t0 = time.perf_counter()
     policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
+    obj = gantry_objective(objective)
     check_sampling(fs, delay_samples)
     choice = _resolve_choice(filter_choice, filters)
     given = filters or FilterPack()
@@ -364,14 +403,14 @@ def tune_gantry_pid(
     scan = np.geomspace(SCAN_HZ[0], top, SCAN_POINTS)
 
     if choice == "identical":
-        pack, result = given, _Search(problem, given, zb, rb, scan).run()
+        pack, result = given, _Search(problem, given, zb, rb, scan, obj).run()
         filter_record = {"choice": "identical", "why": "the filters given are used as they are"}
     else:
-        pack, result, filter_record = choose_filters(problem, given, zb, rb, scan)
+        pack, result, filter_record = choose_filters(problem, given, zb, rb, scan, obj)
     if result is None:
         raise DesignError(f"no PID pair meets the limits ({policy.describe()}) with a stable loop in the "
                           f"{problem.name} case; relax the limits or change the filter pack")
-    winner, verify, act = _verified_winner(result, problem)
+    winner, verify, act = _verified_winner(result, problem, obj)
     law, metrics, _ = winner.result
     zeta, rho = result.point if winner is result.edge.best else _shape_of(result, winner)
     bw = winner.scale
@@ -381,12 +420,18 @@ def tune_gantry_pid(
         warnings.append(f"the winner's bandwidth is the top of the scan ({bw:g} Hz = fs/40)")
     xo = float(metrics.crossovers_hz[0])
     case = problem.cases[0]
+    front = None
+    if obj.name == "pareto":
+        front = [{"shape": {"zeta": float(sh[0]), "rho": float(sh[1])}, "bandwidth_hz": p.scale,
+                  "first_crossover_hz": float(p.crossover_hz), "integral_gain": ki_sum(p.result[0])}
+                 for sh, p in obj.front(result.edges(), lambda e: e[1].crossover_hz, lambda e: ki_sum(e[1].result[0]))]
     tuning = {
-        "method": "highest first CoM crossover under the limits; PID gains from (bandwidth w, shape zeta, rho) "
-                  "scaled by the side masses, searched continuously: w by bisection to the feasibility edge, "
-                  "(zeta, rho) by a pattern search over the shape box",
-        "rule": f"gantry PID tuned by feedtune.tune.pid ({choice} filters) under {policy.describe()}",
-        "objective": "first crossover of the CoM loop over the whole contour (incl. the model below the FRF)",
+        "method": "the edge of every shape under the limits, ranked by the objective; PID gains from (bandwidth w, "
+                  "shape zeta, rho) scaled by the side masses, searched continuously: w by bisection to the "
+                  "feasibility edge, (zeta, rho) by a pattern search over the shape box",
+        **obj.record("ki (both sides)", f"{model.input_unit}/(m s)", ki_sum(law), front),
+        "rule": f"gantry PID tuned by feedtune.tune.pid ({choice} filters) for {obj.name} under {policy.describe()}",
+        "crossover_measure": "first crossover of the CoM loop over the whole contour (incl. the model below the FRF)",
         "ms_measure": "max over frequency of the largest singular value of the 2x2 sensitivity",
         "limits": policy.to_dict(),
         "active_limit": None if act is None else act.to_dict(),
@@ -420,26 +465,33 @@ SCREEN_RTOL = 1e-2
 """Bracket [-] of the bandwidth edge when screening a filter."""
 
 
-def choose_filters(problem: _Problem, given: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray):
+def choose_filters(problem: _Problem, given: FilterPack, zeta_bounds, rho_bounds, scan: np.ndarray,
+                   objective: Objective):
     """The tuner's own filter pack (:func:`feedtune.tune.filter_choice.choose_filters`): ``(pack, SearchResult or
     None, record)``. Candidates are screened at the winner's shape (the bandwidth edge to ``SCREEN_RTOL``, pruned
     when the first check cannot beat the crossover) and the kept one is refined by a local shape search."""
 
+    def search(pack: FilterPack) -> _Search:
+        return _Search(problem, pack, zeta_bounds, rho_bounds, scan, objective)
+
+    what, unit = ("integral gain", "") if objective.by_gain else ("first crossover", "Hz")
+
     def screen(pack: FilterPack, result: SearchResult, beat: float):
         ref = (tuple(result.point), result.edge.best)
-        e = _Search(problem, pack, zeta_bounds, rho_bounds, scan).edge(tuple(result.point), ref, beat,
-                                                                       SCREEN_RTOL)
+        s = search(pack)
+        e = s.edge(tuple(result.point), ref, beat, SCREEN_RTOL)
         note = None
         if e.pruned:
-            note = (f"fails at w = {e.fail_scale:.4g} Hz, where the crossover is still below {beat:.4g} Hz "
-                    f"(+{100 * KEEP_GAIN:g} %): it cannot raise it")
-        return (None if e.best is None else e.best.crossover_hz), e.best, note
+            note = (f"fails at w = {e.fail_scale:.4g} Hz, where the {what} is still below {beat:.4g} {unit} "
+                    f"(+{100 * KEEP_GAIN:g} %): it cannot raise it").replace("  (", " (")
+        return (None if e.best is None else s.merit(e.best)), e.best, note
 
     def refine(pack: FilterPack, result: SearchResult, probe: Probe):
-        return _Search(problem, pack, zeta_bounds, rho_bounds, scan).run_from(tuple(result.point), probe)
+        return search(pack).run_from(tuple(result.point), probe)
 
-    return own_filters(given, run=lambda pack: _Search(problem, pack, zeta_bounds, rho_bounds, scan).run(),
-                       objective=lambda r: r.edge.best.crossover_hz, screen=screen, refine=refine,
+    return own_filters(given, run=lambda pack: search(pack).run(),
+                       objective=lambda r: search(given).merit(r.edge.best), screen=screen, refine=refine,
+                       what=what, unit=unit,
                        resonances=merge_resonances([gantry_resonances(c.pc, problem.fs) for c in problem.cases]),
                        peaks=lambda r: gantry_sensitivity_peaks([(r.edge.best.result[0], c.pc) for c in problem.cases],
                                                                 r.edge.best.crossover_hz),
@@ -465,12 +517,11 @@ def _full_check(law: PidLaw, problem: _Problem):
     return stable, checks
 
 
-def _verified_winner(result: SearchResult, problem: _Problem, tries: int = 5):
+def _verified_winner(result: SearchResult, problem: _Problem, objective: Objective, tries: int = 5):
     """``(probe, {case: stable}, active limit)`` of the best evaluated candidate that passes the full check (the
-    search's winner unless it does not)."""
-    edges = sorted((e for e in result.evaluated.values() if e is not None and e.best is not None),
-                   key=lambda e: -e.best.crossover_hz)
-    order = [result.edge.best] + [e.best for e in edges if e.best is not result.edge.best]
+    search's winner unless it does not; then the next by the objective)."""
+    edges = objective.order([p for _, p in result.edges()], lambda p: p.crossover_hz, lambda p: ki_sum(p.result[0]))
+    order = [result.edge.best] + [p for p in edges if p is not result.edge.best]
     for probe in order[:tries]:
         stable, checks = _full_check(probe.result[0], problem)
         if all(stable.values()) and all(c.ok for c in checks):

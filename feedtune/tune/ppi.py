@@ -1,7 +1,13 @@
-"""The P-PI cascade with the highest first crossover under the limits policy (thesis Figure 3.9, eq. 3.25; issue 10).
+"""The P-PI cascade at its best under the limits policy (thesis Figure 3.9, eq. 3.25; issues 10, 23).
 
 Objective
 ---------
+Which design wins is the objective (:class:`feedtune.tune.search.Objective`): under ``stiffness`` (and ``pareto``) the
+highest low-frequency gain ``Ki2 = Kiv Kpx`` [V/(rad s)], the same physical quantity as the MC-PPC's ``Ki2`` (the
+law's table-error integral gain, docs/gains.md), among the designs meeting the limits (and the compliance cap, when
+given); under ``bandwidth`` the rule below. Stage 2 of the search then climbs ``Ki2`` over every feasible shape
+(the tie threshold is 0).
+
 The first crossover ``f_c1`` [Hz] of the loop broken at the plant input, ``L = G_fp (Kpv + Kiv / s)(s G11 + Kpx G21)``
 (eq. 3.25, discrete controller, hold and delay in the checked case): ``crossovers_hz[0]`` of
 :func:`~feedtune.analysis.ballscrew.analyze_case`, the lowest frequency where ``|L| = 1`` over the whole Nyquist
@@ -75,8 +81,9 @@ from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
 from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
+from .compliance import AxialCompliance
 from .filter_choice import tune_with_own_filters
-from .search import CheckedCases, robust_frfs
+from .search import CheckedCases, Objective, robust_frfs
 
 CROSSOVER_TIE = 0.02
 """Designs whose first crossover is within this fraction of the highest found count as equal [-]."""
@@ -408,8 +415,10 @@ def tune_ppi(
     frf: Frf | Sequence[Frf] | None = None,
     crossover_tie: float = CROSSOVER_TIE,
     filter_choice: str = "identical",
+    objective: str | Objective | None = None,
+    compliance_max: float | None = None,
 ) -> PpiDesign:
-    """The P-PI with the highest first crossover meeting the limits (module docstring).
+    """The P-PI that wins under ``objective`` among those meeting the limits (module docstring).
 
     Parameters
     ----------
@@ -435,6 +444,10 @@ def tune_ppi(
     filter_choice : {"identical", "own"}
         ``identical``: the filter pack as given; ``own``: the tuner chooses notches and a low-pass
         (:mod:`feedtune.tune.filter_choice`; the given filters are candidates), recorded in ``tuning["filters"]``.
+    objective : {"stiffness", "bandwidth", "pareto"} or Objective, optional
+        Which design wins (default :data:`feedtune.tune.search.DEFAULT_OBJECTIVE`).
+    compliance_max : float, optional
+        Cap of the axial-mode compliance [rad/V] (:class:`feedtune.tune.compliance.AxialCompliance`).
 
     Returns
     -------
@@ -454,6 +467,8 @@ def tune_ppi(
     check_sampling(fs, delay_samples)
     if not (np.isfinite(crossover_tie) and 0 <= crossover_tie < 1):
         raise UsageError(f"crossover_tie must be in [0, 1), got {crossover_tie!r}")
+    obj = Objective.of(objective, compliance_max)
+    obj = Objective(obj.name, obj.compliance_max, crossover_tie)
     filters = filters or FilterPack()
     filters.check_nyquist(fs)
     frfs = robust_frfs(frf)
@@ -462,11 +477,11 @@ def tune_ppi(
     if filter_choice == "own":
         def tune(filters: FilterPack) -> PpiDesign:
             return tune_ppi(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
-                            frf=frfs or None, crossover_tie=crossover_tie)
+                            frf=frfs or None, crossover_tie=crossover_tie, objective=obj)
 
         design, record = tune_with_own_filters(
             tune, lambda d: {}, filters, ballscrew_resonances(pcs, fs),
-            lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, d.tuning["first_crossover_hz"]), fs)
+            lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, d.tuning["first_crossover_hz"]), fs, objective=obj)
         if design is None:
             raise DesignError(f"no P-PI meets the limits ({policy.describe()}) in the {case} case with or without "
                               "the filters tried")
@@ -489,7 +504,7 @@ def tune_ppi(
                           f"in the {case} case; relax the limits or adjust the filter pack")
     first = [search.climb(s, lambda sh: -sh.fc1, step) for s in search.starts(feasible, lambda c: c.fc1, step)]
     top = max(first, key=lambda sh: sh.fc1)
-    threshold = (1 - crossover_tie) * top.fc1
+    threshold = 0.0 if obj.by_gain else (1 - crossover_tie) * top.fc1
 
     def tie_cost(sh: _Shape) -> float:
         if sh.edge is None:
@@ -521,6 +536,7 @@ def tune_ppi(
         return min(ms, key=lambda m: m.crossovers_hz[0])
 
     in_turn = CheckedCases(pcs)
+    compliance = None if obj.compliance_max is None else AxialCompliance(model, fs, delay_samples)
 
     def judge(wi: float, kpx: float, kpv: float):
         checks["n"] += 1
@@ -533,7 +549,10 @@ def tune_ppi(
             except ResolutionError:  # the loop passes through -1
                 return None
 
-        return in_turn.guaranteed(metrics_of, policy, case)
+        m = in_turn.guaranteed(metrics_of, policy, case)
+        if m is not None and compliance is not None and compliance(law) > obj.compliance_max:
+            return None
+        return m
 
     checked: list[_Checked] = []
     seen = set()
@@ -551,9 +570,12 @@ def tune_ppi(
         raise DesignError(f"no P-PI gains proposed by the search meet the limits ({policy.describe()}) in the "
                           f"{case} case; relax the limits or adjust the filter pack")
     best_fc1 = max(c.fc1 for c in checked)
-    tied = sorted([c for c in checked if min(c.fc1, c.fc1_low_gain) >= (1 - crossover_tie) * best_fc1],
-                  key=lambda c: -c.ki2)
-    order = tied + sorted([c for c in checked if c not in tied], key=lambda c: -c.fc1)
+    if obj.by_gain:
+        order = obj.order(checked, lambda c: c.fc1, lambda c: c.ki2)
+    else:  # tied only when the crossover stays within the tie with less gain (module docstring)
+        tied = sorted([c for c in checked if min(c.fc1, c.fc1_low_gain) >= (1 - crossover_tie) * best_fc1],
+                      key=lambda c: -c.ki2)
+        order = tied + sorted([c for c in checked if c not in tied], key=lambda c: -c.fc1)
     refused = []
     for c in order:
         design = design_ppi(model, Kpx=c.kpx, Kpv=c.kpv, Kiv=c.kpv * c.wi, filters=filters, fs=fs,
@@ -566,6 +588,15 @@ def tune_ppi(
         raise DesignError("the best P-PI candidates fail the design check: " + " | ".join(refused))
     tuning = _record(c, verdicts, policy, case, crossover_tie, best_fc1, z_box, kpv_box, M, sur.evaluations,
                      checks["n"], refused)
+    front = None
+    if obj.name == "pareto":
+        front = [{"shape": {"pi_corner_hz": x.wi / TWO_PI, "position_corner_hz": x.kpx / TWO_PI},
+                  "first_crossover_hz": x.fc1, "integral_gain": x.ki2}
+                 for x in obj.front(checked, lambda x: x.fc1, lambda x: x.ki2)]
+    tuning.update(obj.record("Ki2", f"{model.input_unit}/(rad s)", c.ki2, front))
+    tuning["rule"] = f"P-PI tuned by feedtune.tune.ppi for {obj.name} under {policy.describe()}"
+    if compliance is not None:
+        tuning["axial_compliance_rad_per_V"] = compliance(design.law())
     return PpiDesign(model, dict(design.ppi_gains), filters, float(fs), int(delay_samples), tuning)
 
 
@@ -624,12 +655,11 @@ def _record(c: _Checked, verdicts: list, policy: Limits, case: str, tie: float, 
     if refused:
         warnings.append(f"{len(refused)} better candidate(s) refused by the design check: " + " | ".join(refused))
     return {
-        "method": "highest first crossover of L (crossovers_hz[0] of the checked case, below-band crossovers "
-                  f"included) meeting the limits, stable in every case; crossovers within {100 * tie:g} % of the "
-                  "highest count as equal and the highest low-frequency gain Kiv*Kpx wins; shapes (Kiv/Kpv, Kpx) by "
-                  "grid and Nelder-Mead on the loop's gain-feasibility edge, Kpv bisected to the analysis' edge",
-        "rule": f"P-PI tuned by feedtune.tune.ppi under {policy.describe()}",
-        "objective": "first_crossover_hz",
+        "method": "the designs at the gain-feasibility edge (crossovers_hz[0] of the checked case, below-band "
+                  "crossovers included, meeting the limits, stable in every case) ranked by the objective; under "
+                  f"bandwidth crossovers within {100 * tie:g} % of the highest count as equal and the highest "
+                  "low-frequency gain Kiv*Kpx wins; shapes (Kiv/Kpv, Kpx) by grid and Nelder-Mead on the loop's "
+                  "gain-feasibility edge, Kpv bisected to the analysis' edge",
         "limits": policy.to_dict(),
         "ms_max": policy.ms_max,
         "pm_min_deg": policy.pm_min_deg,

@@ -3,23 +3,24 @@
 from __future__ import annotations
 
 
-def _ballscrew_demo(*, seed, engine, limits, keep_raw):
+def _ballscrew_demo(*, seed, engine, limits, keep_raw, objective):
     from .ballscrew_demo import run_demo
 
-    return run_demo(seed=seed, engine=engine, limits=limits)
+    return run_demo(seed=seed, engine=engine, limits=limits, objective=objective)
 
 
-def _gantry_demo(*, seed, engine, limits, keep_raw):
+def _gantry_demo(*, seed, engine, limits, keep_raw, objective):
     from .gantry_demo import run_gantry_demo
 
-    return run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=limits)
+    return run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=limits, objective=objective)
 
 
 DEMOS = {"ballscrew": _ballscrew_demo, "gantry": _gantry_demo}
 """The demo pipeline of each registered machine (a new machine adds one entry)."""
 
 
-def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limits=None, keep_raw: bool = False):
+def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limits=None, keep_raw: bool = False,
+                     objective=None):
     """The demo of a registered machine (:func:`feedtune.machines.get_machine`): measure, identify, tune, test and
     compare on its twin; nothing is written.
 
@@ -35,6 +36,9 @@ def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limit
         The limits every controller is tuned and checked under (default: ``textbook``).
     keep_raw : bool
         Also keep the raw excitation logs (gantry).
+    objective : str or Objective, optional
+        What every tuner maximises (:class:`feedtune.tune.search.Objective`; default its default, ``stiffness``;
+        the ball screw's may carry a compliance cap).
 
     Returns
     -------
@@ -47,4 +51,4 @@ def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limit
     get_machine(machine)
     if machine not in DEMOS:
         raise UsageError(f"machine {machine!r} has no demo; demos: {', '.join(DEMOS)}")
-    return DEMOS[machine](seed=seed, engine=engine, limits=limits, keep_raw=keep_raw)
+    return DEMOS[machine](seed=seed, engine=engine, limits=limits, keep_raw=keep_raw, objective=objective)

@@ -1,10 +1,9 @@
 """The main job in one command, on the twin: measure, identify, design, test, compare (thesis §3.4, Table 3.2).
 
 :func:`run_demo` measures the FRF of the ball-screw twin under a weak stabilising controller, identifies the
-2-mass model from it, designs MC-PPC (50 Hz, zeta = 0.7, the thesis's filter pack, and the largest
-``beta`` up to the thesis's 4 whose design meets ``feedtune design ppc``'s default limit Ms <= 3.5 on the
-measured FRF) and a P-PI tuned for the same peak sensitivity with a phase-margin floor no tighter than
-MC-PPC's own, delivers both gains files with their certificate on the measured FRF
+2-mass model from it, tunes MC-PPC and P-PI with the thesis's filter pack under the same limits on the measured FRF
+for the same objective (:class:`feedtune.tune.search.Objective`, default ``stiffness``: the highest integral gain
+``Ki2``), delivers both gains files with their certificate on the measured FRF
 (:func:`feedtune.workflows.deliver.deliver`; the FRF from memory, identified by its arrays) and runs every test
 through :class:`~feedtune.machines.ballscrew.runtime.GainsRuntime` reading the exported text only: rope snap and
 tracking at 200, 500 and 1000 mm/s with both controllers, plus the slotting cut at 200 mm/s. Then it
@@ -86,10 +85,11 @@ class DemoResult:
 
         lines = ["Identified from the measured FRF: " + ", ".join(param(k, v) for k, v in ident["params"].items())]
         lim = self.limits
+        rules = {d["tuning"].get("objective_rule") for d in self.designs.values() if d.get("tuning")}
         lines.append("Both controllers tuned under the same limits ("
                      + Limits.from_dict(lim).describe()
-                     + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same rule: the "
-                       "highest first crossover; within 2 % of it the highest integral gain Ki2")
+                     + ") on the measured FRF (discrete case), with the thesis' filter pack, by the same objective, "
+                     + "; ".join(sorted(r for r in rules if r)))
         labels = {"mcppc": "MC-PPC", "ppi": "P-PI"}
         for name, d in self.designs.items():
             if name not in labels:
@@ -101,6 +101,7 @@ class DemoResult:
             gm = "-" if d["gain_margin_db"] is None else f"{d['gain_margin_db']:.3g} dB"
             lines.append(f"{labels[name]} ({chosen}): crossovers {crossovers} Hz, Ms {d['ms']:.3g}, PM {pm}, GM {gm}, "
                          f"Ki2 {d['gains']['Ki2']:.4g} V/(rad s); limit reached: {d['active_limit']}")
+            lines += [f"  warning: {w}" for w in d["tuning"].get("warnings", [])]
         return "\n".join(lines) + "\n\n" + self.table()
 
     def table(self) -> str:
@@ -141,7 +142,8 @@ def _fmt_s(x) -> str:
 
 # ------------------------------------------------------------------------------------------ demo
 def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str = "auto",
-             rope_force: float = 0.5, include_cut: bool = True, limits: Limits | None = None) -> DemoResult:
+             rope_force: float = 0.5, include_cut: bool = True, limits: Limits | None = None,
+             objective=None) -> DemoResult:
     """Run the whole job on the twin (see the module docstring); nothing is written.
 
     Parameters
@@ -160,6 +162,9 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
         Also run the slotting cut at the first speed.
     limits : Limits, optional
         The limits both controllers are tuned under (default: textbook).
+    objective : str or Objective, optional
+        What both tuners maximise (:class:`feedtune.tune.search.Objective`, default ``stiffness``), with its
+        compliance cap if any.
 
     Returns
     -------
@@ -180,8 +185,10 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
     from ..parallel import plan, run_groups
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
+    from ..tune.search import Objective
     from .deliver import deliver
 
+    Objective.of(objective)  # a bad objective is refused before the twin runs
     twin = BallScrewTwin(params or TwinParams())
     p = twin.params
     progress.step("measuring the FRF on the twin")
@@ -197,7 +204,7 @@ def run_demo(*, seed: int = 0, speeds=SPEEDS_M_PER_S, params=None, engine: str =
 
     policy = limits or DEFAULT_LIMITS
     common = {"limits": policy, "filters": THESIS_FILTER_PACK, "frf": frf, "fs": p.fs,
-              "delay_samples": p.delay_samples}
+              "delay_samples": p.delay_samples, "objective": Objective.of(objective)}
     designs, runtimes = {}, {}
     progress.step("tuning MC-PPC and P-PI under the same limits")
     tuned = run_groups(plan([("mcppc", lambda: tune_mcppc(fit.model, **common), 1.0),

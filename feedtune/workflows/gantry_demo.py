@@ -89,15 +89,19 @@ class GantryDemoResult:
         """The comparison as text: the limits and rules, the three controllers and the verdict against each PID."""
         from .comparison import verdict_line
 
-        lines = [f"Limits: {self.limits.get('profile')}; every controller tuned for the highest first crossover under "
-                 "them (discrete case): the gantry ones on the FRFs of every table position measured, the x axis on "
-                 "its FRF; figures at x = 0:"]
+        objectives = sorted({d["objective"] for d in self.designs.values() if d.get("objective")})
+        lines = [f"Limits: {self.limits.get('profile')}; every controller tuned for the {' / '.join(objectives) or '-'}"
+                 " objective under them (discrete case): the gantry ones on the FRFs of every table position "
+                 "measured, the x axis on its FRF; figures at x = 0:"]
         for name in (*CONTROLLERS, "axis"):
             d = self.designs.get(name)
             if d:
                 xo = "-" if d.get("crossover_hz") is None else f"{d['crossover_hz']:.4g} Hz"
-                lines.append(f"  {d['label']}: first crossover {xo}, Ms {d['ms']:.3g}; {d['rule']}"
+                g = d.get("integral_gain")
+                gain = "" if not g else f", {g['name']} {g['value']:.4g} {g['unit']}"
+                lines.append(f"  {d['label']}: first crossover {xo}{gain}, Ms {d['ms']:.3g}; {d['rule']}"
                              + (f"; filters chosen: {d['filters']}" if d.get("filters") else ""))
+                lines += [f"    warning: {w}" for w in d.get("warnings") or []]
         head = f"{'test':34s}" + "".join(f" {LABELS[c]:>19s}" for c in CONTROLLERS)
         lines += ["", "Gantry: MIMO (eq. 4.30) against independent PIDs on the twin", head]
         for row in self.rows:
@@ -192,7 +196,8 @@ def _figures(label: str, design, check, checked: str, analysis: dict) -> dict:
             if isinstance(tuning.get("active_limit"), dict) else tuning.get("active_limit"),
             "filters": None if filters is None else (", ".join(str(f) for f in filters) or "none"),
             "check_ok": check.ok, "stable_model": analysis["ideal_discrete"]["stable"],
-            "stable_measured": analysis[checked]["stable"]}
+            "stable_measured": analysis[checked]["stable"], "objective": tuning.get("objective"),
+            "integral_gain": tuning.get("integral_gain"), "warnings": list(tuning.get("warnings", []))}
 
 
 TUNING_COST = {"mimo": 0.7, "pid": 0.55, "pid_own": 0.7, "axis": 2.3}
@@ -200,7 +205,7 @@ TUNING_COST = {"mimo": 0.7, "pid": 0.55, "pid_own": 0.7, "axis": 2.3}
 shared out over the cores: on two, the x axis against the three others)."""
 
 
-def _tune(twin, fit, frfs, axis_frf, policy) -> dict:
+def _tune(twin, fit, frfs, axis_frf, policy, objective=None) -> dict:
     """The four tuners under ``policy``: MIMO and both PIDs on the identified model and every 2x2 FRF (``frfs``,
     each at its recorded position), the x axis on its FRF. They are independent: they run side by side on the
     machine's cores (:mod:`feedtune.parallel`; the results are those of running them one by one)."""
@@ -211,7 +216,7 @@ def _tune(twin, fit, frfs, axis_frf, policy) -> dict:
 
     p = twin.params
     model = fit.model
-    common = {"limits": policy, "fs": p.fs, "delay_samples": p.delay_samples}
+    common = {"limits": policy, "fs": p.fs, "delay_samples": p.delay_samples, "objective": objective}
     h = _filters(MIMO_DESIGN)
     pid_identical_filters = type(h)(h.notches, h.lpf_hz, h.lpf_order, h.lpf_zeta, ())  # the thesis' rule
     jobs = {
@@ -224,17 +229,17 @@ def _tune(twin, fit, frfs, axis_frf, policy) -> dict:
     return run_groups(plan([(name, fn, TUNING_COST[name]) for name, fn in jobs.items()]))
 
 
-def _design(twin, fit, frfs, xs, axis_frf, texts, policy):
-    """Axis, MIMO and PID designs tuned under ``policy`` (:func:`_tune`), each delivered with its certificate on every
-    FRF it was tuned on (:func:`feedtune.workflows.deliver.deliver`; the gantry ones at every table position, the x
-    axis on its FRF; DesignError when a tuned design fails it), exported and read back as runtimes; the figures shown
-    are those at x = 0."""
+def _design(twin, fit, frfs, xs, axis_frf, texts, policy, objective=None):
+    """Axis, MIMO and PID designs tuned under ``policy`` for ``objective`` (:func:`_tune`), each delivered with its
+    certificate on every FRF it was tuned on (:func:`feedtune.workflows.deliver.deliver`; the gantry ones at every
+    table position, the x axis on its FRF; DesignError when a tuned design fails it), exported and read back as
+    runtimes; the figures shown are those at x = 0."""
     from ..io.document import loads_document
     from ..machines import load_runtime
     from ..machines.certificate import FrfSource
     from .deliver import deliver
 
-    tuned = _tune(twin, fit, frfs, axis_frf, policy)
+    tuned = _tune(twin, fit, frfs, axis_frf, policy, objective)
     sources = [FrfSource.from_memory(f"frf_x{x:g}_frf.csv", f) for x, f in zip(xs, frfs, strict=True)]
     at0 = sources[list(xs).index(0.0)].name
     designs, runtimes = {}, {}
@@ -309,7 +314,8 @@ def _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, text
 
 def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO_XS,
                     tracking=("1mm_s", "200mm_s"), contour_feature: str = "200mm",
-                    shapes=("circle", "diamond"), keep_raw: bool = False, limits=None) -> GantryDemoResult:
+                    shapes=("circle", "diamond"), keep_raw: bool = False, limits=None,
+                    objective=None) -> GantryDemoResult:
     """Run the gantry job on the twin (see the module docstring); nothing is written.
 
     Parameters
@@ -334,6 +340,8 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
         by default only the FRF files, the mass and model files and the closed-loop test logs are kept.
     limits : Limits, optional
         The limits every controller is tuned under (default: textbook).
+    objective : str or Objective, optional
+        What every tuner maximises (:class:`feedtune.tune.search.Objective`, default ``stiffness``).
 
     Returns
     -------
@@ -355,6 +363,9 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     if 0.0 not in xs or len(set(xs)) < 3:
         raise UsageError(f"the demo needs >= 3 distinct table positions including 0, got {xs}")
     policy = limits or DEFAULT_LIMITS
+    from ..tune.gantry_cases import gantry_objective
+
+    objective = gantry_objective(objective)  # refused before the twin runs
     twin = GantryTwin(params)
     texts: dict = {}
     from .. import progress
@@ -364,7 +375,7 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     progress.step("identifying the gantry model (eq. 4.16) and the mass distribution")
     fit, mass, m_x = _identify(twin, xs, frfs, mass_logs, axis_log, texts)
     progress.step("tuning x-axis loop shaping, MIMO and PIDs under the same limits")
-    designs, runtimes = _design(twin, fit, frfs, xs, axis_frf, texts, policy)
+    designs, runtimes = _design(twin, fit, frfs, xs, axis_frf, texts, policy, objective)
     rows = [{"test": "design:", **{c: {k: designs[c][k] for k in ("crossover_hz", "ms")} for c in CONTROLLERS}}]
     progress.step("rope snap, tracking and contours on the twin")
     rows += _tests(twin, runtimes, seed, engine, tracking, contour_feature, shapes, texts)
