@@ -21,7 +21,13 @@ from typer.core import TyperGroup
 
 from .common import JSON_OPTION, fmt, fmt_length
 from .envelope import emit
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import QUANTITIES, choice
 from .limits_options import (
     DM_MIN_OPTION,
@@ -82,6 +88,7 @@ def analyze(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -104,7 +111,7 @@ def analyze(
     from .sampling_options import gains_sampling
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     doc = read_document(gains_file)
     measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = gains_sampling(doc, str(gains_file), [(frf, measured)], override=fs_override)
