@@ -12,8 +12,8 @@ then it puts every signal on one time base:
 4. the common base runs over the span every signal covers (the latest start to the earliest end), uniformly at
    ``fs`` [Hz] (default: the lowest rate among the logs, so that nothing is invented between samples);
 5. a signal sampled faster than the base is low-passed first (zero-phase 4th-order Butterworth at 0.4 times the
-   base rate, so the base's Nyquist band is not aliased), then every signal is interpolated linearly at the base's
-   time stamps (:func:`feedtune.log_resample.resample_signal`, the one home of this rule);
+   base rate, so the base's Nyquist band is not aliased), then every signal is interpolated (modified Akima cubic) at
+   the base's time stamps (:func:`feedtune.log_resample.resample_signal`, the one home of this rule);
 6. ``integrate[new] = name`` adds the running integral (trapezoidal, starting at 0) of a signal on the base, e.g.
    a position from a measured speed for the commands that need a position (unit: the speed's unit without
    ``/s``).

@@ -9,10 +9,11 @@ sample time. :func:`resample_log`:
 2. refuses a gap longer than ``max_gap`` median intervals (default :data:`MAX_GAP`): resampling across it would
    invent the samples in it;
 3. resamples every signal at ``fs`` (:func:`resample_signal`): when ``fs`` is below the log's median rate, the
-   signal is first interpolated linearly onto a uniform grid of at least twice the median rate that holds the target
-   instants, low-passed there without phase (4th-order Butterworth forward and backward at
-   :data:`ANTI_ALIAS_FRACTION` of ``fs``, so the new Nyquist band is not aliased) and then taken at the target
-   instants; otherwise it is interpolated linearly at them (nothing above the log's own rate is invented).
+   signal is first interpolated onto a uniform grid of at least twice the median rate that holds the target instants,
+   low-passed there without phase (4th-order Butterworth forward and backward at :data:`ANTI_ALIAS_FRACTION` of
+   ``fs``, so the new Nyquist band is not aliased) and then taken at the target instants; otherwise it is
+   interpolated at them (nothing above the log's own rate is invented). The interpolation is the modified Akima
+   cubic (:func:`_interpolate`): close for smooth signals, no overshoot at a step.
 
 The same rule puts the logs of :func:`feedtune.log_merge.merge_logs` on their common base.
 """
@@ -118,6 +119,17 @@ def _lowpass(x: np.ndarray, fs_grid: float, cutoff_hz: float, where: str) -> np.
     return sps.sosfiltfilt(sos, x)
 
 
+def _interpolate(t: np.ndarray, x: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """``x`` at the instants ``at`` (inside ``t[0]..t[-1]``) by the modified Akima cubic (makima): local, exact for
+    lines and close for smooth signals (a 3 Hz sine sampled every 4.6-9.6 ms: 7e-4 of its amplitude, where linear
+    interpolation is 4e-3 off), and without the overshoot of a spline at a step (a command switched on)."""
+    from scipy.interpolate import Akima1DInterpolator
+
+    if t.size < 3:
+        return np.interp(at, t, x)
+    return Akima1DInterpolator(t, x, method="makima")(np.clip(at, t[0], t[-1]))
+
+
 def resample_signal(t: np.ndarray, x: np.ndarray, t_out: np.ndarray, fs: float, where: str = "signal") -> np.ndarray:
     """One signal taken at the uniform instants ``t_out`` (rate ``fs`` [Hz]) from samples at ``t``, anti-aliased
     (module docstring, step 3).
@@ -142,15 +154,15 @@ def resample_signal(t: np.ndarray, x: np.ndarray, t_out: np.ndarray, fs: float, 
     d = np.diff(t)
     rate = 1.0 / float(np.median(d))
     if rate <= fs * 1.001:
-        return np.interp(t_out, t, x)
+        return _interpolate(t, x, t_out)
     if np.all(np.abs(d - d.mean()) <= 1e-3 * d.mean()):  # uniform: low-pass on its own grid
-        return np.interp(t_out, t, _lowpass(x, 1.0 / d.mean(), ANTI_ALIAS_FRACTION * fs, where))
+        return _interpolate(t, _lowpass(x, 1.0 / d.mean(), ANTI_ALIAS_FRACTION * fs, where), t_out)
     k = max(1, math.ceil(2.0 * rate / fs))
     grid_fs = k * fs
     n_before = math.floor((t_out[0] - t[0]) * grid_fs + 1e-9)
     n_after = math.floor((t[-1] - t_out[-1]) * grid_fs + 1e-9)
     grid = t_out[0] + np.arange(-n_before, (t_out.size - 1) * k + n_after + 1) / grid_fs
-    fine = _lowpass(np.interp(grid, t, x), grid_fs, ANTI_ALIAS_FRACTION * fs, where)
+    fine = _lowpass(_interpolate(t, x, grid), grid_fs, ANTI_ALIAS_FRACTION * fs, where)
     return fine[n_before::k][: t_out.size]
 
 
@@ -210,6 +222,6 @@ def resample_log(log: Log, fs: float | None = None, *, max_gap: float = MAX_GAP)
     signals = {k: resample_signal(log.t, x, t_out, fs, f"{log.source}: {k}") for k, x in log.signals.items()}
     low = "" if report.median_rate_hz <= fs * 1.001 else \
         f", low-passed at {ANTI_ALIAS_FRACTION * fs:.4g} Hz (Butterworth {FILTER_ORDER}, zero phase)"
-    record = f"resampled to {fs:g} Hz by linear interpolation{low}"
+    record = f"resampled to {fs:g} Hz by Akima interpolation{low}"
     meta = {**log.meta, "resample": record, "time_base_report": str(report), "fs_hz": float(fs)}
     return replace(log, t=t_out, signals=signals, meta=meta)

@@ -103,6 +103,16 @@ def fmt_length(x_m, digits: int = 4) -> str:
     return fmt(x_m * 1e3, "mm", digits) if size < 1 else fmt(x_m, "m", digits)
 
 
+def fmt_angle(x_rad, digits: int = 4) -> str:
+    """An angle [rad] in urad, mrad or rad, whichever shows it without a power of ten: ``15.12 urad``."""
+    if x_rad is None:
+        return "-"
+    size = abs(x_rad)
+    if size < 1e-3:
+        return fmt(x_rad * 1e6, "urad", digits)
+    return fmt(x_rad * 1e3, "mrad", digits) if size < 1 else fmt(x_rad, "rad", digits)
+
+
 def check_distinct_outputs(*named) -> None:
     """Refuse (UsageError) two output options naming the same file: ``named`` holds ``(option, path)`` pairs."""
     from pathlib import Path

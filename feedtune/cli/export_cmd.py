@@ -23,6 +23,24 @@ from .progress_display import QUIET_OPTION, show_progress
 app = typer.Typer(rich_markup_mode="rich", help="Export gains files for real-time targets.", no_args_is_help=True)
 
 
+def scale_factor_option(text: str | None) -> float | None:
+    """``--scale-out``: a number or a ratio ``A/B`` (``1/35.15065``), finite and non-zero; UsageError otherwise."""
+    import math
+
+    from ..errors import UsageError
+
+    if text is None:
+        return None
+    num, sep, den = str(text).partition("/")
+    try:
+        value = float(num) / float(den) if sep else float(num)
+    except (ValueError, ZeroDivisionError):
+        raise UsageError(f"--scale-out expects a number or a ratio A/B (e.g. 1/35.15065), got {text!r}") from None
+    if not math.isfinite(value) or value == 0:
+        raise UsageError(f"--scale-out expects a finite non-zero factor, got {text!r}")
+    return value
+
+
 @app.command("c")
 def export_c(
     gains_file: Path = typer.Argument(
@@ -39,6 +57,15 @@ def export_c(
         None, "--u-max", metavar="U",
         help="Output limit in the command unit of the file: every command is clamped to +-U_MAX. Default: no limit "
              "(said in the header).",
+    ),
+    scale_out: str = typer.Option(
+        None, "--scale-out", metavar="FACTOR",
+        help="Multiply every command by FACTOR [drive unit per command unit of the file], a number or a ratio A/B, "
+             "so that the header outputs the drive's unit, e.g. 1/35.15065 for a design in N on a drive taking V at "
+             "35.15 N/V; --u-max is then in the drive's unit.",
+    ),
+    out_unit: str = typer.Option(
+        None, "--out-unit", metavar="UNIT", help="The drive's unit of the scaled command (with --scale-out), e.g. V.",
     ),
     anti_windup: str = typer.Option("none", "--anti-windup", **choice(ANTI_WINDUP),
                                     help="clamp: an integrator stops integrating while its command sits at --u-max "
@@ -78,8 +105,9 @@ def export_c(
     target = out or gains_file.with_suffix(".h")
     ensure_writable(target, force)
     doc = read_document(gains_file)
+    scaling = {"scale_out": scale_factor_option(scale_out), "out_unit": out_unit}
     c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup,
-             precision=precision)  # options, document
+             precision=precision, **scaling)  # options, document
     check, case = check_analysis(analyze_gains(doc, str(gains_file)).analysis, policy)
     warning = None
     if not check.ok:
@@ -91,13 +119,14 @@ def export_c(
 
         warn(f"{msg} (exported because of --allow-unstable)")
     text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning,
-                    precision=precision)
+                    precision=precision, **scaling)
     atomic_write_text(target, text, force=force)
     if as_json:
         from .envelope import emit
 
         emit({"gains_kind": doc.get("kind"), "out": str(target), "prefix": prefix,
               "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup, "precision": precision,
+              **scaling,
               "check": {"checked_case": case, **check.to_dict()}})
     else:
         typer.echo(f"wrote {target}")

@@ -86,7 +86,7 @@ def _print(result: dict) -> None:
         acc = s["max_accel"] * scale
         acc_text = f"{round(acc / 100) * 100:.0f} {length}/s^2" if length == "mm" else f"{fmt(acc)} {length}/s^2"
         file = s.get("file")
-        col = (f"{file['column']} ({100 * (file['freq_ratio'] - 1):+.1f} %)" if file else "-")
+        col = (f"{file['column']} ({round(100 * (file['freq_ratio'] - 1), 1) + 0.0:+.1f} %)" if file else "-")
         typer.echo(f"  {s['kind']:9s} {s['freq_hz']:6.1f} Hz {100 * s['vibrations']:9.1f} % "
                    f"{s['smoothing_m'] * scale:9.3g} {length} {acc_text:>16s}   {col}")
     typer.echo(f"  recommended: {result['recommended']} (Klipper's rule: a lower score by 20 %, or by 5 % with 10 % "

@@ -109,8 +109,8 @@ def merge(
     Put several logs on one uniform time base: shift, offset, scale, anti-alias and resample, integrate.
 
     Order per signal: shift, offset, scale; then low-pass the signals faster than the base (zero-phase, 0.4 x the
-    base rate), interpolate linearly, integrate. A DAQ log and an amplifier trace: feedtune log merge daq.csv amp.csv
-    --shift f=0.004 --offset f=mean:10 --scale f=-200 --unit f=N --integrate x=v --out merged.csv"""
+    base rate), interpolate (modified Akima cubic), integrate. A DAQ log and an amplifier trace: feedtune log merge
+    daq.csv amp.csv --shift f=0.004 --offset f=mean:10 --scale f=-200 --unit f=N --integrate x=v --out merged.csv"""
     show_progress(quiet)
     from ..errors import UsageError
     from ..io import read_log, write_log_csv
@@ -168,7 +168,8 @@ def resample(
 
     Report how irregular the log's time stamps are (smallest, largest and median interval, jitter, largest gap),
     refuse gaps longer than --max-gap median intervals, low-pass (zero phase, 0.4 x the new rate) when the new rate
-    is below the log's, and interpolate at uniform instants: what 'feedtune frf' and 'identify rigid' need."""
+    is below the log's, and interpolate (modified Akima cubic) at uniform instants: what 'feedtune frf' and
+    'identify rigid' need."""
     show_progress(quiet)
     from ..errors import UsageError
     from ..io import write_log_csv
