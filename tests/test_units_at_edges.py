@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
-from c_compile import compile_c
 from cli_run import run
+from test_export_c_kinds import BALLSCREW_MAIN, _run_c
 
 from feedtune.control.filters import FilterPack, Notch
 from feedtune.design.mcppc import design_mcppc
@@ -28,26 +27,10 @@ from feedtune.models import THESIS_TABLE_3_1
 
 GCC = shutil.which("gcc")
 BALLSCREW = gains_document(design_mcppc(THESIS_TABLE_3_1, filters=FilterPack([Notch(420.0, 0.55, 0.7)], 2000.0)))
-MAIN = r"""
-#include <stdio.h>
-#include "gains.h"
-int main(void) {
-    ft_state s; ft_init(&s);
-    double r, x1, x2;
-    while (scanf("%lf %lf %lf", &r, &x1, &x2) == 3) printf("%.17g\n", ft_step(&s, r, x1, x2));
-    return 0;
-}
-"""
 
 
 def _run(tmp_path, header: str, inputs: np.ndarray) -> np.ndarray:
-    (tmp_path / "gains.h").write_text(header)
-    (tmp_path / "main.c").write_text(MAIN)
-    exe = tmp_path / "prog"
-    compile_c(GCC, tmp_path / "main.c", exe, opt="-O2")
-    text = "\n".join(" ".join(repr(float(v)) for v in row) for row in inputs) + "\n"
-    res = subprocess.run([str(exe)], input=text, check=True, capture_output=True, text=True)
-    return np.array([float(v) for v in res.stdout.split()])
+    return _run_c(tmp_path, header, BALLSCREW_MAIN, inputs)[:, 0]
 
 
 @pytest.mark.skipif(GCC is None, reason="gcc not installed")

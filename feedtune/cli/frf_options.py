@@ -31,7 +31,6 @@ single-channel files none of which is named (:func:`check_named_channels`): they
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from dataclasses import dataclass
@@ -126,15 +125,9 @@ class FrfReadOptions:
 
 def _factor(text: str, where: str) -> float:
     """A finite non-zero number, else a UsageError naming ``where``."""
-    from ..errors import UsageError
+    from .log_options import factor_value
 
-    try:
-        value = float(text)
-    except ValueError:
-        raise UsageError(f"{where}: FACTOR must be a number") from None
-    if not math.isfinite(value) or value == 0:
-        raise UsageError(f"{where}: FACTOR must be finite and non-zero")
-    return value
+    return factor_value(text, where)
 
 
 def _unit(text: str, where: str) -> str:

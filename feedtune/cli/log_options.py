@@ -146,14 +146,19 @@ def parse_assignments(items: list[str] | None, option: str, value_name: str) -> 
 
 def scale_factor(name: str, text: str) -> float:
     """The FACTOR of ``--scale NAME=FACTOR``: a finite non-zero number (UsageError otherwise)."""
+    return factor_value(text, f"--scale {name}={text}")
+
+
+def factor_value(text: str, where: str) -> float:
+    """A FACTOR of an option: a finite non-zero number, else a UsageError naming ``where`` (``--scale u=abc``)."""
     from ..errors import UsageError
 
     try:
         value = float(text)
     except ValueError:
-        raise UsageError(f"--scale {name}={text}: FACTOR must be a number") from None
+        raise UsageError(f"{where}: FACTOR must be a number") from None
     if not math.isfinite(value) or value == 0:
-        raise UsageError(f"--scale {name}={text}: FACTOR must be finite and non-zero")
+        raise UsageError(f"{where}: FACTOR must be finite and non-zero")
     return value
 
 
