@@ -30,6 +30,15 @@ FRFs of the linear-motor T-gantry twin (``feedtune simulate gantry frf``, docs/g
 (u1, u2) -> (y1, y2) [m/V] with the table at x = -0.3, 0 and 0.3 m, for ``feedtune identify gantry`` and
 ``feedtune tune gantry``.
 
+Vendor files (``vendor/``; the others there are written by hand):
+
+* ``vendor/motor_bode.csv``, ``vendor/load_bode.csv`` -- ``vendor/two_channels.csv`` as a drive's analyser writes
+  it, one Bode file per encoder (``Frequency [Hz],Magnitude [dB],Phase [deg],Coherence``; the load encoder counts
+  the other way), for ``feedtune frf merge`` and the ``FILE:OUT/IN`` pieces.
+* ``vendor/auto_servo_tuning.xml`` -- an auto-servo-tuning export built from the format facts
+  (:mod:`feedtune.io.servo_tuning_xml`): the speed-loop plant of the example ball screw (motor speed over the
+  command, 400 lines, with its coherence) and an original and a tuned speed controller, for ``feedtune frf info``.
+
 The twin files need the ``feedtune`` of this checkout (run through ``python -m feedtune``); the whole run takes
 about 20 s. A file whose content is unchanged is left as it is (a MATLAB file's header carries its creation
 time), so regenerating leaves ``git status`` clean.
@@ -160,10 +169,10 @@ def settle(new: Path, dest: Path) -> None:
     """Move ``new`` to ``dest`` unless ``dest`` already holds the same content; say which."""
     if same_content(new, dest):
         new.unlink()
-        print(f"unchanged examples/{dest.name} ({dest.stat().st_size / 1000:.0f} kB)")
+        print(f"unchanged {dest.relative_to(HERE.parent)} ({dest.stat().st_size / 1000:.0f} kB)")
         return
     os.replace(new, dest)
-    print(f"wrote examples/{dest.name} ({dest.stat().st_size / 1000:.0f} kB)")
+    print(f"wrote {dest.relative_to(HERE.parent)} ({dest.stat().st_size / 1000:.0f} kB)")
 
 
 def put_frf(frf: Frf, name: str, tmp: Path) -> None:
@@ -252,6 +261,41 @@ def gantry_frfs(tmp: Path) -> None:
         put_frf(rounded_frf(replace(frf, meta=meta), 8), f"gantry_frf_x{x}.csv", tmp)
 
 
+# ------------------------------------------------------------------------------------------ vendor files
+def vendor_bode_files(tmp: Path) -> None:
+    """``vendor/two_channels.csv`` split into one Bode file per encoder, cells copied as they are."""
+    lines = (HERE / "vendor" / "two_channels.csv").read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(",")
+    for name, prefix in (("motor_bode.csv", "Motor"), ("load_bode.csv", "Load")):
+        cols = [0] + [header.index(f"{prefix} {what}") for what in ("Mag [dB]", "Phase [deg]", "Coherence")]
+        rows = ["Frequency [Hz],Magnitude [dB],Phase [deg],Coherence"]
+        rows += [",".join(line.split(",")[j] for j in cols) for line in lines[1:]]
+        staged = tmp / f"staged_{name}"
+        staged.write_text("\n".join(rows) + "\n", encoding="utf-8")
+        settle(staged, HERE / "vendor" / name)
+
+
+def servo_tuning_export(tmp: Path) -> None:
+    """The example ball screw's speed-loop plant and two speed controllers as an auto-servo-tuning XML export."""
+    from feedtune.control.drive_tuning import (
+        DriveSpeedTuning,
+        Pt1Filter,
+        Pt2Filter,
+        SecondOrderFilter,
+        SpeedController,
+    )
+    from feedtune.io.servo_tuning_xml import servo_tuning_xml
+
+    frf = example_frf(seed=25, lines=400, source="auto-servo-tuning example").as_quantity("velocity")
+    original = SpeedController(0.8, 0.010, (Pt1Filter(1.0e-4), SecondOrderFilter(420.0, 0.05, 420.0, 0.5, False)))
+    tuned = SpeedController(1.2, 0.006, (SecondOrderFilter(440.0, 0.03, 440.0, 0.3), Pt2Filter(2000.0, 0.7)))
+    data = servo_tuning_xml(frf.freq_hz, significant(frf.channel("x1/u"), 8), DriveSpeedTuning(original, tuned, 125e-6),
+                            significant(frf.channel_coherence("x1/u"), 6))
+    staged = tmp / "staged_auto_servo_tuning.xml"
+    staged.write_bytes(data)
+    settle(staged, HERE / "vendor" / "auto_servo_tuning.xml")
+
+
 def main() -> None:
     with tempfile.TemporaryDirectory(prefix="feedtune_examples_") as name:
         tmp = Path(name)
@@ -260,6 +304,8 @@ def main() -> None:
             put_frf(frf, f"ballscrew_frf.{ext}", tmp)
         for factor, tag, seed in FAMILY:
             put_frf(family_frf(factor, seed), f"ballscrew_frf_{tag}.csv", tmp)
+        vendor_bode_files(tmp)
+        servo_tuning_export(tmp)
         twin_logs(tmp)
         gantry_frfs(tmp)
 

@@ -36,15 +36,19 @@ class FeedtuneError(Exception):
     parameter : str or sequence of str, optional
         The library parameter(s) the message is about, spelled as in the message (``"lpf_hz"``,
         ``"filters.notches"``); the first is :attr:`parameter`, all are :attr:`parameters`.
+    cli : str, optional
+        The message as the command line prints it where its advice is a different step there (a command instead
+        of a function), as for :class:`Notice`.
     """
 
     exit_code = 1
 
-    def __init__(self, *args: object, parameter: str | Iterable[str] | None = None) -> None:
+    def __init__(self, *args: object, parameter: str | Iterable[str] | None = None, cli: str | None = None) -> None:
         super().__init__(*args)
         names = (parameter,) if isinstance(parameter, str) else tuple(parameter or ())
         self.parameters: tuple[str, ...] = tuple(str(n) for n in names)
         self.parameter: str | None = self.parameters[0] if self.parameters else None
+        self.cli = cli
 
 
 class DataError(FeedtuneError, ValueError):

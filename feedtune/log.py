@@ -85,6 +85,19 @@ class Log:
         d = np.diff(self.t)
         return bool(np.all(np.abs(d - self.dt) <= rtol * self.dt))
 
+    def check_uniform(self, purpose: str, rtol: float = 1e-3) -> float:
+        """The sample time [s] of a uniformly sampled log; a :class:`DataError` naming ``purpose``, the intervals
+        found and the resampler (:func:`feedtune.log_resample.resample_log`, ``feedtune log resample`` on the
+        command line) when the intervals differ by more than ``rtol`` of their mean."""
+        if self.is_uniform(rtol):
+            return self.dt
+        d = np.diff(self.t)
+        found = (f"{purpose} needs a uniform time base and this one is not uniform (sample intervals "
+                 f"{d.min() * 1e3:.4g}-{d.max() * 1e3:.4g} ms, median {np.median(d) * 1e3:.4g} ms)")
+        raise DataError(f"{self.source}: {found}; resample the log first (feedtune.log_resample.resample_log)",
+                        cli=f"{self.source}: {found}; resample the log first: feedtune log resample {self.source} "
+                            "--fs HZ --out FILE.csv")
+
     def __contains__(self, name: str) -> bool:
         return name in self.signals
 

@@ -12,8 +12,8 @@ then it puts every signal on one time base:
 4. the common base runs over the span every signal covers (the latest start to the earliest end), uniformly at
    ``fs`` [Hz] (default: the lowest rate among the logs, so that nothing is invented between samples);
 5. a signal sampled faster than the base is low-passed first (zero-phase 4th-order Butterworth at 0.4 times the
-   base rate, so the base's Nyquist band is not aliased), then every signal is interpolated linearly at the base's
-   time stamps;
+   base rate, so the base's Nyquist band is not aliased), then every signal is interpolated (modified Akima cubic) at
+   the base's time stamps (:func:`feedtune.log_resample.resample_signal`, the one home of this rule);
 6. ``integrate[new] = name`` adds the running integral (trapezoidal, starting at 0) of a signal on the base, e.g.
    a position from a measured speed for the commands that need a position (unit: the speed's unit without
    ``/s``).
@@ -28,9 +28,9 @@ import numpy as np
 
 from .errors import DataError, UsageError
 from .log import Log
+from .log_resample import ANTI_ALIAS_FRACTION, resample_signal, uniform_instants
 
-ANTI_ALIAS_FRACTION = 0.4
-"""Cut-off of the anti-alias low-pass as a fraction of the common base's sample rate [-]."""
+__all__ = ["ANTI_ALIAS_FRACTION", "merge_logs"]
 
 
 @dataclass(frozen=True)
@@ -85,19 +85,6 @@ def _collect(logs: Sequence[Log], shift_s: Mapping[str, float]) -> list[_Signal]
     return list(signals.values())
 
 
-def _resample(sig: _Signal, t: np.ndarray, fs: float) -> np.ndarray:
-    x = sig.x
-    if sig.fs > fs * 1.001:
-        from scipy import signal as sps
-
-        sos = sps.butter(4, ANTI_ALIAS_FRACTION * fs, fs=sig.fs, output="sos")
-        if x.size <= 3 * 2 * (sos.shape[0] + 1):
-            raise DataError(f"{sig.source}: signal {sig.name!r} is too short ({x.size} samples) to low-pass before "
-                            "resampling")
-        x = sps.sosfiltfilt(sos, x)
-    return np.interp(t, sig.t, x)
-
-
 def merge_logs(logs: Sequence[Log], *, fs: float | None = None, shift_s: Mapping[str, float] | None = None,
                offset: Mapping[str, float | str] | None = None, scale: Mapping[str, float] | None = None,
                units: Mapping[str, str] | None = None, integrate: Mapping[str, str] | None = None) -> Log:
@@ -150,7 +137,7 @@ def merge_logs(logs: Sequence[Log], *, fs: float | None = None, shift_s: Mapping
     if end - start < 2.0 / rate:
         spans = "; ".join(f"{s.name} {s.t[0]:.6g}-{s.t[-1]:.6g} s" for s in sigs)
         raise DataError(f"the logs do not overlap in time after the shifts ({spans})")
-    t = start + np.arange(int(np.floor((end - start) * rate * (1 + 1e-12))) + 1) / rate
+    t = uniform_instants(start, end, rate)
     out: dict[str, np.ndarray] = {}
     out_units: dict[str, str] = {}
     steps: dict[str, str] = {}
@@ -166,7 +153,7 @@ def merge_logs(logs: Sequence[Log], *, fs: float | None = None, shift_s: Mapping
         if s.name in scale:
             x = x * float(scale[s.name])
             done.append(f"scaled by {float(scale[s.name]):g}")
-        out[s.name] = _resample(_with_samples(s, x), t, rate)
+        out[s.name] = resample_signal(s.t, x, t, rate, f"{s.source}: signal {s.name!r}")
         keeps_unit = s.name not in scale or abs(float(scale[s.name])) == 1.0  # a sign flip keeps the unit
         out_units[s.name] = units.get(s.name, s.unit if keeps_unit else "")
         done.append(f"from {s.fs:.6g} Hz ({s.source})")
@@ -184,7 +171,3 @@ def merge_logs(logs: Sequence[Log], *, fs: float | None = None, shift_s: Mapping
     meta = {"source": f"merged: {source}", "merge": steps, "fs_hz": rate}
     return Log(t, out, out_units, meta)
 
-
-def _with_samples(sig: _Signal, x: np.ndarray) -> _Signal:
-    """``sig`` with its samples replaced."""
-    return _Signal(sig.name, sig.t, x, sig.unit, sig.fs, sig.source)

@@ -11,12 +11,15 @@ command line and the report generator give identical numbers:
   :class:`~feedtune.analysis.metrics.RopeSnapMetrics`.
 
 Lengths are in metres [m], times in seconds [s]; a signal in another unit is a :class:`DataError` that
-tells how to convert it (``--scale NAME=FACTOR --unit NAME=m``).
+tells how to convert it (``--scale NAME=FACTOR --unit NAME=m``). With ``angular=True`` (the command line's
+``analyze track``) a tracking log of a rotary axis in rad (or mrad, urad) is read as it is: its metrics are in rad
+(:attr:`~feedtune.analysis.metrics.TrackingMetrics.unit`).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -35,6 +38,8 @@ _ACCELERATION_NAME = "a_ref"
 _RELEASE_META_KEY = "t_release_s"
 #: Units accepted for a length (an empty unit is taken as metres).
 _LENGTH_UNITS = ("m", "")
+#: Angle units of a rotary axis' log and their factor to rad (``angular=True``).
+_ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "μrad": 1e-6}
 #: Trajectory derivative names that are never a measured position.
 _REFERENCE_DERIVATIVES = ("v_ref", "a_ref", "j_ref", "s_ref")
 
@@ -49,21 +54,34 @@ def _length_signal(log: Log, name: str, role: str) -> np.ndarray:
     return x
 
 
-def _position_candidates(log: Log, exclude: set[str]) -> list[str]:
-    """Signals in m that can be a measured table position (not references, errors or derivatives)."""
-    return [name for name, unit in log.units.items()
-            if unit == "m" and name not in exclude and name not in _REFERENCE_DERIVATIVES
+def _tracking_signal(log: Log, name: str, role: str, angular: bool) -> tuple[np.ndarray, str]:
+    """Signal ``name`` in m (or, ``angular``, in rad) and that unit; a DataError naming its unit otherwise."""
+    unit = log.unit(name)
+    if angular and unit in _ANGLE_UNITS:
+        return log.get(name) * _ANGLE_UNITS[unit], "rad"
+    if angular and unit not in _LENGTH_UNITS:
+        raise DataError(f"{log.source}: {role} {name!r} is in {unit!r}, expected m or rad; convert it with "
+                        f"scale={name}=FACTOR units={name}=m", parameter=("read_log.scale", "read_log.units"))
+    return _length_signal(log, name, role), "m"
+
+
+def _position_candidates(log: Log, exclude: set[str], unit: str = "m") -> list[str]:
+    """Signals in ``unit`` that can be a measured table position (not references, errors or derivatives)."""
+    units = (unit,) if unit == "m" else tuple(_ANGLE_UNITS)
+    return [name for name, u in log.units.items()
+            if u in units and name not in exclude and name not in _REFERENCE_DERIVATIVES
             and not name.endswith("_ref") and name != _ERROR_NAME]
 
 
-def pick_position(log: Log, position: str | None, exclude: set[str]) -> str:
-    """The position column: ``position``, else ``x2_table``, else the single other column in m."""
+def pick_position(log: Log, position: str | None, exclude: set[str], unit: str = "m") -> str:
+    """The position column: ``position``, else ``x2_table``, else the single other column in ``unit`` (m, or rad
+    for a rotary axis)."""
     if position is not None:
         log.get(position)
         return position
     if _TABLE_POSITION_NAME in log:
         return _TABLE_POSITION_NAME
-    candidates = _position_candidates(log, exclude)
+    candidates = _position_candidates(log, exclude, unit)
     if len(candidates) == 1:
         return candidates[0]
     if not candidates:
@@ -79,7 +97,7 @@ def _check_name(value: str | None, name: str) -> None:
         raise UsageError(f"{name}: expected a signal name, got {value!r}")
 
 
-def _commanded_motion(log: Log, reference: str) -> tuple[np.ndarray | None, np.ndarray | None]:
+def _commanded_motion(log: Log, reference: str, angular: bool = False) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Commanded velocity [m/s] and acceleration [m/s^2]: logged, else derived from the reference.
 
     The logged names follow the reference: ``v_ref``/``a_ref`` for ``x_ref``, ``vy_ref``/``ay_ref`` for
@@ -92,14 +110,15 @@ def _commanded_motion(log: Log, reference: str) -> tuple[np.ndarray | None, np.n
     vel = log.get(names[0]) if names[0] in log else None
     acc = log.get(names[1]) if names[1] in log else None
     if vel is None and reference in log:
-        vel = np.gradient(_length_signal(log, reference, "reference"), log.t)
+        vel = np.gradient(_tracking_signal(log, reference, "reference", angular)[0], log.t)
     if acc is None and vel is not None:
         acc = np.gradient(vel, log.t)
     return vel, acc
 
 
 def analyze_tracking_log(
-    log: Log, *, error: str | None = None, reference: str = "x_ref", position: str | None = None
+    log: Log, *, error: str | None = None, reference: str = "x_ref", position: str | None = None,
+    angular: bool = False,
 ) -> TrackingMetrics:
     """Tracking-error metrics of a log (thesis Table 3.2, §4.5).
 
@@ -114,11 +133,14 @@ def analyze_tracking_log(
         Commanded table position [m] (default ``x_ref``).
     position : str, optional
         Measured table position [m]. Default ``x2_table``, else the only other signal in m.
+    angular : bool
+        Also accept signals in rad, mrad or urad (a rotary axis); the error, reference and position then share one
+        of m and rad, and the metrics are in it.
 
     Returns
     -------
     TrackingMetrics
-        Max and RMS error [m] over the whole run, the constant-velocity and acceleration parts (from
+        Max and RMS error [m, or rad: ``unit``] over the whole run, the constant-velocity and acceleration parts (from
         ``v_ref``/``a_ref`` when logged, else from derivatives of the reference; None when the log has
         neither), and the error amplitude spectrum [m] with its peaks (only for uniform sampling).
 
@@ -131,18 +153,23 @@ def analyze_tracking_log(
     _check_name(reference, "reference")
     _check_name(position, "position")
     if error is not None:
-        e = _length_signal(log, error, "error")
+        e, unit = _tracking_signal(log, error, "error", angular)
     elif position is None and _ERROR_NAME in log:
-        e = _length_signal(log, _ERROR_NAME, "error")
+        e, unit = _tracking_signal(log, _ERROR_NAME, "error", angular)
     else:
         if reference not in log:
             raise DataError(f"{log.source}: no tracking error {_ERROR_NAME!r} and no reference {reference!r}; "
                             f"signals: {', '.join(log.signals) or 'none'} (name them with error=, or "
                             "reference= and position=)", parameter=("error", "reference", "position"))
-        pos_name = pick_position(log, position, {reference})
-        e = _length_signal(log, reference, "reference") - _length_signal(log, pos_name, "position")
-    vel, acc = _commanded_motion(log, reference)
-    return tracking_metrics(log.t, e, vel=vel, acc=acc, spectrum=log.is_uniform())
+        ref, unit = _tracking_signal(log, reference, "reference", angular)
+        pos, pos_unit = _tracking_signal(log, pick_position(log, position, {reference}, unit), "position", angular)
+        if pos_unit != unit:
+            raise DataError(f"{log.source}: the reference {reference!r} is in {unit} and the position in {pos_unit}; "
+                            "give both in one unit", parameter="read_log.units")
+        e = ref - pos
+    vel, acc = _commanded_motion(log, reference, angular)
+    metrics = tracking_metrics(log.t, e, vel=vel, acc=acc, spectrum=log.is_uniform())
+    return metrics if unit == "m" else replace(metrics, unit=unit)
 
 
 def _release_from_meta(log: Log) -> float | None:

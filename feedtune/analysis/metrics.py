@@ -87,6 +87,9 @@ class TrackingMetrics:
         amplitude A on a frequency line reads A.
     peaks : tuple of SpectrumPeak
         Dominant spectrum peaks, largest first (level = amplitude [m]).
+    unit : str
+        Unit of the errors and amplitudes: ``m``, or ``rad`` for a rotary axis (the ``_m`` keys of :meth:`to_dict`
+        then hold rad).
     """
 
     overall: ErrorStats
@@ -95,6 +98,7 @@ class TrackingMetrics:
     freq_hz: np.ndarray | None
     amplitude: np.ndarray | None
     peaks: tuple[SpectrumPeak, ...]
+    unit: str = "m"
 
     def to_dict(self, include_spectrum: bool = False) -> dict:
         """JSON-ready dictionary; the full spectrum only with ``include_spectrum=True``."""

@@ -19,10 +19,16 @@ from pathlib import Path
 import typer
 from typer.core import TyperGroup
 
-from .common import JSON_OPTION, fmt, fmt_length
+from .common import JSON_OPTION, fmt, fmt_angle, fmt_length
 from .design_cmd import QUANTITY_OPTION
 from .envelope import emit
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .limits_options import (
     DM_MIN_OPTION,
     GM_LOW_MIN_OPTION,
@@ -83,6 +89,7 @@ def analyze(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -108,7 +115,7 @@ def analyze(
     from .sampling_options import gains_sampling
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     doc = read_document(gains_file)
     sources = read_sources(list(frf or []), quantity, frf_options)
     measured = sources[0].frf if sources else None
@@ -127,8 +134,9 @@ def log_result(log_path: Path, kind: str, metrics) -> dict:
     """The results of ``analyze track|ropesnap``: log, kind, metrics (no spectrum), units (``--json`` prints them in
     the envelope, whose ``kind`` is ``analyze.track`` or ``analyze.ropesnap``)."""
     units = TRACK_UNITS if kind == "track" else ROPESNAP_UNITS
+    unit = getattr(metrics, "unit", "m")  # a rotary axis' tracking log: rad in the keys that end in _m
     return {"log": str(log_path), "kind": kind, "metrics": metrics.to_dict(include_spectrum=False),
-            "units": dict(units)}
+            "units": {k: (unit if v == "m" else v) for k, v in units.items()}}
 
 
 def _um(x: float | None) -> str:
@@ -138,6 +146,7 @@ def _um(x: float | None) -> str:
 
 def _print_track(result: dict) -> None:
     m = result["metrics"]
+    _um = fmt_angle if result["units"]["max_m"] == "rad" else fmt_length
     typer.echo(f"Tracking error of {result['log']}:")
     for label, key in (("whole run", "overall"), ("constant velocity", "constant_velocity"),
                        ("acceleration", "acceleration")):
@@ -170,15 +179,15 @@ def track(
     ),
     error: str = typer.Option(
         None, "--error", metavar="COLUMN",
-        help="Tracking-error column [m] (default e2 when present).",
+        help="Tracking-error column [m, or rad for a rotary axis] (default e2 when present).",
     ),
     reference: str = typer.Option(
         "x_ref", "--reference", metavar="COLUMN",
-        help="Commanded table position column [m].",
+        help="Commanded position column [m or rad].",
     ),
     position: str = typer.Option(
         None, "--position", metavar="COLUMN",
-        help="Measured table position column [m] (default x2_table).",
+        help="Measured position column [m or rad] (default x2_table).",
     ),
     map_: list[str] = MAP_OPTION,
     fs: float = FS_OPTION,
@@ -197,7 +206,7 @@ def track(
     from .log_options import read_log_with_options
 
     log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
-    metrics = analyze_tracking_log(log, error=error, reference=reference, position=position)
+    metrics = analyze_tracking_log(log, error=error, reference=reference, position=position, angular=True)
     result = log_result(log_file, "track", metrics)
     if as_json:
         emit(result)

@@ -95,12 +95,22 @@ def fmt_band(lo, hi) -> str:
 
 def fmt_length(x_m, digits: int = 4) -> str:
     """A length [m] in um, mm or m, whichever shows it without a power of ten: ``15.12 um``, ``99.95 mm``."""
-    if x_m is None:
+    return _fmt_milli_micro(x_m, "m", digits)
+
+
+def _fmt_milli_micro(x, unit: str, digits: int) -> str:
+    """``x`` [unit] in u-unit, m-unit or unit, whichever shows it without a power of ten."""
+    if x is None:
         return "-"
-    size = abs(x_m)
+    size = abs(x)
     if size < 1e-3:
-        return fmt(x_m * 1e6, "um", digits)
-    return fmt(x_m * 1e3, "mm", digits) if size < 1 else fmt(x_m, "m", digits)
+        return fmt(x * 1e6, f"u{unit}", digits)
+    return fmt(x * 1e3, f"m{unit}", digits) if size < 1 else fmt(x, unit, digits)
+
+
+def fmt_angle(x_rad, digits: int = 4) -> str:
+    """An angle [rad] in urad, mrad or rad, whichever shows it without a power of ten: ``15.12 urad``."""
+    return _fmt_milli_micro(x_rad, "rad", digits)
 
 
 def check_distinct_outputs(*named) -> None:

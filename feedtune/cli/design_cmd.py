@@ -7,7 +7,13 @@ from pathlib import Path
 import typer
 
 from .common import FORCE_OPTION, JSON_OPTION
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import QUANTITIES, choice
 from .limits_options import (
     DM_MIN_OPTION,
@@ -145,6 +151,7 @@ def ppc(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -169,7 +176,7 @@ def ppc(
     from .frf_options import FrfReadOptions, read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
     _check_out(out, force)
@@ -223,6 +230,7 @@ def ppi(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     out: Path = OUT_OPTION,
     friction: Path = FRICTION_OPTION,
     friction_band: float = FRICTION_BAND_OPTION,
@@ -241,7 +249,7 @@ def ppi(
     from .frf_options import FrfReadOptions, read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
     _check_out(out, force)

@@ -31,7 +31,13 @@ from .design_cmd import (
     QUANTITY_OPTION,
 )
 from .envelope import cli_text
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
     DM_MIN_OPTION,
@@ -214,6 +220,7 @@ def loopshape(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -241,7 +248,7 @@ def loopshape(
     from .design_cmd import _load_friction
     from .frf_options import FrfReadOptions, read_optional_frf
 
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     if plant_file.suffix.lower() in (".toml", ".json"):
         from ..io import load_model
 
@@ -348,6 +355,7 @@ def gantry(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -371,7 +379,7 @@ def gantry(
     from .frf_options import FrfReadOptions, read_optional_frf
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     model = _gantry_model(model_file)
     friction_model = _gantry_friction_model(friction, friction_band, model, model_file)
     measured = read_optional_frf(frf, quantity, options=frf_options)
@@ -486,6 +494,7 @@ def pid(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     out: Path = OUT_OPTION,
     force: bool = FORCE_OPTION,
     allow_unstable: bool = ALLOW_OPTION,
@@ -507,7 +516,7 @@ def pid(
     if filter_choice is not None and filter_choice not in FILTER_CHOICES:
         raise UsageError(f"--filters must be own or identical, got {filter_choice!r}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     model = _gantry_model(model_file)
     friction_model = _gantry_friction_model(friction, friction_band, model, model_file)
     measured = read_optional_frf(frf, quantity, options=frf_options)

@@ -9,7 +9,13 @@ import typer
 from ..export.c_common import float_bound_text
 from .common import FORCE_OPTION, JSON_OPTION
 from .design_cmd import QUANTITY_OPTION
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import ANTI_WINDUP, choice
 from .limits_options import (
     DM_MIN_OPTION,
@@ -24,6 +30,24 @@ from .limits_options import (
 from .progress_display import QUIET_OPTION, show_progress
 
 app = typer.Typer(rich_markup_mode="rich", help="Export gains files for real-time targets.", no_args_is_help=True)
+
+
+def scale_factor_option(text: str | None) -> float | None:
+    """``--scale-out``: a number or a ratio ``A/B`` (``1/35.15065``), finite and non-zero; UsageError otherwise."""
+    import math
+
+    from ..errors import UsageError
+
+    if text is None:
+        return None
+    num, sep, den = str(text).partition("/")
+    try:
+        value = float(num) / float(den) if sep else float(num)
+    except (ValueError, ZeroDivisionError):
+        raise UsageError(f"--scale-out expects a number or a ratio A/B (e.g. 1/35.15065), got {text!r}") from None
+    if not math.isfinite(value) or value == 0:
+        raise UsageError(f"--scale-out expects a finite non-zero factor, got {text!r}")
+    return value
 
 
 @app.command("c")
@@ -42,6 +66,15 @@ def export_c(
         None, "--u-max", metavar="U",
         help="Output limit in the command unit of the file: every command is clamped to +-U_MAX. Default: no limit "
              "(said in the header).",
+    ),
+    scale_out: str = typer.Option(
+        None, "--scale-out", metavar="FACTOR",
+        help="Multiply every command by FACTOR [drive unit per command unit of the file], a number or a ratio A/B, "
+             "so that the header outputs the drive's unit, e.g. 1/35.15065 for a design in N on a drive taking V at "
+             "35.15 N/V; --u-max is then in the drive's unit.",
+    ),
+    out_unit: str = typer.Option(
+        None, "--out-unit", metavar="UNIT", help="The drive's unit of the scaled command (with --scale-out), e.g. V.",
     ),
     anti_windup: str = typer.Option("none", "--anti-windup", **choice(ANTI_WINDUP),
                                     help="clamp: an integrator stops integrating while its command sits at --u-max "
@@ -68,6 +101,7 @@ def export_c(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     allow_unstable: bool = typer.Option(False, "--allow-unstable", help="Export a design that fails the limits "
                                                                         "check (the header then says so)."),
     force: bool = FORCE_OPTION,
@@ -92,13 +126,14 @@ def export_c(
     from .frf_options import FrfReadOptions
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     precision = "float" if single else "double"
     target = out or gains_file.with_suffix(".h")
     ensure_writable(target, force)
     doc = read_document(gains_file)
+    scaling = {"scale_out": scale_factor_option(scale_out), "out_unit": out_unit}
     c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup,
-             precision=precision)  # options, document
+             precision=precision, **scaling)  # options, document
     sources = read_sources(list(frf or []), quantity, frf_options)
     verdict = gains_verdict(doc, str(gains_file), sources, policy)
     for note in verdict.notes:
@@ -121,13 +156,14 @@ def export_c(
                    "its design model alone")
         warn(f"{gains_file}: exported on the design model's check alone, not certified on a measured FRF{hint}")
     text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning,
-                    precision=precision)
+                    precision=precision, **scaling)
     atomic_write_text(target, text, force=force)
     if as_json:
         from .envelope import emit
 
         emit({"gains_kind": doc.get("kind"), "out": str(target), "prefix": prefix,
               "bytes": len(text.encode()), "u_max": u_max, "anti_windup": anti_windup, "precision": precision,
+              **scaling,
               "check": verdict.certificate.check_dict(OPTION_NAMES), "verdict": verdict.to_dict(OPTION_NAMES)})
     else:
         typer.echo(f"verdict on {basis}: {'passes' if verdict.ok else 'FAILS'} ({policy.describe()})")

@@ -1,4 +1,14 @@
-"""``feedtune frf``: frequency response and coherence estimated from an excitation log.
+"""``feedtune frf``: FRFs from excitation logs, and FRF files put together or inspected.
+
+* ``feedtune frf estimate LOG`` (or ``feedtune frf LOG``): frequency response and coherence estimated from an
+  excitation log;
+* ``feedtune frf merge FILE:OUT/IN ...``: one FRF file from files measured one channel each
+  (:func:`feedtune.frf_merge.merge_frfs`);
+* ``feedtune frf info FRF``: lines, band, channels, units and coherence of an FRF file (and the drive's own speed
+  controllers of an auto-servo-tuning XML export).
+
+``frf`` is a command group whose first argument may also be a log: :class:`FrfGroup` routes an unknown first token
+to ``estimate``.
 
 ``--remove-sampling DELAY_SAMPLES`` divides out the zero-order hold and the computational delay (sample rate from
 the log) when the log's input is the controller's computed command and its outputs the controller's encoder
@@ -12,12 +22,41 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
+from typer.core import TyperGroup
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, fmt_band, parse_float_pair
 from .envelope import cli_text, emit
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import FRF_METHODS, QUANTITIES, choice
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
 from .progress_display import QUIET_OPTION, show_progress
+
+ESTIMATE_COMMAND = "estimate"
+
+
+class FrfGroup(TyperGroup):
+    """Command group that treats ``frf LOG ...`` as ``frf estimate LOG ...``."""
+
+    def parse_args(self, ctx, args: list[str]) -> list[str]:
+        """Insert the ``estimate`` command before a first argument that is not a command."""
+        if args and args[0] not in self.commands and not args[0].startswith("-"):
+            args = [ESTIMATE_COMMAND, *args]
+        return super().parse_args(ctx, args)
+
+
+app = typer.Typer(
+    cls=FrfGroup,
+    rich_markup_mode="rich",
+    no_args_is_help=True,
+    help="Estimate FRFs from logs; merge and inspect FRF files.\n\n'feedtune frf LOG ...' is short for "
+         "'feedtune frf estimate LOG ...'.",
+)
 
 #: Coherence level counted in the summary ("lines with coherence >= 0.9").
 GOOD_COHERENCE = 0.9
@@ -122,7 +161,8 @@ def _print_summary(result: dict) -> None:
         typer.echo(f"wrote {result['out']}")
 
 
-def frf(
+@app.command(ESTIMATE_COMMAND)
+def estimate(
     log_file: Path = typer.Argument(..., metavar="LOG", help="Excitation log (.csv, .mat, .mf4)."),
     input_: str = typer.Option(
         "u", "--input", "-i", metavar="COLUMN",
@@ -194,7 +234,7 @@ def frf(
     quantity = quantity_option(quantity)
     _check_delay_samples(remove_sampling)
     if out is not None:
-        frf_format(out)
+        frf_format(out, writing=True)
         ensure_writable(out, force)
     log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
     estimate = estimate_frf(log, input=input_, outputs=outputs, reference=reference, method=method,
@@ -212,3 +252,151 @@ def frf(
         emit(result)
     else:
         _print_summary(result)
+
+
+# ------------------------------------------------------------------------------------------ merge
+def frf_file_summary(frf) -> dict:
+    """JSON-ready description of an FRF: lines, band [Hz], quantity, unit, channels with coherence statistics, the
+    file format and the merge record."""
+    import numpy as np
+
+    from ..display import frf_unit
+
+    unit = frf_unit(frf)
+
+    def coherence(ch):
+        c = frf.channel_coherence(ch)
+        return coherence_stats(c) if c is not None and bool(np.isfinite(c).all()) else None
+
+    channels = {ch: {"coherence": coherence(ch)} for ch in frf.channels}
+    return {"source": frf.source, "format": frf.meta.get("format"), "lines": int(frf.freq_hz.size),
+            "band_hz": [float(frf.freq_hz[0]), float(frf.freq_hz[-1])], "quantity": frf.quantity, "unit": unit,
+            "input_unit": frf.input_unit, "output_unit": frf.output_unit, "channels": channels,
+            "merge": frf.meta.get("merge"), "sampling": sampling_record(frf.meta),
+            "units": {"band_hz": "Hz", "coherence": "-", "frf": unit}}
+
+
+def _print_frf_file(result: dict, title: str) -> None:
+    lo, hi = result["band_hz"]
+    typer.echo(f"{title}: {', '.join(result['channels'])}")
+    typer.echo(f"  {result['lines']} lines, {fmt_band(lo, hi)}, unit {result['unit']} ({result['quantity']})")
+    if result.get("merge"):
+        typer.echo(f"  {result['merge']}")
+    for ch, info in result["channels"].items():
+        c = info["coherence"]
+        if c is not None:
+            typer.echo(f"  {ch}: coherence min {c['min']:.3f}, median {c['median']:.3f}, mean {c['mean']:.3f}; "
+                       f"{c['lines_above_0_9']} of {result['lines']} lines >= {GOOD_COHERENCE}")
+
+
+@app.command("merge")
+def merge(
+    pieces: list[str] = typer.Argument(
+        ..., metavar="FILE:OUT/IN",
+        help="FRF files, one channel each, as FILE:OUT/IN[,scale=FACTOR][,in=UNIT][,out=UNIT][,quantity=Q], e.g. "
+             "motor.csv:x1/u table.csv:x2/u,scale=-1.",
+    ),
+    out: Path = typer.Option(..., "--out", "-o", metavar="FILE", help="Merged FRF file to write (.csv, .mat or .uff)."),
+    quantity: str = typer.Option(
+        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
+        help="What the files' outputs measure where they do not say it (a piece's quantity= overrides).",
+    ),
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
+) -> None:
+    """Merge FRF files measured one channel each into one FRF file.
+
+    Merge single-channel FRF files (one per encoder, as a drive's analyser writes them) into one FRF on their
+    common lines. Each file names its channel; two files of one channel, different grids or input units are
+    refused."""
+    show_progress(quiet)
+    from ..io import ensure_writable, write_frf
+    from ..io.frf_read import frf_format
+    from .frf_options import FrfReadOptions, check_pieces_named, parse_frf_argument, read_frf_pieces
+
+    frf_format(out, writing=True)
+    ensure_writable(out, force)
+    options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, None, frf_input_unit)
+    parsed = [p for text in pieces for p in parse_frf_argument(text)]
+    check_pieces_named(parsed, " ".join(pieces))
+    merged = read_frf_pieces(parsed, quantity, options=options)
+    write_frf(merged, out, force=force)
+    result = {**frf_file_summary(merged), "files": [str(p.path) for p in parsed], "out": str(out)}
+    if as_json:
+        emit(result)
+        return
+    _print_frf_file(result, f"merged {len(parsed)} files")
+    typer.echo(f"wrote {out}")
+
+
+# ------------------------------------------------------------------------------------------ info
+def _controller_lines(name: str, ctrl: dict) -> list[str]:
+    tn = "no integral action" if ctrl["tn_s"] is None else f"Tn {fmt(ctrl['tn_s'] * 1e3, 'ms')}"
+    lines = [f"  {name}: Kp {fmt(ctrl['kp'])}, {tn}"]
+    for f in ctrl["filters"]:
+        off = "" if f["enabled"] else " (disabled)"
+        if f["kind"] == "PT1":
+            lines.append(f"    PT1 low-pass, T {fmt(f['time_constant_s'] * 1e3, 'ms')}{off}")
+        elif f["kind"] == "PT2":
+            lines.append(f"    PT2 low-pass, {fmt(f['freq_hz'], 'Hz')}, D {fmt(f['damping'])}{off}")
+        else:
+            lines.append(f"    second order, numerator {fmt(f['num_freq_hz'], 'Hz')} D {fmt(f['num_damping'])}, "
+                         f"denominator {fmt(f['den_freq_hz'], 'Hz')} D {fmt(f['den_damping'])}{off}")
+    return lines
+
+
+@app.command("info")
+def info(
+    frf_file: str = typer.Argument(
+        ..., metavar="FRF",
+        help="FRF file (.csv, .mat, .uff, auto-servo-tuning .xml), or FILE:OUT/IN pieces joined with +.",
+    ),
+    quantity: str = typer.Option(
+        None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
+        help="What the file's outputs measure where it does not say it.",
+    ),
+    frf_map: list[str] = FRF_MAP_OPTION,
+    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
+    frf_scale: list[str] = FRF_SCALE_OPTION,
+    frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
+    as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
+) -> None:
+    """Show an FRF file's lines, band, channels, units and coherence.
+
+    Show what an FRF file holds as feedtune reads it: lines, band, channels, units, coherence. An auto-servo-tuning
+    XML export also shows the drive's original and tuned speed controllers (Kp, Tn, current-setpoint filters) and
+    its speed-loop sample time."""
+    show_progress(quiet)
+    from ..io.frf_read import frf_format
+    from .frf_options import FrfReadOptions, read_frf_argument
+
+    options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
+    frf = read_frf_argument(frf_file, quantity, options=options)
+    result = {**frf_file_summary(frf), "units_note": frf.meta.get("units_note")}
+    path = Path(frf_file)
+    if path.is_file() and frf_format(path) == "xml":
+        from ..io.servo_tuning_xml import read_drive_speed_tuning
+
+        result["drive_speed_tuning"] = read_drive_speed_tuning(path).to_dict()
+    if as_json:
+        emit(result)
+        return
+    _print_frf_file(result, f"FRF {frf.source}")
+    if result["units_note"]:
+        typer.echo(f"  note: {result['units_note']}")
+    tuning = result.get("drive_speed_tuning")
+    if tuning:
+        ts = tuning["sample_time_s"]
+        typer.echo("drive speed controllers (PI from speed error to current setpoint, then the filters)"
+                   + (f"; speed loop sampled every {fmt(ts * 1e6, 'us')} ({fmt(1 / ts, 'Hz')})" if ts else ""))
+        for name in ("original", "tuned"):
+            if tuning[name] is not None:
+                for line in _controller_lines(name, tuning[name]):
+                    typer.echo(line)

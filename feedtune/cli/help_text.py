@@ -85,9 +85,14 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "identify mass": ("feedtune simulate gantry mass --x -0.3 --x 0.3 --out mass.csv",
                       "feedtune identify mass mass_x-0.3.csv mass_x0.3.csv --x -0.3 --x 0.3 \\\n"
                       "    --axis-log mass_axis.csv --out mass.toml"),
-    "frf": ("feedtune simulate frf --seed 1 --out excitation.csv",
-            "feedtune frf excitation.csv --input u --output x1,x2 --reference r \\\n"
-            "    --method periodic --out frf.csv"),
+    "identify resonances": ("feedtune identify resonances \\\n"
+                            "    examples/vendor/klipper_calibration_data_x.csv",),
+    "frf estimate": ("feedtune simulate frf --seed 1 --out excitation.csv",
+                     "feedtune frf estimate excitation.csv --input u --output x1,x2 \\\n"
+                     "    --reference r --method periodic --out frf.csv"),
+    "frf merge": ("feedtune frf merge examples/vendor/motor_bode.csv:x1/u \\\n"
+                  "    examples/vendor/load_bode.csv:x2/u,scale=-1 --out frf.csv",),
+    "frf info": ("feedtune frf info examples/vendor/auto_servo_tuning.xml",),
     "design ppc": (_BS_MODEL, _BS_MCPPC),
     "design ppi": (_BS_MODEL, f"feedtune design ppi model.toml \\\n    {_BS_FILTERS} \\\n"
                               "    --frf examples/ballscrew_frf.csv --out ppi.toml"),
@@ -135,6 +140,8 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "demo": ("feedtune demo --out demo_out",),
     "log convert": ("feedtune log convert examples/ballscrew_reversals.csv --map position=x2 \\\n"
                     "    --unit position=rad --keep u,position --out reversals.csv",),
+    "log resample": ("feedtune log resample examples/ballscrew_reversals.csv --fs 250 \\\n"
+                     "    --out reversals_250hz.csv",),
     "log merge": ("feedtune log convert examples/ballscrew_track.csv --keep u --out u.csv",
                   "feedtune log convert examples/ballscrew_track.csv --keep x2_table \\\n"
                   "    --out x.csv",

@@ -13,7 +13,13 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, fmt_band, fmt_param, parse_float_pair
 from .envelope import cli_text, emit, quantities, quantity
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import FRICTION_LAWS, KALMAN_METHODS, QUANTITIES, choice
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
 from .progress_display import QUIET_OPTION, show_progress
@@ -30,7 +36,8 @@ logarithms): a value on its bound is printed as such."""
 def ballscrew(
     frf_files: list[Path] = typer.Argument(
         ..., metavar="FRF",
-        help="FRF files (CSV, MATLAB .mat, UFF58) with x1/u and/or x2/u.",
+        help="FRF files (CSV, MATLAB .mat, UFF58, drive XML) with x1/u and/or x2/u; one file per encoder as "
+             "FILE:OUT/IN pieces joined with +, e.g. motor.csv:x1/u+table.csv:x2/u,scale=-1.",
     ),
     band: tuple[float, float] = typer.Option(
         None, "--band", metavar="LO HI", help="Fit band LO HI [Hz] (default: around the first axial mode)."
@@ -61,6 +68,7 @@ def ballscrew(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     out: Path = typer.Option(
         None, "--out", "-o", metavar="FILE",
         help="Model file to write (.toml, with a .json twin).",
@@ -75,12 +83,13 @@ def ballscrew(
     show_progress(quiet)
     from ..identify.ballscrew import fit_ballscrew
     from ..io import save_model
-    from .frf_options import FrfReadOptions, quantity_option, read_frf_with_options
+    from .frf_options import FrfReadOptions, check_named_channels, quantity_option, read_frf_argument
 
     b = parse_float_pair(band, "--band")
     quantity = quantity_option(quantity)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
-    frfs = [read_frf_with_options(p, quantity, mat_freq, mat_channel, frf_options) for p in frf_files]
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
+    frfs = [read_frf_argument(p, quantity, mat_freq, mat_channel, frf_options) for p in frf_files]
+    check_named_channels(frf_files, frfs)
     fit = fit_ballscrew(frfs, band_hz=b, channels=channel or None, lead_m_per_rad=lead, fit_delay=not no_delay)
     result = fit.to_dict()
     if out is not None:

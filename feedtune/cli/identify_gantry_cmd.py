@@ -17,7 +17,13 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION, fmt, parse_float_pair
 from .envelope import emit, quantities
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import QUANTITIES, choice
 from .progress_display import QUIET_OPTION, show_progress
 
@@ -79,6 +85,7 @@ def gantry(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     out: Path = typer.Option(
         None, "--out", "-o", metavar="FILE",
         help="Model file to write (.toml with a .json twin).",
@@ -95,7 +102,7 @@ def gantry(
     from ..io import save_model
     from .frf_options import FrfReadOptions
 
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     xs = _check_positions(frf_files, x, "FRF file")
     b = parse_float_pair(band, "--band")
     from ..io.mass_file import read_mass_document

@@ -3,7 +3,8 @@
 ``log convert`` reads one log with the options every log command has (``--map``, ``--scale``, ``--unit``,
 ``--skip-rows``, ``--time``, ``--fs``) and writes it as a feedtune CSV log; ``log merge`` puts several logs on one
 time base (:func:`feedtune.log_merge.merge_logs`): an amplifier trace and a DAQ channel at different rates, one
-started late, a sensor offset, a speed to integrate into a position.
+started late, a sensor offset, a speed to integrate into a position; ``log resample`` puts a log recorded at
+irregular instants (a drive polled over USB) on a uniform base (:func:`feedtune.log_resample.resample_log`).
 """
 
 from __future__ import annotations
@@ -16,13 +17,16 @@ from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .log_options import FS_OPTION, MAP_OPTION, SCALE_OPTION, SKIP_ROWS_OPTION, TIME_OPTION, UNIT_OPTION
 from .progress_display import QUIET_OPTION, show_progress
 
-app = typer.Typer(rich_markup_mode="rich", help="Convert and merge logs from other tools.", no_args_is_help=True)
+app = typer.Typer(rich_markup_mode="rich", help="Convert, merge and resample logs from other tools.",
+                  no_args_is_help=True)
 
 
 def _summary(log, out: Path, as_json: bool, extra: dict | None = None) -> None:
+    from .log_options import log_notes
+
     info = {"out": str(out), "n_samples": log.n, "fs_hz": log.fs, "t0_s": float(log.t[0]),
             "duration_s": float(log.t[-1] - log.t[0]), "signals": {k: log.unit(k) for k in log.signals},
-            **(extra or {})}
+            **({"notes": log_notes(log)} if log_notes(log) else {}), **(extra or {})}
     if as_json:
         from .envelope import emit
 
@@ -105,8 +109,8 @@ def merge(
     Put several logs on one uniform time base: shift, offset, scale, anti-alias and resample, integrate.
 
     Order per signal: shift, offset, scale; then low-pass the signals faster than the base (zero-phase, 0.4 x the
-    base rate), interpolate linearly, integrate. A DAQ log and an amplifier trace: feedtune log merge daq.csv amp.csv
-    --shift f=0.004 --offset f=mean:10 --scale f=-200 --unit f=N --integrate x=v --out merged.csv"""
+    base rate), interpolate (modified Akima cubic), integrate. A DAQ log and an amplifier trace: feedtune log merge
+    daq.csv amp.csv --shift f=0.004 --offset f=mean:10 --scale f=-200 --unit f=N --integrate x=v --out merged.csv"""
     show_progress(quiet)
     from ..errors import UsageError
     from ..io import read_log, write_log_csv
@@ -136,3 +140,52 @@ def merge(
                         integrate=parse_assignments(integrate, "--integrate", "NAME"))
     write_log_csv(merged, out, force=force)
     _summary(merged, out, as_json, {"merge": merged.meta["merge"], "logs": [str(p) for p in log_files]})
+
+
+@app.command("resample")
+def resample(
+    log_file: Path = typer.Argument(..., metavar="LOG", help="Log with a time column (.csv, .mat, .mf4)."),
+    out: Path = typer.Option(..., "--out", "-o", metavar="FILE", help="feedtune CSV log to write."),
+    fs: float = typer.Option(
+        None, "--fs", metavar="HZ",
+        help="Sample rate of the resampled log [Hz] (default: the log's median rate, 3 significant digits).",
+    ),
+    max_gap: float = typer.Option(
+        3.0, "--max-gap", metavar="FACTOR",
+        help="Longest interval accepted, in median intervals; a longer gap is refused (resampling would invent its "
+             "samples) unless this is raised.",
+    ),
+    map_: list[str] = MAP_OPTION,
+    time: str = TIME_OPTION,
+    scale: list[str] = SCALE_OPTION,
+    unit: list[str] = UNIT_OPTION,
+    skip_rows: int = SKIP_ROWS_OPTION,
+    force: bool = FORCE_OPTION,
+    as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
+) -> None:
+    """Put a log sampled at irregular instants on a uniform base.
+
+    Report how irregular the log's time stamps are (smallest, largest and median interval, jitter, largest gap),
+    refuse gaps longer than --max-gap median intervals, low-pass (zero phase, 0.4 x the new rate) when the new rate
+    is below the log's, and interpolate (modified Akima cubic) at uniform instants: what 'feedtune frf' and
+    'identify rigid' need."""
+    show_progress(quiet)
+    from ..errors import UsageError
+    from ..io import write_log_csv
+    from ..io.atomic import ensure_writable
+    from ..log_resample import resample_log, time_base_report
+    from .log_options import LogOptions
+
+    ensure_writable(out, force)
+    if fs is not None and not fs > 0:
+        raise UsageError(f"--fs expects a sample rate > 0 Hz, got {fs:g}")
+    log = LogOptions.from_cli(map_, None, time, scale, unit, skip_rows).read(log_file)
+    report = time_base_report(log.t)
+    done = resample_log(log, fs, max_gap=max_gap)
+    write_log_csv(done, out, force=force)
+    extra = {"time_base": report.to_dict(), "resample": done.meta["resample"]}
+    if not as_json:
+        typer.echo(f"time base of {log_file}: {report}")
+        typer.echo(f"  {done.meta['resample']}")
+    _summary(done, out, as_json, extra)

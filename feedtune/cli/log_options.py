@@ -98,12 +98,24 @@ class LogOptions:
             skip_rows=skip_rows,
         )
 
-    def read(self, path: str | os.PathLike[str]):
-        """Read ``path`` with these options; returns a :class:`~feedtune.log.Log`."""
+    def read(self, path: str | os.PathLike[str], *, note: bool = True):
+        """Read ``path`` with these options; returns a :class:`~feedtune.log.Log`. With ``note``, what the reader
+        did beyond the options (rows dropped, a time base in ticks) is one note line each on stderr
+        (:func:`log_notes`)."""
         from ..io import read_log
 
-        return read_log(path, mapping=self.mapping or None, fs=self.fs, time=self.time,
-                        scale=self.scale or None, units=self.units or None, skip_rows=self.skip_rows)
+        log = read_log(path, mapping=self.mapping or None, fs=self.fs, time=self.time,
+                       scale=self.scale or None, units=self.units or None, skip_rows=self.skip_rows)
+        if note:
+            for line in log_notes(log):
+                typer.echo(f"feedtune: note: {path}: {line}", err=True)
+        return log
+
+
+def log_notes(log) -> list[str]:
+    """What the reader did to a log beyond the options, for this read (``meta["read_notes"]``): rows dropped (NaN in
+    every column, after a stopped counter), the time base of a time column in ticks."""
+    return [str(n) for n in log.meta.get("read_notes", ())]
 
 
 def parse_assignments(items: list[str] | None, option: str, value_name: str) -> dict[str, str]:
@@ -134,14 +146,19 @@ def parse_assignments(items: list[str] | None, option: str, value_name: str) -> 
 
 def scale_factor(name: str, text: str) -> float:
     """The FACTOR of ``--scale NAME=FACTOR``: a finite non-zero number (UsageError otherwise)."""
+    return factor_value(text, f"--scale {name}={text}")
+
+
+def factor_value(text: str, where: str) -> float:
+    """A FACTOR of an option: a finite non-zero number, else a UsageError naming ``where`` (``--scale u=abc``)."""
     from ..errors import UsageError
 
     try:
         value = float(text)
     except ValueError:
-        raise UsageError(f"--scale {name}={text}: FACTOR must be a number") from None
+        raise UsageError(f"{where}: FACTOR must be a number") from None
     if not math.isfinite(value) or value == 0:
-        raise UsageError(f"--scale {name}={text}: FACTOR must be finite and non-zero")
+        raise UsageError(f"{where}: FACTOR must be finite and non-zero")
     return value
 
 

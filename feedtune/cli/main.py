@@ -22,6 +22,7 @@ from . import (
     help_text,
     identify_cmd,
     identify_gantry_cmd,
+    identify_resonances_cmd,
     log_cmd,
     prefilter_cmd,
     report_cmd,
@@ -63,13 +64,14 @@ def _root(
 # gantry commands join the machine-independent groups
 identify_cmd.app.command("gantry")(identify_gantry_cmd.gantry)
 identify_cmd.app.command("mass")(identify_gantry_cmd.mass)
+identify_cmd.app.command("resonances")(identify_resonances_cmd.resonances)
 design_cmd.app.command("loopshape")(design_gantry_cmd.loopshape)
 design_cmd.app.command("gantry")(design_gantry_cmd.gantry)
 design_cmd.app.command("pid")(design_gantry_cmd.pid)
 simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
 
 app.add_typer(identify_cmd.app, name="identify")
-app.command("frf")(frf_cmd.frf)
+app.add_typer(frf_cmd.app, name="frf")
 app.add_typer(design_cmd.app, name="design")
 app.command("tune")(tune_cmd.tune)
 app.command("prefilter")(prefilter_cmd.prefilter)

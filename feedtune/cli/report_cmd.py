@@ -45,7 +45,9 @@ def check_report_paths(out: Path, pdf: bool, force: bool) -> list[Path]:
 
 def report(
     inputs: list[Path] = typer.Argument(
-        ..., metavar="FILE", help="Model, gains, FRF and log files, or folders holding them (classified by content)."
+        ..., metavar="FILE",
+        help="Model, gains, FRF and log files, or folders holding them (classified by content); an FRF measured one "
+             "file per encoder as FILE:OUT/IN pieces joined with + (e.g. motor.csv:x1/u+table.csv:x2/u,scale=-1).",
     ),
     out: Path = typer.Option(..., "--out", "-o", metavar="FILE", help="HTML file to write (.html)."),
     pdf: bool = typer.Option(False, "--pdf", help="Also write a PDF with the same figures and tables (OUT.pdf)."),
@@ -89,8 +91,9 @@ def report(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     check_report_paths(out, pdf, force)
     options = LogOptions.from_cli(map_, fs, time, scale, unit, skip_rows)
-    built = build_report(inputs, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict,
-                         limits=ReportLimits(policy), log_reader=options.read)
+    paths, frfs = split_frf_pieces(inputs)
+    built = build_report(paths, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict,
+                         limits=ReportLimits(policy), log_reader=options.read, frfs=frfs)
     written = write_report(built, out, pdf=pdf, force=force)
     result = report_summary(built, written)
     if as_json:
@@ -104,6 +107,24 @@ def report(
         typer.echo(f"warning: {cli_text(w)}")
     for p, size in zip(result["files"], result["sizes_bytes"], strict=True):
         typer.echo(f"wrote {p} ({size / 1e6:.2f} MB)")
+
+
+def split_frf_pieces(inputs: list[Path]) -> tuple[list[Path], list[tuple[str, object]]]:
+    """The inputs that are files or folders, and the FRFs read from the others: ``FILE:OUT/IN`` pieces (joined with
+    ``+``), each merged into one FRF (:func:`feedtune.cli.frf_options.read_frf_argument`)."""
+    from .frf_options import parse_frf_argument, read_frf_argument
+
+    paths, frfs = [], []
+    for item in inputs:
+        if item.exists():
+            paths.append(item)
+            continue
+        pieces = parse_frf_argument(item)
+        if all(p.has_spec for p in pieces) and all(p.path.exists() for p in pieces):
+            frfs.append((str(item), read_frf_argument(item)))
+        else:
+            paths.append(item)  # reported as missing by the collection
+    return paths, frfs
 
 
 def report_summary(built, written: list[Path]) -> dict:

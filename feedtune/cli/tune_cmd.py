@@ -19,7 +19,13 @@ from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .delivery import print_certificate
 from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _load_model
 from .envelope import cli_text
-from .frf_options import FRF_CHANNEL_OPTION, FRF_MAP_OPTION, FRF_SCALE_OPTION, FRF_SKIP_ROWS_OPTION
+from .frf_options import (
+    FRF_CHANNEL_OPTION,
+    FRF_INPUT_UNIT_OPTION,
+    FRF_MAP_OPTION,
+    FRF_SCALE_OPTION,
+    FRF_SKIP_ROWS_OPTION,
+)
 from .help_text import FILTER_CHOICES, LPF_ORDERS, choice
 from .limits_options import (
     DM_MIN_OPTION,
@@ -353,6 +359,7 @@ def tune(
     frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
     frf_scale: list[str] = FRF_SCALE_OPTION,
     frf_channel: str = FRF_CHANNEL_OPTION,
+    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
     limits: str = LIMITS_OPTION,
     ms_max: float = MS_MAX_OPTION,
     pm_min: float = PM_MIN_OPTION,
@@ -387,7 +394,7 @@ def tune(
         raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     goal = objective_options(objective, compliance_max, structure)
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel)
+    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     gantry = structure in ("gantry", "pid")
     if x and not gantry:
         raise UsageError(f"--x gives gantry FRF positions; {structure} has none")

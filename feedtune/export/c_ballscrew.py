@@ -123,7 +123,7 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
         *filter_step_function(opts),
         *friction_function(friction, opts),
         f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [rad]; x1, x2 = measured positions at k [rad];",
-        "   returns u [command unit] */",
+        f"   returns u [{opts.output_unit(unit)}] */",
         f"static inline {R} {prefix}_step({prefix}_state *s, {R} x_r_preview, {R} x1, {R} x2) {{",
         *reference,
         f"    {R} x1r = {flt['ROT'].call('rot', ref, corr)};",

@@ -12,6 +12,10 @@ clamped to ``[-U_MAX, U_MAX]`` after the law. With ``clamp`` anti-windup, an int
 when the command it feeds was at the limit in the previous sample and the error has the sign that drives it further
 (conditional integration; the integrators feed their command with a positive gain in every feedtune law). Without a
 limit the header executes exactly the law of the gains file.
+
+Output scale (``--scale-out``, ``--out-unit``): a drive whose input is not the unit the gains file commands in (a
+design in N for a drive that takes V through its gain of 35.15 N/V) gets ``SCALE_OUT`` times the law's command, in
+its own unit; the limit then holds in that unit, and the anti-windup's sign test follows the factor's sign.
 """
 
 from __future__ import annotations
@@ -60,6 +64,11 @@ class COptions:
         A line put at the top of the header (e.g. a design exported outside its limits).
     precision : str
         ``double`` or ``float``: the C type of every state, coefficient and operation (:data:`PRECISIONS`).
+    scale_out : float or None
+        Factor from the law's command unit to the drive's [out unit / command unit] applied to every command
+        before the limit; None for none.
+    out_unit : str or None
+        The drive's unit of the scaled command (with ``scale_out``).
     """
 
     prefix: str = "ft"
@@ -67,6 +76,8 @@ class COptions:
     anti_windup: str = "none"
     warning: str | None = None
     precision: str = "double"
+    scale_out: float | None = None
+    out_unit: str | None = None
 
     def __post_init__(self) -> None:
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", self.prefix):
@@ -82,6 +93,19 @@ class COptions:
                              parameter=("anti_windup", "u_max"))
         if self.precision not in PRECISIONS:
             raise UsageError(f"precision must be one of {', '.join(PRECISIONS)}, got {self.precision!r}")
+        if self.scale_out is not None and not (math.isfinite(self.scale_out) and self.scale_out != 0):
+            raise UsageError(f"scale_out must be a finite non-zero number, got {self.scale_out!r}",
+                             parameter="scale_out")
+        if self.out_unit is not None and (self.scale_out is None or not re.fullmatch(r"[^*/\n]+[^\n]*", self.out_unit)
+                                          or "*/" in self.out_unit):
+            raise UsageError(f"out_unit {self.out_unit!r} needs scale_out and must be a unit such as V",
+                             parameter="out_unit")
+
+    def output_unit(self, unit: str) -> str:
+        """The unit of the header's output for a law commanding in ``unit``."""
+        if self.scale_out is None:
+            return unit
+        return self.out_unit or f"{unit} x {self.scale_out:g}"
 
     @property
     def P(self) -> str:
@@ -430,12 +454,17 @@ def filter_step_function(opts: COptions) -> list[str]:
 
 # ------------------------------------------------------------------ limit, integrators, banner
 def limit_lines(opts: COptions, unit: str) -> list[str]:
-    """The output-limit and anti-windup macros and the clamp function."""
+    """The output scale, the output-limit and anti-windup macros and the clamp function."""
     P, R = opts.P, opts.real
+    scale = [] if opts.scale_out is None else [
+        f"#define {P}_SCALE_OUT {opts.num(opts.scale_out)} /* {opts.output_unit(unit)} per {unit}: {opts.prefix}_step "
+        f"returns the law's command [{unit}] times {P}_SCALE_OUT, in {opts.output_unit(unit)} */"]
+    unit = opts.output_unit(unit)
     if opts.u_max is None:
-        return [f"/* no output limit: {opts.prefix}_step returns the law's command unclamped (export with --u-max to "
-                "clamp it) */", ""]
+        return [*scale, f"/* no output limit: {opts.prefix}_step returns the law's command unclamped (export with "
+                "--u-max to clamp it) */", ""]
     return [
+        *scale,
         f"#define {P}_U_MAX {opts.num(opts.u_max)} /* {unit}: every command is clamped to +-{P}_U_MAX */",
         f"#define {P}_ANTI_WINDUP {1 if opts.anti_windup == 'clamp' else 0} /* 1: conditional integration */",
         f"static inline {R} {opts.prefix}_clamp({R} u) {{",
@@ -451,12 +480,15 @@ def integrate_line(opts: COptions, state: str, error: str, fs: str, last_u: str)
     if opts.anti_windup != "clamp":
         return f"    {state} += {error} / {fs};"
     P, zero = opts.P, opts.num(0.0)
-    return (f"    if (!(({last_u} >= {P}_U_MAX && {error} > {zero}) || ({last_u} <= -{P}_U_MAX && {error} < {zero}))) "
-            f"{state} += {error} / {fs};")
+    up, down = (">", "<") if opts.scale_out is None or opts.scale_out > 0 else ("<", ">")  # the scale's sign
+    return (f"    if (!(({last_u} >= {P}_U_MAX && {error} {up} {zero}) || ({last_u} <= -{P}_U_MAX && {error} {down} "
+            f"{zero}))) {state} += {error} / {fs};")
 
 
 def output_line(opts: COptions, target: str, expr: str) -> list[str]:
-    """``target = expr``, clamped with a limit."""
+    """``target = expr`` (times the output scale), clamped with a limit."""
+    if opts.scale_out is not None:
+        expr = f"{opts.P}_SCALE_OUT * ({expr})"
     if opts.u_max is None:
         return [f"    {opts.real} {target} = {expr};"]
     return [f"    {opts.real} {target} = {opts.prefix}_clamp({expr});"]

@@ -126,7 +126,7 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
         "}",
         "",
         f"/* y_r_preview = y_r[k + {P}_PREVIEW_SAMPLES] [m]; y1, y2 = encoders at k [m]; x = table position [m];",
-        f"   writes u[0], u[1] [{unit}] */",
+        f"   writes u[0], u[1] [{opts.output_unit(unit)}] */",
         f"static inline void {prefix}_step({prefix}_state *s, {R} y_r_preview, {R} y1, {R} y2, {R} x, "
         f"{R} *u) {{",
         f"    {R} sr[{P}_NCOL];",
@@ -231,7 +231,8 @@ def axis_header(doc: dict, rt, opts: COptions) -> str:
         "",
         *filter_step_function(opts),
         *friction_function(fr, opts),
-        f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [m]; x = encoder at k [m]; returns u_x [{unit}] */",
+        f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [m]; x = encoder at k [m]; returns u_x "
+        f"[{opts.output_unit(unit)}] */",
         f"static inline {R} {prefix}_step({prefix}_state *s, {R} x_r_preview, {R} x) {{",
         "    float r = x_r_preview, rc = 0.0f;  /* the pre-filtered reference r + rc */" if opts.single
         else "    double r = x_r_preview, ra = r;",

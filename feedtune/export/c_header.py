@@ -42,7 +42,8 @@ EMITTERS: dict[str, Callable[[dict, object, COptions, str], str]] = {
 
 
 def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max: float | None = None,
-             anti_windup: str = "none", warning: str | None = None, precision: str = "double") -> str:
+             anti_windup: str = "none", warning: str | None = None, precision: str = "double",
+             scale_out: float | None = None, out_unit: str | None = None) -> str:
     """Render a gains document as a C header.
 
     Parameters
@@ -54,7 +55,8 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
     where : str
         Name of the source for error messages.
     u_max : float, optional
-        Output limit [command unit]: every command is clamped to ``[-u_max, u_max]``.
+        Output limit [command unit, or ``out_unit`` with ``scale_out``]: every command is clamped to
+        ``[-u_max, u_max]``.
     anti_windup : {"none", "clamp"}
         ``clamp``: an integrator does not integrate while its command sits at the limit and the error drives it
         further (needs ``u_max``; not for an axis, whose integral action is inside its sections).
@@ -64,6 +66,11 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
         C type of every state, coefficient and operation. ``float``: the filters are rewritten in difference form
         (:func:`~feedtune.export.c_common.difference_form`); fed the same inputs, the commands stay within
         :data:`~feedtune.export.c_common.FLOAT_ERROR_BOUND` of the peak command of the double header.
+    scale_out : float, optional
+        Factor from the file's command unit to the drive's [``out_unit`` per command unit]: the header returns the
+        law's command times it (e.g. ``1 / 35.15`` V/N for a design in N on a drive taking V).
+    out_unit : str, optional
+        The drive's unit of the scaled command (e.g. ``"V"``).
 
     Raises
     ------
@@ -74,6 +81,7 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
     """
     from ..machines import load_runtime
 
-    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning, precision=precision)
+    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning, precision=precision,
+                    scale_out=scale_out, out_unit=out_unit)
     rt = load_runtime(doc, where)
     return EMITTERS[doc["kind"]](doc, rt, opts, where)

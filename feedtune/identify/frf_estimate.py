@@ -135,8 +135,7 @@ def estimate_frf(
     detrend = _check_choice(detrend, DETRENDS, "detrend")
     quantity = _check_quantity(quantity)
     band = _check_freq_range(freq_range)
-    if not log.is_uniform():
-        raise DataError(f"{log.source}: FRF estimation needs a uniform time base; resample the log first")
+    log.check_uniform("FRF estimation")
     out_unit = _common_output_unit(log, outs)
     u = log.get(input)
     y = np.vstack([log.get(o) for o in outs])

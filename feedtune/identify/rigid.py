@@ -111,10 +111,7 @@ def position_si(log: Log, name: str) -> tuple[np.ndarray, str]:
 
 def uniform_sample_time(log: Log) -> float:
     """Sample time [s] of a uniformly sampled log; a non-uniform time base is a :class:`DataError`."""
-    if not log.is_uniform():
-        raise DataError(f"{log.source}: time base is not uniform (sample intervals differ by more than "
-                        "0.1 %); resample the log first")
-    return log.dt
+    return log.check_uniform("the rigid-body fit")
 
 
 def default_force_unit(raw_unit: str, scale: float, position_unit: str) -> str:

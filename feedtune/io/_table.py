@@ -1,8 +1,17 @@
 """Shared parsing of numeric text tables (FRF and log CSV files).
 
-A table file has optional leading lines to skip (vendor preambles), ``#`` comment lines whose leading
-``# key: value`` lines are metadata, one header row of column names (optional for logs), optionally a second
+A table file has optional leading lines to skip (vendor preambles), ``#`` (or MATLAB-style ``%``) comment lines whose
+leading ``# key: value`` lines are metadata, one header row of column names (optional for logs), optionally a second
 header row under it (units or descriptions: a row with a cell per column and no number), then numeric rows.
+
+What loggers write besides (ODrive's tool, many DAQ scripts), read as it is:
+
+* a header commented out: when the first row is numbers, the comment lines right above it (after the last blank
+  line) with as many cells as the rows give the column names, and a units row under them (``%timestep,voltage`` then
+  ``%[#],[V]``); only with ``header_from_comments`` (logs);
+* a row terminator other than the delimiter (``1.0,2.0;``): taken off every row (:attr:`TextTable.terminator`);
+* rows that are NaN in every cell (``nan,nan,nan,nan``: a read that failed) are dropped with ``drop_nan_rows``
+  (logs) and their line numbers kept (:attr:`TextTable.dropped_lines`); a NaN among numbers stays an error.
 Numbers are parsed with pandas (C engine); errors name the file, the line number and the column. Large files are
 parsed straight from the file (:func:`read_table_file`). Writing: :mod:`feedtune.io.csv_text`.
 """
@@ -22,7 +31,7 @@ import numpy as np
 
 from ..errors import DataError
 
-_META_RE = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_ .-]*?)\s*:\s*(.*?)\s*$")
+_META_RE = re.compile(r"^[#%]\s*([A-Za-z_][A-Za-z0-9_ .-]*?)\s*:[\s,;]*(.*?)\s*$")
 _DELIMITERS = (",", ";", "\t")
 
 
@@ -54,6 +63,13 @@ class TextTable:
     unit_row : list of str or None
         A second header row under the names, one cell per column (units such as ``ms`` or ``rpm``, or
         descriptions such as ``Servo motor speed``), as written by many vendor tools; None without one.
+    dropped_lines : tuple of int
+        1-based file lines of rows that were NaN in every cell and were dropped (``drop_nan_rows``).
+    terminator : str
+        A character ending every row besides the delimiter (``;`` after comma-separated cells), taken off; empty when
+        there is none.
+    header_comment : bool
+        Whether the column names came from a commented-out header (``header_from_comments``).
     """
 
     name: str
@@ -66,6 +82,9 @@ class TextTable:
     first_data_index: int = 0
     path: str | None = None
     unit_row: list[str] | None = None
+    dropped_lines: tuple[int, ...] = ()
+    terminator: str = ""
+    header_comment: bool = False
 
     @property
     def data(self) -> np.ndarray:
@@ -95,7 +114,12 @@ class TextTable:
 
     def line_number(self, row: int) -> int:
         """1-based file line number of data row ``row`` (0-based), for messages."""
-        return int(_data_line_numbers(self.lines, self.first_data_index)[row])
+        return int(self.line_numbers()[row])
+
+    def line_numbers(self) -> np.ndarray:
+        """1-based file line numbers of the data rows kept (rows dropped as NaN left out), for messages."""
+        numbers = _data_line_numbers(self.lines, self.first_data_index)
+        return numbers[~np.isin(numbers, self.dropped_lines)] if self.dropped_lines else numbers
 
 
 def source_name(source: str | os.PathLike[str] | IO[str]) -> str:
@@ -181,9 +205,13 @@ def check_readable_file(path: str | os.PathLike[str]) -> Path:
     return p
 
 
+COMMENT_PREFIXES = ("#", "%")
+"""Characters that start a comment line (``%``: MATLAB-style loggers)."""
+
+
 def _is_data_line(line: str) -> bool:
     s = line.strip()
-    return bool(s) and not s.startswith("#")
+    return bool(s) and not s.startswith(COMMENT_PREFIXES)
 
 
 def _split_cells(line: str, sep: str) -> list[str]:
@@ -219,7 +247,8 @@ def _unique_names(names: list[str]) -> list[str]:
 
 
 def parse_table(
-    text: str | bytes, name: str, *, skip_rows: int = 0, require_header: bool = True, what: str = "CSV"
+    text: str | bytes, name: str, *, skip_rows: int = 0, require_header: bool = True, what: str = "CSV",
+    header_from_comments: bool = False, drop_nan_rows: bool = False,
 ) -> TextTable:
     """Parse a numeric table from ``text`` (see module docstring).
 
@@ -235,18 +264,34 @@ def parse_table(
         When true, a first row of numbers is an error; otherwise columns are named ``col0``, ``col1``...
     what : str
         Kind of file, for messages.
+    header_from_comments : bool
+        Take the column names (and units) of a file whose first row is numbers from the comment lines above it.
+    drop_nan_rows : bool
+        Drop the rows that are NaN in every cell (their lines in :attr:`TextTable.dropped_lines`) instead of
+        refusing them.
 
     Returns
     -------
     TextTable
         The table.
     """
-    head = _parse_head(text, name, skip_rows, require_header, what)
+    head = _parse_head(text, name, skip_rows, require_header, what, header_from_comments=header_from_comments)
     assert head is not None  # only a partial text has no answer
-    data = _parse_numbers(_Body(head.text, head.start, head.encoding), head.text, head.first, head.columns,
-                          head.sep, name)
+    body = head.text
+    if head.terminator:  # every row's end taken off (the lines stay where they were: the messages' line numbers)
+        body = body[:head.start] + _without_terminator(body[head.start:], head.terminator)
+    data, dropped = _parse_numbers(_Body(body, head.start, head.encoding), body, head.first, head.columns,
+                                   head.sep, name, drop_nan_rows)
     return TextTable(name, head.metadata, head.columns, data, head.has_header, head.comments, head.text, head.first,
-                     unit_row=head.unit_row)
+                     unit_row=head.unit_row, dropped_lines=dropped, terminator=head.terminator,
+                     header_comment=head.header_comment)
+
+
+def _without_terminator(text: str | bytes, terminator: str) -> str | bytes:
+    """``text`` with ``terminator`` (and blanks after it) taken off the end of every line."""
+    if isinstance(text, bytes):
+        return re.sub(re.escape(terminator.encode()) + rb"[ \t]*(?=\r?\n|$)", b"", text)
+    return re.sub(re.escape(terminator) + r"[ \t]*(?=\r?\n|$)", "", text)
 
 
 @dataclass(frozen=True)
@@ -263,6 +308,8 @@ class _Head:
     start: int
     sep: str
     unit_row: list[str] | None = None
+    terminator: str = ""
+    header_comment: bool = False
 
 
 def _unit_row(text: str | bytes, start: int, encoding: str | None, sep: str, n_columns: int,
@@ -287,13 +334,15 @@ def _unit_row(text: str | bytes, start: int, encoding: str | None, sep: str, n_c
 
 
 def _parse_head(text: str | bytes, name: str, skip_rows: int, require_header: bool, what: str,
-                partial: bool = False) -> _Head | None:
+                partial: bool = False, header_from_comments: bool = False) -> _Head | None:
     """Metadata, comments, column names, delimiter and where the numbers start (``first``: 0-based line index,
     ``start``: offset in ``text``).
 
     With ``partial``, ``text`` is only the beginning of a longer file: None when the answer needs more of it
     (the header row or the first row of numbers is not complete in ``text``) or when the file must be read whole
-    (old Mac line endings); the errors raised are those of the whole file.
+    (old Mac line endings, rows with a terminator); the errors raised are those of the whole file. With
+    ``header_from_comments``, a file whose first row is numbers takes its header from the comment lines above
+    (module docstring).
     """
     if skip_rows < 0:
         raise DataError(f"{name}: skip_rows must be >= 0, got {skip_rows}")
@@ -305,6 +354,7 @@ def _parse_head(text: str | bytes, name: str, skip_rows: int, require_header: bo
     encoding = _encoding_of(text)
     metadata: dict[str, list[str]] = {}
     comments: list[str] = []
+    block: list[str] = []  # the comment lines since the last blank line: a commented-out header is their end
     head = _lines_with_offsets(text, encoding)
     k, line, offset = -1, None, len(text)
     for k, item in enumerate(head):
@@ -314,11 +364,12 @@ def _parse_head(text: str | bytes, name: str, skip_rows: int, require_header: bo
         if _is_data_line(line):
             break
         s = line.strip()
+        block = [*block, s[1:].strip()] if s else []
         m = _META_RE.match(s)
         if m:
             metadata.setdefault(m.group(1).strip().lower(), []).append(m.group(2))
         elif s:
-            comments.append(s.lstrip("#").strip())
+            comments.append(s.lstrip("#%").strip())
     else:
         if partial:
             return None
@@ -330,24 +381,73 @@ def _parse_head(text: str | bytes, name: str, skip_rows: int, require_header: bo
         raise DataError(f"{name}: line {k + 1} is {len(line):,} characters long; expected a header row of column "
                         f"names or a row of numbers (at most {MAX_HEADER_CHARS:,} characters)")
     sep = _guess_delimiter(line)
-    cells = _split_cells(line, sep)
+    terminator = _terminator(line, sep)
+    cells = _split_cells(line.split("#", 1)[0].rstrip()[:-1] if terminator else line, sep)
+    unit_row, header_comment = None, False
     if all(_is_number(c) for c in cells if c):
-        if require_header:
+        named = _commented_header(block, sep, len(cells))
+        if named is not None and header_from_comments:
+            columns, unit_row = named
+            comments = comments[:len(comments) - (1 if unit_row is None else 2)]  # the header is no comment
+            has_header, first, start, header_comment = True, k, offset, True
+        elif require_header:
             raise DataError(f"{name}: line {k + 1}: expected a header row of column names, found numbers")
-        columns = [f"col{j}" for j in range(len(cells))]
-        has_header, first, start = False, k, offset
+        else:
+            columns = [f"col{j}" for j in range(len(cells))]
+            has_header, first, start = False, k, offset
     else:
         columns = _unique_names(cells)
         has_header, first, start = True, k + 1, (len(text) if next_line < 0 else next_line + 1)
-    unit_row = None
-    if has_header:
+    if has_header and not header_comment:
         found = _unit_row(text, start, encoding, sep, len(columns), partial)
         if found is None:
             return None
         unit_row, after = found
         if unit_row is not None:
             first, start = first + 1, after
-    return _Head(text, encoding, metadata, comments, columns, has_header, first, start, sep, unit_row)
+    terminator = _terminator(_first_data_line(text, start, encoding), sep)
+    if terminator and partial:
+        return None
+    return _Head(text, encoding, metadata, comments, columns, has_header, first, start, sep, unit_row, terminator,
+                 header_comment)
+
+
+_TERMINATORS = (";", ",", "\t")
+
+
+def _terminator(line: str | None, sep: str) -> str:
+    """A delimiter other than ``sep`` that ends a row of numbers (``1.0,2.0;``), else ``""``."""
+    s = (line or "").split("#", 1)[0].rstrip(" \r\n")
+    return s[-1] if s and s[-1] in _TERMINATORS and s[-1] != sep else ""
+
+
+def _first_data_line(text: str | bytes, start: int, encoding: str | None) -> str | None:
+    for line, _ in _lines_with_offsets(text, encoding, start):
+        if _is_data_line(line):
+            return line
+    return None
+
+
+def _looks_like_units(cells: list[str]) -> bool:
+    """A commented units row: every cell empty or bracketed (``[V]``, ``(turns/s)``, ``[#]``)."""
+    return all(not c or (c[0], c[-1]) in (("[", "]"), ("(", ")")) for c in cells)
+
+
+def _commented_header(block: list[str], sep: str, n: int) -> tuple[list[str], list[str] | None] | None:
+    """Column names (and a units row under them) from the last comment lines above the first row of numbers, when
+    they have ``n`` cells and are not numbers; None otherwise."""
+    rows = [_split_cells(b, sep) for b in block[-2:]]
+
+    def names(r: list[str]) -> bool:
+        return len(r) == n and not all(_is_number(c) for c in r if c) and not _looks_like_units(r)
+
+    if not rows or len(rows[-1]) != n:
+        return None
+    if _looks_like_units(rows[-1]):
+        if len(rows) == 2 and names(rows[0]):
+            return _unique_names(rows[0]), [c.strip("[]()") for c in rows[-1]]
+        return None
+    return (_unique_names(rows[-1]), None) if names(rows[-1]) else None
 
 
 READ_HEAD_BYTES = 1 << 16
@@ -356,7 +456,8 @@ are read whole."""
 
 
 def read_table_file(path: str | os.PathLike[str], what: str = "CSV", *, skip_rows: int = 0,
-                    require_header: bool = True) -> TextTable:
+                    require_header: bool = True, header_from_comments: bool = False,
+                    drop_nan_rows: bool = False) -> TextTable:
     """:func:`parse_table` of a file, without holding the file in memory.
 
     The same table and the same errors as ``parse_table(*read_table_data(path, what), ...)``. The first
@@ -378,21 +479,24 @@ def read_table_file(path: str | os.PathLike[str], what: str = "CSV", *, skip_row
         Lines to skip at the top before anything else (vendor preambles).
     require_header : bool
         When true, a first row of numbers is an error; otherwise columns are named ``col0``, ``col1``...
+    header_from_comments, drop_nan_rows : bool
+        As for :func:`parse_table` (a commented-out header, rows NaN in every cell).
 
     Returns
     -------
     TextTable
         The table (its :attr:`~TextTable.lines` read the file again when an error message needs them).
     """
-    table = _read_table_fast(path, what, skip_rows, require_header)
+    table = _read_table_fast(path, what, skip_rows, require_header, header_from_comments)
     if table is None:
         raw, name = read_table_data(path, what)
-        table = parse_table(raw, name, skip_rows=skip_rows, require_header=require_header, what=what)
+        table = parse_table(raw, name, skip_rows=skip_rows, require_header=require_header, what=what,
+                            header_from_comments=header_from_comments, drop_nan_rows=drop_nan_rows)
     return table
 
 
 def _read_table_fast(path: str | os.PathLike[str], what: str, skip_rows: int,
-                     require_header: bool) -> TextTable | None:
+                     require_header: bool, header_from_comments: bool = False) -> TextTable | None:
     """The fast path of :func:`read_table_file`; None when the whole file must go through :func:`parse_table`."""
     name = source_name(path)
     try:
@@ -403,14 +507,15 @@ def _read_table_fast(path: str | os.PathLike[str], what: str, skip_rows: int,
         return None
     if len(head) < READ_HEAD_BYTES or size <= len(head) or b"\x00" in head:
         return None
-    h = _parse_head(head, name, skip_rows, require_header, what, partial=True)
+    h = _parse_head(head, name, skip_rows, require_header, what, partial=True,
+                    header_from_comments=header_from_comments)
     if h is None:
         return None
     data = _read_numbers_fast(path, h.start, len(h.columns), h.sep, h.encoding)
     if data is None:
         return None
     return TextTable(name, h.metadata, h.columns, data, h.has_header, h.comments, b"", h.first, str(path),
-                     unit_row=h.unit_row)
+                     unit_row=h.unit_row, header_comment=h.header_comment)
 
 
 class _FileRange(io.RawIOBase):
@@ -601,7 +706,7 @@ def _data_line_numbers(lines: list[str], first: int) -> np.ndarray:
 
 
 def _parse_numbers(body: _Body, text: str | bytes, first: int, columns: list[str], sep: str,
-                   name: str) -> np.ndarray:
+                   name: str, drop_nan_rows: bool = False) -> tuple[np.ndarray, tuple[int, ...]]:
     import pandas as pd
 
     if not any(_is_data_line(line) for line, _ in body.lines()):
@@ -629,13 +734,23 @@ def _parse_numbers(body: _Body, text: str | bytes, first: int, columns: list[str
             hint = "; pass skip_rows to skip extra header lines" if i == 0 else ""
             raise DataError(f"{name}: line {line}, column {columns[j]!r}: {cell!r} is not a number{hint}")
         values[:, j] = num.to_numpy(dtype=float)
+    dropped: tuple[int, ...] = ()
+    empty = np.isnan(values).all(axis=1) if drop_nan_rows else None
+    if empty is not None and empty.any():
+        if empty.all():
+            raise DataError(f"{name}: every row below the header is NaN (no data)")
+        rows = _data_line_numbers(lines.get(), first)
+        dropped = tuple(int(rows[i]) for i in np.flatnonzero(empty))
+        values = np.asfortranarray(values[~empty])
     finite = np.isfinite(values)
     if not finite.all():
+        if dropped:  # the line numbers of the rows left
+            lines_left = np.delete(_data_line_numbers(lines.get(), first), np.flatnonzero(empty))
         i, j = (int(v) for v in np.argwhere(~finite)[0])
-        line = _data_line_numbers(lines.get(), first)[i]
+        line = (lines_left if dropped else _data_line_numbers(lines.get(), first))[i]
         what = "empty or NaN cell" if np.isnan(values[i, j]) else "infinite value"
         raise DataError(f"{name}: line {line}, column {columns[j]!r}: {what} (NaN/inf are not accepted)")
-    return values
+    return values, dropped
 
 
 class _LazyLines:

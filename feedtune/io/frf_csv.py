@@ -52,11 +52,15 @@ DEFAULT_CHANNEL = "x1/u"
 MAP_PARAMETER = "read_frf.columns"
 """The ``parameter`` of errors about the column map; messages name it ``columns=`` (the argument of
 :func:`read_frf_csv`), the command line prints its option, ``--frf-map`` (:func:`feedtune.errors.cli_message`)."""
+CHANNEL_DEFAULTED = "default"
+"""``meta["channel_named"]`` of a recognised single-channel vendor header whose channel nobody named: it is
+:data:`DEFAULT_CHANNEL` because the file does not say which encoder it measured."""
 RECOGNISED_FORMAT = "csv, recognised header"
 MAPPED_FORMAT = "csv, column map"
 """``meta["format"]`` of an FRF read from a vendor header without and with a column map (not written to files)."""
 _UNIT_RE = re.compile(r"^(.*?)\s*\[(.*)\]\s*$")
 _RESERVED_META = {"quantity", "input", "output", "input_unit", "output_unit"}
+_NOT_WRITTEN_META = {"source", "format", "origin", "channel_named", *_RESERVED_META}
 
 
 def _name_and_unit(text: str) -> tuple[str, str | None]:
@@ -546,6 +550,8 @@ def frf_from_vendor_table(
                  for ch, cols_ in index_groups.items() if "coh" in cols_}
     meta = {"format": RECOGNISED_FORMAT if columns is None else MAPPED_FORMAT,
             "columns": "; ".join(f"{key}={col.cell}" for key, col in used)}
+    if columns is None and auto_channel is None:
+        meta["channel_named"] = CHANNEL_DEFAULTED
     ignored = [c.label for c in cols if c.index not in seen]
     if ignored:
         meta["columns_ignored"] = "; ".join(ignored)
@@ -684,6 +690,12 @@ def read_frf_csv(
     if auto_channel is not None:
         check_channel_name(auto_channel, parameter="read_frf.auto_channel")
     text, name = read_table_data(source, "CSV")
+    first = _head_rows(text, skip_rows, 1)
+    if first and columns is None:
+        from .psd_csv import is_klipper_header, not_a_spectrum_reader
+
+        if is_klipper_header(_cells(first[0][0], _delimiter(first[0][0]))):
+            raise not_a_spectrum_reader(name, "an FRF")
     head = _inspect_head(text, skip_rows)
     try:
         table = parse_table(head.data, name, skip_rows=skip_rows, require_header=True)
@@ -712,7 +724,7 @@ def frf_to_csv_text(frf: Frf) -> str:
     lines += [f"# output: {o} [{frf.output_unit}]" for o in frf.outputs]
     lines.append(f"# source: {_single_line(frf.source)}")
     for key, value in frf.meta.items():
-        if key not in {"source", "format", "origin", *_RESERVED_META} and re.fullmatch(r"[A-Za-z_]\w*", key):
+        if key not in _NOT_WRITTEN_META and re.fullmatch(r"[A-Za-z_]\w*", key):
             lines.append(f"# {key}: {_single_line(value)}")
     cols: dict[str, np.ndarray] = {"freq_hz": frf.freq_hz}
     for o_idx, o in enumerate(frf.outputs):

@@ -1,7 +1,10 @@
 """MATLAB ``.mat`` files: a variable loader for v5 and v7.3 files, and FRF read/write.
 
 * v4/v5/v7 files are read with :func:`scipy.io.loadmat`; variables scipy cannot decode (MATLAB objects such
-  as ``tf``) are skipped.
+  as ``tf``) are skipped. MATLAB class objects (``frd``, ``zpk``, ``tf``, ``ss``, ``timeseries``: opaque ``MCOS``
+  data that only MATLAB decodes, shown by scipy as ``MatlabOpaque`` beside a ``__function_workspace__``) are listed
+  by name and class in :attr:`MatContents.objects`; a file whose data are only such objects is refused naming them
+  and the MATLAB lines that re-export their data as plain arrays (:func:`object_advice`).
 * v7.3 files are HDF5 and read with h5py: arrays are stored transposed (MATLAB is column-major), complex
   arrays as a compound type with fields ``real`` and ``imag``, char arrays as uint16 with the attribute
   ``MATLAB_class = "char"``.
@@ -16,7 +19,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +50,8 @@ class MatContents:
         Variables that are neither numeric nor char (structs, cells, objects) or could not be decoded.
     version : str
         ``"5"`` (v4/v5/v7, scipy) or ``"7.3"`` (HDF5).
+    objects : list of (str, str)
+        MATLAB class objects ``(variable, class)`` (``("G", "frd")``), whose data only MATLAB decodes.
     """
 
     name: str
@@ -54,6 +59,7 @@ class MatContents:
     strings: dict[str, str] = field(default_factory=dict)
     skipped: list[str] = field(default_factory=list)
     version: str = "5"
+    objects: list[tuple[str, str]] = field(default_factory=list)
 
     def available(self) -> str:
         """Comma-separated list of the numeric variables with their shapes, for messages."""
@@ -137,20 +143,122 @@ def _check_v5_elements(buf: bytes, start: int, end: int, where: str, depth: int 
 
 
 def _load_v5(path: Path) -> MatContents:
+    import warnings
+
     import scipy.io
-    from scipy.io.matlab import MatReadError
+    from scipy.io.matlab import MatReadError, MatReadWarning
 
     buf = path.read_bytes()
     if len(buf) >= 128 and buf[126:128] in (b"IM", b"MI") and buf[124:126] in (b"\x00\x01", b"\x01\x00"):
         if buf[126:128] == b"IM":  # little-endian files (everything written today); others go to scipy as they are
             _check_v5_elements(buf, 128, len(buf), str(path))
     try:
-        raw = scipy.io.loadmat(str(path), squeeze_me=False, chars_as_strings=True)
+        with warnings.catch_warnings():  # several MATLAB objects all load under the key 'None': listed by _v5_objects
+            warnings.simplefilter("ignore", MatReadWarning)
+            raw = scipy.io.loadmat(str(path), squeeze_me=False, chars_as_strings=True)
     except (ValueError, TypeError, OSError, RuntimeError, MatReadError):  # RuntimeError: scipy refuses v7.3
         raise DataError(f"{path}: not a MATLAB .mat file (no valid MAT header or truncated)") from None
     except Exception:
         raw = _load_v5_by_variable(path)
-    return _sort_v5(path, raw)
+    contents = _sort_v5(path, raw)
+    if any(_is_opaque(v) for v in raw.values()):
+        contents = replace(contents, objects=_v5_objects(buf),
+                           skipped=[k for k in contents.skipped if not _is_opaque(raw.get(k))])
+    return contents
+
+
+def _is_opaque(value: object) -> bool:
+    """A MATLAB class object as scipy returns it (``MatlabOpaque``: fields ``s0`` name, ``s1`` type system, ``s2``
+    class)."""
+    return type(value).__name__ == "MatlabOpaque"
+
+
+_MX_OPAQUE = 17
+
+
+def _int8_text(buf: bytes, off: int) -> tuple[str, int]:
+    """An miINT8 element's text and the offset after it."""
+    import struct
+
+    tag, n = struct.unpack_from("<II", buf, off)
+    if tag >> 16:
+        n, tag = tag >> 16, tag & 0xFFFF
+        return buf[off + 4:off + 4 + n].decode("latin-1"), off + 8
+    return buf[off + 8:off + 8 + n].decode("latin-1"), off + 8 + n + (-n) % 8
+
+
+def _v5_objects(buf: bytes) -> list[tuple[str, str]]:
+    """``(variable, class)`` of every top-level MATLAB class object of a little-endian MAT v5 file (an miMATRIX of
+    class mxOPAQUE: array flags, then the variable name, the type system and the class name as miINT8 texts)."""
+    import struct
+    import zlib
+
+    found: list[tuple[str, str]] = []
+
+    def walk(data: bytes, nested: bool) -> None:
+        off = 0
+        while off + 8 <= len(data):
+            tag, n = struct.unpack_from("<II", data, off)
+            body = data[off + 8:off + 8 + n]
+            if tag == _MI_COMPRESSED and not nested:
+                try:
+                    walk(zlib.decompress(body), True)
+                except zlib.error:
+                    return
+            elif tag == _MI_MATRIX and len(body) >= 16:
+                flags = struct.unpack_from("<I", body, 8)[0]
+                if flags & 0xFF == _MX_OPAQUE:
+                    try:
+                        name, k = _int8_text(body, 16)
+                        system, k = _int8_text(body, k)
+                        cls, _ = _int8_text(body, k)
+                    except (struct.error, UnicodeDecodeError):
+                        cls, name, system = "", "", ""
+                    if name and cls and system == "MCOS":
+                        found.append((name, cls))
+            off += 8 + n + ((-n) % 8 if tag != _MI_COMPRESSED else 0)
+
+    if len(buf) >= 128 and buf[126:128] == b"IM":
+        walk(buf[128:], False)
+    return found
+
+
+_REEXPORT = {
+    "frd": ("{v} = chgFreqUnit({v}, 'Hz'); f = {v}.Frequency; x1_u = squeeze({v}.ResponseData(1, 1, :)); "
+            "save('{v}_frf.mat', 'f', 'x1_u', '-v7')"),
+    "lti": ("f = logspace(0, 3, 400)'; x1_u = squeeze(freqresp({v}, 2*pi*f)); save('{v}_frf.mat', 'f', 'x1_u', "
+            "'-v7')"),
+    "timeseries": "t = {v}.Time; x = squeeze({v}.Data); save('{v}_log.mat', 't', 'x', '-v7')",
+}
+"""MATLAB lines that re-export an object's data as plain arrays feedtune reads (``{v}``: the variable); ``lti``
+stands for zpk, tf and ss (their response on a grid in Hz: ``freqresp`` takes rad/s)."""
+_LTI_CLASSES = ("zpk", "tf", "ss", "pid", "pidstd", "idtf", "idss", "idpoly", "idproc", "genss", "uss")
+
+
+def object_advice(mat: MatContents) -> str:
+    """What a file of MATLAB class objects holds and how to re-export each (empty without objects).
+
+    Examples
+    --------
+    >>> print(object_advice(MatContents("G.mat", {}, objects=[("G", "frd")])))  # doctest: +NORMALIZE_WHITESPACE
+    G.mat holds MATLAB objects that only MATLAB can decode: G (class frd); re-export their data as plain arrays in
+    MATLAB: G = chgFreqUnit(G, 'Hz'); f = G.Frequency; x1_u = squeeze(G.ResponseData(1, 1, :)); save('G_frf.mat',
+    'f', 'x1_u', '-v7') (and x2_u from ResponseData(2, 1, :) for a second output)
+    """
+    if not mat.objects:
+        return ""
+    names = ", ".join(f"{v} (class {c})" for v, c in mat.objects)
+    lines = []
+    for v, c in mat.objects:
+        key = "lti" if c in _LTI_CLASSES else c
+        if key in _REEXPORT:
+            lines.append(_REEXPORT[key].format(v=v))
+    how = ("; ".join(dict.fromkeys(lines)) if lines
+           else "save each object's data as numeric variables (freq_hz and OUT_IN vectors, or t and signals)")
+    extra = " (and x2_u from ResponseData(2, 1, :) for a second output)" if any(c == "frd" for _, c in mat.objects) \
+        else ""
+    return (f"{mat.name} holds MATLAB objects that only MATLAB can decode: {names}; re-export their data as plain "
+            f"arrays in MATLAB: {how}{extra}")
 
 
 def _short(exc: BaseException) -> str:
@@ -228,6 +336,7 @@ def _load_v73(path: Path) -> MatContents:
     arrays: dict[str, np.ndarray] = {}
     strings: dict[str, str] = {}
     skipped: list[str] = []
+    objects: list[tuple[str, str]] = []
     try:
         with h5py.File(path, "r") as fh:
             for key, obj in fh.items():
@@ -237,7 +346,9 @@ def _load_v73(path: Path) -> MatContents:
                     val = _h5_dataset(obj) if isinstance(obj, h5py.Dataset) else None
                 except (ValueError, TypeError, OverflowError) as exc:
                     raise DataError(f"{path}: variable {key!r} cannot be decoded: {_short(exc)}") from None
-                if isinstance(val, str):
+                if getattr(obj, "attrs", {}).get("MATLAB_object_decode") is not None:
+                    objects.append((key, _h5_class(obj)))
+                elif isinstance(val, str):
                     strings[key] = val
                 elif isinstance(val, np.ndarray):
                     arrays[key] = val
@@ -245,7 +356,7 @@ def _load_v73(path: Path) -> MatContents:
                     skipped.append(key)
     except OSError as exc:
         raise DataError(f"{path}: cannot read the HDF5 (MATLAB v7.3) file ({_short(exc)})") from None
-    return MatContents(str(path), arrays, strings, skipped, "7.3")
+    return MatContents(str(path), arrays, strings, skipped, "7.3", objects)
 
 
 def read_mat_variables(path: str | os.PathLike[str]) -> MatContents:
@@ -350,6 +461,8 @@ def read_frf_mat(
         Response in ``output_unit / input_unit`` (char variables, default rad/V).
     """
     mat = read_mat_variables(path)
+    if mat.objects and not (channels or freq_var) and not any(n in mat.arrays for n in FREQ_NAMES):
+        raise DataError(object_advice(mat))
     fvar, f = _frequency(mat, freq_var)
     n = f.size
     chan_vars = dict(channels) if channels else _default_channels(mat, n, fvar)

@@ -12,18 +12,25 @@ from ..frf import Frf
 CSV_EXTENSIONS = (".csv", ".txt")
 MAT_EXTENSIONS = (".mat",)
 UFF_EXTENSIONS = (".uff", ".unv", ".uff58")
-FRF_EXTENSIONS = CSV_EXTENSIONS + MAT_EXTENSIONS + UFF_EXTENSIONS
+XML_EXTENSIONS = (".xml",)
+FRF_EXTENSIONS = CSV_EXTENSIONS + MAT_EXTENSIONS + UFF_EXTENSIONS + XML_EXTENSIONS
 
 
-def frf_format(path: str | os.PathLike[str]) -> str:
-    """``"csv"``, ``"mat"`` or ``"uff"`` from the extension; other extensions are a :class:`DataError`."""
+def frf_format(path: str | os.PathLike[str], *, writing: bool = False) -> str:
+    """``"csv"``, ``"mat"``, ``"uff"`` or ``"xml"`` (auto-servo-tuning export, read only) from the extension; other
+    extensions are a :class:`DataError`, ``.xml`` when ``writing`` a :class:`UsageError`."""
     ext = Path(path).suffix.lower()
+    if writing and ext in XML_EXTENSIONS:
+        raise UsageError(f"{path}: feedtune reads auto-servo-tuning XML exports but writes FRFs as .csv, .mat or "
+                         ".uff")
     if ext in CSV_EXTENSIONS:
         return "csv"
     if ext in MAT_EXTENSIONS:
         return "mat"
     if ext in UFF_EXTENSIONS:
         return "uff"
+    if ext in XML_EXTENSIONS:
+        return "xml"
     raise DataError(f"{path}: unknown FRF file type {ext or '(no extension)'!r}; "
                     f"accepted: {', '.join(FRF_EXTENSIONS)}")
 
@@ -40,7 +47,8 @@ def read_frf(
     scale: Mapping[str, float] | None = None,
     auto_channel: str | None = None,
 ) -> Frf:
-    """Read an FRF from CSV (``.csv``/``.txt``), MATLAB (``.mat``) or UFF58 (``.uff``/``.unv``/``.uff58``).
+    """Read an FRF from CSV (``.csv``/``.txt``), MATLAB (``.mat``), UFF58 (``.uff``/``.unv``/``.uff58``) or a CNC's
+    auto-servo-tuning export (``.xml``: the speed-loop plant, :mod:`feedtune.io.servo_tuning_xml`).
 
     Parameters
     ----------
@@ -89,11 +97,17 @@ def read_frf(
         from .frf_mat import read_frf_mat
 
         frf = read_frf_mat(path, freq_var=freq_var, channels=channels, coherence=coherence, quantity=quantity)
-    else:
+    elif fmt == "uff":
         _reject_options(path, "UFF", freq_var=freq_var, coherence=coherence, **csv_only)
         from .frf_uff import read_frf_uff
 
         frf = read_frf_uff(path, channels=channels, quantity=quantity)
+    else:
+        _reject_options(path, "auto-servo-tuning XML", freq_var=freq_var, channels=channels, coherence=coherence,
+                        **csv_only)
+        from .servo_tuning_xml import read_servo_tuning_frf
+
+        frf = read_servo_tuning_frf(path, quantity=quantity)
     return scale_channels(frf, scale) if scale else frf
 
 
@@ -158,7 +172,7 @@ def write_frf(frf: Frf, path: str | os.PathLike[str], *, force: bool = False) ->
     force : bool
         Replace an existing file.
     """
-    fmt = frf_format(path)
+    fmt = frf_format(path, writing=True)
     if fmt == "csv":
         from .frf_csv import write_frf_csv
 

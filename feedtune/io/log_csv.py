@@ -8,8 +8,15 @@ Layout written by :func:`write_log_csv` and read back exactly by :func:`~feedtun
     0.0,0.0,0.1
     0.001,1.2e-06,0.1
 
-Units come from ``NAME [UNIT]`` headers or ``# unit: NAME = UNIT`` lines. Files without a header row get
-the column names ``col0``, ``col1``...
+Units come from ``NAME [UNIT]`` headers, a units row under them or ``# unit: NAME = UNIT`` lines. Files without a
+header row get the column names ``col0``, ``col1``...
+
+Loggers' own layouts read as they are (:mod:`feedtune.io._table`): ``%`` comments, a header commented out above the
+numbers (``%timestep (8Hz),voltage`` then ``%[#],[V]``), rows ending in ``;``, rows of NaN only and rows after a tick
+counter stopped (dropped and counted in ``meta["dropped_rows"]``). A time column that counts ticks
+(:func:`tick_time_base`) becomes the time base at the tick rate the file states (``meta["time_base"]``). What this read
+did beyond the options is also in ``meta["read_notes"]`` (a tuple: not written back by :func:`write_log_csv`, so a
+converted file does not report it again).
 """
 
 from __future__ import annotations
@@ -25,14 +32,14 @@ from ..log import Log
 from ._table import parse_table, read_table_data, read_table_file
 from .atomic import atomic_output
 from .csv_text import csv_row_chunks, csv_rows
-from .log_read import RawLog
+from .log_read import RawLog, TickTimeBase
 
 _HEADER_UNIT_RE = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]*)[\])]\s*$")
 _UNIT_META_RE = re.compile(r"^\s*([^=]+?)\s*=\s*(.*?)\s*$")
 
 
-_UNIT_TOKENS = frozenset("""s ms us µs ns min h m mm um µm nm km rad mrad urad deg ° rev rpm rps Hz kHz V mV kV A mA N
-kN mN Nm W kW g kg bar mbar Pa kPa MPa % pls pulse pulses count counts cnt inc K degC""".split())
+_UNIT_TOKENS = frozenset("""s ms us µs ns min h m mm um µm nm km rad mrad urad deg ° rev rpm rps turn turns Hz kHz V mV
+kV A mA N kN mN Nm W kW g kg bar mbar Pa kPa MPa % # pls pulse pulses count counts cnt inc tick ticks K degC""".split())
 """Unit symbols a second header row may hold (combined with ``/ * ^``, powers and spaces: ``N m``, ``m/s^2``)."""
 
 
@@ -70,12 +77,17 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
     RawLog
         The columns, units and metadata.
     """
+    options = {"skip_rows": skip_rows, "require_header": False, "header_from_comments": True, "drop_nan_rows": True}
     if isinstance(source, (str, os.PathLike)):
-        table = read_table_file(source, "CSV", skip_rows=skip_rows, require_header=False)
+        table = read_table_file(source, "CSV", **options)
     else:
         text, name = read_table_data(source, "CSV")
-        table = parse_table(text, name, skip_rows=skip_rows, require_header=False)
+        table = parse_table(text, name, **options)
     name = table.name
+    from .psd_csv import is_klipper_header, not_a_spectrum_reader
+
+    if is_klipper_header(table.columns):
+        raise not_a_spectrum_reader(name, "a log")
     columns: dict[str, np.ndarray] = {}
     units: dict[str, str] = {}
     aliases: dict[str, str] = {}
@@ -103,13 +115,120 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
     meta: dict[str, object] = {"format": "csv"}
     meta.update({("origin" if k == "source" else k): "; ".join(v) for k, v in table.metadata.items()
                  if k != "unit"})
+    dropped = []
+    if table.dropped_lines:
+        dropped.append(f"{len(table.dropped_lines)} row(s) NaN in every column (a failed read) dropped: "
+                       f"line(s) {_line_list(table.dropped_lines)}")
+    if table.terminator:
+        meta["row_terminator"] = table.terminator
+    stopped = _stopped_counter(columns)
+    if stopped:
+        column, n = stopped
+        lines = [int(k) for k in table.line_numbers()[-n:]]
+        columns = {k: v[:-n] for k, v in columns.items()}
+        dropped.append(f"{n} trailing row(s) with {column} 0 (the counter stopped) dropped: line(s) "
+                       f"{_line_list(lines)}")
+    if dropped:
+        meta["dropped_rows"] = "; ".join(dropped)
+        meta["read_notes"] = (meta["dropped_rows"],)
+    ticks = tick_time_base(name, columns, units, table.comments)
 
     def resolve(spec: str) -> np.ndarray:
         if spec in aliases:
             return columns[aliases[spec]]
         raise DataError(f"{name}: no column {spec!r}; columns: {', '.join(columns)}")
 
-    return RawLog(name, columns, units, meta, resolve, aliases={k: v for k, v in aliases.items() if k != v})
+    return RawLog(name, columns, units, meta, resolve, aliases={k: v for k, v in aliases.items() if k != v},
+                  ticks=ticks)
+
+
+def _stopped_counter(columns: dict[str, np.ndarray]) -> tuple[str, int] | None:
+    """``(column, n)`` when the rows end with ``n`` rows whose tick counter (a column named as one, see
+    :func:`tick_time_base`) is 0 after it counted up: rows a logger wrote after its run, without a tick."""
+    column = next((c for c in columns if _TICK_NAME_RE.match(c)), None)
+    if column is None:
+        return None
+    ticks = columns[column]
+    nonzero = np.flatnonzero(ticks != 0)
+    if nonzero.size < 2 or nonzero[-1] == ticks.size - 1 or ticks[nonzero[-1]] <= 0:
+        return None
+    return column, int(ticks.size - 1 - nonzero[-1])
+
+
+def _line_list(lines, at_most: int = 8) -> str:
+    shown = ", ".join(str(n) for n in lines[:at_most])
+    return shown + (f" and {len(lines) - at_most} more" if len(lines) > at_most else "")
+
+
+_TICK_NAME_RE = re.compile(r"^(?:time[ _-]?step|tick|ticks|tick[ _-]?count|counter)s?$", re.IGNORECASE)
+_COUNT_UNITS = ("", "#", "-", "1", "tick", "ticks", "count", "counts", "cnt", "samples")
+_RATE_RE = re.compile(r"(\d+(?:\.\d+)?)\s*([kKM]?)Hz\b")
+_RATE_STATEMENT_RE = re.compile(r"\b(?:time ?step|tick|sample|clock|counter)\w*\b[^\n]*?(\d+(?:\.\d+)?)\s*([kKM]?)Hz\b",
+                                re.IGNORECASE)
+_PREFIX = {"": 1.0, "k": 1e3, "K": 1e3, "M": 1e6}
+
+
+def _rate_of(match: re.Match) -> float:
+    return float(match.group(1)) * _PREFIX[match.group(2)]
+
+
+def tick_time_base(name: str, columns: dict[str, np.ndarray], units: dict[str, str],
+                   comments: list[str]) -> TickTimeBase | None:
+    """The time base of a log whose time column counts controller ticks, at the tick rate the file states.
+
+    A column is a tick counter when it is named ``timestep``, ``tick(s)`` or ``counter`` and its unit is a count
+    (``#``, none) or a rate (``timestep (8 kHz)``), and there is no ``t``/``time`` column. Rates are read from the
+    column's unit and from comment lines that state one (``Timestep increments at 8kHz``). Of these, the ones that
+    give a plausible sample rate (:data:`~feedtune.io.log_read.FS_MIN_HZ` .. ``FS_MAX_HZ``) count: one rate is used
+    (and a contradicting implausible statement named in the record); none, or two plausible rates that differ, leave
+    the choice to the user (``scale=``), the error of the time check names it.
+
+    Parameters
+    ----------
+    name : str
+        File name, for the record.
+    columns, units : dict
+        The file's columns and units.
+    comments : list of str
+        Its comment lines.
+
+    Returns
+    -------
+    TickTimeBase or None
+        The column, the rate [Hz] and where it was stated; None when no tick column, or no usable rate.
+    """
+    from .log_read import FS_MAX_HZ, FS_MIN_HZ, TIME_NAMES
+
+    if any(c.lower() in TIME_NAMES for c in columns):
+        return None
+    column = next((c for c in columns if _TICK_NAME_RE.match(c)), None)
+    if column is None:
+        return None
+    unit = units.get(column, "").strip()
+    statements = []
+    m = _RATE_RE.fullmatch(unit)
+    if m:
+        statements.append((_rate_of(m), f"the header's {column} ({unit})"))
+    elif unit not in _COUNT_UNITS:
+        return None
+    for line in comments:
+        m = _RATE_STATEMENT_RE.search(line)
+        if m:
+            statements.append((_rate_of(m), f"the comment '{line}'"))
+    ticks = columns[column]
+    finite = ticks[np.isfinite(ticks)]
+    span = float(finite[-1] - finite[0]) if finite.size > 1 else 0.0
+    if span <= 0:
+        return None
+    if not statements:
+        return TickTimeBase(column, None, [])
+    plausible = [(r, w) for r, w in statements if FS_MIN_HZ <= (finite.size - 1) * r / span <= FS_MAX_HZ]
+    if len({r for r, _ in plausible}) != 1:
+        return TickTimeBase(column, None, statements)
+    rate, where = plausible[0]
+    others = [f"{w} says {r:g} Hz, which would sample at {(finite.size - 1) * r / span:.3g} Hz"
+              for r, w in statements if r != rate]
+    return TickTimeBase(column, rate, statements, where, tuple(others))
 
 
 def _csv_head(log: Log) -> str:

@@ -13,7 +13,7 @@ import re
 import numpy as np
 
 from ..errors import DataError
-from .frf_mat import MatContents, read_mat_variables
+from .frf_mat import MatContents, object_advice, read_mat_variables
 from .log_read import RawLog
 
 _COLUMN_SPEC_RE = re.compile(r"^\s*([A-Za-z_]\w*)\s*\[\s*(\d+)\s*\]\s*$")
@@ -66,4 +66,8 @@ def read_log_mat_raw(path: str | os.PathLike[str]) -> RawLog:
     meta.update({("origin" if k == "source" else k): v for k, v in mat.strings.items()})
     if mat.skipped:
         meta["skipped_variables"] = ", ".join(mat.skipped)
+    if mat.objects:
+        if not any(a.size >= 2 and not np.iscomplexobj(a) for a in mat.arrays.values()):
+            raise DataError(object_advice(mat))
+        meta["matlab_objects"] = ", ".join(f"{v} ({c})" for v, c in mat.objects)
     return RawLog(mat.name, columns, {}, meta, _resolver(mat))

@@ -44,6 +44,44 @@ FS_MAX_HZ = 10e6
 INTEGER_STEP_UNITS = (((100.0, 10000.0), "microseconds", "1e-6"), ((1.0, 10.0), "milliseconds", "1e-3"))
 
 
+@dataclass(frozen=True)
+class TickTimeBase:
+    """A time column that counts controller ticks, and the tick rate the file states (:func:`~feedtune.io.log_csv.
+    tick_time_base`).
+
+    Attributes
+    ----------
+    column : str
+        The tick column.
+    rate_hz : float or None
+        Ticks per second [Hz]; None when the file states none, or no one rate that gives a plausible sample rate.
+    statements : list of (float, str)
+        Every rate the file states [Hz] and where.
+    source : str
+        Where the rate used was stated.
+    overruled : tuple of str
+        Statements that contradict it (each with the implausible sample rate it would give).
+    """
+
+    column: str
+    rate_hz: float | None
+    statements: list[tuple[float, str]]
+    source: str = ""
+    overruled: tuple[str, ...] = ()
+
+    def record(self, t_name: str) -> str:
+        """``meta["time_base"]`` of a log whose time was read in ticks."""
+        text = f"{t_name} = {self.column} / {self.rate_hz:g} Hz (from {self.source})"
+        return text + (f"; {'; '.join(self.overruled)}" if self.overruled else "")
+
+    def problem(self) -> str:
+        """Why no rate is used (when :attr:`rate_hz` is None)."""
+        if not self.statements:
+            return "the file states no tick rate"
+        told = "; ".join(f"{w}: {r:g} Hz" for r, w in self.statements)
+        return f"the rates the file states ({told}) give no one plausible sample rate"
+
+
 @dataclass
 class RawLog:
     """Columns of a log file before the user's options are applied.
@@ -73,6 +111,7 @@ class RawLog:
     resolve: Callable[[str], np.ndarray] | None = None
     time: np.ndarray | None = None
     aliases: dict[str, str] = field(default_factory=dict)
+    ticks: TickTimeBase | None = None
 
     def canonical(self, spec: str) -> str:
         """The column name a spec refers to (``spec`` itself when it is not an alias)."""
@@ -138,6 +177,8 @@ def _time_spec(raw: RawLog, mapping: dict[str, str], time: str | None, fs: float
     for cand in TIME_NAMES:
         if cand in mapping and fs is None:
             return mapping.pop(cand), cand
+    if raw.ticks is not None and fs is None:
+        return raw.ticks.column, raw.ticks.column
     return None, "t"
 
 
@@ -160,12 +201,22 @@ def assemble_log(
               for new, col in mapping.items()}
     sig_units = {new: raw.units.get(raw.canonical(col), "") for new, col in mapping.items()}
     unstated = False  # a time column without a unit in the file
+    time_base = None  # how a time column in ticks was converted
     if raw.time is not None:
         t = np.asarray(raw.time, dtype=float)
     elif fs is None and time_spec is not None:
         t = np.asarray(raw.get(time_spec, "time column"), dtype=float).reshape(-1)
         unstated = not raw.units.get(raw.canonical(time_spec), "").strip()
-        t = t * _time_factor(raw, time_spec)
+        ticks = raw.ticks if raw.ticks is not None and raw.canonical(time_spec) == raw.ticks.column else None
+        if ticks is not None and not any(k in (scale or {}) for k in ("t", t_name, ticks.column)):
+            if ticks.rate_hz is None:
+                raise DataError(f"{raw.name}: column {ticks.column!r} counts ticks and {ticks.problem()}; give the "
+                                f"seconds per tick with scale={t_name}=S (e.g. 0.000125 for 8 kHz)",
+                                parameter="read_log.scale")
+            t, unstated = t / ticks.rate_hz, False
+            time_base = ticks.record("t")
+        else:
+            t = t * _time_factor(raw, time_spec)
     elif fs is not None:
         t = np.arange(_common_length(raw, mapped)) / fs
     else:
@@ -191,6 +242,9 @@ def assemble_log(
         sig_units[name] = str(unit)
     meta = dict(raw.meta)
     meta["source"] = raw.name
+    if time_base:
+        meta["time_base"] = time_base
+        meta["read_notes"] = (*meta.get("read_notes", ()), f"time read in ticks: {time_base}")
     if np.any(np.diff(t) <= 0) and fs is None:
         bad = int(np.flatnonzero(np.diff(t) <= 0)[0])
         raise DataError(f"{raw.name}: time column {t_name!r} is not strictly increasing at sample {bad + 1}; "

@@ -67,7 +67,8 @@ def _sections(inputs: Inputs, limits: ReportLimits, strict: bool) -> tuple[list[
 
 def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None = None,
                  log_kinds: Mapping[str, str] | None = None, strict: bool = False,
-                 limits: ReportLimits | None = None, render: bool = True, log_reader=None) -> Report:
+                 limits: ReportLimits | None = None, render: bool = True, log_reader=None,
+                 frfs: Iterable[tuple[str, object]] = ()) -> Report:
     """Build the report of the given files and folders.
 
     Parameters
@@ -88,6 +89,8 @@ def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None =
     log_reader : callable, optional
         ``log_reader(path)`` -> Log for the log files named in ``paths``
         (:func:`~feedtune.report.collect.collect_inputs`).
+    frfs : iterable of (str, Frf)
+        FRFs read already, with the name to show (e.g. one merged from a file per encoder).
 
     Returns
     -------
@@ -105,7 +108,7 @@ def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None =
 
     limits = limits or ReportLimits()
     progress.step("report: reading the inputs")
-    inputs = collect_inputs(paths, log_kinds=log_kinds, strict=strict, log_reader=log_reader)
+    inputs = collect_inputs(paths, log_kinds=log_kinds, strict=strict, log_reader=log_reader, frfs=frfs)
     progress.step("report: building the sections")
     sections, data, warnings = _sections(inputs, limits, strict)
     data = plain({"schema": REPORT_SCHEMA, "created_by": f"feedtune {__version__}", "title": title or DEFAULT_TITLE,

@@ -9,7 +9,10 @@ Rules (see ``docs/report.md``):
   When both ``x.toml`` and its JSON twin ``x.json`` hold the same document, the JSON twin is not used twice.
 * ``.csv`` / ``.txt``: an FRF when its header row has a ``freq_hz`` column, else a log.
 * ``.mat``: an FRF when :func:`feedtune.io.read_frf` accepts it, else a log.
-* ``.uff`` / ``.unv`` / ``.uff58``: FRF; ``.mf4`` / ``.mdf``: log.
+* ``.uff`` / ``.unv`` / ``.uff58``: FRF; ``.mf4`` / ``.mdf``: log; ``.xml`` named on the command line: an
+  auto-servo-tuning export's FRF.
+* FRFs the caller has read already (``frfs``: the command line's ``FILE:OUT/IN`` pieces joined with ``+``, each
+  merged into one FRF) are taken as they are.
 * Logs: the kind of run comes from ``meta["experiment"]`` (written by the twin: ``track``, ``cut``,
   ``ropesnap``, ``frf``), else from a ``--log-kind NAME=KIND`` override, else from the columns
   (``x_ref, y_ref`` -> contour, ``x_ref`` -> track, ``v_hat, d_hat`` -> friction, ``r, u`` -> frf,
@@ -36,6 +39,8 @@ DOCUMENT_EXTENSIONS = (".toml", ".json")
 TABLE_EXTENSIONS = (".csv", ".txt")
 MAT_EXTENSIONS = (".mat",)
 UFF_EXTENSIONS = (".uff", ".unv", ".uff58")
+XML_EXTENSIONS = (".xml",)
+"""FRFs of auto-servo-tuning exports: read when named, not looked for in folders (other XML files are common)."""
 MDF_EXTENSIONS = (".mf4", ".mdf")
 KNOWN_EXTENSIONS = DOCUMENT_EXTENSIONS + TABLE_EXTENSIONS + MAT_EXTENSIONS + UFF_EXTENSIONS + MDF_EXTENSIONS
 SNIFF_LINES = 200
@@ -292,14 +297,14 @@ def classify_file(path: Path, log_kinds: Mapping[str, str] | None = None, log_re
         return _classify_table(path, log_kinds, log_reader)
     if ext in MAT_EXTENSIONS:
         return _classify_mat(path, log_kinds, log_reader)
-    if ext in UFF_EXTENSIONS:
+    if ext in UFF_EXTENSIONS or ext in XML_EXTENSIONS:
         from ..io import read_frf
 
         return FrfInput(path, read_frf(path))
     if ext in MDF_EXTENSIONS:
         return _read_log_input(path, log_kinds, log_reader)
     raise DataError(f"{path}: not a file feedtune reports on; expected model or gains files (.toml, .json), "
-                    f"FRFs (.csv, .mat, .uff) or logs (.csv, .mat, .mf4)")
+                    f"FRFs (.csv, .mat, .uff, .xml) or logs (.csv, .mat, .mf4)")
 
 
 # ------------------------------------------------------------------------------------------ logs
@@ -373,7 +378,7 @@ def _drop_json_twins(items: list) -> tuple[list, list[Skipped]]:
 
 
 def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mapping[str, str] | None = None,
-                   strict: bool = False, log_reader=None) -> Inputs:
+                   strict: bool = False, log_reader=None, frfs: Iterable[tuple[str, object]] = ()) -> Inputs:
     """Read and classify the report's input files (see the module docstring).
 
     Parameters
@@ -387,6 +392,8 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
     log_reader : callable, optional
         ``log_reader(path)`` -> Log for the log files named in ``paths`` (a foreign log's column map, scales,
         units); logs found in folders are read as feedtune logs.
+    frfs : iterable of (str, Frf)
+        FRFs read already, with the name to show (e.g. one merged from a file per encoder).
 
     Returns
     -------
@@ -405,8 +412,9 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
         if kind not in LOG_KINDS:
             raise UsageError(f"log_kinds {name}={kind}: kind must be one of {', '.join(LOG_KINDS)}",
                              parameter="log_kinds")
+    given = [(Path(name), frf) for name, frf in frfs]
     files = expand_paths(paths)
-    if not files:
+    if not files and not given:
         raise DataError("no input files: give model, gains, FRF or log files, or a folder holding them")
     unmatched = set(log_kinds) - {p.name for p, _ in files} - {str(p) for p, _ in files}
     if unmatched:
@@ -424,7 +432,7 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
     inputs = Inputs(
         models=[i for i in items if isinstance(i, ModelInput)],
         gains=[i for i in items if isinstance(i, GainsInput)],
-        frfs=[i for i in items if isinstance(i, FrfInput)],
+        frfs=[i for i in items if isinstance(i, FrfInput)] + [FrfInput(p, f) for p, f in given],
         logs=[i for i in items if isinstance(i, LogInput)],
         others=[i for i in items if isinstance(i, OtherInput)],
         skipped=skipped + twins,
