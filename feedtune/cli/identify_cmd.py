@@ -260,11 +260,12 @@ def rigid(
         emit({**result, "params": quantities(result["values"], result["units"], result["std"])})
         return
     units = result["units"]
-    kind = {"rigid": "symmetric", "rigid-asymmetric": "asymmetric", "rigid-one-direction": "one-direction"}[
-        result["model"]]
+    kind = {"rigid": "symmetric", "rigid-asymmetric": "asymmetric", "rigid-one-direction": "one-direction",
+            "rigid-one-speed": "one-speed"}[result["model"]]
     typer.echo(f"Rigid-body model ({kind} friction, IDIM-LS) from {log_file}:")
     for name, value in result["values"].items():
-        typer.echo(f"  {name:12s} = {_std_text(value, result['std'][name], units[name])}")
+        bound = result["on_bound"].get(name, {}).get("bound")
+        typer.echo(f"  {name:12s} = {fmt_param(value, units[name], result['std'][name], lower=bound)}")
     typer.echo(f"  relative error {fmt(result['relative_error_pct'], '%')}, residual RMS "
                f"{fmt(result['residual_rms'], units['residual_rms'])}, condition number "
                f"{fmt(result['condition_number'])}, {result['n_samples']} samples after decimation by "
