@@ -254,14 +254,29 @@ def test_friction_law_files_round_trip_and_eq_2_1_files_load_as_before(tmp_path)
         load_model(eq21)
 
 
-def test_feedforward_takes_the_stribeck_law_without_viscous_and_refuses_the_others():
+def test_feedforward_takes_the_law_with_its_viscous_term_and_refuses_hump_and_lugre():
     from feedtune.control.friction import friction_feedforward
 
     lead = 0.01 / (2 * math.pi)
     ff = friction_feedforward(_truth("stribeck"), command_unit="N", lead_m_per_rad=lead)
-    assert type(ff.friction) is StribeckFriction and ff.friction.dc_pos == 12.0
+    assert isinstance(ff.friction, FrictionLaw) and ff.friction.dc_pos == 12.0
     assert ff.friction.omega_pos == pytest.approx(0.01 / lead)
-    assert ff.source["viscous_not_fed_forward"]["pos"]["value"] == 40.0
+    assert ff.viscous == pytest.approx((40.0 * lead, 50.0 * lead))  # N/(m/s) -> N/(rad/s) of screw rotation
+    v = np.array([-0.2, -0.03, 0.05, 0.2]) / lead  # rad/s, outside the band
+    assert ff.command(v) == pytest.approx(_truth("stribeck").force(v * lead), rel=1e-12)
+    # a design whose linear feedforward carries b = 0.03 N/(rad/s) gets the rest: the viscous friction fed once
+    rest = friction_feedforward(_truth("stribeck"), command_unit="N", lead_m_per_rad=lead, linear_viscous=0.03)
+    assert rest.viscous == pytest.approx((40.0 * lead - 0.03, 50.0 * lead - 0.03))
+    assert rest.section()["viscous_pos"]["unit"] == "N/(rad/s)"
+    assert rest.source["viscous_in_linear_feedforward"] == {"value": 0.03, "unit": "N/(rad/s)"}
+    # eq. 2.1 alone (no viscous term identified with it) adds none, whatever the design carries
+    plain = friction_feedforward(TRUTH, command_unit="N", lead_m_per_rad=lead, linear_viscous=0.03)
+    assert plain.viscous == (0.0, 0.0) and type(plain.friction) is StribeckFriction
+    # the coulomb-viscous law: Fc + Fv v, its band a tenth of Fc / Fv (12 N / 40 N/(m/s) = 0.3 m/s)
+    cv = friction_feedforward(_truth("coulomb-viscous"), command_unit="N", lead_m_per_rad=None)
+    assert cv.v_band == pytest.approx(0.1 * min(12.0 / 40.0, 10.0 / 50.0))
+    assert cv.command(np.array([0.5, -0.5])) == pytest.approx([12.0 + 20.0, -10.0 - 25.0])
+    assert "ds_pos" not in cv.section() and cv.section()["model"] == "coulomb-viscous"
     with pytest.raises(DataError, match="'lugre' friction law cannot be fed forward"):
         friction_feedforward(_truth("lugre"), command_unit="N", lead_m_per_rad=lead)
 
