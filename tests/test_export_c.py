@@ -130,3 +130,16 @@ def test_discrete_reference_paths_realise_the_previewed_filters():
     assert np.allclose(rot, g_r * np.exp(1j * np.pi * f / fs), rtol=2e-3)
     table = sos_freqresp(np.array(doc["reference"]["table_sos"]), f, fs) * np.exp(2j * np.pi * f * P / fs)
     assert np.allclose(table, 1.0)
+
+
+@pytest.mark.parametrize("design", [design_mcppc(MODEL, filters=THESIS_FILTER_PACK),
+                                    design_ppi(MODEL, Kpx=60.0, Kpv=0.8, Kiv=100.0, filters=THESIS_FILTER_PACK)],
+                         ids=["mcppc", "ppi"])
+def test_ball_screw_friction_feedforward_feeds_the_viscous_friction_once(design):
+    """Both designs' feedforward carries ``b1 + b2`` (``U_ff'(0)``: G_ff of eq. 3.13 and (m1+m2) s^2 + (b1+b2) s of
+    the P-PI): the friction section adds the model's viscous coefficients less that."""
+    sec = with_friction_feedforward(gains_document(design), FRICTION, v_band=0.05)["friction_feedforward"]
+    b = MODEL.b1 + MODEL.b2
+    assert sec["viscous_pos"]["value"] == pytest.approx(FRICTION.viscous_pos - b, rel=1e-9)
+    assert sec["viscous_neg"]["value"] == pytest.approx(FRICTION.viscous_negative - b, rel=1e-9)
+    assert sec["source"]["viscous_in_linear_feedforward"] == {"value": pytest.approx(b, rel=1e-9), "unit": "V/(rad/s)"}

@@ -376,7 +376,7 @@ def _friction_steady_state_text(result: dict, log_file: Path | str) -> None:
     for key, d in fit["directions"].items():
         typer.echo(f"  {'v > 0' if key == 'pos' else 'v < 0'}: "
                    + ", ".join(f"{name} = {_std_text(d[name], d['std'].get(name), fu[name])}"
-                               for name in ("dc", "ds", "omega", "viscous")))
+                               for name in ("dc", "ds", "omega", "viscous") if name in d["std"]))
     typer.echo(f"  fit RMS {fmt(fit['rms_error'], fu['rms_error'])} ({fmt(fit['relative_error_pct'], '%')})")
     for w in result.get("warnings", []):
         typer.echo(f"  warning: {cli_text(w)}")
@@ -404,7 +404,7 @@ def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: boo
     for key, d in jf["law_fit"]["directions"].items():
         typer.echo(f"  {'v > 0' if key == 'pos' else 'v < 0'}: "
                    + ", ".join(f"{name} = {_std_text(d[name], d['std'].get(name), fu[name])}"
-                               for name in ("dc", "ds", "omega", "viscous")))
+                               for name in ("dc", "ds", "omega", "viscous") if name in d["std"]))
     typer.echo(f"  fit RMS {fmt(jf['law_fit']['rms_error'], fu['rms_error'])} "
                f"({fmt(jf['law_fit']['relative_error_pct'], '%')}), {jf['n_samples']} samples, filter "
                f"{fmt(jf['cutoff_hz'], 'Hz')}")

@@ -627,12 +627,14 @@ def _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, comm
 def identifiability_warnings(fit: FrictionLawFit) -> list[str]:
     """What the fitted law's parameters say about the data: a poorly resolved ``vs`` (relative std above
     :data:`POOR_OMEGA_STD`), a static level indistinguishable from the Coulomb level (within :data:`STD_SIGMAS` std:
-    the law's low-speed shape is not identified), and a dip (a static level below the Coulomb level,
-    :func:`~feedtune.models.friction.level_shape`)."""
+    the law's low-speed shape is not identified), and a dip (a static level below the Coulomb level by more than that,
+    :func:`~feedtune.models.friction.level_shape`; within it the first warning names the dip)."""
     out = []
     if fit.law == COULOMB_VISCOUS:
         return out
     unit, vu = fit.command_unit, fit.velocity_unit
+    what = "peak level" if fit.law == "hump" else "static level"
+    dips = []
     for d, f in fit.directions.items():
         way = DIRECTION_TEXT[d]
         w_sd = f.std.get("omega", float("nan"))
@@ -640,19 +642,21 @@ def identifiability_warnings(fit: FrictionLawFit) -> list[str]:
             out.append(f"vs for {way} is poorly resolved: {f.omega:.4g} +/- {w_sd:.2g} {vu} "
                        f"({100 * w_sd / f.omega:.0f} %): the samples hold little motion around that speed")
         step_sd = float(np.hypot(f.std.get("ds", np.nan), f.std.get("dc", np.nan)))
+        shape = level_shape(f.dc, f.ds)
         if np.isfinite(step_sd) and abs(f.ds - f.dc) <= STD_SIGMAS * step_sd:
-            out.append(f"for {way} the static level ({f.ds:.4g} {unit}) is not distinguishable from the Coulomb level "
+            side = {"dip": ", below: a dip within its uncertainty", "peak": ", above: a peak within its uncertainty",
+                    "flat": ""}[shape]
+            out.append(f"for {way} the {what} ({f.ds:.4g} {unit}{side}) is not distinguishable from the Coulomb level "
                        f"({f.dc:.4g} {unit}, difference within {STD_SIGMAS:g} std = {STD_SIGMAS * step_sd:.2g} "
                        f"{unit}): the law's low-speed shape is not identified (the {COULOMB_VISCOUS} law may do)")
-    dips = [d for d, f in fit.directions.items() if level_shape(f.dc, f.ds) == "dip"]
+        elif shape == "dip":
+            dips.append(d)
     if dips:
         levels = "; ".join(f"{DIRECTION_TEXT[d]}: ds = {fit.directions[d].ds:.4g} {unit}, dc = "
                            f"{fit.directions[d].dc:.4g} {unit}" for d in dips)
-        what = "peak level" if fit.law == "hump" else "static level"
         out.append(f"dip, not a Stribeck peak ({levels}): the {what} lies below the Coulomb level, so the friction "
                    "rises from rest to its sliding level; the model and its feedforward follow that")
     return out
-
 
 
 # ------------------------------------------------------------------------------------------ binned points
