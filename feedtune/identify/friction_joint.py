@@ -25,6 +25,10 @@ Processing (:func:`fit_joint_friction`), each log on its own:
    full rate -- pass the same zero-phase decimation filter, so a friction jump at a reversal is smeared alike on
    both sides of the equation and needs no guard; the masking makes the equation exact on the decimated rows too
    (a masked sample contributes zero to both sides). Rows covered less than half by unmasked samples are dropped.
+   Any linear filter keeps the equation exact as long as every column gets it, so a factor of 20 or more starts
+   with block means of ``factor // 10`` samples (the law's columns are evaluated at the full rate at every step of
+   the fit: 1.2 million samples at 20 kHz cost a block mean, not an order-8 filter run both ways) and the
+   Chebyshev decimation of :func:`~feedtune.identify.rigid.decimate_columns` does the rest.
 
 The fit: a grid over ``vs`` with the linear parameters solved at each point, then
 ``scipy.optimize.least_squares`` (trf, analytic Jacobian) over all parameters within their physical bounds (``M >
@@ -78,6 +82,8 @@ LAW_MISMATCH_RSS = 0.9
 """Another law whose residual sum of squares is below this fraction of the fitted law's is named in a warning."""
 OMEGA_GRID = 30
 """Points of the ``vs`` grid that starts the fit."""
+COMPARE_GRID = 12
+"""Points of the ``vs`` grid on which the laws are compared (a step of 1.2-1.5 in ``vs``)."""
 
 
 class OneDirectionError(IllConditionedError):
@@ -119,7 +125,8 @@ class JointFit:
         Parameters that ended on their bound: ``{name: {"bound": b, "unconstrained": value, "std": sd}}``.
     law_rms : dict of str to float
         RMS residual of the fitted law and of the other laws with a static level, each at the best point of the same
-        bounded ``vs`` grid on the same rows [command unit] (the comparison behind a law-mismatch warning).
+        bounded ``vs`` grid (:data:`COMPARE_GRID` points) on the same rows [command unit] (the comparison behind a
+        law-mismatch warning).
     """
 
     law_fit: FrictionLawFit
@@ -175,21 +182,58 @@ class JointFit:
 
 
 # ------------------------------------------------------------------------------------------- columns
+def _parallel_decimation(x: np.ndarray, factor: int) -> np.ndarray:
+    """The joint fit's decimation of full-rate columns ``x`` (n, k) (module docstring, step 4): block means of
+    ``factor // 10`` samples first when ``factor >= 20``, then :func:`~feedtune.identify.rigid.decimate_columns`."""
+    from .rigid import decimate_columns
+
+    block, rest = _stages(factor)
+    if block > 1:
+        n = x.shape[0] // block * block
+        x = x[:n].reshape(n // block, block, x.shape[1]).mean(axis=1)
+    return decimate_columns(x, rest)
+
+
+def _stages(factor: int) -> tuple[int, int]:
+    """Block length and the Chebyshev decimation factor after it."""
+    block = factor // 10 if factor >= 20 else 1
+    return block, max(1, round(factor / block))
+
+
+def _row_instants(n_rows: int, factor: int) -> np.ndarray:
+    """Full-rate sample index of each decimated row (the middle of its block)."""
+    block, rest = _stages(factor)
+    return np.arange(n_rows) * rest * block + block // 2
+
+
 @dataclass
 class _LogRows:
-    """One log's full-rate speed, direction indicators and mask, and its decimation (module docstring)."""
+    """One log's full-rate speed and mask per direction, and its decimation (module docstring).
 
-    speed: np.ndarray
-    ind: dict  # direction -> full-rate indicator (float)
-    weight: np.ndarray  # 1 where the law holds, 0 where masked
+    The law's columns are non-zero only on the unmasked samples of their direction (``where[d]``), so they are
+    evaluated there alone and summed into their blocks (``np.bincount``) before the Chebyshev stages."""
+
+    n: int
+    where: dict  # direction -> indices of the unmasked samples moving that way
+    speed: dict  # direction -> their speeds
     factor: int
-    keep: np.ndarray  # decimated rows kept
+    keep: np.ndarray = field(default_factory=lambda: np.ones(0, bool))  # decimated rows kept
 
-    def decimated(self, columns: np.ndarray) -> np.ndarray:
-        """Full-rate ``columns`` (n, k), masked and decimated, at the kept rows."""
+    def decimated_values(self, values: list[tuple[str, np.ndarray]]) -> np.ndarray:
+        """Columns given by their values on ``where[d]`` (zero elsewhere), decimated, at the kept rows."""
         from .rigid import decimate_columns
 
-        return decimate_columns(columns * self.weight[:, None], self.factor)[self.keep]
+        block, rest = _stages(self.factor)
+        n_blocks = self.n // block
+        out = np.zeros((n_blocks, len(values)))
+        for k, (d, vals) in enumerate(values):
+            idx = self.where[d]
+            if block > 1:
+                inside = idx < n_blocks * block
+                out[:, k] = np.bincount(idx[inside] // block, weights=vals[inside], minlength=n_blocks) / block
+            else:
+                out[idx, k] = vals
+        return decimate_columns(out, rest)[self.keep]
 
 
 def _joint_cutoff(log: Log, position: str) -> tuple[float, str]:
@@ -282,11 +326,11 @@ class _Problem:
             cols = []
             for omega in omegas:
                 for d in self.dirs:
-                    x = r.speed / omega[d]
-                    cols.append(law_shape(self.law, x) * r.ind[d])
+                    x = r.speed[d] / omega[d]
+                    cols.append((d, law_shape(self.law, x)))
                     if slope:
-                        cols.append(law_shape_slope(self.law, x) * (-x / omega[d]) * r.ind[d])
-            dec = r.decimated(np.column_stack(cols))
+                        cols.append((d, law_shape_slope(self.law, x) * (-x / omega[d])))
+            dec = r.decimated_values(cols)
             for i in range(len(omegas)):
                 for k, d in enumerate(self.dirs):
                     first = i * per + step * k
@@ -353,7 +397,7 @@ class _Problem:
                 else:
                     omegas.append({d: omega_bounds[d][0] * (omega_bounds[d][1] / omega_bounds[d][0]) ** f
                                    for d in self.dirs})
-            chunk = max(1, int(2e7 // max(sum(r.speed.size for r in self.rows) * len(self.dirs), 1)))
+            chunk = max(1, int(2e7 // max(sum(r.n for r in self.rows) * len(self.dirs), 1)))
             shapes = [sh for k in range(0, n, chunk) for sh in self.shape_columns_many(omegas[k: k + chunk])]
         else:
             omegas, shapes = [{}], [None]
@@ -478,17 +522,16 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
         v = smp.velocity
         ind = {"pos": (v > 0).astype(float), "neg": (v < 0).astype(float)}
         weight = _mask(np.abs(v), threshold, n_guard)
-        r = _LogRows(np.abs(v), ind, weight, smp.decimate, np.ones(0, bool))
-        from .rigid import decimate_columns
-
-        dec = decimate_columns(np.column_stack([smp.acceleration, ind["pos"], ind["neg"], v * ind["pos"],
-                                                v * ind["neg"], _zoh_centred(smp.force), weight]) * weight[:, None],
-                               smp.decimate)
-        ones = decimate_columns(np.ones((v.size, 1)), smp.decimate)[:, 0]
+        r = _LogRows(v.size, {d: np.flatnonzero(weight * ind[d]) for d in ind}, {}, smp.decimate)
+        r.speed = {d: np.abs(v[idx]) for d, idx in r.where.items()}
+        dec = _parallel_decimation(np.column_stack([smp.acceleration, ind["pos"], ind["neg"], v * ind["pos"],
+                                                    v * ind["neg"], _zoh_centred(smp.force), weight])
+                                   * weight[:, None], smp.decimate)
+        ones = _parallel_decimation(np.ones((v.size, 1)), smp.decimate)[:, 0]
         r.keep = dec[:, 6] >= 0.5 * ones
         rows.append(r)
         fixed.append(dec[r.keep])
-        centre.append(v[:: smp.decimate][: dec.shape[0]][r.keep])
+        centre.append(v[np.minimum(_row_instants(dec.shape[0], smp.decimate), v.size - 1)][r.keep])
     fixed = np.vstack(fixed)
     coverage = fixed[:, 6]
     vd = np.concatenate(centre)  # the full-rate velocity at each kept row's instant
@@ -523,7 +566,7 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
                                   "one shared vs; use per_direction_omega=True")
     problem = _Problem(rows, fixed, dirs, law, shared)
     where = "joint friction fit"
-    theta, on_bound, std, res, grid = _fit(problem, omega_bounds, first.force_unit, where)
+    theta, on_bound, std, res = _fit(problem, omega_bounds, first.force_unit, where)
     mass = float(theta[0])
     mass_std = float(std[0])
     if not (mass > 0 and np.isfinite(mass_std) and mass_std <= MAX_MASS_RELATIVE_STD * mass):
@@ -536,7 +579,7 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
     warnings += bound_warnings(on_bound, first.force_unit, velocity_unit)
     warnings += identifiability_warnings(law_fit)
     warnings += list(law_fit.warnings)
-    law_rms = _law_rms(problem, omega_bounds, grid["bounded"][0]) if compare_laws else {}
+    law_rms = _law_rms(problem, omega_bounds) if compare_laws else {}
     if compare_laws:
         better = [k for k in law_rms if k != law and law_rms[k] ** 2 < LAW_MISMATCH_RSS * law_rms[law] ** 2]
         if better:
@@ -561,7 +604,7 @@ def u_minus_ma(fixed: np.ndarray, mass: float) -> np.ndarray:
 
 def _fit(problem: _Problem, omega_bounds: dict, unit: str, where: str):
     """Unconstrained grid fit (read by :func:`sign_diagnosis`), then the bounded fit; parameters, those on their
-    bounds (with the unconstrained values), std (NaN on a bound), residuals and the grid's best points."""
+    bounds (with the unconstrained values), std (NaN on a bound) and residuals."""
     grid = problem.grid(omega_bounds)
     rss_u, theta_u, W_u = grid["free"]
     n = problem.u.size
@@ -585,7 +628,7 @@ def _fit(problem: _Problem, omega_bounds: dict, unit: str, where: str):
     on_bound = {name: {"bound": float(lower[k] if theta[k] - lower[k] <= upper[k] - theta[k] else upper[k]),
                        "unconstrained": float(free_u[name][0]), "std": _finite(free_u[name][1])}
                 for k, name in enumerate(problem.names) if lin_bound[k]}
-    return theta, on_bound, std, res, grid
+    return theta, on_bound, std, res
 
 
 def _finite(x: float) -> float | None:
@@ -636,13 +679,10 @@ def bound_warnings(on_bound: dict, unit: str, velocity_unit: str) -> list[str]:
     return out
 
 
-def _law_rms(problem: _Problem, omega_bounds: dict, rss: float) -> dict[str, float]:
-    """RMS residual of the fitted law (``rss``: its bounded grid's best) and of the other laws with a static level
-    on the same rows, each from the same bounded grid (the comparison is fair: no law is refined further than the
-    others) [command unit]."""
+def _law_rms(problem: _Problem, omega_bounds: dict) -> dict[str, float]:
+    """RMS residual of the fitted law and of the other laws with a static level on the same rows, each at the best
+    point of the same bounded grid of :data:`COMPARE_GRID` values of ``vs`` (the comparison is fair: no law is
+    refined further than the others) [command unit]."""
     n = max(problem.u.size, 1)
-    out = {problem.law: float(np.sqrt(rss / n))}
-    for k in LAWS:
-        if k != problem.law and k in SHAPED_LAWS:
-            out[k] = float(np.sqrt(problem.with_law(k).grid(omega_bounds)["bounded"][0] / n))
-    return out
+    family = [problem.law] + [k for k in LAWS if k != problem.law and k in SHAPED_LAWS]
+    return {k: float(np.sqrt(problem.with_law(k).grid(omega_bounds, COMPARE_GRID)["bounded"][0] / n)) for k in family}
