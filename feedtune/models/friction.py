@@ -156,6 +156,12 @@ class StribeckFriction:
         found = [(n, level_sign_problem(n, float(getattr(self, n)), self.command_unit)) for n in LEVEL_NAMES]
         return [(n, text) for n, text in found if text]
 
+    @property
+    def characteristic_speed(self) -> float:
+        """The speed over which the curve changes shape [velocity unit]: the larger Stribeck velocity (plots span ten
+        of it)."""
+        return max(self.omega_pos, self.omega_negative)
+
     def shapes(self) -> dict[str, str]:
         """``{"pos": shape, "neg": shape}`` of :func:`level_shape` (``"peak"``, ``"dip"`` or ``"flat"``)."""
         return {"pos": level_shape(self.dc_pos, self.ds_pos), "neg": level_shape(self.dc_neg, self.ds_neg)}
@@ -392,6 +398,15 @@ class FrictionLaw(StribeckFriction):
     def has_static_level(self) -> bool:
         """False for the ``coulomb-viscous`` law (no ``ds``, no ``omega``)."""
         return self.law != COULOMB_VISCOUS
+
+    @property
+    def characteristic_speed(self) -> float:
+        """As :attr:`StribeckFriction.characteristic_speed`; for the ``coulomb-viscous`` law the speed ``Fc / Fv`` at
+        which the viscous term reaches the Coulomb level (the larger of the directions; 0 without viscous friction)."""
+        if self.has_static_level:
+            return super().characteristic_speed
+        return max((abs(dc) / fv for dc, fv in ((self.dc_pos, self.viscous_pos), (self.dc_neg, self.viscous_negative))
+                    if fv > 0), default=0.0)
 
     def force(self, velocity) -> np.ndarray:
         """Friction force of the law [command unit] (vectorised; exactly 0 at ``v = 0``).
