@@ -19,8 +19,8 @@ from feedtune.log import Log
 
 @dataclass(frozen=True)
 class Axis:
-    """The simulated axis: mass [kg], viscous [N/(m/s)], eq. 2.1's signed levels [N] and Omega [m/s]; ``gaussian``
-    uses ``exp(-(v/Omega)^2)`` instead of ``exp(-|v|/Omega)``."""
+    """The simulated axis: mass [kg], viscous [N/(m/s)], eq. 2.1's signed levels [N] and Omega [m/s] (``omega_neg``:
+    another Omega for ``v < 0``); ``gaussian`` uses ``exp(-(v/Omega)^2)`` instead of ``exp(-|v|/Omega)``."""
 
     mass: float = 20.0
     viscous: float = 60.0
@@ -30,6 +30,7 @@ class Axis:
     ds_neg: float = -17.0
     omega: float = 0.01
     gaussian: bool = False
+    omega_neg: float | None = None
 
 
 _KERNEL: list = []
@@ -40,8 +41,8 @@ def _kernel():
         import numba
 
         @numba.njit(cache=False)
-        def run(par, xr, vr, ar, fs, substeps, quant, noise_x, gains, out_y, out_u):  # pragma: no cover - compiled
-            m, b, dcp, dsp, dcn, dsn, w, gauss = par
+        def run(par, xr, vr, ar, fs, substeps, quant, noise_x, gains, out_y, out_u, out_v):  # pragma: no cover
+            m, b, dcp, dsp, dcn, dsn, w, gauss, w_neg = par
             kp, kd, ki = gains
             h = 1.0 / (fs * substeps)
             x = xr[0]
@@ -56,8 +57,9 @@ def _kernel():
                 y_prev = y
                 out_y[k] = y
                 out_u[k] = u
+                out_v[k] = v
                 for _ in range(substeps):
-                    s = abs(v) / w
+                    s = abs(v) / (w if v >= 0 else w_neg)
                     shape = math.exp(-s * s) if gauss != 0.0 else math.exp(-s)
                     if v > 0:
                         d = dcp + (dsp - dcp) * shape
@@ -84,19 +86,22 @@ def _kernel():
 
 
 def simulate(axis: Axis, reference, *, fs: float = 1000.0, substeps: int = 20, quant: float = 1e-7,
-             noise_u: float = 0.0, noise_x: float = 0.0, bandwidth_hz: float = 20.0, seed: int = 0) -> Log:
-    """The closed-loop log (``x`` [m], ``u`` [N]) tracking ``reference = (t, x_r, v_r, a_r)``."""
+             noise_u: float = 0.0, noise_x: float = 0.0, bandwidth_hz: float = 20.0, seed: int = 0,
+             true_velocity: bool = False):
+    """The closed-loop log (``x`` [m], ``u`` [N]) tracking ``reference = (t, x_r, v_r, a_r)``; with
+    ``true_velocity`` also the simulated velocity at the samples [m/s]."""
     t, xr, vr, ar = (np.ascontiguousarray(r, float) for r in reference)
     rng = np.random.default_rng(seed)
     wn = 2 * math.pi * bandwidth_hz
     gains = np.array([axis.mass * wn**2, 2 * 0.8 * wn * axis.mass, axis.mass * wn**3 / 4])
     par = np.array([axis.mass, axis.viscous, axis.dc_pos, axis.ds_pos, axis.dc_neg, axis.ds_neg, axis.omega,
-                    1.0 if axis.gaussian else 0.0])
-    y, u = np.empty(t.size), np.empty(t.size)
+                    1.0 if axis.gaussian else 0.0, axis.omega if axis.omega_neg is None else axis.omega_neg])
+    y, u, v = np.empty(t.size), np.empty(t.size), np.empty(t.size)
     _kernel()(par, xr, vr, ar, fs, substeps, quant, rng.normal(0.0, noise_x, t.size) if noise_x else np.zeros(t.size),
-              gains, y, u)
+              gains, y, u, v)
     u = u + (rng.normal(0.0, noise_u, t.size) if noise_u else 0.0)
-    return Log(t, {"x": y, "u": u}, {"x": "m", "u": "N"}, {"source": "eq. 2.1 closed-loop simulation"})
+    log = Log(t, {"x": y, "u": u}, {"x": "m", "u": "N"}, {"source": "closed-loop simulation"})
+    return (log, v) if true_velocity else log
 
 
 def sine(amplitude: float, freq: float, seconds: float, fs: float = 1000.0):
