@@ -324,6 +324,10 @@ def test_kalman_path_with_another_law(closed_loop):
     assert isinstance(f, FrictionLaw) and f.law == "lugre" and f.viscous_pos == 0.0
     assert f.sign_problems() == [] and f.dc_pos == pytest.approx(12.0, rel=0.1)
     json.dumps(result.to_dict(), allow_nan=False)
+    cv = identify_friction(log, position="x", command="u", mass=MASS, viscous=VISCOUS, law="coulomb-viscous")
+    assert cv.friction.law == "coulomb-viscous" and cv.friction.viscous_pos == 0.0  # the viscous is the model's
+    assert "ds_pos" not in cv.to_dict()["friction"]["friction"]
+    json.dumps(cv.to_dict(), allow_nan=False)
 
 
 # ----------------------------------------------------------------------------------------------- CLI

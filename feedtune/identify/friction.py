@@ -149,7 +149,8 @@ class StribeckFit:
             "min_speed": self.min_speed,
             "viscous_pos": self.viscous_pos,
             "viscous_neg": self.viscous_neg,
-            "omega_bounds": {k: list(b) for k, b in self.omega_bounds.items()},
+            "omega_bounds": {k: [float(x) if np.isfinite(x) else None for x in b]
+                             for k, b in self.omega_bounds.items()},
             "omega_at_bound": self.omega_at_bound,
             "on_bound": {k: dict(b) for k, b in self.on_bound.items()},
             "shape": self.friction.shapes() if getattr(self.friction, "has_static_level", True) else {},
@@ -668,9 +669,9 @@ def _law_fit_of_disturbance(speed: np.ndarray, level: np.ndarray, law: str, min_
         raise IllConditionedError(f"{law} fit: too few samples with {missing} above min_speed (need at least "
                                   f"{MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions")
     p, n = fit.directions["pos"], fit.directions["neg"]
-    std = {"dc_pos": p.std["dc"], "ds_pos": p.std["ds"], "dc_neg": n.std["dc"], "ds_neg": n.std["ds"],
-           "omega_pos": p.std["omega"], "omega_neg": n.std["omega"]}
+    std = {f"{name}_{k}": d.std[name] for k, d in (("pos", p), ("neg", n)) for name in ("dc", "ds", "omega")
+           if name in d.std}
     return StribeckFit(friction=fit.model.without_viscous(), std=std, rms_error=fit.rms_error,
                        relative_error_pct=fit.relative_error_pct, n_pos=p.n, n_neg=n.n, min_speed=threshold,
                        viscous_pos=b_rest[0], viscous_neg=b_rest[1],
-                       omega_bounds={"pos": p.omega_bounds, "neg": n.omega_bounds})
+                       omega_bounds={"pos": p.omega_bounds, "neg": n.omega_bounds}, on_bound=dict(fit.on_bound))

@@ -621,6 +621,8 @@ def _fit(problem: _Problem, omega_bounds: dict, unit: str, where: str):
     bound = _at_bound(theta, lower, upper, jac)
     lin_bound = bound.copy()
     lin_bound[problem.n_lin:] = False  # a vs on its bound is reported by the law fit
+    nearer_lower = theta - lower <= upper - theta
+    theta = np.where(lin_bound, np.where(nearer_lower, lower, upper), theta)  # exactly on it (trf stays inside)
     free = ~lin_bound
     s2 = float(res @ res) / max(n - int(np.count_nonzero(free)), 1)
     std = np.full(theta.size, np.nan)
