@@ -2,8 +2,10 @@
 motions, 0.1 um encoder, command noise (issue 25's acceptance), and a Gaussian-shaped Stribeck curve.
 
 The logs come from a direct simulation of eq. 2.1 under a PID loop (:mod:`friction_sim`), not from the fitting
-code; the truth is the simulated axis. Before the masked parallel decimation, the joint fit refused the sine and
-chirp logs as "mirrored or sign-inverted" and missed Omega by up to 30 % on the others.
+code; the truth is the simulated axis. Before the masked parallel decimation the joint fit (then followed by a law fit
+to the Kalman estimate) refused "sine 1 Hz, heavy" (too few rows after its 14 Hz filter) and missed ds by up to 15 %
+and Omega by up to 33 % on "chirp 0.2-2 Hz", "sine 0.5 Hz" and "sine, dip"; the issue's own logs were refused as
+"mirrored or sign-inverted".
 """
 
 from __future__ import annotations

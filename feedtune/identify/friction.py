@@ -29,7 +29,7 @@ law per direction are fitted together on the IDIM-LS regressor (:mod:`feedtune.i
 filters, masked parallel decimation, bounded least squares) and that fit is the result: its law with its viscous
 terms (:class:`~feedtune.models.friction.FrictionLaw`) is the friction model. The Kalman filter still runs with the
 joint mass and viscous coefficient for the disturbance record (``disturbance``), but no law is fitted to it: the
-causal filter's estimate lags the friction while the speed changes, which biased ``Omega`` by up to 30 % on eq. 2.1
+causal filter's estimate lags the friction while the speed changes, which biased ``Omega`` by up to 33 % on eq. 2.1
 simulations. The rigid-first path (``joint=False``) lets the IDIM-LS fit absorb the Stribeck decay of the low speeds
 as a too small viscous coefficient and a biased mass.
 
