@@ -516,23 +516,9 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
     threshold = DEFAULT_MIN_SPEED_FRACTION * peak if min_speed is None else float(min_speed)
     if not (np.isfinite(threshold) and threshold >= 0):
         raise UsageError(f"min_speed must be >= 0 {velocity_unit}, got {min_speed!r}", parameter="min_speed")
-    rows, fixed, centre, guards = [], [], [], []
-    for smp in prepared:
-        guard, n_guard = _guard_samples(guard_s, smp.cutoff_hz, smp.dt)
-        guards.append(guard)
-        v = smp.velocity
-        ind = {"pos": (v > 0).astype(float), "neg": (v < 0).astype(float)}
-        weight = _mask(np.abs(v), threshold, n_guard)
-        r = _LogRows(v.size, {d: np.flatnonzero(weight * ind[d]) for d in ind}, {}, smp.decimate)
-        r.speed = {d: np.abs(v[idx]) for d, idx in r.where.items()}
-        dec = _parallel_decimation(np.column_stack([smp.acceleration, ind["pos"], ind["neg"], v * ind["pos"],
-                                                    v * ind["neg"], _zoh_centred(smp.force), weight])
-                                   * weight[:, None], smp.decimate)
-        ones = _parallel_decimation(np.ones((v.size, 1)), smp.decimate)[:, 0]
-        r.keep = dec[:, 6] >= 0.5 * ones
-        rows.append(r)
-        fixed.append(dec[r.keep])
-        centre.append(v[np.minimum(_row_instants(dec.shape[0], smp.decimate), v.size - 1)][r.keep])
+    guards = [_guard_samples(guard_s, smp.cutoff_hz, smp.dt) for smp in prepared]
+    rows, fixed, centre = zip(*(_log_rows(smp, threshold, n_guard) for smp, (_, n_guard) in
+                                zip(prepared, guards, strict=True)), strict=True)
     fixed = np.vstack(fixed)
     coverage = fixed[:, 6]
     vd = np.concatenate(centre)  # the full-rate velocity at each kept row's instant
@@ -558,14 +544,14 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
         if law in SHAPED_LAWS and not hi >= 1.5 * lo:
             raise IllConditionedError(
                 f"joint friction fit: the speeds with {DIRECTION_TEXT[d]} only span {lo:.4g} to {hi:.4g} "
-                f"{velocity_unit}; a {law} law needs a range of speeds (or fit --law {COULOMB_VISCOUS})")
+                f"{velocity_unit}; a {law} law needs a range of speeds (or fit law={COULOMB_VISCOUS!r})")
         omega_bounds[d] = (float(lo / OMEGA_SPEED_LIMITS[0]), float(hi / OMEGA_SPEED_LIMITS[1]))
     shared = not per_direction_omega
     if law in SHAPED_LAWS and shared and (max(b[0] for b in omega_bounds.values())
                                           >= min(b[1] for b in omega_bounds.values())):
         raise IllConditionedError("joint friction fit: the speed ranges of the two directions overlap too little for "
                                   "one shared vs; use per_direction_omega=True")
-    problem = _Problem(rows, fixed, dirs, law, shared)
+    problem = _Problem(list(rows), fixed, dirs, law, shared)
     where = "joint friction fit"
     theta, on_bound, std, res = _fit(problem, omega_bounds, first.force_unit, where)
     mass = float(theta[0])
@@ -588,19 +574,32 @@ def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str,
             warnings.append(f"law mismatch: the {best} law fits these samples with an RMS residual of "
                             f"{law_rms[best]:.4g} {first.force_unit} against the {law} law's {law_rms[law]:.4g} "
                             f"{first.force_unit}: the friction curve has another shape (fit it with law={best!r})")
-    friction = (u_minus_ma(fixed, mass) / np.maximum(coverage, 1e-12)) * (coverage > 0)
+    # the measured friction u - M a of the rows (the masked share of a row divided out), for plots
+    friction = (fixed[:, 5] - mass * fixed[:, 0]) / np.maximum(coverage, 1e-12) * (coverage > 0)
     return JointFit(law_fit=law_fit, cutoff_hz=max(s.cutoff_hz for s in prepared),
                     cutoff_rule="given" if cutoff_hz is not None else "; ".join(dict.fromkeys(rules)),
-                    decimate=max(s.decimate for s in prepared), guard_s=max(guards), min_speed=threshold,
+                    decimate=max(s.decimate for s in prepared), guard_s=max(g for g, _ in guards), min_speed=threshold,
                     n_samples=int(vd.size), force_unit=first.force_unit, position_unit=first.position_unit,
                     warnings=tuple(dict.fromkeys(warnings)),
                     points=tuple(bin_by_speed(vd, friction, min_speed=threshold)), on_bound=on_bound,
                     law_rms=law_rms)
 
 
-def u_minus_ma(fixed: np.ndarray, mass: float) -> np.ndarray:
-    """The decimated ``u - M a`` of the rows (``fixed``: the stacked fixed columns)."""
-    return fixed[:, 5] - mass * fixed[:, 0]
+def _log_rows(smp, threshold: float, n_guard: int) -> tuple[_LogRows, np.ndarray, np.ndarray]:
+    """One log's rows (module docstring, steps 2-4): its :class:`_LogRows`, the decimated fixed columns ``a, I+, I-,
+    v I+, v I-, u, coverage`` of the kept rows, and the full-rate velocity at each kept row's instant."""
+    v = smp.velocity
+    ind = {"pos": (v > 0).astype(float), "neg": (v < 0).astype(float)}
+    weight = _mask(np.abs(v), threshold, n_guard)
+    where = {d: np.flatnonzero(weight * ind[d]) for d in ind}
+    r = _LogRows(v.size, where, {d: np.abs(v[idx]) for d, idx in where.items()}, smp.decimate)
+    dec = _parallel_decimation(np.column_stack([smp.acceleration, ind["pos"], ind["neg"], v * ind["pos"],
+                                                v * ind["neg"], _zoh_centred(smp.force), weight]) * weight[:, None],
+                               smp.decimate)
+    ones = _parallel_decimation(np.ones((v.size, 1)), smp.decimate)[:, 0]
+    r.keep = dec[:, 6] >= 0.5 * ones
+    instants = np.minimum(_row_instants(dec.shape[0], smp.decimate), v.size - 1)
+    return r, dec[r.keep], v[instants][r.keep]
 
 
 def _fit(problem: _Problem, omega_bounds: dict, unit: str, where: str):
