@@ -10,9 +10,13 @@ back-and-forth trajectory with several speeds. It times
   ``identify_friction`` (estimate + Stribeck fit) on the whole log (imports warmed up first; best and
   median of ``--repeat`` runs);
 * the per-sample filterpy predict/update loop on the first ``--slice`` samples, extrapolated linearly to
-  the whole log (the loop costs the same per sample, so this is a fair estimate without waiting minutes).
+  the whole log (the loop costs the same per sample, so this is a fair estimate without waiting minutes);
+* the joint fit of mass, viscous friction and the law (``fit_joint_friction``, the default of ``identify friction``:
+  the law's columns evaluated at the full rate at every step of the fit), with and without the law comparison,
+  against the IDIM-LS rigid fit of the same log as the anchor.
 
-Targets: estimate + fit < 1 s, and >= 200x faster than the extrapolated filterpy loop (issue 11).
+Targets: estimate + fit < 1 s, and >= 200x faster than the extrapolated filterpy loop (issue 11); the joint fit
+(with the law comparison) within 3x the rigid fit (issue 25).
 """
 
 from __future__ import annotations
@@ -23,7 +27,9 @@ import time
 import numpy as np
 
 from feedtune.identify.friction import identify_friction
+from feedtune.identify.friction_joint import fit_joint_friction
 from feedtune.identify.kalman import estimate_disturbance
+from feedtune.identify.rigid import fit_rigid
 from feedtune.log import Log
 from feedtune.models.friction import StribeckFriction
 
@@ -102,6 +108,18 @@ def main() -> None:
     print(f"speed-up, estimate only              : {t_filterpy / t_est:8.0f} x")
     print(f"speed-up, estimate + Stribeck fit    : {t_filterpy / t_total:8.0f} x   target >= 200 x: "
           f"{'PASS' if t_filterpy / t_total >= 200 else 'FAIL'}")
+    fit_joint_friction(warm, position="x", command="u")
+    _, t_rigid, _ = timed(fit_rigid, log, force="u", position="x", repeat=args.repeat)
+    _, t_joint_plain, _ = timed(fit_joint_friction, log, position="x", command="u", compare_laws=False,
+                                repeat=args.repeat)
+    joint, t_joint, _ = timed(fit_joint_friction, log, position="x", command="u", repeat=args.repeat)
+    print(f"IDIM-LS rigid fit (anchor)           : {t_rigid * 1e3:8.1f} ms")
+    print(f"joint fit, no law comparison         : {t_joint_plain * 1e3:8.1f} ms ({t_joint_plain / t_rigid:.2f} x)")
+    print(f"joint fit (identify friction)        : {t_joint * 1e3:8.1f} ms ({t_joint / t_rigid:.2f} x)   target "
+          f"<= 3 x: {'PASS' if t_joint <= 3 * t_rigid else 'FAIL'}")
+    d = joint.law_fit.directions["pos"]
+    print(f"  joint fit: mass {joint.mass:.5g} (truth {MASS}), dc_pos {d.dc:.5g}, ds_pos {d.ds:.5g}, omega "
+          f"{d.omega:.5g} (truth {TRUTH.omega_pos})")
     print("identified vs truth:")
     for name in ("dc_pos", "ds_pos", "dc_neg", "ds_neg", "omega_pos"):
         got, true = getattr(f, name), getattr(TRUTH, name)

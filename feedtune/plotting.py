@@ -137,7 +137,7 @@ def plot_friction(model, velocity=None, *, title: str | None = None):
     """
     fig_mod = _figures()
     if hasattr(model, "force") and hasattr(model, "omega_pos"):
-        reach = 10 * max(model.omega_pos, model.omega_negative)
+        reach = 10 * model.characteristic_speed or 1.0
         evaluate, unit, vunit = model.force, model.command_unit, model.velocity_unit
     else:
         reach = 1.0

@@ -1,8 +1,8 @@
 """Friction feedforward of the loop-shaped x axis (``design loopshape --friction``): the ``[friction_feedforward]`` of
-an axis gains file is Stribeck eq. 2.1 (:meth:`StribeckFriction.force`, evaluated here independently) of the
-previewed reference's backward-difference velocity [m/s] outside the band and the straight line through zero inside
-it; its units must be the axis' (command unit, m/s); the command line writes it; and on the gantry twin's x axis with
-friction the closed loop tracks better with it than without.
+an axis gains file is Stribeck eq. 2.1 with its viscous term (:meth:`FrictionLaw.force`, evaluated here independently)
+of the previewed reference's backward-difference velocity [m/s] outside the band and the straight line through zero
+inside it; its units must be the axis' (command unit, m/s); the command line writes it; and on the gantry twin's x axis
+with friction the closed loop tracks better with it than without.
 
 The runtime, the compiled twin loop and the C header (double and float) are checked against each other for an axis
 with friction feedforward in tests/test_gantry_law_consistency.py, tests/test_export_c_kinds.py and
@@ -25,7 +25,7 @@ from feedtune.machines import load_runtime
 from feedtune.machines.gantry.experiments import HoldingController
 from feedtune.machines.gantry.runtime import AxisRuntime
 from feedtune.machines.gantry.twin import GantryTwin, GantryTwinParams
-from feedtune.models.friction import StribeckFriction
+from feedtune.models.friction import FrictionLaw, StribeckFriction
 from feedtune.models.gantry import THESIS_GANTRY
 from feedtune.models.rigid import RigidBodyModel
 from feedtune.sim.engine import numba_available
@@ -33,8 +33,10 @@ from feedtune.sim.trajectory import multi_segment
 
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
 
-FRICTION = StribeckFriction(0.2, 0.35, -0.25, -0.4, 0.01, 0.02, command_unit="V", velocity_unit="m/s")
-"""An asymmetric friction of the x axis in the twin's command unit [V] and m/s."""
+FRICTION = FrictionLaw(0.2, 0.35, -0.25, -0.4, 0.01, 0.02, command_unit="V", velocity_unit="m/s", viscous_pos=0.8,
+                       viscous_neg=1.1)
+"""An asymmetric friction of the x axis in the twin's command unit [V] and m/s, with viscous friction [V/(m/s)] (at the
+move's 0.3 m/s the viscous term, 0.24-0.33 V, is as large as the Coulomb level)."""
 BAND = 1e-3
 """Linear band of the feedforward [m/s]."""
 FILTERS = FilterPack([Notch(186, 0.6, 0.7), Notch(332, 0.3, 0.7), Notch(404, 0.2, 0.7)], 1200.0)
@@ -50,10 +52,10 @@ def _move(fs: float, dwell: float = 0.1) -> np.ndarray:
 # ------------------------------------------------------------------ the feedforward term, evaluated independently
 @needs_numba
 def test_the_feedforward_term_is_the_stribeck_force_of_the_reference_velocity():
-    """The command with friction feedforward minus the command without, for the same readings, is d(v_r): eq. 2.1
-    (StribeckFriction.force) outside +-v_band and d(+-v_band) |v_r| / v_band inside, with v_r the backward difference
-    of the previewed reference (0 on the first sample). Checked on the runtime's per-sample step (the compiled law)
-    and on its vectorised replay."""
+    """The command with friction feedforward minus the command without, for the same readings, is d(v_r): eq. 2.1 and
+    its viscous term (FrictionLaw.force) outside +-v_band and d(+-v_band) |v_r| / v_band inside, with v_r the backward
+    difference of the previewed reference (0 on the first sample). Checked on the runtime's per-sample step (the
+    compiled law) and on its vectorised replay."""
     plain = load_runtime(axis_gains_document(DESIGN))
     ff = load_runtime(axis_gains_document(DESIGN.with_friction(FRICTION, v_band=BAND)))
     assert ff.friction is not None and ff.friction.velocity_unit == "m/s" and plain.friction is None
@@ -127,11 +129,13 @@ def test_cli_design_loopshape_with_friction(tmp_path, capsys, monkeypatch):
     assert "friction feedforward (eq. 2.1)" in out and "m/s" in out
     doc = read_document(tmp_path / "x.toml")
     assert doc["friction_feedforward"]["v_band"] == {"value": 0.002, "unit": "m/s"}
+    assert doc["friction_feedforward"]["viscous_neg"] == {"value": 1.1, "unit": "V/(m/s)"}
     rt = load_runtime(doc)
-    assert rt.friction.friction.ds_neg == -0.4
+    assert rt.friction.friction.ds_neg == -0.4 and rt.friction.viscous == (0.8, 1.1)
     code, _, err = run(["export", "c", tmp_path / "x.toml"], capsys, monkeypatch)
     assert code == 0, err
     assert "FT_FR_V_BAND = 0.002; /* m/s */" in (tmp_path / "x.h").read_text()
+    assert "FT_FR_FV_NEG = 1.1; /* V/(m/s) */" in (tmp_path / "x.h").read_text()
     # a friction model in N for an axis commanded in V: one line naming both files
     save_model(tmp_path / "newton.toml", StribeckFriction(20.0, 25.0, -20.0, -25.0, 0.01, command_unit="N",
                                                           velocity_unit="m/s"))
@@ -188,3 +192,32 @@ def test_friction_feedforward_tracks_better_on_the_twin_with_friction():
     without, with_ff = rms(_TableFriction(plain, FRICTION, BAND)), rms(_TableFriction(ff, FRICTION, BAND))
     assert with_ff < without / 3, (with_ff, without)
     assert rms(ff) > rms(plain)
+
+
+# ------------------------------------------------------------------ EMPS: the viscous feedforward at speed
+def test_emps_friction_feedforward_at_speed_matches_the_published_model(real_data_dir):
+    """EMPS (nonlinearbenchmark.org): ``identify friction`` (the joint fit: the law with its viscous term), an axis
+    design fed forward with it, and the runtime's feedforward at the reference's peak speed (0.125 m/s) against the
+    published asymmetric IDIM-LS friction ``Fc+- + Fv+- v`` (EMPS_Description.pdf, README): within 1 % both ways. The
+    viscous term alone is about 24 N there (203.5 N/(m/s) x 0.125 m/s = 25.4 N published), more than the 20.4 N
+    Coulomb level; before, the feedforward had no viscous term and missed it."""
+    from scipy.io import loadmat
+
+    from feedtune.identify.friction import identify_friction
+    from feedtune.log import Log
+
+    d = loadmat(real_data_dir / "EMPS" / "DATA_EMPS.mat")
+    t = d["t"].ravel()
+    log = Log(t, {"qm": d["qm"].ravel(), "vir": d["vir"].ravel()}, {"qm": "m", "vir": "V"})
+    friction = identify_friction(log, position="qm", command="vir", command_scale=35.15065).friction
+    assert friction.command_unit == "N" and friction.viscous_pos > 0 and friction.viscous_negative > 0
+    design = design_loopshape(RigidBodyModel(mass=95.11, command_unit="N"), crossover_hz=30.0, pm_deg=35.0, fs=1000.0,
+                              friction=friction)
+    rt = load_runtime(axis_gains_document(design))
+    v = float(np.max(np.abs(np.gradient(d["qg"].ravel(), t))))  # the reference's peak speed [m/s]
+    assert v == pytest.approx(0.1247, abs=1e-3)
+    published = (20.1440 + 166.7061 * v, -(20.6277 + 240.4236 * v))  # N at +v, -v
+    fed = rt.friction.command(np.array([v, -v]))
+    assert fed == pytest.approx(published, rel=0.01)
+    viscous = np.mean(np.array(rt.friction.viscous) * v)  # the viscous term at speed, mean of both ways
+    assert viscous == pytest.approx(203.5034 * v, rel=0.1) and viscous > 20.3935

@@ -13,7 +13,7 @@ from feedtune.design.ppi import design_ppi
 from feedtune.export.c_header import c_header
 from feedtune.io.gains import gains_document, law_from_document, with_friction_feedforward, with_prefilter
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
-from feedtune.models.friction import StribeckFriction
+from feedtune.models.friction import FrictionLaw
 
 MAIN_C = r"""
 #include <stdio.h>
@@ -30,8 +30,9 @@ int main(void) {
 def _reference_output(doc, r_preview, x1, x2, friction=None, band=None):
     """The law of docs/gains.md evaluated with vector operations (sosfilt and cumulative sums).
 
-    With a ``[prefilter]`` the paths run on ``r + sosfilt(prefilter_sos, r)``; ``friction`` (a
-    StribeckFriction in V and rad/s) adds its smoothed force of the backward-difference velocity of that.
+    With a ``[prefilter]`` the paths run on ``r + sosfilt(prefilter_sos, r)``; ``friction`` (a FrictionLaw in V and
+    rad/s) adds its smoothed force of the backward-difference velocity of that, its viscous term less the ``b1 + b2``
+    the feedforward ``U_ff = ... + (b1 + b2) s`` already carries (the model's viscous friction fed forward once).
     """
     from scipy.signal import sosfilt
 
@@ -44,7 +45,11 @@ def _reference_output(doc, r_preview, x1, x2, friction=None, band=None):
     x2r = sosfilt(np.array(ref["table_sos"]), r_preview)
     uff = sosfilt(np.array(ref["feedforward_sos"]), r_preview)
     if friction is not None:
-        uff = uff + friction.smoothed(np.diff(r_preview, prepend=r_preview[0]) * fs, band)
+        b = MODEL.b1 + MODEL.b2
+        fed = FrictionLaw(friction.dc_pos, friction.ds_pos, friction.dc_neg, friction.ds_neg, friction.omega_pos,
+                          friction.omega_neg, command_unit="V", velocity_unit="rad/s",
+                          viscous_pos=friction.viscous_pos - b, viscous_neg=friction.viscous_negative - b)
+        uff = uff + fed.smoothed(np.diff(r_preview, prepend=r_preview[0]) * fs, band)
     e1, e2 = x1r - x1, x2r - x2
     de1 = np.diff(e1, prepend=e1[0]) * fs
     de2 = np.diff(e2, prepend=e2[0]) * fs
@@ -53,8 +58,10 @@ def _reference_output(doc, r_preview, x1, x2, friction=None, band=None):
     return sosfilt(np.array(doc["filters"]["filter_pack_sos"]), ufb) + uff
 
 
-FRICTION = StribeckFriction(dc_pos=0.1, ds_pos=0.16, dc_neg=-0.09, ds_neg=-0.15, omega_pos=0.8, omega_neg=0.6,
-                            command_unit="V", velocity_unit="rad/s")
+FRICTION = FrictionLaw(dc_pos=0.1, ds_pos=0.16, dc_neg=-0.09, ds_neg=-0.15, omega_pos=0.8, omega_neg=0.6,
+                       command_unit="V", velocity_unit="rad/s", viscous_pos=0.004, viscous_neg=0.0006)
+"""With viscous friction on both sides of the model's b1 + b2 = 0.00102 V/(rad/s): the feedforward adds +0.003 and
+-0.0004 V/(rad/s) (at the test's 9 rad/s: 0.027 V, -0.004 V)."""
 PF_GAINS = {"K_vel": 1e-4, "K_acc": -2e-6, "K_jerk": 3e-9, "K_snap": -4e-12}
 
 
@@ -123,3 +130,16 @@ def test_discrete_reference_paths_realise_the_previewed_filters():
     assert np.allclose(rot, g_r * np.exp(1j * np.pi * f / fs), rtol=2e-3)
     table = sos_freqresp(np.array(doc["reference"]["table_sos"]), f, fs) * np.exp(2j * np.pi * f * P / fs)
     assert np.allclose(table, 1.0)
+
+
+@pytest.mark.parametrize("design", [design_mcppc(MODEL, filters=THESIS_FILTER_PACK),
+                                    design_ppi(MODEL, Kpx=60.0, Kpv=0.8, Kiv=100.0, filters=THESIS_FILTER_PACK)],
+                         ids=["mcppc", "ppi"])
+def test_ball_screw_friction_feedforward_feeds_the_viscous_friction_once(design):
+    """Both designs' feedforward carries ``b1 + b2`` (``U_ff'(0)``: G_ff of eq. 3.13 and (m1+m2) s^2 + (b1+b2) s of
+    the P-PI): the friction section adds the model's viscous coefficients less that."""
+    sec = with_friction_feedforward(gains_document(design), FRICTION, v_band=0.05)["friction_feedforward"]
+    b = MODEL.b1 + MODEL.b2
+    assert sec["viscous_pos"]["value"] == pytest.approx(FRICTION.viscous_pos - b, rel=1e-9)
+    assert sec["viscous_neg"]["value"] == pytest.approx(FRICTION.viscous_negative - b, rel=1e-9)
+    assert sec["source"]["viscous_in_linear_feedforward"] == {"value": pytest.approx(b, rel=1e-9), "unit": "V/(rad/s)"}

@@ -25,7 +25,7 @@ from feedtune.io.gains import gains_document
 from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.machines import load_runtime
 from feedtune.models import THESIS_TABLE_3_1
-from feedtune.models.friction import StribeckFriction
+from feedtune.models.friction import FrictionLaw
 from feedtune.models.gantry import THESIS_GANTRY
 
 GCC = shutil.which("gcc")
@@ -42,14 +42,17 @@ PID = gantry_gains_document(design_gantry_pid(THESIS_GANTRY, kp=(4e3, 3e3), kd=(
 AXIS = axis_gains_document(design_loopshape(0.6977, crossover_hz=130, pm_deg=35,
                                             filters=FilterPack([Notch(186, 0.6, 0.7)], 1200.0),
                                             prefilter=PrefilterGains(1e-3, 1e-6, 0, 0)))
-AXIS_FRICTION_MODEL = StribeckFriction(0.05, 0.09, -0.06, -0.1, 2e-3, 3e-3, command_unit="V", velocity_unit="m/s")
-"""An asymmetric friction of the x axis [V, m/s], fed forward with a 2e-4 m/s band."""
+AXIS_FRICTION_MODEL = FrictionLaw(0.05, 0.09, -0.06, -0.1, 2e-3, 3e-3, command_unit="V", velocity_unit="m/s",
+                                  viscous_pos=0.4, viscous_neg=0.55)
+"""An asymmetric friction of the x axis [V, m/s] with viscous friction [V/(m/s)], fed forward with a 2e-4 m/s band."""
 AXIS_FRICTION = axis_gains_document(design_loopshape(0.6977, crossover_hz=130, pm_deg=35,
                                                      filters=FilterPack([Notch(186, 0.6, 0.7)], 1200.0),
                                                      prefilter=PrefilterGains(1e-3, 1e-6, 0, 0),
                                                      friction=AXIS_FRICTION_MODEL, friction_band=2e-4))
-GANTRY_FRICTION_MODEL = StribeckFriction(0.3, 0.5, -0.35, -0.55, 2e-3, 3e-3, command_unit="V", velocity_unit="m/s")
-"""An asymmetric friction of the gantry's travel [V, m/s], fed forward with a 2e-4 m/s band."""
+GANTRY_FRICTION_MODEL = FrictionLaw(0.3, 0.5, -0.35, -0.55, 2e-3, 3e-3, command_unit="V", velocity_unit="m/s",
+                                    viscous_pos=1.2, viscous_neg=0.9)
+"""An asymmetric friction of the gantry's travel [V, m/s] with viscous friction [V/(m/s)], fed forward with a 2e-4 m/s
+band."""
 MIMO_FRICTION = gantry_gains_document(design_gantry_mimo(THESIS_GANTRY, filters=H, prefilter1=PRE1, prefilter2=PRE2,
                                                          x_grid=X_GRID).with_friction(GANTRY_FRICTION_MODEL,
                                                                                       v_band=2e-4))

@@ -1,9 +1,9 @@
 """Friction feedforward of the gantry laws (``design gantry|pid --friction``): the ``[friction_feedforward]`` of a
-gantry gains file is Stribeck eq. 2.1 (:meth:`StribeckFriction.force`, evaluated here independently) of the previewed
-gantry reference's backward-difference velocity [m/s] outside the band and the straight line through zero inside it,
-split between the drives as the inertia feedforward splits a rigid acceleration: ``u_i += alpha_i(x) d`` with
-``alpha_i m`` the row sums of ``M(x)`` (computed here from the model, clamped at the schedule's ends); its units must
-be the gantry model's (command unit, m/s); the command line writes it and ``export c`` exports it.
+gantry gains file is Stribeck eq. 2.1 with its viscous term (:meth:`FrictionLaw.force`, evaluated here independently) of
+the previewed gantry reference's backward-difference velocity [m/s] outside the band and the straight line through zero
+inside it, split between the drives as the inertia feedforward splits a rigid acceleration: ``u_i += alpha_i(x) d`` with
+``alpha_i m`` the row sums of ``M(x)`` (computed here from the model, clamped at the schedule's ends); its units must be
+the gantry model's (command unit, m/s); the command line writes it and ``export c`` exports it.
 
 The runtime, the compiled twin loop and the C header (double and float) are checked against each other for MIMO and
 PID designs with friction feedforward in tests/test_gantry_law_consistency.py, tests/test_export_c_kinds.py and
@@ -26,14 +26,15 @@ from feedtune.io import read_document, save_model
 from feedtune.io.gantry_gains import gantry_gains_document
 from feedtune.machines import load_runtime
 from feedtune.machines.gantry.runtime import GantryRuntime
-from feedtune.models.friction import StribeckFriction
+from feedtune.models.friction import FrictionLaw, StribeckFriction
 from feedtune.models.gantry import THESIS_GANTRY
 from feedtune.sim.engine import numba_available
 from feedtune.sim.trajectory import multi_segment
 
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
 
-FRICTION = StribeckFriction(0.3, 0.5, -0.35, -0.55, 0.01, 0.02, command_unit="V", velocity_unit="m/s")
+FRICTION = FrictionLaw(0.3, 0.5, -0.35, -0.55, 0.01, 0.02, command_unit="V", velocity_unit="m/s", viscous_pos=1.2,
+                       viscous_neg=0.9)
 """An asymmetric friction of the moving gantry (both drives together) in the twin's command unit [V] and m/s."""
 BAND = 1e-3
 """Linear band of the feedforward [m/s]."""
@@ -74,10 +75,10 @@ def _expected_friction(v: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("design", [MIMO, PID], ids=["mimo", "pid"])
 def test_the_feedforward_term_is_the_split_stribeck_force_of_the_reference_velocity(design):
     """The commands with friction feedforward minus the commands without, for the same readings, are
-    ``alpha_i(x) d(v_r)``: eq. 2.1 (StribeckFriction.force) outside +-v_band, d(+-v_band) |v_r| / v_band inside, with
-    v_r the backward difference of the previewed reference (0 on the first sample) and alpha_i the model's row-sum
-    split of M(x). Checked on the per-sample step (the compiled law) and on the vectorised replay, with the table
-    moving across the schedule and past both clamped ends."""
+    ``alpha_i(x) d(v_r)``: eq. 2.1 and its viscous term (FrictionLaw.force) outside +-v_band, d(+-v_band) |v_r| /
+    v_band inside, with v_r the backward difference of the previewed reference (0 on the first sample) and alpha_i the
+    model's row-sum split of M(x). Checked on the per-sample step (the compiled law) and on the vectorised replay,
+    with the table moving across the schedule and past both clamped ends."""
     plain = load_runtime(gantry_gains_document(design))
     ff = load_runtime(gantry_gains_document(design.with_friction(FRICTION, v_band=BAND)))
     assert isinstance(ff, GantryRuntime) and ff.friction is not None and plain.friction is None

@@ -19,7 +19,7 @@ from feedtune.design.loopshape import design_loopshape
 from feedtune.io.gantry_gains import axis_gains_document, gantry_gains_document
 from feedtune.machines import load_runtime
 from feedtune.machines.gantry.twin import GantryTwin, GantryTwinParams
-from feedtune.models.friction import StribeckFriction
+from feedtune.models.friction import FrictionLaw
 from feedtune.models.gantry import THESIS_GANTRY
 from feedtune.sim.engine import numba_available
 from feedtune.sim.trajectory import multi_segment
@@ -32,8 +32,10 @@ PID_DESIGN = design_gantry_pid(THESIS_GANTRY, kp=(6e3, 5e3), kd=(40.0, 35.0), ki
                                filters=FilterPack([], 900.0))
 MIMO = load_runtime(gantry_gains_document(MIMO_DESIGN))
 PID = load_runtime(gantry_gains_document(PID_DESIGN))
-GANTRY_FRICTION_MODEL = StribeckFriction(0.3, 0.5, -0.35, -0.55, 0.01, 0.02, command_unit="V", velocity_unit="m/s")
-"""An asymmetric friction of the gantry's travel [V, m/s], fed forward with a 1e-3 m/s band."""
+GANTRY_FRICTION_MODEL = FrictionLaw(0.3, 0.5, -0.35, -0.55, 0.01, 0.02, command_unit="V", velocity_unit="m/s",
+                                    viscous_pos=1.2, viscous_neg=0.9)
+"""An asymmetric friction of the gantry's travel [V, m/s] with viscous friction [V/(m/s)], fed forward with a 1e-3 m/s
+band."""
 MIMO_FRICTION = load_runtime(gantry_gains_document(MIMO_DESIGN.with_friction(GANTRY_FRICTION_MODEL, v_band=1e-3)))
 PID_FRICTION = load_runtime(gantry_gains_document(PID_DESIGN.with_friction(GANTRY_FRICTION_MODEL, v_band=1e-3)))
 AXIS_DESIGN = design_loopshape(
@@ -42,7 +44,8 @@ AXIS_DESIGN = design_loopshape(
     prefilter=PrefilterGains(1e-3, 1e-6, 0.0, 0.0))
 AXIS = load_runtime(axis_gains_document(AXIS_DESIGN))
 AXIS_FRICTION = load_runtime(axis_gains_document(AXIS_DESIGN.with_friction(
-    StribeckFriction(0.2, 0.35, -0.25, -0.4, 0.01, 0.02, command_unit="V", velocity_unit="m/s"), v_band=1e-3)))
+    FrictionLaw(0.2, 0.35, -0.25, -0.4, 0.01, 0.02, command_unit="V", velocity_unit="m/s", viscous_pos=0.8,
+                viscous_neg=1.1), v_band=1e-3)))
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba not installed")
 
 

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from friction_sim import Axis, simulate, trapezoid
 
 from feedtune.errors import DataError, IllConditionedError, UsageError
 from feedtune.identify.friction import fit_stribeck, identify_friction
@@ -23,55 +24,15 @@ FIT_NAMES = ("dc_pos", "ds_pos", "dc_neg", "ds_neg", "omega_pos", "omega_negativ
 
 
 # ------------------------------------------------------------------------------------ test simulator
-def _trajectory(speeds, acc: float, hold: float, fs: float):
-    """Reference position, velocity, acceleration: a trapezoid to +v and one to -v for every speed."""
-    tb, vb = [0.0], [0.0]
-    for v in speeds:
-        for sign in (1.0, -1.0):
-            ramp, t0 = v / acc, tb[-1]
-            tb += [t0 + ramp, t0 + ramp + hold, t0 + 2 * ramp + hold, t0 + 2 * ramp + hold + 0.1]
-            vb += [sign * v, sign * v, 0.0, 0.0]
-    t = np.arange(0.0, tb[-1] + 0.2, 1.0 / fs)
-    v = np.interp(t, tb, vb)
-    x = np.concatenate([[0.0], np.cumsum((v[1:] + v[:-1]) / 2.0) / fs])
-    return t, x, v, np.gradient(v, 1.0 / fs)
-
-
 def _simulate(friction: StribeckFriction, *, fs: float = 1000.0, substeps: int = 10, quant: float = 0.5e-6,
               seed: int = 0):
-    """``m x'' = u - b x' - d(x')`` under a PID loop with model feedforward, sampled at ``fs``.
-
-    Semi-implicit Euler at ``fs * substeps``; the command is held between samples (ZOH); the controller
-    sees the quantised, noisy position. Returns the log (``x`` [m], ``u`` [N]) and the true velocity at
-    the samples.
-    """
-    t, xr, vr, ar = _trajectory((0.004, 0.01, 0.02, 0.04, 0.08), 0.1, 0.3, fs)
-    h = 1.0 / (fs * substeps)
-    wn = 2 * math.pi * 15.0
-    kp, kd, ki = MASS * wn**2, 2 * 0.8 * wn * MASS, MASS * wn**3 / 4
-    dcp, dsp, dcn, dsn = friction.dc_pos, friction.ds_pos, friction.dc_neg, friction.ds_neg
-    wp, wm = friction.omega_pos, friction.omega_negative
-    noise = np.random.default_rng(seed).normal(0.0, 0.2e-6, t.size)
-    x = v = integ = y_prev = 0.0
-    ys, us, vs = np.empty(t.size), np.empty(t.size), np.empty(t.size)
-    for k in range(t.size):
-        y = round((x + noise[k]) / quant) * quant
-        e = xr[k] - y
-        integ += e / fs
-        u = MASS * ar[k] + VISCOUS * vr[k] + kp * e + kd * (vr[k] - (y - y_prev) * fs) + ki * integ
-        y_prev = y
-        ys[k], us[k], vs[k] = y, u, v
-        for _ in range(substeps):
-            if v > 0:
-                d = dcp + (dsp - dcp) * math.exp(-v / wp)
-            elif v < 0:
-                d = dcn + (dsn - dcn) * math.exp(v / wm)
-            else:
-                d = 0.0
-            v += h * (u - VISCOUS * v - d) / MASS
-            x += h * v
-    log = Log(t, {"x": ys, "u": us}, {"x": "m", "u": "N"}, {"source": "closed-loop simulation"})
-    return log, vs
+    """``m x'' = u - b x' - d(x')`` under a PID loop (15 Hz) with model feedforward, sampled at ``fs``, along
+    trapezoids to +-0.004 .. 0.08 m/s (:mod:`friction_sim`: ZOH command, quantised position with 0.2 um noise);
+    the log (``x`` [m], ``u`` [N]) and the true velocity at the samples."""
+    axis = Axis(mass=MASS, viscous=VISCOUS, dc_pos=friction.dc_pos, ds_pos=friction.ds_pos, dc_neg=friction.dc_neg,
+                ds_neg=friction.ds_neg, omega=friction.omega_pos, omega_neg=friction.omega_negative)
+    return simulate(axis, trapezoid((0.004, 0.01, 0.02, 0.04, 0.08), 0.1, 0.3, fs), fs=fs, substeps=substeps,
+                    quant=quant, noise_x=0.2e-6, bandwidth_hz=15.0, seed=seed, true_velocity=True)
 
 
 @pytest.fixture(scope="module")

@@ -99,3 +99,16 @@ def test_rack_and_pinion_merged_from_two_instruments_and_one_way_friction(real_d
                    capsys, monkeypatch)
     assert fit["method"] == "joint, one direction" and list(fit["joint_fit"]["law_fit"]["directions"]) == ["pos"]
     assert fit["joint_fit"]["mass"] == pytest.approx(24.7, rel=0.05)  # the author's coefficients: 24.7 kg
+
+
+def test_hsm150_steady_state_friction_one_plateau_per_torque_step(real_data_dir, capsys, monkeypatch):
+    files = sorted((real_data_dir / "HSM150_motor_steps").glob("idf_*.mat"))
+    opts = ["--map", "t=data[0]", "--map", "x=data[2]", "--map", "u=data[5]", "--unit", "x=rad", "--unit", "u=N*m",
+            "--steady-state"]
+    cv = run_json(["identify", "friction", *files, *opts, "--law", "coulomb-viscous"], capsys, monkeypatch)
+    assert len(cv["points"]) == 24  # 12 files x 2 torque levels (the speed creeps: 253 pieces before the merge)
+    # the repository's B = 7.03e-5 N m s/rad (README); the plateau method sees the same viscous slope for v > 0
+    assert cv["fit"]["directions"]["pos"]["viscous"] == pytest.approx(7.03e-5, rel=0.05)
+    stribeck = run_json(["identify", "friction", *files, *opts, "--law", "stribeck"], capsys, monkeypatch)
+    assert len(stribeck["points"]) == 24 and stribeck["friction"]["model"] == "stribeck"  # fitted, not refused
+    assert any("not distinguishable from the Coulomb level" in w for w in stribeck["warnings"])

@@ -131,8 +131,15 @@ def finish_design(delivery, result: dict, *, out: Path | None, force: bool, allo
 
 
 def print_friction(ff: dict) -> None:
-    """One line on the friction feedforward a gains file holds (levels, Stribeck velocities, linear band)."""
-    levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg"))
+    """One line on the friction feedforward a gains file holds (the law, its levels, Stribeck velocities and viscous
+    terms, the linear band)."""
+    levels = ", ".join(f"{k} {fmt(ff[k]['value'], ff[k]['unit'])}" for k in ("dc_pos", "ds_pos", "dc_neg", "ds_neg")
+                       if k in ff)
     vu = ff["v_band"].get("unit", "rad/s")  # rad/s (ball screw) or m/s (a linear axis)
-    typer.echo(f"friction feedforward (eq. 2.1): {levels}, Omega {fmt(ff['omega_pos']['value'], vu)} / "
-               f"{fmt(ff['omega_neg']['value'], vu)}, linear band +-{fmt(ff['v_band']['value'], vu)}")
+    omega = (f", Omega {fmt(ff['omega_pos']['value'], vu)} / {fmt(ff['omega_neg']['value'], vu)}"
+             if "omega_pos" in ff else "")
+    viscous = (f", viscous {fmt(ff['viscous_pos']['value'], ff['viscous_pos']['unit'])} / "
+               f"{fmt(ff['viscous_neg']['value'], ff['viscous_neg']['unit'])}" if "viscous_pos" in ff else "")
+    law = "eq. 2.1" if ff.get("model", "stribeck") == "stribeck" else ff["model"]
+    band = fmt(ff["v_band"]["value"], vu)
+    typer.echo(f"friction feedforward ({law}): {levels}{omega}{viscous}, linear band +-{band}")

@@ -28,7 +28,7 @@ FRF_METHODS = ("h1", "periodic")
 """``frf --method``: :data:`feedtune.identify.frf_estimate.METHODS`."""
 KALMAN_METHODS = ("steady-state", "filterpy")
 """``identify friction --method``: :data:`feedtune.identify.kalman.METHODS`."""
-FRICTION_LAWS = ("stribeck", "hump", "lugre")
+FRICTION_LAWS = ("stribeck", "hump", "lugre", "coulomb-viscous")
 """``--law``: :data:`feedtune.models.friction.LAWS`."""
 QUANTITIES = ("position", "velocity", "acceleration")
 """``--quantity``: :data:`feedtune.frf.QUANTITIES`."""

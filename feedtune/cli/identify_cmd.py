@@ -161,9 +161,11 @@ def ballscrew_params(result: dict) -> dict:
 
 
 def _law_params(directions: dict, units: dict) -> dict:
-    """A law fitted per direction (``{"pos": {dc, ds, omega, viscous, std}, ...}``) as ``dc_pos, ds_pos, ...``."""
+    """A law fitted per direction (``{"pos": {dc, ds, omega, viscous, std}, ...}``) as ``dc_pos, ds_pos, ...``
+    (the coulomb-viscous law has no ``ds``, ``omega``: its directions' std name neither)."""
     return {f"{name}_{way}": quantity(d[name], units.get(name, "-"), d.get("std", {}).get(name))
-            for way, d in directions.items() for name in ("dc", "ds", "omega", "viscous") if name in d}
+            for way, d in directions.items() for name in ("dc", "ds", "omega", "viscous")
+            if d.get(name) is not None and (name != "ds" or "ds" in d.get("std", {}))}
 
 
 def joint_params(joint: dict) -> dict:
@@ -180,7 +182,7 @@ def friction_params(result: dict) -> dict:
         return _law_params(result["fit"]["directions"], result["fit"]["units"])
     fit = result["friction"]
     law, units, std = fit["friction"], fit["units"], fit.get("std", {})
-    names = [k for k in law if k not in ("model", "units")]
+    names = [k for k in law if k not in ("model", "units", "formula")]
     params = {k: quantity(law[k], law.get("units", {}).get(k, units.get(k, "-")), std.get(k)) for k in names}
     joint = result.get("joint_fit") or {}
     params["mass"] = quantity(result["mass"], result["units"]["mass"], joint.get("mass_std"))
@@ -267,11 +269,12 @@ def rigid(
         emit({**result, "params": quantities(result["values"], result["units"], result["std"])})
         return
     units = result["units"]
-    kind = {"rigid": "symmetric", "rigid-asymmetric": "asymmetric", "rigid-one-direction": "one-direction"}[
-        result["model"]]
+    kind = {"rigid": "symmetric", "rigid-asymmetric": "asymmetric", "rigid-one-direction": "one-direction",
+            "rigid-one-speed": "one-speed"}[result["model"]]
     typer.echo(f"Rigid-body model ({kind} friction, IDIM-LS) from {log_file}:")
     for name, value in result["values"].items():
-        typer.echo(f"  {name:12s} = {_std_text(value, result['std'][name], units[name])}")
+        bound = result["on_bound"].get(name, {}).get("bound")
+        typer.echo(f"  {name:12s} = {fmt_param(value, units[name], result['std'][name], lower=bound)}")
     typer.echo(f"  relative error {fmt(result['relative_error_pct'], '%')}, residual RMS "
                f"{fmt(result['residual_rms'], units['residual_rms'])}, condition number "
                f"{fmt(result['condition_number'])}, {result['n_samples']} samples after decimation by "
@@ -382,7 +385,7 @@ def _friction_steady_state_text(result: dict, log_file: Path | str) -> None:
     for key, d in fit["directions"].items():
         typer.echo(f"  {'v > 0' if key == 'pos' else 'v < 0'}: "
                    + ", ".join(f"{name} = {_std_text(d[name], d['std'].get(name), fu[name])}"
-                               for name in ("dc", "ds", "omega", "viscous")))
+                               for name in ("dc", "ds", "omega", "viscous") if name in d["std"]))
     typer.echo(f"  fit RMS {fmt(fit['rms_error'], fu['rms_error'])} ({fmt(fit['relative_error_pct'], '%')})")
     for w in result.get("warnings", []):
         typer.echo(f"  warning: {cli_text(w)}")
@@ -410,7 +413,7 @@ def _friction_one_direction(joint, log_files: list[Path], log_file, as_json: boo
     for key, d in jf["law_fit"]["directions"].items():
         typer.echo(f"  {'v > 0' if key == 'pos' else 'v < 0'}: "
                    + ", ".join(f"{name} = {_std_text(d[name], d['std'].get(name), fu[name])}"
-                               for name in ("dc", "ds", "omega", "viscous")))
+                               for name in ("dc", "ds", "omega", "viscous") if name in d["std"]))
     typer.echo(f"  fit RMS {fmt(jf['law_fit']['rms_error'], fu['rms_error'])} "
                f"({fmt(jf['law_fit']['relative_error_pct'], '%')}), {jf['n_samples']} samples, filter "
                f"{fmt(jf['cutoff_hz'], 'Hz')}")
@@ -495,7 +498,7 @@ def friction(
     ),
     law: str = typer.Option(
         "stribeck", "--law", **choice(FRICTION_LAWS),
-        help="Friction law: stribeck (eq. 2.1), hump or lugre.",
+        help="Friction law: stribeck (eq. 2.1), hump, lugre or coulomb-viscous (sign(v) Fc + Fv v).",
     ),
     steady_state: bool = typer.Option(
         False, "--steady-state", help="Fit the law to the mean command on constant-velocity plateaus (no Kalman "
@@ -560,8 +563,9 @@ def friction(
 ) -> None:
     """Fit a friction law per direction of motion to logs.
 
-    Friction per direction: Stribeck eq. 2.1 (or --law hump|lugre) from the Kalman-filter equivalent disturbance,
-    or with --steady-state from constant-velocity plateaus."""
+    Friction per direction: Stribeck eq. 2.1 (or --law hump|lugre|coulomb-viscous) with viscous friction, fitted
+    jointly with the mass (or from the Kalman-filter disturbance with --model/--mass), or with --steady-state from
+    constant-velocity plateaus."""
     show_progress(quiet)
     from ..errors import DataError
     from ..identify.friction import OneDirectionError, fit_joint_friction, identify_friction
@@ -628,18 +632,27 @@ def friction(
         return
     fit = result["friction"]
     f, u, std = fit["friction"], fit["units"], fit["std"]
-    name = "Stribeck friction (eq. 2.1)" if result["law"] == "stribeck" else f"Friction ({result['law']} law)"
+    viscous_in_law = "viscous_pos" in f
+    name = ("Stribeck friction (eq. 2.1)" if result["law"] == "stribeck" else f"Friction ({result['law']} law)") + \
+        (" with viscous friction" if viscous_in_law and result["law"] != "coulomb-viscous" else "")
     typer.echo(f"{name} from {log_file}:")
-    for name in ("dc_pos", "ds_pos", "omega_pos", "dc_neg", "ds_neg", "omega_neg"):
-        typer.echo(f"  {name:9s} = {_std_text(f[name], std.get(name), u[name])}{_omega_bound_note(fit, name)}")
+    for name in ("dc_pos", "ds_pos", "omega_pos", "viscous_pos", "dc_neg", "ds_neg", "omega_neg", "viscous_neg"):
+        if name in f:
+            typer.echo(f"  {name:11s} = {_std_text(f[name], std.get(name), u[name])}{_omega_bound_note(fit, name)}")
     typer.echo(f"  Coulomb {fmt(fit['coulomb'], u['coulomb'])}, offset {fmt(fit['offset'], u['offset'])}; "
                f"fit RMS {fmt(fit['rms_error'], u['rms_error'])} ({fmt(fit['relative_error_pct'], '%')}), "
                f"{fit['n_pos']} + {fit['n_neg']} samples")
-    source = ("joint fit" if result.get("joint_fit") else "IDIM-LS rigid fit" if result.get("rigid_fit")
-              else "given")
-    typer.echo(f"  mass {fmt(result['mass'], result['units']['mass'])}, viscous "
-               f"{fmt(result['viscous'], result['units']['viscous'])} ({source}); observer poles "
-               f"{', '.join(fmt(p, 'Hz') for p in result['disturbance']['observer_poles_hz'])}")
+    joint = result.get("joint_fit")
+    if joint:
+        typer.echo(f"  mass {_std_text(joint['mass'], joint['mass_std'], joint['units']['mass'])} (joint fit, filter "
+                   f"{fmt(joint['cutoff_hz'], 'Hz')}, {joint['n_samples']} rows); observer poles "
+                   f"{', '.join(fmt(p, 'Hz') for p in result['disturbance']['observer_poles_hz'])} (disturbance "
+                   "record)")
+    else:
+        source = "IDIM-LS rigid fit" if result.get("rigid_fit") else "given"
+        typer.echo(f"  mass {fmt(result['mass'], result['units']['mass'])}, viscous "
+                   f"{fmt(result['viscous'], result['units']['viscous'])} ({source}); observer poles "
+                   f"{', '.join(fmt(p, 'Hz') for p in result['disturbance']['observer_poles_hz'])}")
     for w in result.get("warnings", []):
         typer.echo(f"  warning: {cli_text(w)}")
     for p in result.get("files", []):

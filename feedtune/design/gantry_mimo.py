@@ -17,7 +17,7 @@ turn the 2x2 plant into ``Gbar = alpha^T G alpha = 1/(m s^2)`` whatever the yaw 
 Feedforward ``u_ff = M(x) [y_r1'', y_r2'']`` (eq. 4.31) and per-side pre-filters (eq. 4.32) use the tables of
 :class:`GantrySchedule`, scheduled in the table position ``x`` (eq. 4.33).
 
-Optionally an identified Stribeck friction model of the gantry's travel (eq. 2.1, in the command unit and m/s) is fed
+Optionally an identified friction model of the gantry's travel (eq. 2.1 + viscous term, command unit, m/s) is fed
 forward from the reference velocity ``v_r = (y_r[k+P] - y_r[k+P-1]) fs`` (0 on the first sample), linear through
 zero inside a small band (:mod:`feedtune.control.friction`, :meth:`GantryMimoDesign.with_friction`). The friction
 force ``d(v_r)`` of the moving gantry is split between the drives as the inertia feedforward splits a rigid

@@ -20,7 +20,7 @@ phase margin hold there. Feedforward is ``u_ff = m_x x_r''`` (eq. 4.19) and the 
 (eq. 4.20) ``x_r' = x_r + sum_n k_n s^n G_lpf^(n+1) x_r`` with ``G_lpf = w_f/(s + w_f)`` (80 Hz in the
 thesis) for ``n = 1..4`` (velocity, acceleration, jerk, snap).
 
-Optionally an identified Stribeck friction model (eq. 2.1, in the command unit and m/s) is fed forward from the
+Optionally an identified friction model (eq. 2.1 and its viscous term, command unit and m/s) is fed forward from the
 reference velocity ``v_r = (x_r[k+P] - x_r[k+P-1]) fs`` (0 on the first sample), linear through zero inside a small
 band, as on the ball screw (:mod:`feedtune.control.friction`, :meth:`LoopShapeDesign.with_friction`).
 """

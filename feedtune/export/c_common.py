@@ -520,22 +520,28 @@ def banner(what: str, doc: dict, opts: COptions, lines: list[str]) -> list[str]:
 
 # ------------------------------------------------------------------ friction feedforward
 def friction_constants(ff, opts: COptions) -> list[str]:
-    """The constants of a Stribeck friction feedforward (``ff``: a
-    :class:`~feedtune.control.friction.FrictionFeedforward`, or None for none), velocities in its unit."""
+    """The constants of a friction feedforward (``ff``: a :class:`~feedtune.control.friction.FrictionFeedforward`,
+    or None for none): eq. 2.1's levels and Stribeck velocities (the coulomb-viscous law: its Coulomb levels), the
+    viscous coefficients, the band and the friction at its edges, velocities in its unit."""
     if ff is None:
         return []
     P, R, num = opts.P, opts.real, opts.num
     f = ff.friction
     edge_pos, edge_neg = ff.edges()
+    fv_pos, fv_neg = ff.viscous
     unit, vu = ff.command_unit, ff.velocity_unit
+    stribeck = ff.law != "coulomb-viscous"
+    head = ("Stribeck friction (eq. 2.1) + viscous friction" if stribeck else "Coulomb + viscous friction")
     return [
-        f"/* Stribeck friction feedforward (eq. 2.1), reference velocity in {vu}, linear inside +-V_BAND */",
+        f"/* {head} feedforward, reference velocity in {vu}, linear inside +-V_BAND */",
         f"static const {R} {P}_FR_DC_POS = {num(f.dc_pos)}; /* {unit} */",
-        f"static const {R} {P}_FR_DS_POS = {num(f.ds_pos)}; /* {unit} */",
+        *([f"static const {R} {P}_FR_DS_POS = {num(f.ds_pos)}; /* {unit} */"] if stribeck else []),
         f"static const {R} {P}_FR_DC_NEG = {num(f.dc_neg)}; /* {unit} */",
-        f"static const {R} {P}_FR_DS_NEG = {num(f.ds_neg)}; /* {unit} */",
-        f"static const {R} {P}_FR_OMEGA_POS = {num(f.omega_pos)}; /* {vu} */",
-        f"static const {R} {P}_FR_OMEGA_NEG = {num(f.omega_negative)}; /* {vu} */",
+        *([f"static const {R} {P}_FR_DS_NEG = {num(f.ds_neg)}; /* {unit} */",
+           f"static const {R} {P}_FR_OMEGA_POS = {num(f.omega_pos)}; /* {vu} */",
+           f"static const {R} {P}_FR_OMEGA_NEG = {num(f.omega_negative)}; /* {vu} */"] if stribeck else []),
+        f"static const {R} {P}_FR_FV_POS = {num(fv_pos)}; /* {unit}/({vu}) */",
+        f"static const {R} {P}_FR_FV_NEG = {num(fv_neg)}; /* {unit}/({vu}) */",
         f"static const {R} {P}_FR_V_BAND = {num(ff.v_band)}; /* {vu} */",
         f"static const {R} {P}_FR_EDGE_POS = {num(edge_pos)}; /* {unit}, friction at +V_BAND */",
         f"static const {R} {P}_FR_EDGE_NEG = {num(edge_neg)}; /* {unit}, friction at -V_BAND */",
@@ -544,18 +550,27 @@ def friction_constants(ff, opts: COptions) -> list[str]:
 
 
 def friction_function(ff, opts: COptions) -> list[str]:
-    """``PREFIX_friction(v)``: eq. 2.1 of the reference velocity, linear through zero inside ``+-V_BAND`` (the formula
-    of :meth:`~feedtune.models.friction.StribeckFriction.smoothed`); nothing for ``ff = None``."""
+    """``PREFIX_friction(v)``: eq. 2.1 plus the viscous term of the reference velocity (the coulomb-viscous law:
+    ``Fc + Fv v``), linear through zero inside ``+-V_BAND`` (the formula of
+    :meth:`~feedtune.models.friction.StribeckFriction.smoothed`); nothing for ``ff = None``."""
     if ff is None:
         return []
     prefix, P, R, zero, exp = opts.prefix, opts.P, opts.real, opts.num(0.0), opts.math("exp")
+    if ff.law == "coulomb-viscous":
+        pos = f"{P}_FR_DC_POS + {P}_FR_FV_POS * v"
+        neg = f"{P}_FR_DC_NEG + {P}_FR_FV_NEG * v"
+    else:
+        pos = (f"{P}_FR_DC_POS + ({P}_FR_DS_POS - {P}_FR_DC_POS) * {exp}(-a / {P}_FR_OMEGA_POS) "
+               f"+ {P}_FR_FV_POS * v")
+        neg = (f"{P}_FR_DC_NEG + ({P}_FR_DS_NEG - {P}_FR_DC_NEG) * {exp}(-a / {P}_FR_OMEGA_NEG) "
+               f"+ {P}_FR_FV_NEG * v")
     return [
         f"/* friction feedforward d(v) [command unit] for the reference velocity v [{ff.velocity_unit}] */",
         f"static inline {R} {prefix}_friction({R} v) {{",
         f"    {R} a = {opts.math('fabs')}(v);",
         f"    if (a < {P}_FR_V_BAND) return (v >= {zero} ? {P}_FR_EDGE_POS : {P}_FR_EDGE_NEG) * a / {P}_FR_V_BAND;",
-        f"    if (v > {zero}) return {P}_FR_DC_POS + ({P}_FR_DS_POS - {P}_FR_DC_POS) * {exp}(-a / {P}_FR_OMEGA_POS);",
-        f"    return {P}_FR_DC_NEG + ({P}_FR_DS_NEG - {P}_FR_DC_NEG) * {exp}(-a / {P}_FR_OMEGA_NEG);",
+        f"    if (v > {zero}) return {pos};",
+        f"    return {neg};",
         "}",
         "",
     ]

@@ -10,7 +10,7 @@ pre-filtered reference is carried in two parts, the reference and the pre-filter
 filters difference apart: their float sum would be rounded at the position's resolution, and the acceleration
 feedforward's second difference would multiply that rounding.
 
-An axis or gantry document with a ``[friction_feedforward]`` adds Stribeck eq. 2.1 of the previewed reference's
+An axis or gantry document with a ``[friction_feedforward]`` adds eq. 2.1 + viscous term of the previewed reference's
 backward difference velocity [m/s] to the feedforward (:func:`~feedtune.export.c_common.friction_function`, as
 :class:`~feedtune.machines.gantry.runtime.AxisRuntime` and :class:`~feedtune.machines.gantry.runtime.GantryRuntime`;
 the gantry splits it ``alpha1 d, alpha2 d`` between the drives with the schedule's ``alpha`` at ``x``); the header
@@ -66,7 +66,7 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
     law = ("MIMO law of section 4.4.2 (lead on the CoM error, damping of the yaw error, integral action, CoM "
            "feedforward)" if mimo else "independent PIDs on each side with the CoM feedforward")
     if fr is not None:
-        law += " and Stribeck friction feedforward (eq. 2.1) split alpha1 : alpha2"
+        law += " and friction feedforward (eq. 2.1 + viscous) split alpha1 : alpha2"
     out = banner(f"Gantry controller '{rt.controller}': {law}.", doc, opts, [
         f"fs = {rt.fs:g} Hz, computational delay {rt.delay_samples} sample(s), reference preview "
         f"{rt.preview_samples} sample(s). Positions in m, commands u1, u2 in {unit}.",
@@ -196,7 +196,7 @@ def axis_header(doc: dict, rt, opts: COptions) -> str:
     pre = rt._prefilter_on
     fr = rt.friction
     out = banner("Loop-shaped x-axis controller (eq. 4.18-4.20) with mass feedforward"
-                 + (", Stribeck friction feedforward (eq. 2.1)" if fr is not None else "")
+                 + (", friction feedforward (eq. 2.1 + viscous)" if fr is not None else "")
                  + " and trajectory pre-filter.",
                  doc, opts, [
                      f"fs = {rt.fs:g} Hz, computational delay {rt.delay_samples} sample(s), reference preview "

@@ -78,7 +78,8 @@ def quantization_warning(x: np.ndarray, name: str, unit: str) -> str | None:
 
 def clipping_warning(u: np.ndarray, name: str, unit: str) -> str | None:
     """A warning when the command ``u`` sits at its extreme values in more than :data:`CLIP_FRACTION` of the
-    samples (saturation), else None."""
+    samples (saturation), else None; not for a two-level command (a step or a binary excitation, fewer than
+    :data:`CLIP_FRACTION` of its samples between the two levels), whose levels the experiment set."""
     u = np.asarray(u, float)
     if u.size < 100:
         return None
@@ -90,7 +91,7 @@ def clipping_warning(u: np.ndarray, name: str, unit: str) -> str | None:
     at_hi, at_lo = np.abs(u - hi) <= tol, np.abs(u - lo) <= tol
     share = float(np.mean(at_hi | at_lo))
     # clipping: a plateau at an extreme (runs of equal samples), not a single peak sample
-    if share < CLIP_FRACTION or max(int(at_hi.sum()), int(at_lo.sum())) < 5:
+    if share < CLIP_FRACTION or max(int(at_hi.sum()), int(at_lo.sum())) < 5 or 1.0 - share < CLIP_FRACTION:
         return None
     return (f"{name} sits at its extremes ({lo:.4g} / {hi:.4g} {unit}) in {100 * share:.1f} % of the samples: the "
             "command looks clipped (saturation), and the fit sees a force the drive did not produce; leave those "

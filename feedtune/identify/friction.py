@@ -24,24 +24,20 @@ term: the viscous friction is the model's), giving a :class:`~feedtune.models.fr
 level whose sign is opposite to its direction is a :class:`DataError` naming it (a mirrored or sign-inverted
 command).
 
-Joint fit (``joint=True``, without a model or a mass; the default): the rigid-first path
-(IDIM-LS ``M, Fv, Fc, offset``, then the filter with that ``M, Fv``) lets the rigid fit absorb the Stribeck decay
-of the low speeds as a too small (even negative) viscous coefficient and a biased mass, and the Stribeck fit
-inherits both. The joint fit (:func:`fit_joint_friction`) fits the mass, a viscous coefficient per direction and
-the law's parameters per direction together, by nonlinear least squares on the IDIM-LS regressor of
-:mod:`feedtune.identify.rigid` (zero-phase Butterworth position filter with the automatic cut-off, central
-differences, parallel decimation) with the law's nonlinear terms evaluated at the decimated velocity:
-``u = M a + Fv v + law(v)``. It is done there and not on the Kalman estimate because the causal filter's
-disturbance estimate lags the friction by the observer's time constant while the speed changes, an error
-proportional to the acceleration that a mass term absorbs (9 % too much mass on the test simulation); the
-zero-phase IDIM filters have no lag. Left out: ``5 / cutoff`` seconds after every reversal of the decimated
-velocity (:data:`JOINT_GUARD_CUTOFFS`: the friction jump smeared by the filters) and speeds below 2 % of the peak.
-The decimated columns are divided by the decimation chain's DC gain (scipy's zero-phase order-8 Chebyshev
-decimation passes a constant with gain ``0.9886`` per stage, its ripple floor ``0.9943`` squared by the forward and
-backward passes; ``0.977`` for the two stages of a factor above 13), which a linear IDIM-LS fit does not notice
-but a law's levels and ``vs`` would (-2.6 % on the test simulation). The Kalman filter then runs with
-the joint mass and viscous coefficients and the law is fitted to its disturbance as with a model, so the
-reported friction is of the same method either way (the joint fit's own law parameters are in ``joint_fit``).
+Joint fit (``joint=True``, without a model or a mass; the default): mass, viscous friction per direction and the
+law per direction are fitted together on the IDIM-LS regressor (:mod:`feedtune.identify.friction_joint`: zero-phase
+filters, masked parallel decimation, bounded least squares) and that fit is the result: its law with its viscous
+terms (:class:`~feedtune.models.friction.FrictionLaw`) is the friction model. The Kalman filter still runs with the
+joint mass and viscous coefficient for the disturbance record (``disturbance``), but no law is fitted to it: the
+causal filter's estimate lags the friction while the speed changes, which biased ``Omega`` by up to 33 % on eq. 2.1
+simulations. The rigid-first path (``joint=False``) lets the IDIM-LS fit absorb the Stribeck decay of the low speeds
+as a too small viscous coefficient and a biased mass.
+
+Signs: a fit is bounded to the physical signs (levels with the sign of their direction, ``Fv >= 0``); before that
+the unconstrained fit is read, and only a negative mass or Coulomb levels opposing the motion both ways are called a
+mirrored or sign-inverted command (Coulomb levels of one sign: an offset larger than the friction,
+:func:`~feedtune.identify.friction_curve.sign_diagnosis`). A level that ends on its bound otherwise is reported as
+not identified, with its unconstrained value.
 """
 
 from __future__ import annotations
@@ -57,19 +53,19 @@ from ..models.ballscrew import BallScrewModel
 from ..models.friction import StribeckFriction, check_law
 from ..models.rigid import RigidBodyModel
 from .data_quality import POOR_FIT_PCT
-from .friction_curve import (
-    FrictionLawFit,
-    as_series,
-    bin_by_speed,
-    check_fitted_signs,
-    fit_friction_law,
-    parameter_std,
+from .friction_curve import as_series, fit_friction_law, parameter_std, sign_diagnosis
+from .friction_joint import (
+    DEFAULT_MIN_SPEED_FRACTION,
+    MIN_SAMPLES_PER_DIRECTION,
+    JointFit,
+    bound_warnings,
+    fit_joint_friction,
+)
+from .friction_joint import (
+    OneDirectionError as OneDirectionError,  # re-exported: the CLI and users catch it here
 )
 from .kalman import DisturbanceEstimate, estimate_disturbance
 from .rigid import RigidFit, fit_rigid, position_si
-
-MIN_SAMPLES_PER_DIRECTION = 50
-"""Fewest samples per direction (above ``min_speed``) accepted by :func:`fit_stribeck`."""
 
 MIN_SPEED_RATIO = 1.5
 """The 98th/2nd percentile ratio of the speeds in a direction must reach this for a Stribeck fit."""
@@ -77,16 +73,6 @@ MIN_SPEED_RATIO = 1.5
 OMEGA_SPEED_LIMITS = (5.0, 2.0)
 """``Omega`` is bounded to ``[v_2 / 5, v_98 / 2]`` (2nd and 98th speed percentiles of a direction): the static
 level needs samples where ``exp(-|v|/Omega)`` is not negligible, the Coulomb level samples where it is small."""
-
-DEFAULT_MIN_SPEED_FRACTION = 0.02
-"""Default ``min_speed`` as a fraction of the peak speed: closer to zero speed the estimate is dominated by
-stick/creep around reversals rather than by the sliding friction of eq. 2.1."""
-
-JOINT_GUARD_CUTOFFS = 5.0
-"""Reversal guard of the joint fit: ``5 / cutoff_hz`` seconds after every reversal of the decimated velocity."""
-
-MAX_MASS_RELATIVE_STD = 0.25
-"""Largest accepted relative standard deviation of the joint fit's mass."""
 
 
 @dataclass(frozen=True)
@@ -114,6 +100,8 @@ class StribeckFit:
     omega_bounds : dict of str to (float, float)
         Bounds of ``Omega`` per direction (``"pos"``, ``"neg"``) [velocity unit], see
         :data:`OMEGA_SPEED_LIMITS`; a fit that ends on a bound did not resolve the Stribeck velocity.
+    on_bound : dict of str to dict
+        Levels that ended on their sign bound (0): ``{name: {"bound", "unconstrained", "std"}}`` (their std is NaN).
     """
 
     friction: StribeckFriction
@@ -126,6 +114,7 @@ class StribeckFit:
     viscous_pos: float = 0.0
     viscous_neg: float = 0.0
     omega_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    on_bound: dict = field(default_factory=dict)
 
     @property
     def omega_at_bound(self) -> bool:
@@ -160,89 +149,14 @@ class StribeckFit:
             "min_speed": self.min_speed,
             "viscous_pos": self.viscous_pos,
             "viscous_neg": self.viscous_neg,
-            "omega_bounds": {k: list(b) for k, b in self.omega_bounds.items()},
+            "omega_bounds": {k: [float(x) if np.isfinite(x) else None for x in b]
+                             for k, b in self.omega_bounds.items()},
             "omega_at_bound": self.omega_at_bound,
+            "on_bound": {k: dict(b) for k, b in self.on_bound.items()},
+            "shape": self.friction.shapes() if getattr(self.friction, "has_static_level", True) else {},
             "units": {**self.friction.to_dict()["units"], "coulomb": c, "offset": c, "rms_error": c,
                       "relative_error_pct": "%", "min_speed": v, "viscous_pos": f"{c}/({v})",
                       "viscous_neg": f"{c}/({v})", "omega_bounds": v},
-        }
-
-
-class OneDirectionError(IllConditionedError):
-    """The data move one way only: a friction model of both directions cannot be identified (the joint fit of the
-    moving direction can, ``fit_joint_friction(..., one_direction=True)``)."""
-
-
-@dataclass(frozen=True)
-class JointFit:
-    """Result of :func:`fit_joint_friction`: mass, viscous friction and a friction law fitted together.
-
-    Attributes
-    ----------
-    law_fit : FrictionLawFit
-        The law per direction (levels, ``vs``, viscous ``Fv`` per direction) and the shared mass with their
-        standard deviations, on the decimated IDIM-LS samples.
-    cutoff_hz : float
-        Butterworth cut-off of the position filter [Hz] (the highest of the logs').
-    cutoff_rule : str
-        ``"given"`` or how it was chosen (:func:`feedtune.identify.rigid.auto_cutoff_hz`).
-    decimate : int
-        Decimation factor.
-    dc_gain : float
-        DC gain of the decimation chain divided out of the decimated columns [-].
-    guard_s : float
-        Time left out after every velocity reversal [s].
-    min_speed : float
-        Speed threshold [velocity unit].
-    n_samples : int
-        Decimated samples in the fit.
-    force_unit, position_unit : str
-        Units of the command and of the position.
-    warnings : tuple of str
-        One direction only (the other's law is not identified), and the law fit's own warnings.
-    points : tuple of dict
-        The measured friction ``F - M a`` of the fitted samples binned by speed
-        (:func:`~feedtune.identify.friction_curve.bin_by_speed`): ``direction``, ``velocity`` [position unit/s],
-        ``force``, ``force_std`` [command unit], ``n``.
-    """
-
-    law_fit: FrictionLawFit
-    cutoff_hz: float
-    cutoff_rule: str
-    decimate: int
-    dc_gain: float
-    guard_s: float
-    min_speed: float
-    n_samples: int
-    force_unit: str
-    position_unit: str
-    warnings: tuple = ()
-    points: tuple = ()
-
-    @property
-    def mass(self) -> float:
-        """Mass or inertia [command unit/(position unit/s^2)]."""
-        return float(self.law_fit.mass)
-
-    @property
-    def viscous_pair(self) -> tuple[float | None, float | None]:
-        """Viscous coefficients ``(Fv+, Fv-)`` [command unit/(position unit/s)]; None for a direction without data."""
-        d = self.law_fit.directions
-        return tuple(d[k].viscous if k in d else None for k in ("pos", "neg"))
-
-    def to_dict(self) -> dict:
-        """JSON-ready summary with units."""
-        f, p = self.force_unit, self.position_unit
-        return {
-            "method": "joint nonlinear least squares on the IDIM-LS regressor: u = M a + Fv v + law(v)",
-            "mass": self.mass, "mass_std": self.law_fit.mass_std,
-            "viscous_pos": self.viscous_pair[0], "viscous_neg": self.viscous_pair[1],
-            "law_fit": self.law_fit.to_dict(),
-            "cutoff_hz": self.cutoff_hz, "cutoff_rule": self.cutoff_rule, "decimate": self.decimate,
-            "dc_gain": self.dc_gain, "guard_s": self.guard_s, "min_speed": self.min_speed,
-            "n_samples": self.n_samples, "curve": self.law_fit.curve(), "warnings": list(self.warnings),
-            "units": {"mass": f"{f}/({p}/s^2)", "mass_std": f"{f}/({p}/s^2)", "viscous_pos": f"{f}/({p}/s)",
-                      "viscous_neg": f"{f}/({p}/s)", "cutoff_hz": "Hz", "guard_s": "s", "min_speed": f"{p}/s"},
         }
 
 
@@ -433,8 +347,9 @@ def fit_stribeck(velocity, disturbance, *, min_speed: float | None = None, per_d
     IllConditionedError
         A direction has fewer than 50 samples above ``min_speed`` or no range of speeds.
     DataError
-        A fitted level has the sign opposite to its direction (``dc_pos, ds_pos >= 0``, ``dc_neg, ds_neg <= 0``;
-        the message names it: a mirrored or sign-inverted command, or an offset larger than the friction).
+        Coulomb levels opposing the motion both ways (a mirrored or sign-inverted command) or of one sign (an offset
+        larger than the friction; :func:`~feedtune.identify.friction_curve.sign_diagnosis`). Any other level of the
+        wrong sign is held at 0 and reported in ``on_bound``.
     """
     v = as_series(velocity, "velocity")
     d = as_series(disturbance, "disturbance")
@@ -454,17 +369,28 @@ def fit_stribeck(velocity, disturbance, *, min_speed: float | None = None, per_d
     omega_lo, omega_hi = _omega_bounds(dirs, shared)
     omega0 = np.clip(_omega_start(dirs, omega_lo, omega_hi), 1.001 * omega_lo, 0.999 * omega_hi)
     levels = [_levels(s, dd, omega0[min(k, omega0.size - 1)])[0] for k, (s, dd) in enumerate(dirs)]
-    sol = _least_squares(dirs, np.concatenate([*levels, omega0]), omega_lo, omega_hi, shared)
+    start = np.concatenate([*levels, omega0])
+    free = _least_squares(dirs, start, omega_lo, omega_hi, shared)
+    sd_free = parameter_std(free.jac, float(free.fun @ free.fun) / max(free.fun.size - free.x.size, 1))
+    sign_diagnosis({"dc_pos": (free.x[0], sd_free[0]), "dc_neg": (free.x[2], sd_free[2])}, command_unit,
+                   "Stribeck fit")
+    sol, on_bound = free, {}
+    if np.any(free.x[:4] * np.array([1.0, 1.0, -1.0, -1.0]) < 0):  # a level of the wrong sign: held at 0
+        sol = _least_squares(dirs, start, omega_lo, omega_hi, shared, levels_bounded=True)
+        for k, name in enumerate(("dc_pos", "ds_pos", "dc_neg", "ds_neg")):
+            if sol.x[k] == 0.0:
+                on_bound[name] = {"bound": 0.0, "unconstrained": float(free.x[k]),
+                                  "std": float(sd_free[k]) if np.isfinite(sd_free[k]) else None}
     bounds = {key: (float(omega_lo[min(k, omega_lo.size - 1)]), float(omega_hi[min(k, omega_hi.size - 1)]))
               for k, key in enumerate(("pos", "neg"))}
-    fit = _fit_result(sol.x, sol.fun, sol.jac, dirs, threshold, (b_pos, b_neg), shared, bounds, command_unit,
-                      velocity_unit)
-    check_fitted_signs(fit.friction, "Stribeck fit")
-    return fit
+    return _fit_result(sol.x, sol.fun, sol.jac, dirs, threshold, (b_pos, b_neg), shared, bounds, command_unit,
+                       velocity_unit, on_bound)
 
 
-def _least_squares(dirs, start: np.ndarray, omega_lo: np.ndarray, omega_hi: np.ndarray, shared: bool):
-    """``scipy.optimize.least_squares`` (trf, bounded ``Omega``, analytic Jacobian evaluated once per point)."""
+def _least_squares(dirs, start: np.ndarray, omega_lo: np.ndarray, omega_hi: np.ndarray, shared: bool,
+                   levels_bounded: bool = False):
+    """``scipy.optimize.least_squares`` (trf, bounded ``Omega``, analytic Jacobian evaluated once per point); with
+    ``levels_bounded`` the levels are held to their signs (``dc+, ds+ >= 0``, ``dc-, ds- <= 0``)."""
     from scipy.optimize import least_squares
 
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
@@ -476,17 +402,27 @@ def _least_squares(dirs, start: np.ndarray, omega_lo: np.ndarray, omega_hi: np.n
             cache[key] = _residual_and_jacobian(theta, dirs, shared)
         return cache[key]
 
-    lower = np.concatenate([np.full(4, -np.inf), omega_lo])
-    upper = np.concatenate([np.full(4, np.inf), omega_hi])
-    return least_squares(lambda th: evaluate(th)[0], start, jac=lambda th: evaluate(th)[1],
-                         bounds=(lower, upper), x_scale="jac", method="trf")
+    lower = np.concatenate([np.array([0.0, 0.0, -np.inf, -np.inf]) if levels_bounded else np.full(4, -np.inf),
+                            omega_lo])
+    upper = np.concatenate([np.array([np.inf, np.inf, 0.0, 0.0]) if levels_bounded else np.full(4, np.inf),
+                            omega_hi])
+    start = np.clip(start, lower, upper)
+    sol = least_squares(lambda th: evaluate(th)[0], start, jac=lambda th: evaluate(th)[1],
+                        bounds=(lower, upper), x_scale="jac", method="trf")
+    if levels_bounded:  # snap the levels that the solver left within round-off of 0 onto it
+        near = np.abs(sol.x[:4]) <= 1e-9 * max(float(np.max(np.abs(sol.x[:4]))), 1e-300)
+        sol.x[:4][near] = 0.0
+    return sol
 
 
 def _fit_result(theta, residual, jac, dirs, threshold, viscous, shared, omega_bounds, command_unit,
-                velocity_unit) -> StribeckFit:
+                velocity_unit, on_bound=None) -> StribeckFit:
     n = residual.size
-    s2 = float(residual @ residual) / max(n - theta.size, 1)
-    std = parameter_std(jac, s2)
+    held = np.array([name in (on_bound or {}) for name in ("dc_pos", "ds_pos", "dc_neg", "ds_neg")]
+                    + [False] * (theta.size - 4))
+    s2 = float(residual @ residual) / max(n - int(np.count_nonzero(~held)), 1)
+    std = np.full(theta.size, np.nan)
+    std[~held] = parameter_std(jac[:, ~held], s2)
     omega_neg = theta[4] if shared else theta[5]
     names = ["dc_pos", "ds_pos", "dc_neg", "ds_neg", "omega_pos"]
     stds = {k: float(s) for k, s in zip(names, std[:5], strict=True)}
@@ -499,113 +435,8 @@ def _fit_result(theta, residual, jac, dirs, threshold, viscous, shared, omega_bo
         friction=friction, std=stds, rms_error=float(np.sqrt(np.mean(residual**2))),
         relative_error_pct=float(100.0 * np.linalg.norm(residual) / max(np.linalg.norm(d_used), 1e-300)),
         n_pos=int(dirs[0][0].size), n_neg=int(dirs[1][0].size), min_speed=float(threshold),
-        viscous_pos=viscous[0], viscous_neg=viscous[1], omega_bounds=omega_bounds,
+        viscous_pos=viscous[0], viscous_neg=viscous[1], omega_bounds=omega_bounds, on_bound=dict(on_bound or {}),
     )
-
-
-# ------------------------------------------------------------------------------------------ joint fit
-def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str, law: str = "stribeck",
-                       command_scale: float = 1.0, command_unit: str | None = None, cutoff_hz: float | None = None,
-                       filter_order: int = 4, decimate: int | None = None, min_speed: float | None = None,
-                       guard_s: float | None = None, one_direction: bool = False) -> JointFit:
-    """Fit mass, viscous friction per direction and a friction law per direction together (module docstring).
-
-    ``u = M a + Fv v + law(v)`` by nonlinear least squares
-    (:func:`~feedtune.identify.friction_curve.fit_friction_law` with the acceleration) on the IDIM-LS samples of
-    :mod:`feedtune.identify.rigid`: zero-phase Butterworth position filter, central differences, edges trimmed,
-    parallel decimation of ``[a, v, u]`` (each log on its own), divided by the decimation's DC gain.
-
-    Parameters
-    ----------
-    log : Log or sequence of Log
-        Uniformly sampled tracking log(s) moving both ways at several speeds, with accelerations.
-    position, command : str
-        Position column [m or rad; mm, um, deg converted] and command column (times ``command_scale``).
-    law : str
-        ``"stribeck"``, ``"hump"`` or ``"lugre"``.
-    command_scale : float
-        Multiplies the command (e.g. a drive gain in N/V).
-    command_unit : str or None
-        Unit of the scaled command (default as in :func:`~feedtune.identify.rigid.fit_rigid`).
-    cutoff_hz, filter_order, decimate
-        As for :func:`~feedtune.identify.rigid.fit_rigid` (``cutoff_hz=None``: chosen from each log).
-    min_speed : float or None
-        Samples slower than this are left out [velocity unit]; default 2 % of the peak speed.
-    guard_s : float or None
-        Time left out after every reversal [s]; default ``5 / cutoff_hz`` (:data:`JOINT_GUARD_CUTOFFS`).
-    one_direction : bool
-        Accept data that move one way (a one-way friction run): the law of that direction, with a warning.
-        Without it such data raise :class:`OneDirectionError`.
-
-    Returns
-    -------
-    JointFit
-        The law fit with the mass, the filter settings and the samples used.
-
-    Raises
-    ------
-    IllConditionedError
-        No motion or acceleration, a direction without samples, or a mass that the log does not determine.
-    DataError
-        A fitted level or viscous coefficient of the wrong sign (named), logs with different units.
-    """
-    from .rigid import _check_kinematics, _prepare, auto_cutoff_hz, decimate_columns, uniform_sample_time
-
-    law = check_law(law)
-    logs = [log] if isinstance(log, Log) else list(log)
-    if not logs:
-        raise UsageError("fit_joint_friction needs at least one log")
-    columns, cutoffs, rules, first = [], [], [], None
-    for lg in logs:
-        cut = cutoff_hz
-        if cut is None:
-            try:
-                cut, how = auto_cutoff_hz(position_si(lg, position)[0], uniform_sample_time(lg))
-            except DataError as exc:
-                raise DataError(f"{lg.source}: {exc}") from None
-            rules.append(f"{cut:g} Hz: {how}")
-        smp = _prepare(lg, command, position, cut, filter_order, decimate, command_scale, command_unit)
-        _check_kinematics(smp, f"{lg.source}: joint friction fit")
-        if first is None:
-            first = smp
-        elif (smp.position_unit, smp.force_unit) != (first.position_unit, first.force_unit):
-            raise DataError(f"{lg.source}: position in {smp.position_unit} and command in {smp.force_unit}, but "
-                            f"{logs[0].source} has {first.position_unit} and {first.force_unit}")
-        dec = decimate_columns(np.column_stack([smp.acceleration, smp.velocity, smp.force, np.ones(smp.force.size)]),
-                               smp.decimate)
-        gain = float(np.median(dec[:, 3]))
-        a, v, u = (dec[:, :3] / dec[:, 3:4]).T
-        guard = JOINT_GUARD_CUTOFFS / smp.cutoff_hz if guard_s is None else _guard_time(guard_s)
-        keep = _reversal_mask(np.arange(v.size) * smp.dt * smp.decimate, v, guard)
-        columns.append((a[keep], v[keep], u[keep]))
-        cutoffs.append((smp.cutoff_hz, smp.decimate, gain, guard))
-    a, v, u = (np.concatenate(c) for c in zip(*columns, strict=True))
-    threshold = DEFAULT_MIN_SPEED_FRACTION * float(np.max(np.abs(v))) if min_speed is None else float(min_speed)
-    velocity_unit = f"{first.position_unit}/s"
-    fit = fit_friction_law(v, u, law=law, acceleration=a, viscous=True, min_speed=threshold,
-                           min_points=MIN_SAMPLES_PER_DIRECTION, command_unit=first.force_unit,
-                           velocity_unit=velocity_unit, where="joint friction fit")
-    mass, mass_std = fit.mass, (float("inf") if fit.mass_std is None else fit.mass_std)
-    if not (mass > 0 and mass_std <= MAX_MASS_RELATIVE_STD * mass):
-        raise IllConditionedError(
-            f"joint friction fit: the acceleration carries no usable information (mass = {mass:.4g} +/- "
-            f"{mass_std:.2g} {first.force_unit}/({first.position_unit}/s^2)); the log needs clear acceleration "
-            "phases (or check the sign of the command scale)")
-    warnings: list[str] = []
-    if len(fit.directions) < 2:
-        missing = "v < 0" if "pos" in fit.directions else "v > 0"
-        if not one_direction:
-            raise OneDirectionError(f"joint friction fit: too few samples with {missing} above min_speed (need at "
-                                    f"least {MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions",
-                                    parameter="min_speed")
-        warnings.append(Notice(f"the data move one way only (no samples with {missing} above min_speed): the "
-                               "friction law of the other direction is not identified", parameter="min_speed"))
-    return JointFit(law_fit=fit, cutoff_hz=max(c[0] for c in cutoffs),
-                    cutoff_rule="given" if cutoff_hz is not None else "; ".join(rules),
-                    decimate=max(c[1] for c in cutoffs), dc_gain=cutoffs[0][2], guard_s=cutoffs[0][3],
-                    min_speed=threshold, n_samples=int(v.size), force_unit=first.force_unit,
-                    position_unit=first.position_unit, warnings=tuple(warnings) + tuple(fit.warnings),
-                    points=tuple(bin_by_speed(v, u - mass * a, min_speed=threshold)))
 
 
 # ------------------------------------------------------------------------------------- full procedure
@@ -621,7 +452,7 @@ def _in_screw_rotation(log: Log, position: str, model: BallScrewModel) -> Log:
 
 def _rigid_values(logs: list[Log], position: str, command: str, model, mass, viscous, command_scale,
                   joint: bool = False, law: str = "stribeck", command_unit: str | None = None,
-                  cutoff_hz: float | None = None
+                  cutoff_hz: float | None = None, joint_options: dict | None = None
                   ) -> tuple[list[Log], object, object, tuple[float, float], RigidFit | JointFit | None]:
     """Mass, observer viscous coefficient and residual viscous pair (for the fit) from the arguments, and the
     rigid or joint fit that gave them (None when given)."""
@@ -646,7 +477,7 @@ def _rigid_values(logs: list[Log], position: str, command: str, model, mass, vis
         raise UsageError("viscous= needs mass= as well")
     if joint:
         fit = fit_joint_friction(logs, position=position, command=command, law=law, command_scale=command_scale,
-                                 command_unit=command_unit, cutoff_hz=cutoff_hz)
+                                 command_unit=command_unit, cutoff_hz=cutoff_hz, **(joint_options or {}))
         b_pos, b_neg = fit.viscous_pair
         b_mean = (b_pos + b_neg) / 2.0
         return logs, fit.mass, b_mean, (b_pos - b_mean, b_neg - b_mean), fit
@@ -685,13 +516,14 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
                       min_speed: float | None = None, per_direction_omega: bool = False,
                       reversal_guard_s: float | None = None, law: str | None = None,
                       joint: bool = True, cutoff_hz: float | None = None) -> FrictionIdentification:
-    """Identify friction from a tracking log: Kalman disturbance estimate, then eq. 2.1 (or another law) fit.
+    """Identify friction from tracking logs: the joint fit of mass, viscous friction and the law (default), or the
+    Kalman disturbance estimate and a law fit when the mass is given (thesis §2.1.3; module docstring).
 
     Parameters
     ----------
     log : Log or sequence of Log
-        Uniformly sampled tracking log(s) with the same columns: each log gets its own Kalman filter (no estimate
-        runs across the joint of two files) and the samples of all enter one Stribeck fit.
+        Uniformly sampled tracking log(s) with the same columns: each log is filtered on its own (no filter runs
+        across the joint of two files) and the samples of all enter one fit.
     position, command : str
         Position column [m or rad] and drive command column (scaled by ``command_scale``).
     model : BallScrewModel or RigidBodyModel or None
@@ -700,8 +532,8 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
         gives ``mass`` and the mean viscous coefficient (an asymmetric remainder is subtracted in the fit).
     mass, viscous : float or None
         Alternative to ``model`` [command/(position/s^2)], [command/(position/s)]. With neither a model
-        nor a mass, :func:`~feedtune.identify.rigid.fit_rigid` is run on the log first, or with ``joint=True``
-        :func:`fit_joint_friction`.
+        nor a mass, :func:`fit_joint_friction` (``joint=True``) or :func:`~feedtune.identify.rigid.fit_rigid`
+        gives them.
     command_scale : float
         Multiplies the command (e.g. a drive gain in N/V).
     command_unit : str or None
@@ -713,16 +545,17 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
     per_direction_omega : bool
         Separate ``Omega`` per direction.
     reversal_guard_s : float or None
-        Time left out after each velocity reversal [s]; default the observer's settling time
-        (``DisturbanceEstimate.transient_s``).
+        Kalman path: time left out after each velocity reversal [s], default the observer's settling time
+        (``DisturbanceEstimate.transient_s``); joint fit: time masked either side of every sample slower than
+        ``min_speed``, default one period of the filter's cut-off.
     law : str or None
-        Law fitted to the disturbance: ``None`` or ``"stribeck"`` (eq. 2.1, :func:`fit_stribeck`), ``"hump"`` or
-        ``"lugre"`` (:func:`~feedtune.identify.friction_curve.fit_friction_law` without a viscous term, ``vs``
-        per direction; ``per_direction_omega`` does not apply).
+        ``None`` or ``"stribeck"`` (eq. 2.1), ``"hump"``, ``"lugre"`` or ``"coulomb-viscous"``. With a given
+        mass the law is fitted to the disturbance without a viscous term (:func:`fit_stribeck`, or
+        :func:`~feedtune.identify.friction_curve.fit_friction_law` with ``vs`` per direction); the joint fit fits
+        it with its viscous terms, and its :class:`~feedtune.models.friction.FrictionLaw` is the result.
     joint : bool
-        Without a model or a mass: fit mass, viscous friction and the law together first
-        (:func:`fit_joint_friction`, module docstring; the default); False: the rigid-body IDIM-LS fit first
-        (it absorbs the Stribeck decay into the viscous term).
+        Without a model or a mass: the joint fit (:func:`fit_joint_friction`, the default); False: the rigid-body
+        IDIM-LS fit first (it absorbs the Stribeck decay into the viscous term) and the Kalman path.
     cutoff_hz : float or None
         Position filter cut-off of that rigid or joint fit [Hz]; None chooses it from each log.
 
@@ -734,7 +567,7 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
     Raises
     ------
     DataError
-        A fitted level of the wrong sign (named; a mirrored or sign-inverted command), bad columns or units.
+        A mirrored or sign-inverted command or an offset larger than the friction (named), bad columns or units.
     IllConditionedError
         Too few samples per direction, no range of speeds, no acceleration (rigid or joint fit).
     """
@@ -742,13 +575,19 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
     if not logs:
         raise UsageError("identify_friction needs at least one log")
     law_name = "stribeck" if law is None else check_law(law)
+    joint_options = {"min_speed": min_speed, "per_direction_omega": per_direction_omega,
+                     "guard_s": None if reversal_guard_s is None else _guard_time(reversal_guard_s)}
     logs, m, b_obs, b_rest, prior = _rigid_values(logs, position, command, model, mass, viscous, command_scale,
                                                   joint=joint, law=law_name, command_unit=command_unit,
-                                                  cutoff_hz=cutoff_hz)
+                                                  cutoff_hz=cutoff_hz, joint_options=joint_options)
     rigid = prior if isinstance(prior, RigidFit) else None
     joint_fit = prior if isinstance(prior, JointFit) else None
+    from .rigid import data_warnings
+
+    warnings = (list(rigid.warnings) if rigid is not None
+                else [w for lg in logs for w in data_warnings(lg, command, position, "")])
     speeds, levels = [], []
-    for lg in logs:
+    for lg in logs if joint_fit is None else logs[:1]:  # the joint fit's law is the result: one record suffices
         estimate = estimate_disturbance(lg, position=position, command=command, mass=m, viscous=b_obs,
                                         q_disturbance=q_disturbance, r_position=r_position, method=method,
                                         bandwidth_hz=bandwidth_hz, command_scale=command_scale,
@@ -762,26 +601,40 @@ def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, 
         levels.append(estimate.disturbance[use])
         if lg is logs[0]:
             first, first_guard = estimate, guard
-    speed, level = np.concatenate(speeds), np.concatenate(levels)
-    if law_name == "stribeck":
-        fit = fit_stribeck(speed, level, min_speed=min_speed, per_direction_omega=per_direction_omega,
-                           viscous=b_rest, command_unit=first.command_unit, velocity_unit=first.velocity_unit)
-    else:
-        fit = _law_fit_of_disturbance(speed, level, law_name, min_speed, b_rest, first)
-    from .rigid import data_warnings
-
-    warnings = (list(rigid.warnings) if rigid is not None
-                else [w for lg in logs for w in data_warnings(lg, command, position, "")])
     if joint_fit is not None:
-        warnings += list(joint_fit.law_fit.warnings)
+        fit = _fit_of_joint(joint_fit)
+        warnings += list(joint_fit.warnings)
+        guard_s, n_used = joint_fit.guard_s, joint_fit.n_samples
+    else:
+        speed, level = np.concatenate(speeds), np.concatenate(levels)
+        if law_name == "stribeck":
+            fit = fit_stribeck(speed, level, min_speed=min_speed, per_direction_omega=per_direction_omega,
+                               viscous=b_rest, command_unit=first.command_unit, velocity_unit=first.velocity_unit)
+        else:
+            fit = _law_fit_of_disturbance(speed, level, law_name, min_speed, b_rest, first)
+        warnings += bound_warnings(fit.on_bound, first.command_unit, first.velocity_unit)
+        if fit.omega_at_bound:
+            warnings.append(_omega_bound_warning(speed, fit.min_speed, first.velocity_unit, min_speed is None))
+        guard_s, n_used = first_guard, fit.n_pos + fit.n_neg
     if fit.relative_error_pct > POOR_FIT_PCT:
         warnings.append(f"poor {law_name} fit: relative error {fit.relative_error_pct:.3g} % > {POOR_FIT_PCT:g} %")
-    if fit.omega_at_bound:
-        warnings.append(_omega_bound_warning(speed, fit.min_speed, first.velocity_unit, min_speed is None))
     return FrictionIdentification(fit=fit, disturbance=first, mass=first.mass, viscous=first.viscous,
-                                  rigid_fit=rigid, n_used=fit.n_pos + fit.n_neg, reversal_guard_s=first_guard,
+                                  rigid_fit=rigid, n_used=n_used, reversal_guard_s=guard_s,
                                   warnings=tuple(dict.fromkeys(warnings)), n_logs=len(logs), law=law_name,
                                   joint_fit=joint_fit)
+
+
+def _fit_of_joint(joint: JointFit) -> StribeckFit:
+    """The joint fit's law (with its viscous terms) as a :class:`StribeckFit` (nothing subtracted before it)."""
+    lf = joint.law_fit
+    p, n = lf.directions["pos"], lf.directions["neg"]
+    nan = float("nan")
+    std = {f"{name}_{k}": d.std.get(name, nan) for k, d in (("pos", p), ("neg", n))
+           for name in ("dc", "ds", "omega", "viscous")}
+    return StribeckFit(friction=lf.model, std=std, rms_error=lf.rms_error, relative_error_pct=lf.relative_error_pct,
+                       n_pos=p.n, n_neg=n.n, min_speed=joint.min_speed,
+                       omega_bounds={"pos": p.omega_bounds, "neg": n.omega_bounds},
+                       on_bound={k: v for k, v in joint.on_bound.items() if k != "mass"})
 
 
 def _omega_bound_warning(speed: np.ndarray, min_speed: float, unit: str, default: bool) -> str:
@@ -816,9 +669,9 @@ def _law_fit_of_disturbance(speed: np.ndarray, level: np.ndarray, law: str, min_
         raise IllConditionedError(f"{law} fit: too few samples with {missing} above min_speed (need at least "
                                   f"{MIN_SAMPLES_PER_DIRECTION}); the log must move in both directions")
     p, n = fit.directions["pos"], fit.directions["neg"]
-    std = {"dc_pos": p.std["dc"], "ds_pos": p.std["ds"], "dc_neg": n.std["dc"], "ds_neg": n.std["ds"],
-           "omega_pos": p.std["omega"], "omega_neg": n.std["omega"]}
+    std = {f"{name}_{k}": d.std[name] for k, d in (("pos", p), ("neg", n)) for name in ("dc", "ds", "omega")
+           if name in d.std}
     return StribeckFit(friction=fit.model.without_viscous(), std=std, rms_error=fit.rms_error,
                        relative_error_pct=fit.relative_error_pct, n_pos=p.n, n_neg=n.n, min_speed=threshold,
                        viscous_pos=b_rest[0], viscous_neg=b_rest[1],
-                       omega_bounds={"pos": p.omega_bounds, "neg": n.omega_bounds})
+                       omega_bounds={"pos": p.omega_bounds, "neg": n.omega_bounds}, on_bound=dict(fit.on_bound))

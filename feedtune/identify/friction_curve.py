@@ -21,8 +21,16 @@ Plateau rule (:func:`find_plateaus`, defaults in brackets)
    median ``v_ref`` of the first ``min_duration`` of the piece; pieces of at least ``min_duration``
    [:data:`MIN_DURATION_S` = 0.1 s] are plateaus.
 4. ``trim`` [:data:`TRIM_FRACTION` = 10 %] of each plateau is left out at both ends (the filter's and the
-   loop's settling); the point is the mean velocity and the mean command of the rest, with the command's
-   standard deviation over the plateau as its scatter.
+   loop's settling).
+5. Pieces of one physical plateau are merged: consecutive pieces of a log join when the axis keeps moving the same
+   way above ``min_speed`` between them (a stop ends a plateau), no acceleration above :data:`MERGE_ACC_FACTOR` x
+   ``acc_tol`` lies between them (a speed step passes through the log's large accelerations, a slow drift does
+   not) and the mean speeds of the joined pieces stay within
+   :data:`MERGE_SPREAD_FACTOR` x ``vel_tol`` of their mean (a slow ramp is not one plateau). A torque step of a
+   servo motor whose speed creeps towards its end value (HSM150: time constant J/B = 1.6 s) is one plateau, not
+   ten pieces cut by the 2 % band.
+6. The point is the mean velocity and the mean command of the plateau's samples, with the command's standard
+   deviation as its scatter.
 
 The law is then fitted to the points of each direction with its own parameters (levels, ``vs``, ``Fv``); a log
 that moves one way only gives the fit of that direction (and a warning) but no model file.
@@ -41,7 +49,15 @@ import numpy as np
 
 from ..errors import DataError, IllConditionedError, UsageError
 from ..log import Log
-from ..models.friction import FrictionLaw, check_law, law_shape, law_shape_slope, level_sign_problem
+from ..models.friction import (
+    COULOMB_VISCOUS,
+    SHAPED_LAWS,
+    FrictionLaw,
+    check_law,
+    law_shape,
+    law_shape_slope,
+    level_shape,
+)
 
 DIRECTIONS = ("pos", "neg")
 DIRECTION_TEXT = {"pos": "v > 0", "neg": "v < 0"}
@@ -62,10 +78,17 @@ TRIM_FRACTION = 0.1
 """Default part of each plateau left out at each end [-]."""
 MIN_SPEED_FRACTION = 0.002
 """Default slowest plateau speed, as a fraction of the peak speed [-]."""
+MERGE_ACC_FACTOR = 10.0
+"""Pieces separated by an acceleration above this many ``acc_tol`` are different plateaus (rule step 5) [-]."""
+MERGE_SPREAD_FACTOR = 5.0
+"""Merged pieces' mean speeds stay within this many ``vel_tol`` of their mean (rule step 5) [-]."""
 DRIFT_WINDOW_DIVISOR = 5
 """The velocity band is tested on the velocity averaged over ``min_duration / 5`` (fast noise does not cut)."""
 STD_SIGMAS = 3.0
-"""A fitted viscous coefficient below zero by less than this many standard deviations is taken as 0."""
+"""Standard deviations beyond which a sign or a difference counts as clear (:func:`sign_diagnosis`,
+:func:`identifiability_warnings`)."""
+POOR_OMEGA_STD = 0.25
+"""Relative standard deviation of ``vs`` above which the law's characteristic velocity is called poorly resolved."""
 
 
 # ------------------------------------------------------------------------------------------- helpers
@@ -108,7 +131,9 @@ def parameter_std(jac: np.ndarray, s2: float) -> np.ndarray:
 
 
 SIGN_HINT = ("the command looks mirrored or sign-inverted against the velocity (check the sign of the command "
-             "column or its scale=), or a constant offset such as gravity is larger than the friction")
+             "column or its scale=)")
+OFFSET_HINT = ("a constant force (gravity on a vertical axis, a cable, a drive offset) larger than the Coulomb level: "
+               "the friction laws have no offset term; subtract it from the command first")
 
 
 def check_fitted_signs(friction, where: str) -> None:
@@ -123,7 +148,59 @@ def check_fitted_signs(friction, where: str) -> None:
     """
     problems = friction.sign_problems()
     if problems:
-        raise DataError(f"{where}: {problems[0][1]}; {SIGN_HINT}", parameter="read_log.scale")
+        raise DataError(f"{where}: {problems[0][1]}; {SIGN_HINT}, or {OFFSET_HINT}", parameter="read_log.scale")
+
+
+def clearly_wrong_sign(name: str, value: float, std: float) -> bool:
+    """True when the level ``name`` (``dc_pos`` ...: ``>= 0`` for ``_pos``, ``<= 0`` for ``_neg``) has the wrong sign
+    by more than :data:`STD_SIGMAS` standard deviations (``std`` not finite: by any amount)."""
+    wrong = -value if name.endswith("_pos") else value
+    return wrong > (STD_SIGMAS * std if np.isfinite(std) else 0.0)
+
+
+def sign_diagnosis(coulomb: dict[str, tuple[float, float]], command_unit: str, where: str,
+                   mass: tuple[float, float] | None = None) -> None:
+    """Refuse an unconstrained fit whose signs say the data are mirrored or carry an offset the law cannot hold.
+
+    Before a friction law is fitted with its sign bounds (``dc, ds >= 0`` for ``v > 0``, ``<= 0`` for ``v < 0``,
+    ``Fv >= 0``, mass > 0), the unconstrained fit is read: a mass below zero, or Coulomb levels opposing the motion
+    in both directions, are a mirrored or sign-inverted command (the constrained fit would hide it); Coulomb levels of
+    the same sign in both directions are a constant offset larger than the friction (no law here has an offset term).
+    Anything else that ends outside the bounds is poor identifiability, and the constrained fit reports it.
+
+    Parameters
+    ----------
+    coulomb : dict of str to (float, float)
+        Unconstrained ``dc_pos`` and/or ``dc_neg`` with their standard deviations [command unit].
+    command_unit : str
+        For the messages.
+    where : str
+        What was fitted.
+    mass : (float, float) or None
+        Unconstrained mass and its std, when the fit has one.
+
+    Raises
+    ------
+    DataError
+        Naming the values and the cause.
+    """
+    wrong = {k: clearly_wrong_sign(k, *vs) for k, vs in coulomb.items()}
+    mass_negative = mass is not None and mass[0] < -(STD_SIGMAS * mass[1] if np.isfinite(mass[1]) else 0.0)
+    text = ", ".join(f"{k} = {v:.4g} +/- {sd:.2g} {command_unit}" for k, (v, sd) in coulomb.items())
+    if mass_negative:
+        raise DataError(f"{where}: mass = {mass[0]:.4g} +/- {mass[1]:.2g} < 0 ({text}); {SIGN_HINT}",
+                        parameter="read_log.scale")
+    if len(coulomb) == 2 and all(wrong.values()):
+        raise DataError(f"{where}: both Coulomb levels oppose the motion ({text}); {SIGN_HINT}",
+                        parameter="read_log.scale")
+    if len(coulomb) == 2 and any(wrong.values()):
+        (dp, _), (dn, _) = coulomb["dc_pos"], coulomb["dc_neg"]
+        raise DataError(f"{where}: both Coulomb levels have the same sign ({text}): an offset of "
+                        f"{(dp + dn) / 2:.4g} {command_unit} against a Coulomb level of {(dp - dn) / 2:.4g} "
+                        f"{command_unit}; {OFFSET_HINT}", parameter="read_log.scale")
+    if len(coulomb) == 1 and all(wrong.values()):
+        raise DataError(f"{where}: the Coulomb level opposes the motion ({text}); {SIGN_HINT}, or {OFFSET_HINT}",
+                        parameter="read_log.scale")
 
 
 # ------------------------------------------------------------------------------------------- results
@@ -136,13 +213,15 @@ class DirectionFit:
     direction : str
         ``"pos"`` (``v > 0``) or ``"neg"`` (``v < 0``).
     dc, ds : float
-        Levels [command unit] (``dc`` Coulomb, ``ds`` static level, or the hump's peak).
+        Levels [command unit] (``dc`` Coulomb, ``ds`` static level, or the hump's peak; ``ds = dc`` for the
+        coulomb-viscous law).
     omega : float
-        ``vs`` [velocity unit].
+        ``vs`` [velocity unit] (NaN for the coulomb-viscous law).
     viscous : float
         ``Fv`` [command unit/(velocity unit)] (0 when not fitted).
     std : dict of str to float
-        Standard deviations of ``dc, ds, omega`` (and ``viscous`` when fitted); ``inf`` when not identifiable.
+        Standard deviations of ``dc, ds, omega`` (and ``viscous`` when fitted); ``inf`` when not identifiable, NaN
+        for a parameter held on its bound.
     n : int
         Points (or samples) of the direction.
     rms_error : float
@@ -172,10 +251,12 @@ class DirectionFit:
 
     def to_dict(self) -> dict:
         """JSON-ready values (``std`` None where not identifiable)."""
-        return {"dc": self.dc, "ds": self.ds, "omega": self.omega, "viscous": self.viscous,
+        return {"dc": self.dc, "ds": self.ds, "omega": self.omega if np.isfinite(self.omega) else None,
+                "viscous": self.viscous,
                 "std": {k: (float(s) if np.isfinite(s) else None) for k, s in self.std.items()},
                 "n": self.n, "rms_error": self.rms_error, "speed_range": list(self.speed_range),
-                "omega_bounds": list(self.omega_bounds), "omega_at_bound": self.omega_at_bound}
+                "omega_bounds": [float(b) if np.isfinite(b) else None for b in self.omega_bounds],
+                "omega_at_bound": self.omega_at_bound}
 
 
 @dataclass(frozen=True)
@@ -198,7 +279,9 @@ class FrictionLawFit:
     command_unit, velocity_unit : str
         Units.
     warnings : tuple of str
-        ``vs`` on a bound, few points, a viscous coefficient set to 0, a direction left out.
+        ``vs`` on a bound, few points, a parameter held on its bound, a direction left out.
+    on_bound : dict of str to dict
+        Parameters held on their sign bound: ``{"ds_neg": {"bound", "unconstrained", "std"}, ...}``.
     """
 
     law: str
@@ -210,6 +293,7 @@ class FrictionLawFit:
     command_unit: str
     velocity_unit: str
     warnings: tuple = ()
+    on_bound: dict = field(default_factory=dict)
 
     @property
     def model(self) -> FrictionLaw | None:
@@ -217,6 +301,9 @@ class FrictionLawFit:
         if set(self.directions) != set(DIRECTIONS):
             return None
         p, n = self.directions["pos"], self.directions["neg"]
+        if self.law == COULOMB_VISCOUS:
+            return FrictionLaw.coulomb_viscous(p.dc, n.dc, p.viscous, n.viscous, command_unit=self.command_unit,
+                                               velocity_unit=self.velocity_unit)
         return FrictionLaw(dc_pos=p.dc, ds_pos=p.ds, dc_neg=n.dc, ds_neg=n.ds, omega_pos=p.omega, omega_neg=n.omega,
                            command_unit=self.command_unit, velocity_unit=self.velocity_unit, law=self.law,
                            viscous_pos=p.viscous, viscous_neg=n.viscous)
@@ -225,6 +312,8 @@ class FrictionLawFit:
         """The fitted law of one direction at ``velocity`` [velocity unit] (signed as the direction) [command]."""
         d = self.directions[direction]
         v = np.asarray(velocity, dtype=float)
+        if self.law == COULOMB_VISCOUS:
+            return d.dc + d.viscous * v
         phi = law_shape(self.law, np.abs(v) / d.omega)
         return d.dc + (d.ds - d.dc) * phi + d.viscous * v
 
@@ -252,6 +341,7 @@ class FrictionLawFit:
             "rms_error": self.rms_error,
             "relative_error_pct": self.relative_error_pct,
             "warnings": list(self.warnings),
+            "on_bound": {k: dict(b) for k, b in self.on_bound.items()},
             "units": {"dc": c, "ds": c, "omega": v, "viscous": f"{c}/({v})", "rms_error": c,
                       "relative_error_pct": "%", "mass": f"{c}/({v}^2)", "speed_range": v, "omega_bounds": v},
         }
@@ -267,13 +357,21 @@ class _Block:
     v: np.ndarray
     y: np.ndarray
     a: np.ndarray | None
-    cols: list[int] = field(default_factory=list)  # dc, ds, omega(, viscous)
+    cols: dict = field(default_factory=dict)  # parameter name (dc, ds, omega, viscous) -> index
+
+
+def _block_names(law: str, viscous: bool) -> tuple[str, ...]:
+    return (("dc", "ds", "omega") if law in SHAPED_LAWS else ("dc",)) + (("viscous",) if viscous else ())
 
 
 def _linear_solve(block: _Block, law: str, omega: float, viscous: bool, with_mass: bool):
     """Least-squares levels (and viscous, mass) of one direction for a fixed ``omega``; coefficients, RSS."""
-    phi = law_shape(law, block.speed / omega)
-    cols = [1.0 - phi, phi] + ([block.v] if viscous else []) + ([block.a] if with_mass else [])
+    if law in SHAPED_LAWS:
+        phi = law_shape(law, block.speed / omega)
+        cols = [1.0 - phi, phi]
+    else:
+        cols = [np.ones_like(block.speed)]
+    cols += ([block.v] if viscous else []) + ([block.a] if with_mass else [])
     A = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(A, block.y, rcond=None)
     r = A @ coef - block.y
@@ -283,17 +381,22 @@ def _linear_solve(block: _Block, law: str, omega: float, viscous: bool, with_mas
 def _residual_jacobian(theta: np.ndarray, blocks: list[_Block], law: str, viscous: bool, with_mass: bool):
     res, jac = [], []
     for b in blocks:
-        dc, ds, w = theta[b.cols[0]], theta[b.cols[1]], theta[b.cols[2]]
-        x = b.speed / w
-        phi = law_shape(law, x)
+        c = b.cols
         J = np.zeros((b.y.size, theta.size))
-        model = dc + (ds - dc) * phi
-        J[:, b.cols[0]] = 1.0 - phi
-        J[:, b.cols[1]] = phi
-        J[:, b.cols[2]] = (ds - dc) * law_shape_slope(law, x) * (-x / w)
+        if "omega" in c:
+            dc, ds, w = theta[c["dc"]], theta[c["ds"]], theta[c["omega"]]
+            x = b.speed / w
+            phi = law_shape(law, x)
+            model = dc + (ds - dc) * phi
+            J[:, c["dc"]] = 1.0 - phi
+            J[:, c["ds"]] = phi
+            J[:, c["omega"]] = (ds - dc) * law_shape_slope(law, x) * (-x / w)
+        else:
+            model = np.full(b.y.size, theta[c["dc"]])
+            J[:, c["dc"]] = 1.0
         if viscous:
-            model = model + theta[b.cols[3]] * b.v
-            J[:, b.cols[3]] = b.v
+            model = model + theta[c["viscous"]] * b.v
+            J[:, c["viscous"]] = b.v
         if with_mass:
             model = model + theta[0] * b.a
             J[:, 0] = b.a
@@ -333,6 +436,13 @@ def _blocks(v: np.ndarray, y: np.ndarray, a: np.ndarray | None, min_speed: float
     return blocks
 
 
+def _sign_bounds(name: str, key: str) -> tuple[float, float]:
+    """Physical bounds of a level or viscous coefficient of direction ``key``."""
+    if name == "viscous" or key == "pos":
+        return 0.0, np.inf
+    return -np.inf, 0.0
+
+
 def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=None, viscous: bool = True,
                      min_speed: float = 0.0, min_points: int = MIN_POINTS, command_unit: str = "N",
                      velocity_unit: str = "m/s", where: str = "friction fit") -> FrictionLawFit:
@@ -342,9 +452,14 @@ def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=Non
 
         F = dc (1 - phi(|v|/vs)) + ds phi(|v|/vs) + Fv v  [+ m a]
 
-    ``dc, ds, vs, Fv`` per direction, ``m`` shared (only with ``acceleration``). Started from the best ``vs``
-    of a log-spaced grid with the linear parameters solved exactly, then ``scipy.optimize.least_squares``
-    (trf, analytic Jacobian, ``vs`` bounded, see :data:`OMEGA_SPEED_LIMITS`).
+    ``dc, ds, vs, Fv`` per direction (``dc, Fv`` for the coulomb-viscous law), ``m`` shared (only with
+    ``acceleration``). Started from the best ``vs`` of a log-spaced grid with the linear parameters solved
+    exactly, then ``scipy.optimize.least_squares`` (trf, analytic Jacobian, ``vs`` bounded, see
+    :data:`OMEGA_SPEED_LIMITS`). The unconstrained fit is read first
+    (:func:`sign_diagnosis`: a mirrored command or an offset larger than the friction is refused); then the levels
+    and viscous coefficients are held to their physical signs (``dc, ds >= 0`` for ``v > 0``, ``<= 0`` for
+    ``v < 0``, ``Fv >= 0``, ``m >= 0``), and a parameter that ends on its bound is named in a warning with its
+    unconstrained value.
 
     Parameters
     ----------
@@ -353,7 +468,7 @@ def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=Non
     force : array_like, shape (n,)
         Friction force (or command) [command unit].
     law : str
-        ``"stribeck"``, ``"hump"`` or ``"lugre"``.
+        ``"stribeck"``, ``"hump"``, ``"lugre"`` or ``"coulomb-viscous"``.
     acceleration : array_like or None
         Acceleration [velocity unit/s]: adds a shared mass term ``m a`` (fit on ramps or whole tracking logs).
     viscous : bool
@@ -377,8 +492,7 @@ def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=Non
     IllConditionedError
         No direction has ``min_points`` samples, or a direction's speeds span no range.
     DataError
-        A fitted level has the sign opposite to its direction, or a viscous coefficient is clearly negative
-        (message names the parameter and the likely cause).
+        A mirrored or sign-inverted command, or an offset larger than the friction (:func:`sign_diagnosis`).
     """
     law = check_law(law)
     v = as_series(velocity, "velocity")
@@ -395,98 +509,154 @@ def fit_friction_law(velocity, force, *, law: str = "stribeck", acceleration=Non
         raise IllConditionedError(f"{where}: fewer than {min_points} points move either way above "
                                   f"{min_speed:g} {velocity_unit}")
     with_mass = a is not None
-    n_dir = 4 if viscous else 3
+    shaped = law in SHAPED_LAWS
+    names = _block_names(law, viscous)
     col = 1 if with_mass else 0
-    starts, lowers, uppers = ([0.0] if with_mass else []), ([-np.inf] if with_mass else []), \
+    starts, lowers, uppers = ([0.0] if with_mass else []), ([0.0] if with_mass else []), \
         ([np.inf] if with_mass else [])
     masses = []
     for b in blocks:
         lo, hi = (np.percentile(b.speed, [2.0, 98.0]) if b.speed.size > 50 else (b.speed.min(), b.speed.max()))
-        if not hi >= 1.5 * lo:
+        if shaped and not hi >= 1.5 * lo:
             raise IllConditionedError(
                 f"{where}: the speeds with {DIRECTION_TEXT[b.key]} only span {lo:.4g} to {hi:.4g} {velocity_unit}; "
-                "a friction curve needs points over a range of speeds")
+                f"a {law} law needs points over a range of speeds (or fit the {COULOMB_VISCOUS} law)")
         w_lo, w_hi = lo / OMEGA_SPEED_LIMITS[0], hi / OMEGA_SPEED_LIMITS[1]
-        thin = _Block(b.key, b.speed[:: max(1, b.speed.size // 5000)], b.v[:: max(1, b.v.size // 5000)],
-                      b.y[:: max(1, b.y.size // 5000)], None if a is None else b.a[:: max(1, b.a.size // 5000)])
-        grid = np.geomspace(w_lo, w_hi, 40)
-        costs = [_linear_solve(thin, law, w, viscous, with_mass)[1] for w in grid]
-        w0 = float(grid[int(np.argmin(costs))])
+        if shaped:
+            step = max(1, b.speed.size // 5000)
+            thin = _Block(b.key, b.speed[::step], b.v[::step], b.y[::step], None if a is None else b.a[::step])
+            grid = np.geomspace(w_lo, w_hi, 40)
+            costs = [_linear_solve(thin, law, w, viscous, with_mass)[1] for w in grid]
+            w0 = float(grid[int(np.argmin(costs))])
+        else:
+            w0 = 1.0
         coef = _linear_solve(b, law, w0, viscous, with_mass)[0]
         if with_mass:
             masses.append(coef[-1])
-        b.cols = list(range(col, col + n_dir))
-        col += n_dir
-        starts += [coef[0], coef[1], w0] + ([coef[2]] if viscous else [])
-        lowers += [-np.inf, -np.inf, w_lo] + ([-np.inf] if viscous else [])
-        uppers += [np.inf, np.inf, w_hi] + ([np.inf] if viscous else [])
+        linear = dict(zip(("dc", "ds") if shaped else ("dc",), coef, strict=False))
+        if viscous:
+            linear["viscous"] = coef[2 if shaped else 1]
+        b.cols = {name: col + k for k, name in enumerate(names)}
+        col += len(names)
+        for name in names:
+            starts.append(w0 if name == "omega" else linear[name])
+            lo_b, hi_b = (w_lo, w_hi) if name == "omega" else (-np.inf, np.inf)
+            lowers.append(lo_b)
+            uppers.append(hi_b)
     if with_mass:
         starts[0] = float(np.mean(masses))
+        lowers[0] = -np.inf
     start, lower, upper = np.array(starts), np.array(lowers), np.array(uppers)
-    sol = _solve(blocks, law, start, lower, upper, viscous, with_mass)
+    free = _solve(blocks, law, start, lower, upper, viscous, with_mass)
+    std_free = parameter_std(free.jac, float(free.fun @ free.fun) / max(free.fun.size - free.x.size, 1))
+    sign_diagnosis({f"dc_{b.key}": (float(free.x[b.cols["dc"]]), float(std_free[b.cols["dc"]])) for b in blocks},
+                   command_unit, where,
+                   mass=(float(free.x[0]), float(std_free[0])) if with_mass else None)
+    for b in blocks:  # the physical signs
+        for name, k in b.cols.items():
+            if name != "omega":
+                lower[k], upper[k] = _sign_bounds(name, b.key)
+    if with_mass:
+        lower[0] = 0.0
+    sol = free
+    outside = (free.x < lower) | (free.x > upper)
+    on_bound = {}
+    if np.any(outside):
+        sol = _solve(blocks, law, free.x, lower, upper, viscous, with_mass)
+        # a level or viscous coefficient the solver left within round-off of its bound 0 is on it
+        tol = 1e-9 * max(float(np.max(np.abs(sol.x[1 if with_mass else 0:]))), 1e-300)
+        for b in blocks:
+            for name, k in b.cols.items():
+                if name != "omega" and abs(sol.x[k]) <= tol:
+                    sol.x[k] = 0.0
+                    on_bound[f"{name}_{b.key}"] = {"bound": 0.0, "unconstrained": float(free.x[k]),
+                                                   "std": float(std_free[k]) if np.isfinite(std_free[k]) else None}
     theta, jac, res = sol.x, sol.jac, sol.fun
-    std = parameter_std(jac, float(res @ res) / max(res.size - theta.size, 1))
-    _check_levels(theta, blocks, command_unit, where)
-    if viscous:  # a slightly negative Fv (noise on a flat curve) is refitted at its physical bound 0
-        negative = [b for b in blocks if theta[b.cols[3]] < 0]
-        for b in negative:
-            value, sd = theta[b.cols[3]], std[b.cols[3]]
-            if value + STD_SIGMAS * sd < 0:
-                raise DataError(
-                    f"{where}: {level_sign_problem(f'viscous_{b.key}', value, f'{command_unit}/({velocity_unit})')}"
-                    f" (+/- {sd:.2g}): the law {law!r} does not describe these points (a friction that falls over "
-                    "the whole speed range; try another law, or check the velocity's and the command's units)")
-            notes.append(f"viscous_{b.key} came out {value:.3g} +/- {sd:.2g} {command_unit}/({velocity_unit}), "
-                         f"within {STD_SIGMAS:g} std of 0: fixed at 0")
-            lower[b.cols[3]] = 0.0
-            theta[b.cols[3]] = 0.0
-        if negative:
-            sol = _solve(blocks, law, theta, lower, upper, viscous, with_mass)
-            theta, jac, res = sol.x, sol.jac, sol.fun
-            std = parameter_std(jac, float(res @ res) / max(res.size - theta.size, 1))
-            _check_levels(theta, blocks, command_unit, where)
-    return _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, command_unit, velocity_unit,
-                   notes)
-
-
-def _check_levels(theta: np.ndarray, blocks: list[_Block], command_unit: str, where: str) -> None:
-    """DataError naming the first fitted level whose sign is opposite to its direction."""
+    keep = np.ones(theta.size, bool)
     for b in blocks:
-        for k, stem in enumerate(("dc", "ds")):
-            problem = level_sign_problem(f"{stem}_{b.key}", float(theta[b.cols[k]]), command_unit)
-            if problem:
-                raise DataError(f"{where}: {problem}; {SIGN_HINT}", parameter="read_log.scale")
+        for name, k in b.cols.items():
+            if f"{name}_{b.key}" in on_bound:
+                keep[k] = False
+    std = np.full(theta.size, np.nan)
+    std[keep] = parameter_std(jac[:, keep], float(res @ res) / max(res.size - int(np.count_nonzero(keep)), 1))
+    notes += [f"{name} ended on its bound 0 (unconstrained {b['unconstrained']:.4g}"
+              + ("" if b["std"] is None else f" +/- {b['std']:.2g}")
+              + f" {command_unit if not name.startswith('viscous') else f'{command_unit}/({velocity_unit})'}): "
+              + ("the law does not describe these points (a friction that falls over the whole speed range?); "
+                 if name.startswith("viscous") and b["std"] is not None
+                 and b["unconstrained"] + STD_SIGMAS * b["std"] < 0 else "the data do not identify it; ")
+              + "it is held at 0" for name, b in on_bound.items()]
+    return _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, command_unit, velocity_unit,
+                   notes, on_bound)
 
 
 def _result(theta, std, res, blocks, law, viscous, with_mass, lower, upper, command_unit, velocity_unit,
-            notes) -> FrictionLawFit:
+            notes, on_bound=None) -> FrictionLawFit:
     dirs = {}
     warnings = list(notes)
     y_all = np.concatenate([b.y for b in blocks])
     offset = 0
+    nan = float("nan")
     for b in blocks:
         r = res[offset: offset + b.y.size]
         offset += b.y.size
-        names = ("dc", "ds", "omega", "viscous") if viscous else ("dc", "ds", "omega")
+        c = b.cols
         fit = DirectionFit(
-            direction=b.key, dc=float(theta[b.cols[0]]), ds=float(theta[b.cols[1]]), omega=float(theta[b.cols[2]]),
-            viscous=float(theta[b.cols[3]]) if viscous else 0.0,
-            std={n: float(std[c]) for n, c in zip(names, b.cols, strict=True)}, n=int(b.y.size),
+            direction=b.key, dc=float(theta[c["dc"]]), ds=float(theta[c.get("ds", c["dc"])]),
+            omega=float(theta[c["omega"]]) if "omega" in c else nan,
+            viscous=float(theta[c["viscous"]]) if viscous else 0.0,
+            std={n: float(std[k]) for n, k in c.items()}, n=int(b.y.size),
             rms_error=float(np.sqrt(np.mean(r**2))), speed_range=(float(b.speed.min()), float(b.speed.max())),
-            omega_bounds=(float(lower[b.cols[2]]), float(upper[b.cols[2]])))
+            omega_bounds=(float(lower[c["omega"]]), float(upper[c["omega"]])) if "omega" in c else (nan, nan))
         dirs[b.key] = fit
         if fit.omega_at_bound:
             warnings.append(f"vs for {DIRECTION_TEXT[b.key]} ended on its bound ({fit.omega:.4g} {velocity_unit}): "
                             "the points do not resolve it (add speeds around the friction's low-speed change)")
         if fit.n < FEW_POINTS:
-            warnings.append(f"only {fit.n} points with {DIRECTION_TEXT[b.key]} for a {len(names)}-parameter law: "
+            warnings.append(f"only {fit.n} points with {DIRECTION_TEXT[b.key]} for a {len(c)}-parameter law: "
                             "the parameters rest on few plateaus (add speeds)")
     return FrictionLawFit(
         law=law, directions=dirs, mass=float(theta[0]) if with_mass else None,
         mass_std=float(std[0]) if with_mass and np.isfinite(std[0]) else None,
         rms_error=float(np.sqrt(np.mean(res**2))),
         relative_error_pct=float(100.0 * np.linalg.norm(res) / max(np.linalg.norm(y_all), 1e-300)),
-        command_unit=command_unit, velocity_unit=velocity_unit, warnings=tuple(dict.fromkeys(warnings)))
+        command_unit=command_unit, velocity_unit=velocity_unit, warnings=tuple(dict.fromkeys(warnings)),
+        on_bound=dict(on_bound or {}))
+
+
+def identifiability_warnings(fit: FrictionLawFit) -> list[str]:
+    """What the fitted law's parameters say about the data: a poorly resolved ``vs`` (relative std above
+    :data:`POOR_OMEGA_STD`), a static level indistinguishable from the Coulomb level (within :data:`STD_SIGMAS` std:
+    the law's low-speed shape is not identified), and a dip (a static level below the Coulomb level by more than that,
+    :func:`~feedtune.models.friction.level_shape`; within it the first warning names the dip)."""
+    out = []
+    if fit.law == COULOMB_VISCOUS:
+        return out
+    unit, vu = fit.command_unit, fit.velocity_unit
+    what = "peak level" if fit.law == "hump" else "static level"
+    dips = []
+    for d, f in fit.directions.items():
+        way = DIRECTION_TEXT[d]
+        w_sd = f.std.get("omega", float("nan"))
+        if np.isfinite(w_sd) and w_sd > POOR_OMEGA_STD * f.omega and not f.omega_at_bound:
+            out.append(f"vs for {way} is poorly resolved: {f.omega:.4g} +/- {w_sd:.2g} {vu} "
+                       f"({100 * w_sd / f.omega:.0f} %): the samples hold little motion around that speed")
+        step_sd = float(np.hypot(f.std.get("ds", np.nan), f.std.get("dc", np.nan)))
+        shape = level_shape(f.dc, f.ds)
+        if np.isfinite(step_sd) and abs(f.ds - f.dc) <= STD_SIGMAS * step_sd:
+            side = {"dip": ", below: a dip within its uncertainty", "peak": ", above: a peak within its uncertainty",
+                    "flat": ""}[shape]
+            out.append(f"for {way} the {what} ({f.ds:.4g} {unit}{side}) is not distinguishable from the Coulomb level "
+                       f"({f.dc:.4g} {unit}, difference within {STD_SIGMAS:g} std = {STD_SIGMAS * step_sd:.2g} "
+                       f"{unit}): the law's low-speed shape is not identified (the {COULOMB_VISCOUS} law may do)")
+        elif shape == "dip":
+            dips.append(d)
+    if dips:
+        levels = "; ".join(f"{DIRECTION_TEXT[d]}: ds = {fit.directions[d].ds:.4g} {unit}, dc = "
+                           f"{fit.directions[d].dc:.4g} {unit}" for d in dips)
+        out.append(f"dip, not a Stribeck peak ({levels}): the {what} lies below the Coulomb level, so the friction "
+                   "rises from rest to its sliding level; the model and its feedforward follow that")
+    return out
 
 
 # ------------------------------------------------------------------------------------------ binned points
@@ -629,6 +799,29 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(), strict=True))
 
 
+def _physical_plateaus(pieces: list[tuple[int, int]], v: np.ndarray, a: np.ndarray, acc_tol: float,
+                       vel_tol: float, min_speed: float) -> list[list[tuple[int, int]]]:
+    """Consecutive pieces (sample ranges, in time order) grouped per physical plateau (module docstring, step 5)."""
+    groups: list[list[tuple[int, int]]] = []
+    means: list[list[float]] = []
+    for i, j in pieces:
+        mean = float(np.mean(v[i:j]))
+        if groups:
+            previous_stop = groups[-1][-1][1]
+            joined = means[-1] + [mean]
+            centre = float(np.mean(joined))
+            between = np.sign(mean) * v[previous_stop:i]
+            if (np.sign(mean) == np.sign(means[-1][-1]) and bool(np.all(between >= min_speed))
+                    and float(np.max(np.abs(a[previous_stop:i]), initial=0.0)) <= MERGE_ACC_FACTOR * acc_tol
+                    and max(abs(m - centre) for m in joined) <= MERGE_SPREAD_FACTOR * vel_tol * abs(centre)):
+                groups[-1].append((i, j))
+                means[-1] = joined
+                continue
+        groups.append([(i, j)])
+        means.append([mean])
+    return groups
+
+
 def find_plateaus(t, velocity, acceleration, force, *, settings: PlateauSettings | None = None,
                   log_index: int = 0) -> tuple[list[Plateau], dict]:
     """Constant-velocity plateaus of a motion and the mean command on each (module docstring: plateau rule).
@@ -666,7 +859,7 @@ def find_plateaus(t, velocity, acceleration, force, *, settings: PlateauSettings
     padded = np.pad(v, (window // 2, window - 1 - window // 2), mode="edge")  # centred, edges held
     v_drift = np.convolve(padded, np.full(window, 1.0 / window), mode="valid")  # the band test ignores fast noise
     steady = (np.abs(a) <= acc_tol) & (np.abs(v) >= max(min_speed, np.finfo(float).tiny))
-    plateaus = []
+    pieces = []  # (first, stop) sample ranges after the trim
     for sign in (1.0, -1.0):
         for start, stop in _runs(steady & (sign * v > 0)):
             s = start
@@ -676,13 +869,18 @@ def find_plateaus(t, velocity, acceleration, force, *, settings: PlateauSettings
                 end = stop if out.size == 0 else s + int(out[0])
                 if end - s >= n_min:
                     cut = int(settings.trim * (end - s))
-                    i, j = s + cut, end - cut
-                    plateaus.append(Plateau(t_start=float(t[i]), t_end=float(t[j - 1]), velocity=float(np.mean(v[i:j])),
-                                            velocity_std=float(np.std(v[i:j])), force=float(np.mean(u[i:j])),
-                                            force_std=float(np.std(u[i:j])), n=j - i, log=log_index))
+                    pieces.append((s + cut, end - cut))
                     s = end
                 else:
                     s = max(end, s + max(1, n_min // 4))
+    plateaus = []
+    for group in _physical_plateaus(sorted(pieces), v, a, acc_tol, settings.vel_tol,
+                                    max(min_speed, np.finfo(float).tiny)):
+        idx = np.concatenate([np.arange(i, j) for i, j in group])
+        plateaus.append(Plateau(t_start=float(t[group[0][0]]), t_end=float(t[group[-1][1] - 1]),
+                                velocity=float(np.mean(v[idx])), velocity_std=float(np.std(v[idx])),
+                                force=float(np.mean(u[idx])), force_std=float(np.std(u[idx])), n=int(idx.size),
+                                log=log_index))
     plateaus.sort(key=lambda p: p.t_start)
     return plateaus, {"acc_tol": acc_tol, "min_speed": min_speed}
 
@@ -815,7 +1013,7 @@ def identify_friction_curve(log: Log | Sequence[Log], *, position: str, command:
     f = np.array([p.force for p in plateaus])
     fit = fit_friction_law(v, f, law=law, viscous=True, min_points=MIN_POINTS, command_unit=force_unit,
                            velocity_unit=velocity_unit, where=f"steady-state {law} fit")
-    warnings = list(fit.warnings)
+    warnings = list(fit.warnings) + identifiability_warnings(fit)
     if len(fit.directions) < 2:
         warnings.append("one direction only: no friction model (a model file and a feedforward need both "
                         "directions)")

@@ -29,12 +29,28 @@ With several logs each log gets its own. The rule is made for tracking and step 
 spectrum); between the lines of a sine or multisine log the spectrum falls to the floor, so give such logs a
 cut-off.
 
-One direction (every decimated sample moves the same way): ``sign(dq)`` equals the constant column, so Coulomb
-friction and offset cannot be separated. The fit then identifies the mass, the viscous coefficient and their
-sum for that direction, ``constant = Fc sign(dq) + offset``, stored as the model's offset with a warning that says
-so (the model then holds for motion in that direction only); the asymmetric model falls back to the same fit. A
-log whose other direction holds less than :data:`FEW_REVERSED` of the samples gets a warning that Coulomb friction
-and offset rest on those few samples.
+Directions are counted on the moving samples only: a decimated sample slower than :data:`STILL_FRACTION` of the
+peak speed stands still (a step run's rest before the step, the filter's ringing around it); its ``sign(dq)`` says
+nothing about a direction of motion.
+
+One direction (the moving samples go one way): ``sign(dq)`` equals the constant column, so Coulomb friction and
+offset cannot be separated -- the split would rest on the standstill samples, where static friction holds the axis
+at any command below break-away. The fit then uses the moving samples of that direction and identifies the mass,
+the viscous coefficient and their sum for that direction, ``constant = Fc sign(dq) + offset``, stored as the model's
+offset with a warning that says so (the model then holds for motion in that direction only); the asymmetric model
+falls back to the same fit. When those moving samples hold one speed (the middle 90 % within
+:data:`ONE_SPEED_SPREAD`: a step to one speed), viscous friction and the constant cannot be separated either: the
+fit is ``u = M a + B v`` with the constant taken as 0 -- what a step-response method assumes -- and the warning says
+so (``B`` is then the command over the speed, an upper bound on the viscous coefficient). A log whose other
+direction holds less than :data:`FEW_REVERSED` of the moving samples gets a warning that Coulomb friction and offset
+rest on those few samples.
+
+Signs: the fit is ordinary least squares as published; when a coefficient comes out with an unphysical sign
+(viscous or Coulomb friction below 0) the fit is repeated within the bounds (``scipy.optimize.lsq_linear``,
+viscous and Coulomb ``>= 0``, mass ``>= 0``; offset and the one-direction constant free), the parameters on their
+bound are named with their unconstrained values, and the standard deviations are those of the free parameters: a
+model file the loader refuses is never written. A mass that is not positive, or not determined within
+:data:`MAX_MASS_RELATIVE_STD`, is refused.
 
 Ill-conditioned problems (no acceleration, constant velocity) raise :class:`~feedtune.errors.IllConditionedError`
 naming the degenerate columns instead of returning meaningless numbers.
@@ -65,8 +81,13 @@ MAX_MASS_RELATIVE_STD = 0.25
 """Largest accepted relative standard deviation of the mass estimate."""
 
 FEW_REVERSED = 0.05
-"""Fraction of samples moving the other way below which Coulomb friction and offset are flagged as weakly
+"""Fraction of the moving samples moving the other way below which Coulomb friction and offset are flagged as weakly
 separated."""
+STILL_FRACTION = 0.02
+"""A decimated sample slower than this fraction of the peak speed stands still: it counts for no direction [-]."""
+ONE_SPEED_SPREAD = 0.1
+"""One direction's moving samples hold one speed when their 95th percentile speed is within this fraction above the
+5th: viscous friction and the constant cannot be separated [-]."""
 
 AUTO_CUTOFF_DB = 20.0
 """Signal-to-noise ratio of the velocity spectrum that ends the motion's band [dB]."""
@@ -75,12 +96,16 @@ AUTO_CUTOFF_FACTOR = 2.5
 
 SYMMETRIC_PARAMS = ("mass", "viscous", "coulomb", "offset")
 ONE_DIRECTION_PARAMS = ("mass", "viscous", "constant")
+ONE_SPEED_PARAMS = ("mass", "viscous")
 ASYMMETRIC_PARAMS = ("mass", "viscous_pos", "coulomb_pos", "viscous_neg", "coulomb_neg")
 COLUMN_LABELS = {
     "mass": "ddq (acceleration)", "viscous": "dq (velocity)", "coulomb": "sign(dq)", "offset": "1 (constant)",
     "viscous_pos": "dq for dq>0", "coulomb_pos": "1 for dq>0", "viscous_neg": "dq for dq<0",
     "coulomb_neg": "-1 for dq<0", "constant": "1 (constant)",
 }
+LOWER_BOUNDS = {"mass": 0.0, "viscous": 0.0, "coulomb": 0.0, "viscous_pos": 0.0, "coulomb_pos": 0.0,
+                "viscous_neg": 0.0, "coulomb_neg": 0.0}
+"""Physical lower bounds of the fitted parameters (offset and the one-direction constant are free)."""
 
 
 # ----------------------------------------------------------------------------------------- shared helpers
@@ -171,7 +196,10 @@ class RigidFit:
         Units of the force and of the position (``"m"`` or ``"rad"``).
     warnings : tuple of str
         What makes the fit unreliable (:mod:`feedtune.identify.data_quality`: coarse position quantization,
-        a clipped command, a poor fit, a poorly determined mass).
+        a clipped command, a poor fit, a poorly determined mass), the directions, and parameters on their bounds.
+    on_bound : dict of str to dict
+        Parameters held on their physical bound (module docstring: signs): ``{name: {"bound", "unconstrained",
+        "std"}}``; their ``std`` is NaN (None in :meth:`to_dict`).
     """
 
     model: RigidBodyModel
@@ -192,6 +220,7 @@ class RigidFit:
     source: str = field(default="log")
     warnings: tuple = ()
     cutoff_rule: str = "given"
+    on_bound: dict = field(default_factory=dict)
 
     @property
     def units(self) -> dict[str, str]:
@@ -205,10 +234,12 @@ class RigidFit:
         return {
             "source": self.source,
             "model": ("rigid-one-direction" if "constant" in self.values
+                      else "rigid-one-speed" if "coulomb" not in self.values and "coulomb_pos" not in self.values
                       else "rigid-asymmetric" if self.asymmetric else "rigid"),
             "cutoff_rule": self.cutoff_rule,
             "values": dict(self.values),
-            "std": dict(self.std),
+            "std": {k: (float(v) if np.isfinite(v) else None) for k, v in self.std.items()},
+            "on_bound": {k: dict(v) for k, v in self.on_bound.items()},
             "units": {**self.units, "relative_error_pct": "%", "residual_rms": self.force_unit,
                       "cutoff_hz": "Hz"},
             "relative_error_pct": self.relative_error_pct,
@@ -429,25 +460,47 @@ def _regressor(dq: np.ndarray, ddq: np.ndarray, names: tuple[str, ...]) -> np.nd
 
 
 # ---------------------------------------------------------------------------------------- conditioning
-def _directions(dq: np.ndarray, asymmetric: bool) -> tuple[tuple[str, ...], list[str]]:
-    """The parameters the directions of ``dq`` can separate, and what to say about it (module docstring)."""
+def _directions(dq: np.ndarray, asymmetric: bool, unit: str) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
+    """The parameters the moving samples can separate, the samples the fit uses and what to say about it (module
+    docstring: directions, one direction)."""
     n = dq.size
-    n_pos = int(np.count_nonzero(dq > 0))
-    n_neg = int(np.count_nonzero(dq < 0))
+    still = np.abs(dq) < STILL_FRACTION * float(np.max(np.abs(dq)))
+    n_still = int(np.count_nonzero(still))
+    n_pos = int(np.count_nonzero((dq > 0) & ~still))
+    n_neg = int(np.count_nonzero((dq < 0) & ~still))
+    moving = n_pos + n_neg
     few = min(n_pos, n_neg)
     names = ASYMMETRIC_PARAMS if asymmetric else SYMMETRIC_PARAMS
-    if few < max(20, n // 100):
-        way = "dq > 0" if n_pos >= n_neg else "dq < 0"
+    if few < max(20, moving // 100):
+        sign = 1.0 if n_pos >= n_neg else -1.0
+        way = "dq > 0" if sign > 0 else "dq < 0"
+        use = sign * dq >= STILL_FRACTION * float(np.max(np.abs(dq)))
         wanted = "per-direction friction" if asymmetric else "Coulomb friction and offset"
-        return ONE_DIRECTION_PARAMS, [
-            f"the data move in one direction only ({way} in {max(n_pos, n_neg)} of {n} samples, the other way in "
-            f"{few}): {wanted} cannot be separated; fitted mass, viscous friction and their constant sum "
-            f"Fc sign(dq) + offset for this direction, stored as the offset (the model holds for {way} only; add a "
-            "log that moves the other way to separate them)"]
-    if few < FEW_REVERSED * n:
-        return names, [f"only {few} of {n} samples ({100 * few / n:.2g} %) move the other way: the split between "
-                       "Coulomb friction and offset rests on them (check it against a log that moves both ways)"]
-    return names, []
+        standstill = (f", {n_still} stand still (|dq| below {100 * STILL_FRACTION:g} % of the peak speed)"
+                      if n_still else "")
+        rest = (f"; the split would rest on the {n_still} standstill samples, where static friction holds the axis at "
+                "any command below break-away" if n_still else "")
+        head = (f"the data move in one direction only ({way} in {max(n_pos, n_neg)} of {n} samples{standstill}, the "
+                f"other way in {few}): {wanted} cannot be separated{rest}; ")
+        speed = np.abs(dq[use])
+        lo, hi = np.percentile(speed, [5.0, 95.0]) if speed.size else (0.0, 0.0)
+        if hi <= (1.0 + ONE_SPEED_SPREAD) * lo:
+            return ONE_SPEED_PARAMS, use, [
+                head + f"the moving samples hold one speed ({float(np.median(speed)):.4g} {unit}, the middle 90 % "
+                f"within {100 * (hi / lo - 1):.2g} %), so viscous friction and the constant Fc sign(dq) + offset "
+                "cannot be separated either: fitted u = M a + B v with the constant taken as 0 (as a step-response "
+                "method does; B is the command over the speed, an upper bound on the viscous coefficient, and the "
+                f"model holds for {way} only; add a run at another speed to separate them)"]
+        return ONE_DIRECTION_PARAMS, use, [
+            head + "fitted mass, viscous friction and their constant sum Fc sign(dq) + offset on the moving samples "
+            f"of this direction, stored as the offset (the model holds for {way} only; add a log that moves the "
+            "other way to separate them)"]
+    notes = []
+    if few < FEW_REVERSED * moving:
+        notes.append(f"only {few} of {moving} moving samples ({100 * few / moving:.2g} %) move the other way: the "
+                     "split between Coulomb friction and offset rests on them (check it against a log that moves "
+                     "both ways)")
+    return names, np.ones(n, bool), notes
 
 
 def _check_kinematics(samples: _Samples, where: str) -> None:
@@ -485,8 +538,55 @@ def _scaled_condition(W: np.ndarray, names: tuple[str, ...], where: str) -> tupl
     return float(sv[0] / sv[-1]), scaled_cond, norms
 
 
-def _check_mass(values: dict[str, float], std: dict[str, float], unit: str, where: str) -> None:
+def _bounded_least_squares(W: np.ndarray, y: np.ndarray, names: tuple[str, ...]):
+    """Ordinary least squares, repeated within :data:`LOWER_BOUNDS` when a coefficient comes out below its bound
+    (module docstring: signs): values, std by name (NaN on a bound), the parameters on their bound and the
+    residual."""
+    theta, *_ = np.linalg.lstsq(W, y, rcond=None)
+    lower = np.array([LOWER_BOUNDS.get(n, -np.inf) for n in names])
+    free = np.ones(len(names), bool)
+    on_bound = {}
+    if np.any(theta < lower):
+        from scipy.optimize import lsq_linear
+
+        residual = y - W @ theta
+        sigma2 = float(residual @ residual) / max(y.size - len(names), 1)
+        std_u = np.sqrt(sigma2 * np.diag(np.linalg.inv(W.T @ W)))
+        bounded = lsq_linear(W, y, bounds=(lower, np.full(len(names), np.inf)), method="bvls").x
+        free = ~(bounded <= lower + 1e-12 * np.maximum(np.abs(bounded).max(), 1e-300))
+        bounded[~free] = lower[~free]
+        on_bound = {n: {"bound": float(lower[k]), "unconstrained": float(theta[k]), "std": float(std_u[k])}
+                    for k, n in enumerate(names) if not free[k]}
+        theta = bounded
+    residual = y - W @ theta
+    sigma2 = float(residual @ residual) / max(y.size - int(np.count_nonzero(free)), 1)
+    std = np.full(len(names), np.nan)
+    Wf = W[:, free]
+    std[free] = np.sqrt(sigma2 * np.diag(np.linalg.inv(Wf.T @ Wf)))
+    return theta, {n: float(s) for n, s in zip(names, std, strict=True)}, on_bound, residual
+
+
+def _bound_warnings(on_bound: dict, force_unit: str, position_unit: str) -> list[str]:
+    """One line per parameter held on its bound, with its unconstrained value: within 3 std of the bound the data do
+    not identify it; further below, the rigid-body model does not describe the log there."""
+    units = {"viscous": f"{force_unit}/({position_unit}/s)", "coulomb": force_unit}
+    out = []
+    for name, b in on_bound.items():
+        if name == "mass":
+            continue
+        clear = b["unconstrained"] + 3.0 * b["std"] < b["bound"]
+        why = ("more than 3 std below it: the rigid-body model does not describe the log there (check the fit's "
+               "error and the motion)" if clear else "within 3 std of it: the data do not identify it")
+        out.append(f"{name} came out {b['unconstrained']:.4g} +/- {b['std']:.2g} {units[name.split('_')[0]]} "
+                   f"unconstrained, below its physical bound {b['bound']:g} ({why}); held on the bound")
+    return out
+
+
+def _check_mass(values: dict[str, float], std: dict[str, float], unit: str, where: str,
+                on_bound: dict | None = None) -> None:
     mass, sd = values["mass"], std["mass"]
+    if on_bound and "mass" in on_bound:  # held at 0: report the unconstrained value
+        mass, sd = on_bound["mass"]["unconstrained"], on_bound["mass"]["std"]
     if not (mass > 0 and sd <= MAX_MASS_RELATIVE_STD * mass):
         raise IllConditionedError(
             f"{where}: acceleration column ddq carries no usable information (mass = {mass:.4g} +/- {sd:.2g} "
@@ -575,21 +675,18 @@ def fit_rigid(log: Log | Sequence[Log], *, force: str, position: str, asymmetric
     if velocity_threshold is not None:
         keep = np.abs(dq) >= _positive_float(velocity_threshold, "velocity_threshold")
         dec, dq, y = dec[keep], dq[keep], y[keep]
-    names, direction_notes = _directions(dq, asymmetric)
-    W = dec[:, {SYMMETRIC_PARAMS: [0, 1, 2, 3], ASYMMETRIC_PARAMS: [4, 5, 6, 7, 8],
-                ONE_DIRECTION_PARAMS: [0, 1, 3]}[names]]
+    names, use, direction_notes = _directions(dq, asymmetric, f"{first.position_unit}/s")
+    columns = {SYMMETRIC_PARAMS: [0, 1, 2, 3], ASYMMETRIC_PARAMS: [4, 5, 6, 7, 8],
+               ONE_DIRECTION_PARAMS: [0, 1, 3], ONE_SPEED_PARAMS: [0, 1]}[names]
+    W, y = dec[use][:, columns], y[use]
     if y.size < 3 * len(names):
         raise DataError(f"{where}: only {y.size} samples left after decimation and velocity_threshold")
     cond, scaled_cond, norms = _scaled_condition(W, names, where)
-    theta, *_ = np.linalg.lstsq(W, y, rcond=None)
-    residual = y - W @ theta
-    sigma2 = float(residual @ residual) / (y.size - len(names))
-    std = np.sqrt(sigma2 * np.diag(np.linalg.inv(W.T @ W)))
+    theta, stds, on_bound, residual = _bounded_least_squares(W, y, names)
     values = {n: float(v) for n, v in zip(names, theta, strict=True)}
-    stds = {n: float(s) for n, s in zip(names, std, strict=True)}
     warnings = [w for lg in logs for w in data_warnings(lg, force, position, first.force_unit)]
     try:
-        _check_mass(values, stds, f"{first.force_unit}/({first.position_unit}/s^2)", where)
+        _check_mass(values, stds, f"{first.force_unit}/({first.position_unit}/s^2)", where, on_bound)
     except IllConditionedError as exc:
         if not warnings:
             raise
@@ -597,7 +694,8 @@ def fit_rigid(log: Log | Sequence[Log], *, force: str, position: str, asymmetric
                                   parameter=[p for w in warnings for p in getattr(w, "parameters", ())]) from None
     rel = float(100.0 * np.linalg.norm(residual) / np.linalg.norm(y))
     unit_of = {"mass": f"{first.force_unit}/({first.position_unit}/s^2)"}
-    warnings = direction_notes + warnings + fit_warnings(rel, values, stds, unit_of)
+    warnings = (direction_notes + warnings + fit_warnings(rel, values, stds, unit_of)
+                + _bound_warnings(on_bound, first.force_unit, first.position_unit))
     return RigidFit(
         model=_model_from(values, first),
         values=values,
@@ -617,6 +715,7 @@ def fit_rigid(log: Log | Sequence[Log], *, force: str, position: str, asymmetric
         source=source,
         warnings=tuple(dict.fromkeys(warnings)),
         cutoff_rule="given" if cutoff_hz is not None else _rule_text(rules),
+        on_bound=on_bound,
     )
 
 
@@ -642,6 +741,8 @@ def data_warnings(log: Log, force: str, position: str, force_unit: str) -> list[
 
 def _model_from(values: dict[str, float], samples: _Samples) -> RigidBodyModel:
     units = {"command_unit": samples.force_unit, "position_unit": samples.position_unit}
+    if set(values) == set(ONE_SPEED_PARAMS):
+        return RigidBodyModel(mass=values["mass"], viscous=values["viscous"], **units)
     if "constant" in values:
         return RigidBodyModel(mass=values["mass"], viscous=values["viscous"], offset=values["constant"], **units)
     if "offset" in values:

@@ -2,7 +2,8 @@
 
 ``model`` names the law: ``"stribeck"`` without viscous parameters is eq. 2.1 and loads as a
 :class:`~feedtune.models.friction.StribeckFriction` (the original format); ``"stribeck"`` with ``viscous_pos``,
-``"hump"`` and ``"lugre"`` load as a :class:`~feedtune.models.friction.FrictionLaw`. A level whose sign is opposite
+``"hump"``, ``"lugre"`` and ``"coulomb-viscous"`` (``dc_pos, dc_neg, viscous_pos[, viscous_neg]`` only: no static level,
+no characteristic velocity) load as a :class:`~feedtune.models.friction.FrictionLaw`. A level whose sign is opposite
 to its direction (checked by the model schema, :mod:`feedtune.io.model_schema`), or a negative viscous coefficient
 (checked here), is refused with one line naming the file and the key.
 """
@@ -13,6 +14,7 @@ from collections.abc import Mapping
 
 from ..errors import DataError
 from ..models.friction import (
+    COULOMB_VISCOUS,
     LAWS,
     LEVEL_NAMES,
     OMEGA_NAMES,
@@ -49,6 +51,18 @@ def stribeck_to_doc(model: StribeckFriction) -> dict:
         ...
         viscous_pos = { value = 40.0, unit = "N/(m/s)" }
         viscous_neg = { value = 50.0, unit = "N/(m/s)" }   # optional: omitted = viscous_pos
+
+    The ``coulomb-viscous`` law (``F = sign(v) Fc + Fv v``) has no static level and no characteristic velocity::
+
+        model = "coulomb-viscous"
+        command_unit = "N"
+        velocity_unit = "m/s"
+
+        [params]
+        dc_pos = { value = 20.4, unit = "N" }
+        dc_neg = { value = -20.1, unit = "N" }
+        viscous_pos = { value = 203.0, unit = "N/(m/s)" }
+        viscous_neg = { value = 205.0, unit = "N/(m/s)" }   # optional: omitted = viscous_pos
     """
     if isinstance(model, FrictionLaw):
         return _law_body(model)
@@ -73,6 +87,9 @@ def _law_body(self: FrictionLaw) -> dict:
     """Body of a friction law file: eq. 2.1's layout with ``model`` = the law and the viscous coefficients."""
     body = _stribeck_body(self)
     body["model"] = self.law
+    if not self.has_static_level:
+        for name in ("ds_pos", "ds_neg", "omega_pos", "omega_neg"):
+            body["params"].pop(name, None)
     unit = f"{self.command_unit}/({self.velocity_unit})"
     body["params"]["viscous_pos"] = quantity(self.viscous_pos, unit)
     if self.viscous_neg is not None:
@@ -107,8 +124,15 @@ def _stribeck_from_body(doc: Mapping[str, object], where: str = "friction model"
         raise DataError(f"{where}: unknown friction parameter params.{unknown[0]}")
     law = model != "stribeck" or any(name in params for name in VISCOUS_NAMES)
     optional = ("omega_neg", "viscous_neg")
+    names = LEVEL_NAMES + OMEGA_NAMES + (VISCOUS_NAMES if law else ())
+    if model == COULOMB_VISCOUS:
+        extra = sorted(set(params) & {"ds_pos", "ds_neg", *OMEGA_NAMES})
+        if extra:
+            raise DataError(f"{where}: params.{extra[0]}: a {COULOMB_VISCOUS} law has no static level and no "
+                            "characteristic velocity (params: dc_pos, dc_neg, viscous_pos, viscous_neg)")
+        names = ("dc_pos", "dc_neg", *VISCOUS_NAMES)
     values: dict[str, float | None] = {}
-    for name in LEVEL_NAMES + OMEGA_NAMES + (VISCOUS_NAMES if law else ()):
+    for name in names:
         if name not in params:
             if name in optional:
                 values[name] = None
@@ -118,6 +142,10 @@ def _stribeck_from_body(doc: Mapping[str, object], where: str = "friction model"
                 f"{command_unit}/({velocity_unit})" if name in VISCOUS_NAMES else command_unit)
         values[name] = value_of(params[name], unit, f"{where}: params.{name}")
     try:
+        if model == COULOMB_VISCOUS:
+            return FrictionLaw.coulomb_viscous(values["dc_pos"], values["dc_neg"], values["viscous_pos"],
+                                               values["viscous_neg"], command_unit=command_unit,
+                                               velocity_unit=velocity_unit)
         if law:
             return FrictionLaw(**values, command_unit=command_unit, velocity_unit=velocity_unit, law=model)
         return StribeckFriction(**values, command_unit=command_unit, velocity_unit=velocity_unit)

@@ -24,7 +24,7 @@ from ..control.prefilter import ORDERS as PREFILTER_ORDERS
 from ..control.prefilter import correction_sos, gain_vector
 from ..errors import DataError, UsageError
 from ..models.ballscrew import PARAM_NAMES, BallScrewModel, param_units
-from ..models.friction import StribeckFriction
+from ..models.friction import COULOMB_VISCOUS, FrictionLaw, StribeckFriction
 
 SCHEMA = "feedtune.gains/1.1"
 """The gains documents' schema: major 1 (readers refuse another major), minor 1 (the ``[certificate]`` with its
@@ -249,7 +249,10 @@ def with_friction_feedforward(doc: Mapping, friction: StribeckFriction, *, v_ban
                               where: str = "gains file", friction_where: str = "friction model") -> dict:
     """A copy of a ball-screw gains document with a ``[friction_feedforward]`` section (replacing any).
 
-    The command unit comes from ``[units].command`` and the lead from ``[model].lead_m_per_rad``.
+    The command unit comes from ``[units].command``, the lead from ``[model].lead_m_per_rad`` and the viscous
+    friction the law's linear feedforward already carries from ``[reference].feedforward_continuous`` (its velocity
+    gain ``U_ff'(0)``, ``b1 + b2`` for MC-PPC and P-PI): a model's viscous term is fed forward less that
+    (:func:`~feedtune.control.friction.friction_feedforward`).
 
     Raises
     ------
@@ -264,32 +267,58 @@ def with_friction_feedforward(doc: Mapping, friction: StribeckFriction, *, v_ban
     if not isinstance(model, Mapping) or "lead_m_per_rad" not in model:
         raise DataError(f"{where}: no [model] lead_m_per_rad to convert the friction velocities to rad/s")
     lead = value(model["lead_m_per_rad"], f"{where}: model.lead_m_per_rad", "m/rad")
-    ff = friction_feedforward(friction, command_unit=command_unit, lead_m_per_rad=lead, v_band=v_band,
-                              where=friction_where)
+    reference = doc.get("reference") if isinstance(doc.get("reference"), Mapping) else {}
+    ff = _tf_from_dict(reference.get("feedforward_continuous"), f"{where}: reference.feedforward_continuous")
+    out_ff = friction_feedforward(friction, command_unit=command_unit, lead_m_per_rad=lead, v_band=v_band,
+                                  where=friction_where, linear_viscous=velocity_gain(ff))
     out = copy.deepcopy(dict(doc))
-    out["friction_feedforward"] = ff.section()
+    out["friction_feedforward"] = out_ff.section()
     return refresh_law_text(out)
+
+
+def velocity_gain(tf) -> float:
+    """``d/ds U(s)`` at ``s = 0`` of a continuous feedforward ``U(s)`` [command unit/(rad/s)]: the viscous friction a
+    feedforward ``... + b s`` carries."""
+    num, den = tf.to_tf()
+    num, den = np.atleast_1d(num), np.atleast_1d(den)
+    d0 = float(np.polyval(den, 0.0))
+    return float((np.polyval(np.polyder(num), 0.0) * d0 - np.polyval(num, 0.0) * np.polyval(np.polyder(den), 0.0))
+                 / d0**2)
 
 
 def friction_from_section(sec, command_unit: str, where: str = "gains file",
                           velocity_unit: str = VELOCITY) -> FrictionFeedforward:
     """Read a ``[friction_feedforward]`` section; DataError naming the key when missing or inconsistent.
 
-    ``velocity_unit`` is the law's: rad/s for the ball screw, m/s for a linear axis (``kind = "axis"``).
+    ``velocity_unit`` is the law's: rad/s for the ball screw, m/s for a linear axis (``kind = "axis"``). ``model`` is
+    ``"stribeck"`` (levels, ``omega_pos``, ``omega_neg``) or ``"coulomb-viscous"`` (``dc_pos``, ``dc_neg``); both
+    with the optional ``viscous_pos``, ``viscous_neg`` [command unit/(velocity unit)] (absent: 0, the files written
+    before the viscous term).
     """
 
     if not isinstance(sec, Mapping):
         raise DataError(f"{where}: [friction_feedforward] must be a table")
-    if sec.get("model", "stribeck") != "stribeck":
-        raise DataError(f"{where}: friction_feedforward.model = {sec.get('model')!r}; only 'stribeck' is known")
-    vals = {}
-    for n in LEVELS:
-        vals[n] = value(sec.get(n), f"{where}: friction_feedforward.{n}", command_unit)
-    for n in ("omega_pos", "omega_neg", "v_band"):
+    law = sec.get("model", "stribeck")
+    if law not in ("stribeck", COULOMB_VISCOUS):
+        raise DataError(f"{where}: friction_feedforward.model = {law!r}; known: 'stribeck', '{COULOMB_VISCOUS}'")
+    levels = ("dc_pos", "dc_neg") if law == COULOMB_VISCOUS else LEVELS
+    vals = {n: value(sec.get(n), f"{where}: friction_feedforward.{n}", command_unit) for n in levels}
+    speeds = ("v_band",) if law == COULOMB_VISCOUS else ("omega_pos", "omega_neg", "v_band")
+    for n in speeds:
         vals[n] = value(sec.get(n), f"{where}: friction_feedforward.{n}", velocity_unit)
     band = vals.pop("v_band")
+    viscous = {n: value(sec[n], f"{where}: friction_feedforward.{n}", f"{command_unit}/({velocity_unit})")
+               for n in ("viscous_pos", "viscous_neg") if n in sec}
+    common = {"command_unit": command_unit, "velocity_unit": velocity_unit}
     try:
-        model = StribeckFriction(**vals, command_unit=command_unit, velocity_unit=velocity_unit)
+        if law == COULOMB_VISCOUS:
+            model = FrictionLaw.coulomb_viscous(vals["dc_pos"], vals["dc_neg"], viscous.get("viscous_pos", 0.0),
+                                                viscous.get("viscous_neg", 0.0), **common)
+        elif viscous:
+            model = FrictionLaw(**vals, **common, viscous_pos=viscous.get("viscous_pos", 0.0),
+                                viscous_neg=viscous.get("viscous_neg", 0.0))
+        else:
+            model = StribeckFriction(**vals, **common)
         return FrictionFeedforward(model, band, sec.get("source"))
     except (DataError, UsageError) as exc:
         raise DataError(f"{where}: friction_feedforward: {exc}") from None

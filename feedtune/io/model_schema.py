@@ -21,6 +21,10 @@ def _params(required: dict, optional: dict | None = None) -> dict:
     return {"type": "object", "required": list(required), "properties": {**required, **(optional or {})}}
 
 
+_FRICTION_PARAMS = {"dc_pos": _NONNEGATIVE, "ds_pos": _NONNEGATIVE, "dc_neg": _NONPOSITIVE, "ds_neg": _NONPOSITIVE,
+                    "omega_pos": _POSITIVE, "omega_neg": _POSITIVE, "viscous_pos": _NONNEGATIVE,
+                    "viscous_neg": _NONNEGATIVE}
+
 MODEL_SCHEMAS = {
     "ballscrew": {"type": "object", "required": ["params"], "properties": {
         "input_unit": _UNIT, "lead_m_per_rad": _POSITIVE,
@@ -36,9 +40,13 @@ MODEL_SCHEMAS = {
     }},
     "friction": {"type": "object", "required": ["params"], "properties": {
         "command_unit": _UNIT, "velocity_unit": _UNIT,
-        "params": _params({"dc_pos": _NONNEGATIVE, "ds_pos": _NONNEGATIVE, "dc_neg": _NONPOSITIVE,
-                           "ds_neg": _NONPOSITIVE, "omega_pos": _POSITIVE}, {"omega_neg": _POSITIVE}),
-    }},
+        "params": {"type": "object", "properties": _FRICTION_PARAMS},
+    },
+        # the coulomb-viscous law has no static level and no characteristic velocity
+        "if": {"required": ["model"], "properties": {"model": {"const": "coulomb-viscous"}}},
+        "then": {"properties": {"params": {"required": ["dc_pos", "dc_neg", "viscous_pos"]}}},
+        "else": {"properties": {"params": {"required": ["dc_pos", "ds_pos", "dc_neg", "ds_neg", "omega_pos"]}}},
+    },
     "rigid": {"type": "object", "required": ["params"], "properties": {
         "command_unit": _UNIT, "position_unit": _UNIT,
         "params": _params({"mass": _POSITIVE}, {"viscous": _NONNEGATIVE, "viscous_neg": _NONNEGATIVE,

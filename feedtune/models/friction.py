@@ -24,7 +24,13 @@ magnitudes ``Fc = |dc|``, ``Fs = |ds|``), every law is ``d(v) = dc (1 - phi(s/vs
   mirrored for ``v < 0`` (the exponential-hump law: ``F -> Fc`` at ``v -> 0``, ``ds`` is the peak ``Fmax``
   reached at ``|v| = vs``);
 * ``lugre``: ``phi(x) = exp(-x^2)``, the LuGre model's steady-state curve
-  ``F = sign(v) [Fc + (Fs - Fc) exp(-(v/vs)^2)] + Fv v``.
+  ``F = sign(v) [Fc + (Fs - Fc) exp(-(v/vs)^2)] + Fv v``;
+* ``coulomb-viscous``: ``phi(x) = 0``, i.e. ``F = sign(v) Fc + Fv v`` (no static level and no characteristic
+  velocity: ``ds = dc``, :meth:`FrictionLaw.coulomb_viscous`).
+
+Shape (:func:`level_shape`): a static level (the hump law's peak) above the Coulomb level is a ``peak`` (the
+classical Stribeck effect: friction falls from rest to its sliding level), one below it a ``dip`` (friction rises
+from rest to its sliding level, as EMPS and the rack-and-pinion show).
 
 Physical signs (:meth:`StribeckFriction.sign_problems`): the levels have the sign of their direction (``dc+, ds+ >= 0``,
 ``dc-, ds- <= 0``), ``vs > 0`` and ``Fv >= 0``; a level of the wrong sign comes from a mirrored or
@@ -45,12 +51,16 @@ MODEL_KIND = "friction"
 LEVEL_NAMES = ("dc_pos", "ds_pos", "dc_neg", "ds_neg")
 OMEGA_NAMES = ("omega_pos", "omega_neg")
 VISCOUS_NAMES = ("viscous_pos", "viscous_neg")
-LAWS = ("stribeck", "hump", "lugre")
+COULOMB_VISCOUS = "coulomb-viscous"
+LAWS = ("stribeck", "hump", "lugre", COULOMB_VISCOUS)
 """Friction laws of :class:`FrictionLaw` (module docstring)."""
+SHAPED_LAWS = ("stribeck", "hump", "lugre")
+"""The laws with a static level ``ds`` and a characteristic velocity ``vs`` (``omega``)."""
 LAW_FORMULAS = {
     "stribeck": "F = sign(v) [Fc + (Fs - Fc) exp(-|v|/vs)] + Fv v",
     "hump": "F = sign(v) [Fc + |v| (Fs - Fc) e/vs exp(-|v|/vs)] + Fv v",
     "lugre": "F = sign(v) [Fc + (Fs - Fc) exp(-(v/vs)^2)] + Fv v",
+    COULOMB_VISCOUS: "F = sign(v) Fc + Fv v",
 }
 """Each law per direction (``Fc, Fs`` magnitudes of the direction's levels ``dc, ds``; ``vs`` = ``omega``)."""
 
@@ -146,6 +156,16 @@ class StribeckFriction:
         found = [(n, level_sign_problem(n, float(getattr(self, n)), self.command_unit)) for n in LEVEL_NAMES]
         return [(n, text) for n, text in found if text]
 
+    @property
+    def characteristic_speed(self) -> float:
+        """The speed over which the curve changes shape [velocity unit]: the larger Stribeck velocity (plots span ten
+        of it)."""
+        return max(self.omega_pos, self.omega_negative)
+
+    def shapes(self) -> dict[str, str]:
+        """``{"pos": shape, "neg": shape}`` of :func:`level_shape` (``"peak"``, ``"dip"`` or ``"flat"``)."""
+        return {"pos": level_shape(self.dc_pos, self.ds_pos), "neg": level_shape(self.dc_neg, self.ds_neg)}
+
     def smoothed(self, velocity, v_eps: float) -> np.ndarray:
         """Friction force made continuous through zero, for feedforward [command unit].
 
@@ -239,6 +259,8 @@ def law_shape(law: str, x) -> np.ndarray:
         return x * np.exp(1.0 - x)
     if law == "lugre":
         return np.exp(-(x**2))
+    if law == COULOMB_VISCOUS:
+        return np.zeros_like(x)
     raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
 
 
@@ -251,7 +273,17 @@ def law_shape_slope(law: str, x) -> np.ndarray:
         return (1.0 - x) * np.exp(1.0 - x)
     if law == "lugre":
         return -2.0 * x * np.exp(-(x**2))
+    if law == COULOMB_VISCOUS:
+        return np.zeros_like(x)
     raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
+
+
+def level_shape(dc: float, ds: float) -> str:
+    """``"peak"`` when the static level ``ds`` (the hump law's peak) lies above the Coulomb level ``dc`` in magnitude,
+    ``"dip"`` when below, ``"flat"`` when equal (module docstring; signed levels of one direction)."""
+    if abs(ds) > abs(dc):
+        return "peak"
+    return "dip" if abs(ds) < abs(dc) else "flat"
 
 
 def level_sign_problem(name: str, value: float, unit: str) -> str | None:
@@ -319,6 +351,10 @@ class FrictionLaw(StribeckFriction):
     def __post_init__(self) -> None:
         super().__post_init__()
         check_law(self.law)
+        if self.law == COULOMB_VISCOUS and (self.ds_pos != self.dc_pos or self.ds_neg != self.dc_neg):
+            raise DataError(f"a {COULOMB_VISCOUS} friction law has no static level: ds_pos, ds_neg must equal dc_pos, "
+                            f"dc_neg (got {self.ds_pos:.4g} vs {self.dc_pos:.4g}, {self.ds_neg:.4g} vs "
+                            f"{self.dc_neg:.4g})")
         for name in VISCOUS_NAMES:
             raw = getattr(self, name)
             if raw is None:
@@ -328,10 +364,49 @@ class FrictionLaw(StribeckFriction):
                 raise DataError(f"friction parameter {name} must be finite, got {value}")
             object.__setattr__(self, name, value)
 
+    @classmethod
+    def coulomb_viscous(cls, dc_pos: float, dc_neg: float, viscous_pos: float, viscous_neg: float | None = None, *,
+                        command_unit: str = "N", velocity_unit: str = "m/s") -> FrictionLaw:
+        """The ``coulomb-viscous`` law ``F = dc + Fv v`` per direction (``ds = dc``; ``omega`` is not used and set to
+        1 velocity unit).
+
+        Parameters
+        ----------
+        dc_pos, dc_neg : float
+            Signed Coulomb levels [command unit] (``>= 0`` for ``v > 0``, ``<= 0`` for ``v < 0``).
+        viscous_pos, viscous_neg : float
+            Viscous coefficients [command unit/(velocity unit)]; ``viscous_neg=None`` uses ``viscous_pos``.
+        command_unit, velocity_unit : str
+            As for :class:`StribeckFriction`.
+
+        Examples
+        --------
+        >>> f = FrictionLaw.coulomb_viscous(20.0, -18.0, 200.0)
+        >>> [round(float(x), 3) for x in f.force([0.1, 0.0, -0.1])]
+        [40.0, 0.0, -38.0]
+        """
+        return cls(dc_pos=dc_pos, ds_pos=dc_pos, dc_neg=dc_neg, ds_neg=dc_neg, omega_pos=1.0,
+                   command_unit=command_unit, velocity_unit=velocity_unit, law=COULOMB_VISCOUS,
+                   viscous_pos=viscous_pos, viscous_neg=viscous_neg)
+
     @property
     def viscous_negative(self) -> float:
         """Viscous coefficient used for ``v < 0`` [command unit/(velocity unit)]."""
         return self.viscous_pos if self.viscous_neg is None else float(self.viscous_neg)
+
+    @property
+    def has_static_level(self) -> bool:
+        """False for the ``coulomb-viscous`` law (no ``ds``, no ``omega``)."""
+        return self.law != COULOMB_VISCOUS
+
+    @property
+    def characteristic_speed(self) -> float:
+        """As :attr:`StribeckFriction.characteristic_speed`; for the ``coulomb-viscous`` law the speed ``Fc / Fv`` at
+        which the viscous term reaches the Coulomb level (the larger of the directions; 0 without viscous friction)."""
+        if self.has_static_level:
+            return super().characteristic_speed
+        return max((abs(dc) / fv for dc, fv in ((self.dc_pos, self.viscous_pos), (self.dc_neg, self.viscous_negative))
+                    if fv > 0), default=0.0)
 
     def force(self, velocity) -> np.ndarray:
         """Friction force of the law [command unit] (vectorised; exactly 0 at ``v = 0``).
@@ -371,12 +446,17 @@ class FrictionLaw(StribeckFriction):
         return FrictionLaw(**common, law=self.law)
 
     def to_dict(self) -> dict:
-        """JSON-ready parameters with their units (``model`` is the law)."""
+        """JSON-ready parameters with their units (``model`` is the law; the ``coulomb-viscous`` law has no
+        ``ds_*`` and ``omega_*``)."""
         d = super().to_dict()
         vu = f"{self.command_unit}/({self.velocity_unit})"
         d.update({"model": self.law, "formula": LAW_FORMULAS[self.law], "viscous_pos": self.viscous_pos,
                   "viscous_neg": self.viscous_negative})
         d["units"] = {**d["units"], "viscous_pos": vu, "viscous_neg": vu}
+        if not self.has_static_level:
+            for name in ("ds_pos", "ds_neg", "omega_pos", "omega_neg"):
+                d.pop(name)
+                d["units"].pop(name)
         return d
 
     __repr__ = StribeckFriction.__repr__

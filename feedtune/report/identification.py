@@ -201,8 +201,10 @@ def friction_curves(inputs: Inputs) -> list[FrictionCurve]:
         if m is None:
             continue
         if mi.kind == "friction" and hasattr(m, "force"):
-            out.append(FrictionCurve(mi, m.force, m.velocity_unit, m.command_unit,
-                                     max(m.omega_pos, m.omega_negative), "Stribeck model (eq. 2.1)"))
+            law = getattr(m, "law", "stribeck")
+            title = ("Stribeck model (eq. 2.1)" if law == "stribeck" else f"{law} friction law") + (
+                " with viscous friction" if getattr(m, "viscous_pos", 0.0) and law != "coulomb-viscous" else "")
+            out.append(FrictionCurve(mi, m.force, m.velocity_unit, m.command_unit, m.characteristic_speed, title))
         elif mi.kind == "rigid" and hasattr(m, "friction"):
             out.append(FrictionCurve(mi, m.friction, m.velocity_unit, m.command_unit, 0.0,
                                      "rigid-body friction (viscous + Coulomb)"))

@@ -17,8 +17,9 @@ Data layout (built by :func:`gantry_law_data` / :func:`axis_law_data` from a run
 * ``par``: gains and flags (:data:`G_PAR`, :data:`A_PAR`); ``st``: the scalar states (:data:`G_ST`, :data:`A_ST`).
 
 The optional friction feedforward of both laws (``[friction_feedforward]``, :mod:`feedtune.control.friction`) is
-eq. 2.1 of the backward-difference velocity of the previewed reference, linear through zero inside ``+-v_band``
-(:func:`friction_command`, the formula of :meth:`feedtune.models.friction.StribeckFriction.smoothed`). The gantry
+eq. 2.1 with its viscous term ``Fv v`` (per direction) of the backward-difference velocity of the previewed reference,
+linear through zero inside ``+-v_band`` (:func:`friction_command`, the formula of
+:meth:`feedtune.models.friction.StribeckFriction.smoothed` of the whole curve). The gantry
 law splits it between the drives as its inertia feedforward splits a rigid acceleration: ``u_i += alpha_i(x) d``
 (``alpha_i m`` is the row sum of ``M(x)``).
 """
@@ -37,11 +38,12 @@ G_STATES = (0, 0, 1, 1, 2, 2, 3, 4, 5, 6, 7)
 """Filter of each state instance: h1, h2, pos1, pos2, acc1, acc2, lead, the four pre-filter terms."""
 (GP_FS, GP_BETA, GP_KI, GP_KP1, GP_KD1, GP_KI1, GP_KP2, GP_KD2, GP_KI2, GP_MIMO, GP_PRE, GP_NCOL,
  GP_FRICTION) = range(13)
-FR_DC_POS, FR_DS_POS, FR_DC_NEG, FR_DS_NEG, FR_OMEGA_POS, FR_OMEGA_NEG, FR_V_BAND, FR_EDGE_POS, FR_EDGE_NEG = range(9)
+(FR_DC_POS, FR_DS_POS, FR_DC_NEG, FR_DS_NEG, FR_OMEGA_POS, FR_OMEGA_NEG, FR_V_BAND, FR_EDGE_POS, FR_EDGE_NEG,
+ FR_VISC_POS, FR_VISC_NEG) = range(11)
 """Offsets of the friction feedforward's numbers in a ``par`` vector from its first (:func:`friction_command`):
 levels dc+, ds+, dc-, ds- [U], Stribeck velocities omega+, omega- [m/s], band v_band [m/s], the friction at
-+-v_band [U] (U the command unit)."""
-FR_N = 9
++-v_band [U] (viscous term included), viscous coefficients Fv+, Fv- [U/(m/s)] (U the command unit)."""
+FR_N = 11
 GP_FR = 13
 """First friction number (:data:`FR_DC_POS` ..) in the gantry ``par`` vector."""
 G_PAR = GP_FR + FR_N
@@ -60,11 +62,11 @@ AP_MASS, AP_KVEL, AP_KACC, AP_KJERK, AP_KSNAP, AP_PRE, AP_FS, AP_FRICTION = rang
 AP_FR = 8
 """First friction number (:data:`FR_DC_POS` ..) in the axis ``par`` vector."""
 (AP_DC_POS, AP_DS_POS, AP_DC_NEG, AP_DS_NEG, AP_OMEGA_POS, AP_OMEGA_NEG, AP_V_BAND, AP_EDGE_POS,
- AP_EDGE_NEG) = range(AP_FR, AP_FR + FR_N)
+ AP_EDGE_NEG, AP_VISC_POS, AP_VISC_NEG) = range(AP_FR, AP_FR + FR_N)
 A_PAR = AP_FR + FR_N
 """Length of the axis ``par`` vector: mass [U/(m/s^2)], pre-filter gains [s..s^4], pre-filter flag, fs [Hz], friction
 flag, then the friction feedforward: levels dc+, ds+, dc-, ds- [U], Stribeck velocities omega+, omega- [m/s], band
-v_band [m/s] and the friction at +-v_band [U] (U the command unit)."""
+v_band [m/s], the friction at +-v_band [U] and the viscous coefficients Fv+, Fv- [U/(m/s)] (U the command unit)."""
 AS_STARTED, AS_R_PREV = range(2)
 A_ST = 2
 """Length of the axis ``st`` vector: started flag, previous previewed reference [m] (the friction's velocity)."""
@@ -158,15 +160,17 @@ def gantry_law_step(sos, seg, w, wofs, par, st, sched_x, sched, r, y1, y2, x, ou
 
 
 def friction_command(par, f, v):
-    """The friction feedforward ``d(v)`` [command unit] of the reference velocity ``v`` [m/s]: eq. 2.1 outside
-    ``+-v_band``, the straight line through zero to the band's edges inside; its numbers are ``par[f + FR_*]``
-    (:data:`FR_DC_POS` .., ``f`` = :data:`AP_FR` for the axis, :data:`GP_FR` for the gantry)."""
+    """The friction feedforward ``d(v)`` [command unit] of the reference velocity ``v`` [m/s]: eq. 2.1 plus its
+    viscous term outside ``+-v_band``, the straight line through zero to the band's edges inside; its numbers are
+    ``par[f + FR_*]`` (:data:`FR_DC_POS` .., ``f`` = :data:`AP_FR` for the axis, :data:`GP_FR` for the gantry)."""
     a = abs(v)
     if a < par[f + FR_V_BAND]:
         return (par[f + FR_EDGE_POS] if v >= 0.0 else par[f + FR_EDGE_NEG]) * a / par[f + FR_V_BAND]
     if v > 0.0:
-        return par[f + FR_DC_POS] + (par[f + FR_DS_POS] - par[f + FR_DC_POS]) * math.exp(-a / par[f + FR_OMEGA_POS])
-    return par[f + FR_DC_NEG] + (par[f + FR_DS_NEG] - par[f + FR_DC_NEG]) * math.exp(-a / par[f + FR_OMEGA_NEG])
+        return (par[f + FR_DC_POS] + (par[f + FR_DS_POS] - par[f + FR_DC_POS]) * math.exp(-a / par[f + FR_OMEGA_POS])
+                + par[f + FR_VISC_POS] * v)
+    return (par[f + FR_DC_NEG] + (par[f + FR_DS_NEG] - par[f + FR_DC_NEG]) * math.exp(-a / par[f + FR_OMEGA_NEG])
+            + par[f + FR_VISC_NEG] * v)
 
 
 def friction_par(friction) -> np.ndarray:
@@ -174,7 +178,7 @@ def friction_par(friction) -> np.ndarray:
     the order :data:`FR_DC_POS` .. :data:`FR_EDGE_NEG`."""
     f = friction.friction
     return np.array([f.dc_pos, f.ds_pos, f.dc_neg, f.ds_neg, f.omega_pos, f.omega_negative, friction.v_band,
-                     *friction.edges()], dtype=float)
+                     *friction.edges(), *friction.viscous], dtype=float)
 
 
 _fric = friction_command

@@ -23,7 +23,7 @@ cascade in transposed direct form II (as ``scipy.signal.sosfilt``), states zero 
 normalised by its ``a0`` when the file is read. The schedule is interpolated linearly in ``x`` and clamped
 at the first and last row.
 
-Both runtimes add the optional friction feedforward (``[friction_feedforward]``) to ``uff``: Stribeck eq. 2.1 of the
+Both runtimes add the optional friction feedforward (``[friction_feedforward]``) to ``uff``: eq. 2.1 + viscous of the
 previewed reference's backward-difference velocity ``v_r = (r - r_prev) fs`` [m/s] (0 on the first sample), linear
 through zero inside ``+-v_band`` (:mod:`feedtune.control.friction`). :class:`GantryRuntime` splits it between the
 drives as the inertia feedforward splits a rigid acceleration (``alpha_i m`` are the row sums of ``M(x)``)::
@@ -306,7 +306,7 @@ class GantryRuntime:
 
     def friction_feedforward(self, y_ref) -> np.ndarray:
         """The friction feedforward ``d(v_r)`` [command unit] per sample for a gantry reference ``y_r[k]`` [m], before
-        its split (``u_i`` gets ``alpha_i d``): Stribeck eq. 2.1 of the previewed reference's backward-difference
+        its split (``u_i`` gets ``alpha_i d``): eq. 2.1 + viscous of the previewed reference's backward-difference
         velocity [m/s]; zeros without a ``[friction_feedforward]``."""
         from ...control.friction import reference_velocity
 
