@@ -1,0 +1,292 @@
+"""When will the installed gains fail their limits? The identified drift carried forward and certified.
+
+The forecast plant at a future time is the measured FRF carried there by the model: each channel (``x1/u``,
+``x2/u``) of each of the last :data:`RECENT` measurements multiplied by the ratio of the 2-mass model with the
+parameters the trends predict (the drifting ones extrapolated along their lines, the others held at the newest fit)
+to the model of that measurement's own fit, and the carried responses averaged (when the measurements share their
+frequency lines; else the newest alone). So everything the 2-mass model does not describe and the installed gains
+depend on (torsional modes, the current loop, delays) stays as measured, the axial mode moves as the drift says, and
+the measurement noise, which would otherwise decide a margin read at one noisy line, is averaged down. The installed
+gains are certified on it with the axis' limits, exactly as a measurement would be
+(:func:`feedtune.machines.certificate.certify`: Ms, phase, gain and disk margins, stability, in the discrete case).
+
+The first failing time is found on a grid of weeks ahead (:data:`GRID_WEEKS`, up to the horizon) and refined by
+bisection to :data:`TOLERANCE_WEEKS`; it assumes the margins erode monotonically along the drift between grid
+points. The interval comes from the trends' uncertainty: the early bound is the first failure when every drifting
+parameter runs ahead of its line by ``z`` standard deviations of the line (:meth:`feedtune.fleet.drift.Trend.at`,
+in the direction it drifts), the late bound when each lags behind by as much; with one drifting parameter this is the
+classical inverse-regression (calibration) interval of the time its line reaches the failing value. ``z`` = 1.645:
+a 90 % two-sided interval. A late bound beyond the horizon is open (``None``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+GRID_WEEKS = (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 13.0, 17.0, 21.0, 26.0, 34.0, 43.0, 52.0)
+"""Weeks ahead of the newest measurement where the forecast plant is certified before refining."""
+TOLERANCE_WEEKS = 0.05
+RECENT = 12
+"""Measurements whose carried FRFs are averaged into the forecast plant: a margin read on one FRF with 2 % noise
+comes out about 0.5 dB low at a phase crossover (the noise makes extra crossings), on the mean of 12 about 0.1 dB
+(the simulated fleet, noise-free plant as reference)."""
+INTERVAL_Z = 1.645
+"""Normal quantile of the interval (90 % two-sided)."""
+FLOOR = 0.05
+"""A positive parameter extrapolated below this fraction of its newest fit is held there (a model must stay
+physical); the forecast then says so."""
+
+
+@dataclass(frozen=True)
+class DriftLine:
+    """A drifting parameter's line (:class:`feedtune.fleet.drift.Trend`), as the forecast task needs it."""
+
+    name: str
+    level: float
+    slope: float
+    level_std: float
+    slope_std: float
+    cov: float
+
+    def at(self, weeks: float, shift: float = 0.0) -> float:
+        """The line ``weeks`` after the newest measurement, moved by ``shift`` of its standard deviations in the
+        direction it drifts."""
+        sd = np.sqrt(max(self.level_std**2 + weeks**2 * self.slope_std**2 + 2 * weeks * self.cov, 0.0))
+        return self.level + self.slope * weeks + shift * np.sign(self.slope) * sd
+
+
+@dataclass(frozen=True)
+class ForecastTask:
+    """What one axis' forecast needs (picklable).
+
+    Attributes
+    ----------
+    axis_id : str
+    gains, gains_name : str
+        The installed gains file (absolute) and its name.
+    limits : Limits
+    frfs, frf_names : tuple of str
+        The newest measurement's FRFs.
+    frf_options : dict
+    fit : dict
+        The newest fit: ``m1 ... c``, ``lead_m_per_rad`` and ``input_unit`` as in the history.
+    recent : tuple of (tuple of str, dict)
+        Earlier measurements (oldest first) averaged with the newest: their FRF files and fits.
+    lines : tuple of DriftLine
+        The drifting model parameters.
+    newest : datetime.datetime
+        Date of the newest measurement.
+    horizon_weeks : float
+    """
+
+    axis_id: str
+    gains: str
+    gains_name: str
+    limits: object
+    frfs: tuple[str, ...]
+    frf_names: tuple[str, ...]
+    frf_options: dict
+    fit: dict
+    lines: tuple[DriftLine, ...]
+    newest: _dt.datetime
+    horizon_weeks: float = 52.0
+    recent: tuple = ()
+
+
+@dataclass(frozen=True)
+class Forecast:
+    """The forecast of one axis (module docstring).
+
+    Attributes
+    ----------
+    weeks : float or None
+        Weeks after the newest measurement when the installed gains first fail (0: already on the forecast plant);
+        None: not within the horizon.
+    early, late : float or None
+        The interval [weeks]; ``late`` None: beyond the horizon.
+    limit : str or None
+        The limit that fails first (``ms``, ``pm_deg``, ``gm_db``, ``disk_margin``, ``stable``, ``band_top``).
+    violation : str or None
+        Its message at the failure.
+    newest : datetime.datetime
+    parameters : tuple of str
+        The drifting parameters extrapolated.
+    horizon_weeks : float
+    evaluations : int
+        Certificates computed.
+    notes : tuple of str
+    now : dict
+        The forecast plant's certificate now (the trends' level): ``ok``, ``ms``, ``pm_deg``, ``gm_db``,
+        ``disk_margin``, ``active_limit``.
+    """
+
+    weeks: float | None
+    early: float | None
+    late: float | None
+    limit: str | None
+    violation: str | None
+    newest: _dt.datetime
+    parameters: tuple[str, ...]
+    horizon_weeks: float
+    evaluations: int
+    notes: tuple[str, ...] = ()
+    now: dict = field(default_factory=dict)
+
+    def date(self, weeks: float | None) -> _dt.date | None:
+        """The calendar date ``weeks`` after the newest measurement."""
+        if weeks is None:
+            return None
+        return (self.newest + _dt.timedelta(days=7.0 * weeks)).date()
+
+    def to_dict(self) -> dict:
+        """JSON-ready."""
+        def iso(w):
+            d = self.date(w)
+            return None if d is None else d.isoformat()
+
+        return {"weeks_ahead": self.weeks, "interval_weeks": [self.early, self.late], "date": iso(self.weeks),
+                "interval_dates": [iso(self.early), iso(self.late)], "limit": self.limit, "violation": self.violation,
+                "parameters": list(self.parameters), "horizon_weeks": self.horizon_weeks,
+                "evaluations": self.evaluations, "now": self.now, "notes": list(self.notes)}
+
+
+# ------------------------------------------------------------------------------------------ the forecast plant
+def carried_frf(frf, fit_model, future_model):
+    """``frf`` with ``x1/u`` and ``x2/u`` multiplied by ``future_model / fit_model`` (module docstring)."""
+    f = frf.freq_hz
+    old = fit_model.frequency_response(f, keys=("G11", "G21"))
+    new = future_model.frequency_response(f, keys=("G11", "G21"))
+    response = frf.response.copy()
+    for channel, key in (("x1/u", "G11"), ("x2/u", "G21")):
+        if frf.has(channel):
+            i, j = frf.index(channel)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(old[key] != 0, new[key] / old[key], 1.0)
+            response[i, j] = response[i, j] * ratio
+    return replace(frf, response=response, meta={**frf.meta, "source": f"{frf.source} (forecast)"})
+
+
+def _same_lines(a, b) -> bool:
+    return a.freq_hz.shape == b.freq_hz.shape and np.array_equal(a.freq_hz, b.freq_hz) and a.channels == b.channels \
+        and a.quantity == b.quantity
+
+
+def _mean_frf(frfs: list):
+    """The complex mean of FRFs on the same lines (coherence averaged too); the FRF itself when alone."""
+    if len(frfs) == 1:
+        return frfs[0]
+    response = np.mean([f.response for f in frfs], axis=0)
+    coh = None if any(f.coherence is None for f in frfs) else np.mean([f.coherence for f in frfs], axis=0)
+    return replace(frfs[0], response=response, coherence=coh)
+
+
+def _model(fit: dict, values: dict):
+    from ..models.ballscrew import BallScrewModel
+
+    params = {k: float(values.get(k, fit[k])) for k in ("m1", "m2", "b1", "b2", "k", "c")}
+    return BallScrewModel(**params, lead_m_per_rad=float(fit.get("lead_m_per_rad") or 0.02 / (2 * np.pi)),
+                          input_unit=str(fit.get("input_unit") or "V"))
+
+
+class _Plant:
+    """Certifies the installed gains on the forecast plant of given parameter values."""
+
+    def __init__(self, task: ForecastTask):
+        from ..io import read_document, read_frf
+
+        self.task = task
+        self.doc = read_document(task.gains)
+        self.fit_model = _model(task.fit, {})
+        newest = [read_frf(p, **task.frf_options) for p in task.frfs]
+        self.sources = [(newest, self.fit_model)]
+        for paths, fit in task.recent:
+            frfs = [read_frf(p, **task.frf_options) for p in paths]
+            if len(frfs) == len(newest) and all(_same_lines(a, b) for a, b in zip(frfs, newest, strict=True)):
+                self.sources.append((frfs, _model(fit, {})))
+        self.evaluations = 0
+        self.clipped = False
+
+    def values(self, weeks: float, shift: float) -> dict:
+        out = {}
+        for line in self.task.lines:
+            v = line.at(weeks, shift)
+            low = FLOOR * float(self.task.fit[line.name]) if line.name in ("m1", "m2", "k") else 0.0
+            if v < low:
+                v, self.clipped = low, True
+            out[line.name] = v
+        return out
+
+    def certify(self, weeks: float, shift: float):
+        from ..machines.certificate import certify
+
+        self.evaluations += 1
+        model = _model(self.task.fit, self.values(weeks, shift))
+        frfs = []
+        for i, name in enumerate(self.task.frf_names):
+            carried = [carried_frf(frfs[i], fit_model, model) for frfs, fit_model in self.sources]
+            frfs.append((f"{name} + {weeks:.2f} weeks", _mean_frf(carried)))
+        return certify(self.doc, self.task.gains_name, frfs, self.task.limits)
+
+    def first_failure(self, shift: float, horizon: float):
+        """``(weeks, certificate)`` of the first failure along the path ``shift``, or ``(None, None)``."""
+        grid = [w for w in GRID_WEEKS if w < horizon] + [horizon]
+        prev = None
+        for w in grid:
+            cert = self.certify(w, shift)
+            if not cert.ok:
+                if prev is None:
+                    return 0.0, cert
+                lo, hi, bad = prev, w, cert
+                while hi - lo > TOLERANCE_WEEKS:
+                    mid = 0.5 * (lo + hi)
+                    c = self.certify(mid, shift)
+                    if c.ok:
+                        lo = mid
+                    else:
+                        hi, bad = mid, c
+                return hi, bad
+            prev = w
+        return None, None
+
+
+def forecast_axis(task: ForecastTask) -> Forecast:
+    """The forecast of one axis (module docstring); runs in a worker (:func:`run_forecast`)."""
+    plant = _Plant(task)
+    horizon = float(task.horizon_weeks)
+    now = plant.certify(0.0, 0.0)
+    from .task import certificate_columns
+
+    cols = certificate_columns(now)
+    now_dict = {k: cols[k] for k in ("cert_ok", "ms", "pm_deg", "gm_db", "disk_margin", "active_limit")}
+    weeks, cert = (0.0, now) if not now.ok else plant.first_failure(0.0, horizon)
+    early, _ = plant.first_failure(INTERVAL_Z, horizon)
+    late, _ = plant.first_failure(-INTERVAL_Z, horizon)
+    limit = violation = None
+    if cert is not None:
+        failed = [i for c in cert.frfs for i in c.check.items if not i.ok]
+        worst = min(failed, key=lambda i: i.slack if i.slack is not None else -np.inf) if failed else None
+        limit = None if worst is None else worst.name
+        violation = next((v for c in cert.frfs for v in c.check.violations), None)
+    if weeks is not None and early is not None:
+        early = min(early, weeks)
+    if weeks is not None and late is not None:
+        late = max(late, weeks)
+    notes = [f"forecast plant: the mean of {len(plant.sources)} measured FRFs carried forward"]
+    if plant.clipped:
+        notes.append(f"a parameter's line reaches {FLOOR:.0%} of its newest fit within the horizon; it is held there")
+    return Forecast(weeks, early, late, limit, violation, task.newest, tuple(ln.name for ln in task.lines), horizon,
+                    plant.evaluations, tuple(notes), now_dict)
+
+
+def run_forecast(task: ForecastTask):
+    """:func:`forecast_axis` under the worker settings; a failure is returned as its message (one line)."""
+    from .task import _one_line, worker_settings
+
+    with worker_settings():
+        try:
+            return forecast_axis(task)
+        except Exception as exc:  # one axis' forecast never stops the fleet's status
+            return f"forecast: {_one_line(exc)}"
