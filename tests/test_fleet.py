@@ -172,9 +172,26 @@ if __name__ == "__main__":
 """
 
 
+def _descendants(pid: int) -> list[int]:
+    """Every process below ``pid`` (Linux /proc), the fork server and its workers included."""
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        for task in Path(f"/proc/{p}/task").glob("*"):
+            try:
+                kids = [int(c) for c in (task / "children").read_text().split()]
+            except OSError:
+                continue
+            out += kids
+            todo += kids
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc")
 def test_a_run_killed_midway_resumes_with_no_duplicate_and_no_lost_row(fleet, local_history, tmp_path):
-    """SIGKILL once the first part files are written; the re-run writes exactly the missing measurements and the
-    history equals an uninterrupted run's."""
+    """SIGKILL once the first part files are written: its worker processes end too; the re-run writes exactly the
+    missing measurements and the history equals an uninterrupted run's."""
     h = tmp_path / "h.parquet"
     script = tmp_path / "run.py"
     script.write_text(KILLED_RUN, encoding="utf-8")
@@ -183,8 +200,13 @@ def test_a_run_killed_midway_resumes_with_no_duplicate_and_no_lost_row(fleet, lo
     deadline = time.monotonic() + 120
     while len(part_files(h)) < 2 and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)
+    family = _descendants(proc.pid)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
+    gone = time.monotonic() + 10
+    while any(Path(f"/proc/{p}").exists() for p in family) and time.monotonic() < gone:
+        time.sleep(0.1)
+    assert family and not [p for p in family if Path(f"/proc/{p}").exists()], "worker processes outlived the run"
     written = read_history(h).num_rows
     assert 0 < written < 24, (written, proc.stderr.read().decode())
     resumed = run_fleet(load_manifest(fleet / "fleet.toml"), h, engine=Engine(jobs=2), status=False).summary
@@ -207,30 +229,41 @@ def test_a_dask_local_cluster_and_local_processes_give_the_same_history(fleet, l
 
 # ------------------------------------------------------------------------------------------ status and page
 def test_the_status_and_the_page(fleet, local_history, tmp_path):
-    """Every axis one row of the page, worst first; a name or a link from the manifest cannot inject markup."""
+    """Every axis one row of the page, worst first, with its sparkline; links relative to the page."""
+    from feedtune.fleet import fleet_status, plan_fleet, write_fleet_report
+
+    d = _copy(fleet, tmp_path)
+    text = (d / "fleet.toml").read_text(encoding="utf-8").replace('axis = "Y"', 'axis = "Y"\nreport = "r/M 1.html"', 1)
+    (d / "fleet.toml").write_text(text, encoding="utf-8")
+    m = load_manifest(d / "fleet.toml")
+    status = fleet_status(m, local_history, plan_fleet(m))
+    (tmp_path / "page").mkdir()
+    out = write_fleet_report(status, tmp_path / "page" / "fleet.html")
+    page = (tmp_path / "page" / "fleet.html").read_text(encoding="utf-8")
+    assert out["axes"] == 6 and page.count('<td class="light">') == 6 and page.count("<svg") == 6
+    assert 'href="../fleet/r/M%201.html"' in page
+    order = [a["light"] for a in sorted(status.to_dict()["axes"], key=lambda a: page.index(f">{a['axis_id']}<"))]
+    assert order == sorted(order, key=["red", "amber", "green", "grey"].index)
+    assert all(a["measurements"] == 4 and not a["pending"] for a in status.to_dict()["axes"])
+    json.dumps(status.to_dict())  # JSON-ready
+
+
+def test_names_and_links_from_the_manifest_cannot_inject_markup(fleet, local_history, tmp_path):
     from feedtune.fleet import fleet_status, plan_fleet, write_fleet_report
 
     d = _copy(fleet, tmp_path)
     text = (d / "fleet.toml").read_text(encoding="utf-8")
     text = text.replace('machine = "M001"', 'machine = "M<script>alert(1)</script>"', 1)
-    text = text.replace('axis = "X"', 'axis = "X"\nreport = "javascript:alert(2)"', 1)
-    text = text.replace('axis = "Y"', 'axis = "Y"\nreport = "reports/M001 Y.html"', 1)
+    text = text.replace('axis = "Y"', 'axis = "Y"\nreport = "javascript:alert(2)"', 1)
+    text = text.replace('name = "', 'name = "<b onmouseover=x>', 1)
     (d / "fleet.toml").write_text(text, encoding="utf-8")
     m = load_manifest(d / "fleet.toml")
-    h = tmp_path / "h.parquet"
-    run_fleet(m, h, engine=Engine(jobs=1), status=False)
-    status = fleet_status(m, h, plan_fleet(m))
-    (tmp_path / "page").mkdir()
-    out = write_fleet_report(status, tmp_path / "page" / "fleet.html")
-    page = (tmp_path / "page" / "fleet.html").read_text(encoding="utf-8")
-    assert out["axes"] == 6 and page.count('<td class="light">') == 6
-    assert "<script" not in page and "javascript:" not in page
+    status = fleet_status(m, local_history, plan_fleet(m))
+    write_fleet_report(status, tmp_path / "fleet.html")
+    page = (tmp_path / "fleet.html").read_text(encoding="utf-8")
+    assert "<script" not in page and "javascript:" not in page and "<b onmouseover" not in page
     assert "M&lt;script&gt;alert(1)&lt;/script&gt;/X" in page
-    assert 'href="../fleet/reports/M001%20Y.html"' in page
-    assert page.count("<svg") >= 6
-    lights = [a["light"] for a in status.to_dict()["axes"]]
-    assert set(lights) <= {"red", "amber", "green", "grey"} and len(lights) == 6
-    json.dumps(status.to_dict())  # JSON-ready
+    assert {a.light for a in status.axes if a.machine.startswith("M<")} == {"grey"}  # new axis ids: no rows yet
 
 
 # ------------------------------------------------------------------------------------------ the command line
@@ -278,3 +311,70 @@ def test_every_row_has_a_value_for_every_figure_it_claims(local_history):
         for name in ("m1", "m2", "k", "c", "mode_hz", "ms", "pm_deg", "gm_db", "disk_margin", "first_crossover_hz",
                      "coulomb", "viscous", "mass"):
             assert r[name] is not None and np.isfinite(r[name]), name
+
+
+@pytest.mark.slow
+def test_a_red_axis_gets_a_re_tune_certified_on_its_newest_frf(tmp_path):
+    """Limits the installed P-PI does not meet (GM >= 8.5 dB): the axis is red, --retune writes a P-PI whose
+    certificate, computed again here on the newest FRF, meets them; a second run proposes nothing new."""
+    from feedtune.analysis.limits import limits_profile
+    from feedtune.io import read_document, read_frf
+    from feedtune.machines.certificate import certify
+
+    d = tmp_path / "one"
+    simulate_fleet(d, 1, 3, drift_share=0.0, seed=4, truth=False)
+    text = (d / "fleet.toml").read_text(encoding="utf-8").replace('limits = "textbook"',
+                                                                  "limits = {profile = \"textbook\", gm_min_db = 8.5}")
+    (d / "fleet.toml").write_text(text, encoding="utf-8")
+    m = load_manifest(d / "fleet.toml")
+    h = tmp_path / "h.parquet"
+    result = run_fleet(m, h, engine=Engine(jobs=1), retune=True)
+    axis = result.status.axes[0]
+    assert axis.light == "red" and axis.proposal is not None, axis.reason
+    assert result.summary.proposals == [{"axis_id": axis.axis_id, "file": axis.proposal["file"]}]
+    doc = read_document(h / axis.proposal["file"])
+    newest = m.axes[0].measurements[-1].frfs[0]
+    limits = limits_profile("textbook").override(gm_min_db=8.5)
+    cert = certify(doc, "proposal", [("newest", read_frf(newest))], limits)
+    assert cert.ok and cert.worst()["gm_db"] >= 8.5 and doc["controller"] == "ppi"
+    again = run_fleet(m, h, engine=Engine(jobs=1), retune=True)
+    assert again.summary.proposals == [] and again.status.axes[0].proposal == axis.proposal
+
+
+def test_docs_list_every_history_column():
+    text = (REPO / "docs" / "fleet.md").read_text(encoding="utf-8")
+    missing = [name for name, *_ in COLUMNS if f"| `{name}` |" not in text]
+    assert not missing, missing
+
+
+@pytest.mark.slow
+def test_a_fleet_of_the_real_two_mass_bench(real_data_dir, tmp_path, capsys, monkeypatch):
+    """The FdiTools bench's two multisine experiments as two weekly measurements of one axis (CSV manifest), its
+    MC-PPC tuned on the first: both rows carry the coupling's mode (76 Hz, docs/real_data.md) and the certificate
+    analyze GAINS --frf gives on the same file, in A."""
+    bench = real_data_dir / "twomass_motor_bench_FdiTools"
+    monkeypatch.chdir(tmp_path)
+    for t in "AB":
+        code, _, err = run(["frf", bench / f"MultisineType{t}.mat", "--map", "u=iq_adx", "--map", "x1=theta_mx",
+                            "--map", "x2=theta_my", "--scale", "x2=-1", "--scale", "time=1e-6", "--unit", "u=A",
+                            "--unit", "x1=rad", "--unit", "x2=rad", "-y", "x1,x2", "--method", "periodic",
+                            "--period-samples", "2500", "--out", f"frf_{t}.csv"], capsys, monkeypatch)
+        assert code == 0, err
+    for args in (["identify", "ballscrew", "frf_A.csv", "--out", "tm.toml"],
+                 ["tune", "mcppc", "tm.toml", "--frf", "frf_A.csv", "--out", "gains.toml"]):
+        code, _, err = run(args, capsys, monkeypatch)
+        assert code == 0, err
+    Path("fleet.csv").write_text("machine,axis,gains,date,frf\nbench,motor,gains.toml,2019-01-07,frf_A.csv\n"
+                                 "bench,motor,gains.toml,2019-01-14,frf_B.csv\n", encoding="utf-8")
+    code, out, err = run(["fleet", "run", "fleet.csv", "--history", "h.parquet", "--jobs", "1", "--json"], capsys,
+                         monkeypatch)
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["run"]["written"] == 2 and doc["status"]["counts"]["green"] == 1
+    rows = read_history("h.parquet").to_pylist()
+    for row, t in zip(rows, "AB", strict=True):
+        assert row["frf_files"] == f"frf_{t}.csv" and 70 < row["mode_hz"] < 82 and row["input_unit"] == "A"
+        code, out, err = run(["analyze", "gains.toml", "--frf", f"frf_{t}.csv", "--json"], capsys, monkeypatch)
+        check = json.loads(out)["check"]
+        assert row["cert_ok"] == check["ok"]
+        assert row["ms"] == pytest.approx(next(i["value"] for i in check["items"] if i["name"] == "ms"), rel=1e-9)

@@ -101,7 +101,7 @@ def run(
               "warnings": list(status.warnings)})
         return
     tasks = summary["tasks"]
-    typer.echo(f"fleet {manifest.name}: {summary['measurements']} measurements, {summary['already_in_history']} "
+    typer.echo(f"{manifest.name}: {summary['measurements']} measurements, {summary['already_in_history']} "
                f"already in {history}, {summary['written']} written in {len(summary['files'])} file(s) on "
                f"{summary['engine']} in {fmt(summary['wall_s'], 's', 3)}"
                + (f" ({fmt(tasks['mean_cpu_s'], 's', 2)} CPU per measurement)" if tasks["count"] else ""))

@@ -186,6 +186,12 @@ class Trend:
         return self.level + self.slope * d, np.sqrt(np.maximum(var, 0.0))
 
     @property
+    def mean(self) -> float:
+        """Weighted mean of every measurement (``1 / sigma^2``): the best level of a parameter that does not drift."""
+        w = 1.0 / self.sigma**2
+        return float((w * self.values).sum() / w.sum()) if self.values.size else float("nan")
+
+    @property
     def change(self) -> float:
         """Relative change of the level since the baseline [-] (NaN when the baseline is 0)."""
         return (self.level - self.baseline) / abs(self.baseline) if self.baseline else float("nan")

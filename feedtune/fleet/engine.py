@@ -7,9 +7,9 @@ fleet run is the same whichever runs it. No scheduling of our own: a ``ProcessPo
 
 * Local (default): ``jobs`` processes started by a fork server (Linux; spawned elsewhere) that has imported the
   fleet's modules once, so a worker starts in milliseconds and inherits no threads of the caller (pyarrow's). Each
-  worker sets ``OPENBLAS_NUM_THREADS=1`` (and the MKL/BLIS/vecLib spellings) and ``FEEDTUNE_JOBS=1``, and on Linux
-  asks to be stopped when its parent ends (``PR_SET_PDEATHSIG``), so killing a run leaves no orphans. ``jobs=1``
-  runs every task in this process.
+  worker sets ``OPENBLAS_NUM_THREADS=1`` (and the MKL/BLIS/vecLib spellings) and ``FEEDTUNE_JOBS=1``, and ends when
+  the process running the fleet is gone (:func:`_watch`), so killing a run leaves no orphans. ``jobs=1`` runs every
+  task in this process.
 * Dask: ``scheduler`` is the address of a running ``distributed`` scheduler (``tcp://host:8786``); every worker needs
   this feedtune installed and the manifest's files at the same paths (a shared file system).
 
@@ -57,19 +57,37 @@ def available_cores() -> int:
         return max(os.cpu_count() or 1, 1)
 
 
-def _init_worker() -> None:
-    """Local worker start: one BLAS thread, no forked helpers, stopped with its parent (Linux)."""
+def _init_worker(run_pid: int) -> None:
+    """Local worker start: one BLAS thread, no forked helpers, and a watch on the run's process (:func:`_watch`)."""
     for name in BLAS_VARIABLES:
         os.environ[name] = "1"
     os.environ["FEEDTUNE_JOBS"] = "1"
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-            import signal
+    import threading
 
-            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
-        except (OSError, AttributeError):  # pragma: no cover - another libc
-            pass
+    threading.Thread(target=_watch, args=(run_pid,), name="feedtune-fleet-watch", daemon=True).start()
+
+
+def _watch(pid: int) -> None:
+    """End this worker when the process running the fleet is gone (killed with SIGKILL, it cannot stop its workers;
+    an idle worker would wait for a task forever and keep the fork server alive). Waits on a pidfd where Linux has
+    one, else looks every second."""
+    import time
+
+    try:
+        import select
+
+        fd = os.pidfd_open(pid)
+        select.select([fd], [], [])
+    except (AttributeError, OSError):
+        while True:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            except OSError:
+                pass
+            time.sleep(1.0)
+    os._exit(1)
 
 
 class Engine:
@@ -183,7 +201,8 @@ class Engine:
             ctx.set_forkserver_preload(list(PRELOAD))
         else:  # pragma: no cover - macOS, Windows
             ctx = multiprocessing.get_context("spawn")
-        self._pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx, initializer=_init_worker)
+        self._pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx, initializer=_init_worker,
+                                         initargs=(os.getpid(),))
         return self._pool
 
     def _discard_pool(self) -> None:

@@ -2,8 +2,9 @@
 
 The forecast plant at a future time is the measured FRF carried there by the model: each channel (``x1/u``,
 ``x2/u``) of each of the last :data:`RECENT` measurements multiplied by the ratio of the 2-mass model with the
-parameters the trends predict (the drifting ones extrapolated along their lines, the others held at the newest fit)
-to the model of that measurement's own fit, and the carried responses averaged (when the measurements share their
+parameters the trends predict (the drifting ones extrapolated along their lines, the others held at their weighted
+mean over the measurements: one fit's noise, 10 % on the nut damping, would otherwise move the mode's peak) to the
+model of that measurement's own fit, and the carried responses averaged (when the measurements share their
 frequency lines; else the newest alone). So everything the 2-mass model does not describe and the installed gains
 depend on (torsional modes, the current loop, delays) stays as measured, the axial mode moves as the drift says, and
 the measurement noise, which would otherwise decide a margin read at one noisy line, is averaged down. The installed
@@ -15,8 +16,10 @@ bisection to :data:`TOLERANCE_WEEKS`; it assumes the margins erode monotonically
 points. The interval comes from the trends' uncertainty: the early bound is the first failure when every drifting
 parameter runs ahead of its line by ``z`` standard deviations of the line (:meth:`feedtune.fleet.drift.Trend.at`,
 in the direction it drifts), the late bound when each lags behind by as much; with one drifting parameter this is the
-classical inverse-regression (calibration) interval of the time its line reaches the failing value. ``z`` = 1.645:
-a 90 % two-sided interval. A late bound beyond the horizon is open (``None``).
+classical inverse-regression (calibration) interval of the time its line reaches the failing value. To it the noise
+of the measured margins is added in quadrature (:func:`margin_weeks_std`: how much the failing limit's slack varies
+between the measurements averaged, over how fast it erodes). ``z`` = 1.645: a 90 % two-sided interval. A late bound
+beyond the horizon is open (``None``).
 """
 
 from __future__ import annotations
@@ -75,6 +78,8 @@ class ForecastTask:
         The newest fit: ``m1 ... c``, ``lead_m_per_rad`` and ``input_unit`` as in the history.
     recent : tuple of (tuple of str, dict)
         Earlier measurements (oldest first) averaged with the newest: their FRF files and fits.
+    held : dict
+        The model parameters that do not drift, at their mean over the measurements (default: the newest fit).
     lines : tuple of DriftLine
         The drifting model parameters.
     newest : datetime.datetime
@@ -94,6 +99,7 @@ class ForecastTask:
     newest: _dt.datetime
     horizon_weeks: float = 52.0
     recent: tuple = ()
+    held: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -210,7 +216,7 @@ class _Plant:
         self.clipped = False
 
     def values(self, weeks: float, shift: float) -> dict:
-        out = {}
+        out = dict(self.task.held)
         for line in self.task.lines:
             v = line.at(weeks, shift)
             low = FLOOR * float(self.task.fit[line.name]) if line.name in ("m1", "m2", "k") else 0.0
@@ -219,14 +225,16 @@ class _Plant:
             out[line.name] = v
         return out
 
-    def certify(self, weeks: float, shift: float):
+    def certify(self, weeks: float, shift: float, only: int | None = None):
+        """The certificate on the forecast plant (``only``: on the carried FRFs of that measurement alone)."""
         from ..machines.certificate import certify
 
         self.evaluations += 1
         model = _model(self.task.fit, self.values(weeks, shift))
+        sources = self.sources if only is None else [self.sources[only]]
         frfs = []
         for i, name in enumerate(self.task.frf_names):
-            carried = [carried_frf(frfs[i], fit_model, model) for frfs, fit_model in self.sources]
+            carried = [carried_frf(frfs[i], fit_model, model) for frfs, fit_model in sources]
             frfs.append((f"{name} + {weeks:.2f} weeks", _mean_frf(carried)))
         return certify(self.doc, self.task.gains_name, frfs, self.task.limits)
 
@@ -252,6 +260,29 @@ class _Plant:
         return None, None
 
 
+def _slack(cert, limit: str) -> float | None:
+    """The smallest slack of a limit over a certificate's FRFs."""
+    values = [i.slack for c in cert.frfs for i in c.check.items if i.name == limit and i.slack is not None]
+    return min(values) if values else None
+
+
+def margin_weeks_std(plant: _Plant, weeks: float, limit: str | None) -> float | None:
+    """The standard deviation [weeks] the measurement noise gives the failing time: the slack of the failing limit at
+    ``weeks`` on each measurement's carried FRFs alone, its standard error over them, divided by how fast the mean
+    plant's slack erodes per week there. None with fewer than 3 measurements or a margin that does not erode."""
+    n = len(plant.sources)
+    if limit is None or n < 3:
+        return None
+    each = [_slack(plant.certify(weeks, 0.0, only=j), limit) for j in range(n)]
+    if any(v is None for v in each):
+        return None
+    before, at = max(weeks - 1.0, 0.0), max(weeks, 1.0)
+    s0, s1 = _slack(plant.certify(before, 0.0), limit), _slack(plant.certify(at, 0.0), limit)
+    if s0 is None or s1 is None or not s1 < s0:
+        return None
+    return float(np.std(each, ddof=1) / np.sqrt(n) / ((s0 - s1) / (at - before)))
+
+
 def forecast_axis(task: ForecastTask) -> Forecast:
     """The forecast of one axis (module docstring); runs in a worker (:func:`run_forecast`)."""
     plant = _Plant(task)
@@ -275,6 +306,12 @@ def forecast_axis(task: ForecastTask) -> Forecast:
     if weeks is not None and late is not None:
         late = max(late, weeks)
     notes = [f"forecast plant: the mean of {len(plant.sources)} measured FRFs carried forward"]
+    spread = margin_weeks_std(plant, weeks, limit) if weeks is not None and weeks > 0 else None
+    if spread is not None:  # the noise of the measured margins, with the trend's uncertainty (quadrature)
+        z = INTERVAL_Z * spread
+        early = max(weeks - float(np.hypot(weeks - (weeks if early is None else early), z)), 0.0)
+        late = None if late is None else weeks + float(np.hypot(late - weeks, z))
+        notes.append(f"the measured margins' noise adds {spread:.2g} weeks (1 sigma) to the failing time")
     if plant.clipped:
         notes.append(f"a parameter's line reaches {FLOOR:.0%} of its newest fit within the horizon; it is held there")
     return Forecast(weeks, early, late, limit, violation, task.newest, tuple(ln.name for ln in task.lines), horizon,

@@ -197,7 +197,7 @@ def axis_rows(table, manifest, keys: Mapping[str, str]) -> tuple[dict[str, list]
 
 
 def fleet_status(manifest, history, plan, engine=None, *, settings: DriftSettings | None = None,
-                 horizon_weeks: float = HORIZON_WEEKS) -> FleetStatus:
+                 horizon_weeks: float = HORIZON_WEEKS, until: _dt.datetime | None = None) -> FleetStatus:
     """The status of every axis of ``manifest`` from the rows in ``history`` (module docstring).
 
     Parameters
@@ -212,6 +212,9 @@ def fleet_status(manifest, history, plan, engine=None, *, settings: DriftSetting
     settings : DriftSettings, optional
     horizon_weeks : float
         How far ahead failures are forecast [weeks].
+    until : datetime.datetime, optional
+        The fleet as it was then: the measurements taken later are left out (audits; the forecasts a fleet run
+        would have made on that day).
     """
     from .. import progress
     from .engine import Engine, TaskFailed
@@ -224,7 +227,7 @@ def fleet_status(manifest, history, plan, engine=None, *, settings: DriftSetting
         raise UsageError(f"horizon_weeks must be > 0, got {horizon_weeks!r}", parameter="horizon_weeks")
     table = read_history(history)
     by_axis, stale = axis_rows(table, manifest, plan.keys)
-    ok_rows = {a: [r for r in rows if r.get("measured_at") is not None] for a, rows in by_axis.items()}
+    ok_rows = {a: [r for r in rows if until is None or r["measured_at"] <= until] for a, rows in by_axis.items()}
     scatter = {}
     warnings = []
     for name in TRENDED_PARAMETERS:
@@ -233,16 +236,10 @@ def fleet_status(manifest, history, plan, engine=None, *, settings: DriftSetting
         if 0 < n < 10 and name in ("k", "coulomb"):
             warnings.append(f"the scatter of {name} between measurements rests on {n} residuals only: alarms may "
                             "come early; the estimate firms up with more measurements and axes")
-    trends: dict[str, dict[str, Trend]] = {}
-    for axis_id, rows in ok_rows.items():
-        trends[axis_id] = {}
-        for name in TRENDED_PARAMETERS:
-            t, y, s = _series(rows, name)
-            if y.size:
-                trends[axis_id][name] = trend(name, t, y, s, scatter[name]["relative"], settings)
+    trends = {axis_id: axis_trends(rows, scatter, settings) for axis_id, rows in ok_rows.items()}
     tasks = []
     for entry in manifest.axes:
-        task = _forecast_task(entry, manifest, ok_rows[entry.id], trends[entry.id], plan, horizon_weeks)
+        task = forecast_task(entry, manifest, ok_rows[entry.id], trends[entry.id], plan, horizon_weeks)
         if task is not None:
             tasks.append(task)
     forecasts: dict[str, object] = {}
@@ -256,7 +253,8 @@ def fleet_status(manifest, history, plan, engine=None, *, settings: DriftSetting
     for entry in manifest.axes:
         rows = ok_rows[entry.id]
         done = {r["key"] for r in rows}
-        pending = [m.date.date().isoformat() for m, key in plan.measurements(entry.id) if key not in done]
+        pending = [m.date.date().isoformat() for m, key in plan.measurements(entry.id)
+                   if key not in done and (until is None or m.date <= until)]
         fc = forecasts.get(entry.id)
         forecast = fc if isinstance(fc, Forecast) else None
         fc_error = fc if isinstance(fc, str) else None
@@ -269,8 +267,20 @@ def fleet_status(manifest, history, plan, engine=None, *, settings: DriftSetting
                        float(horizon_weeks), stale, tuple(warnings))
 
 
-def _forecast_task(entry, manifest, rows, trends, plan, horizon) -> ForecastTask | None:
-    """A forecast for an axis with a drifting model parameter and a fitted newest measurement."""
+def axis_trends(rows: list, scatter: Mapping, settings: DriftSettings) -> dict[str, Trend]:
+    """The trend of every parameter of :data:`feedtune.fleet.drift.TRENDED_PARAMETERS` one axis' rows have
+    (``scatter``: ``{name: {"relative": tau}}``, :func:`feedtune.fleet.drift.pooled_scatter`)."""
+    out = {}
+    for name in TRENDED_PARAMETERS:
+        t, y, s = _series(rows, name)
+        if y.size:
+            out[name] = trend(name, t, y, s, scatter[name]["relative"], settings)
+    return out
+
+
+def forecast_task(entry, manifest, rows, trends, plan, horizon) -> ForecastTask | None:
+    """The forecast task of an axis with a drifting model parameter and a fitted newest measurement (None
+    otherwise)."""
     drifting = [trends[n] for n in MODEL_PARAMETERS if n in trends and alarm_of(trends[n])]
     if not drifting or not rows:
         return None
@@ -286,10 +296,11 @@ def _forecast_task(entry, manifest, rows, trends, plan, horizon) -> ForecastTask
         m = plan.measurement(r["key"])
         if m is not None:
             recent.append((tuple(str(p) for p in m.frfs), fit_of(r)))
+    held = {n: trends[n].mean for n in MODEL_PARAMETERS if n in trends and not alarm_of(trends[n])}
     return ForecastTask(entry.id, str(entry.gains), manifest.relative(entry.gains), entry.limits,
                         tuple(str(p) for p in meas.frfs), tuple(manifest.relative(p) for p in meas.frfs),
                         dict(entry.frf_options), fit_of(newest), lines, newest["measured_at"], float(horizon),
-                        tuple(recent))
+                        tuple(recent), held)
 
 
 def fit_of(row: dict) -> dict:
