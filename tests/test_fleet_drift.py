@@ -5,6 +5,7 @@ simulation put in; the future plant's FRF computed from its own model; a brute-f
 
 from __future__ import annotations
 
+import datetime
 from dataclasses import replace
 
 import numpy as np
@@ -13,6 +14,7 @@ import pytest
 from feedtune.fleet.drift import DriftSettings, cusum_threshold, pooled_scatter, trend
 from feedtune.fleet.forecast import DriftLine, ForecastTask, carried_frf, forecast_axis
 from feedtune.fleet.simulated import SimulatedAxis, installed_gains
+from feedtune.fleet.snapshot import Snapshot
 from feedtune.machines.certificate import certify
 from feedtune.models import THESIS_TABLE_3_1
 
@@ -111,11 +113,11 @@ def test_the_forecast_week_is_the_first_failing_week_of_a_brute_force_scan(tmp_p
     write_frf(AXIS.true_frf(0.0), tmp_path / "frf.csv")
     k0 = AXIS.model.k
     fit = {**AXIS.model.params(), "lead_m_per_rad": AXIS.model.lead_m_per_rad, "input_unit": "V"}
+    axis = Snapshot("M/X", "key", datetime.datetime(2025, 1, 6), str(tmp_path / "gains.toml"), "gains.toml", None,
+                    (str(tmp_path / "frf.csv"),), ("frf.csv",), {}, fit)
 
     def task(level_std, slope_std):
-        line = DriftLine("k", k0, -0.02 * k0, level_std, slope_std, 0.0)
-        return ForecastTask("M/X", str(tmp_path / "gains.toml"), "gains.toml", None, (str(tmp_path / "frf.csv"),),
-                            ("frf.csv",), {}, fit, (line,), _date(), 40.0)
+        return ForecastTask(axis, (DriftLine("k", k0, -0.02 * k0, level_std, slope_std, 0.0),), 40.0)
 
     def fails(week):
         return not certify(doc, "g", [("f", AXIS.true_frf(week))]).ok
@@ -129,8 +131,3 @@ def test_the_forecast_week_is_the_first_failing_week_of_a_brute_force_scan(tmp_p
     assert wide.early < exact.weeks < wide.late
     assert wide.weeks == pytest.approx(exact.weeks, abs=0.06)
 
-
-def _date():
-    import datetime
-
-    return datetime.datetime(2025, 1, 6)

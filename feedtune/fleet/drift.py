@@ -42,8 +42,6 @@ Coulomb and viscous levels (b1, b2, the delay and the offset are trended but not
 band, or not a property of the axis)."""
 TRENDED_PARAMETERS = ("m1", "m2", "b1", "b2", "k", "c", "mode_hz", "delay_s", "mass", "viscous", "coulomb", "offset")
 """Parameters whose trend is computed (those of :data:`ALARM_PARAMETERS` and the ones shown only)."""
-MODEL_PARAMETERS = ("m1", "m2", "b1", "b2", "k", "c")
-"""The 2-mass model's parameters: the forecast extrapolates those that drift."""
 POORLY_DETERMINED = 0.5
 """A parameter whose fits' median relative standard deviation exceeds this is not alarmed on (b1, b2 on a band that
 starts far above the real pole)."""

@@ -29,6 +29,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .snapshot import Snapshot, model_of
+
 GRID_WEEKS = (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 13.0, 17.0, 21.0, 26.0, 34.0, 43.0, 52.0)
 """Weeks ahead of the newest measurement where the forecast plant is certified before refining."""
 TOLERANCE_WEEKS = 0.05
@@ -67,39 +69,27 @@ class ForecastTask:
 
     Attributes
     ----------
-    axis_id : str
-    gains, gains_name : str
-        The installed gains file (absolute) and its name.
-    limits : Limits
-    frfs, frf_names : tuple of str
-        The newest measurement's FRFs.
-    frf_options : dict
-    fit : dict
-        The newest fit: ``m1 ... c``, ``lead_m_per_rad`` and ``input_unit`` as in the history.
+    axis : Snapshot
+        The installed gains, the limits and the newest measurement with its fit.
+    lines : tuple of DriftLine
+        The drifting model parameters.
+    horizon_weeks : float
     recent : tuple of (tuple of str, dict)
         Earlier measurements (oldest first) averaged with the newest: their FRF files and fits.
     held : dict
         The model parameters that do not drift, at their mean over the measurements (default: the newest fit).
-    lines : tuple of DriftLine
-        The drifting model parameters.
-    newest : datetime.datetime
-        Date of the newest measurement.
-    horizon_weeks : float
     """
 
-    axis_id: str
-    gains: str
-    gains_name: str
-    limits: object
-    frfs: tuple[str, ...]
-    frf_names: tuple[str, ...]
-    frf_options: dict
-    fit: dict
+    axis: Snapshot
     lines: tuple[DriftLine, ...]
-    newest: _dt.datetime
     horizon_weeks: float = 52.0
     recent: tuple = ()
     held: dict = field(default_factory=dict)
+
+    @property
+    def axis_id(self) -> str:
+        """The axis (``machine/axis``)."""
+        return self.axis.axis_id
 
 
 @dataclass(frozen=True)
@@ -189,29 +179,22 @@ def _mean_frf(frfs: list):
     return replace(frfs[0], response=response, coherence=coh)
 
 
-def _model(fit: dict, values: dict):
-    from ..models.ballscrew import BallScrewModel
-
-    params = {k: float(values.get(k, fit[k])) for k in ("m1", "m2", "b1", "b2", "k", "c")}
-    return BallScrewModel(**params, lead_m_per_rad=float(fit.get("lead_m_per_rad") or 0.02 / (2 * np.pi)),
-                          input_unit=str(fit.get("input_unit") or "V"))
-
-
 class _Plant:
     """Certifies the installed gains on the forecast plant of given parameter values."""
 
     def __init__(self, task: ForecastTask):
-        from ..io import read_document, read_frf
+        from ..io import read_document
 
         self.task = task
-        self.doc = read_document(task.gains)
-        self.fit_model = _model(task.fit, {})
-        newest = [read_frf(p, **task.frf_options) for p in task.frfs]
+        axis = task.axis
+        self.doc = read_document(axis.gains)
+        self.fit_model = model_of(axis.fit)
+        newest = axis.read_frfs()
         self.sources = [(newest, self.fit_model)]
         for paths, fit in task.recent:
-            frfs = [read_frf(p, **task.frf_options) for p in paths]
+            frfs = axis.read_frfs(paths)
             if len(frfs) == len(newest) and all(_same_lines(a, b) for a, b in zip(frfs, newest, strict=True)):
-                self.sources.append((frfs, _model(fit, {})))
+                self.sources.append((frfs, model_of(fit)))
         self.evaluations = 0
         self.clipped = False
 
@@ -219,7 +202,7 @@ class _Plant:
         out = dict(self.task.held)
         for line in self.task.lines:
             v = line.at(weeks, shift)
-            low = FLOOR * float(self.task.fit[line.name]) if line.name in ("m1", "m2", "k") else 0.0
+            low = FLOOR * float(self.task.axis.fit[line.name]) if line.name in ("m1", "m2", "k") else 0.0
             if v < low:
                 v, self.clipped = low, True
             out[line.name] = v
@@ -230,13 +213,14 @@ class _Plant:
         from ..machines.certificate import certify
 
         self.evaluations += 1
-        model = _model(self.task.fit, self.values(weeks, shift))
+        axis = self.task.axis
+        model = model_of(axis.fit, self.values(weeks, shift))
         sources = self.sources if only is None else [self.sources[only]]
         frfs = []
-        for i, name in enumerate(self.task.frf_names):
+        for i, name in enumerate(axis.frf_names):
             carried = [carried_frf(frfs[i], fit_model, model) for frfs, fit_model in sources]
             frfs.append((f"{name} + {weeks:.2f} weeks", _mean_frf(carried)))
-        return certify(self.doc, self.task.gains_name, frfs, self.task.limits)
+        return certify(self.doc, axis.gains_name, frfs, axis.limits)
 
     def first_failure(self, shift: float, horizon: float):
         """``(weeks, certificate)`` of the first failure along the path ``shift``, or ``(None, None)``."""
@@ -314,7 +298,7 @@ def forecast_axis(task: ForecastTask) -> Forecast:
         notes.append(f"the measured margins' noise adds {spread:.2g} weeks (1 sigma) to the failing time")
     if plant.clipped:
         notes.append(f"a parameter's line reaches {FLOOR:.0%} of its newest fit within the horizon; it is held there")
-    return Forecast(weeks, early, late, limit, violation, task.newest, tuple(ln.name for ln in task.lines), horizon,
+    return Forecast(weeks, early, late, limit, violation, task.axis.date, tuple(ln.name for ln in task.lines), horizon,
                     plant.evaluations, tuple(notes), now_dict)
 
 

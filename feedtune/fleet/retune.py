@@ -10,40 +10,9 @@ so a re-run proposes for a measurement once.
 
 from __future__ import annotations
 
-import datetime as _dt
 from dataclasses import dataclass
 
-
-@dataclass(frozen=True)
-class RetuneTask:
-    """What one re-tune needs (picklable).
-
-    Attributes
-    ----------
-    axis_id, key : str
-        The axis and the key of the measurement it is tuned on.
-    gains, gains_name : str
-        The installed gains file (its controller, filter pack and sample rate are kept).
-    limits : Limits
-    frfs, frf_names : tuple of str
-        The newest measurement's FRFs.
-    frf_options : dict
-    fit : dict
-        The newest fit (``m1 ... c``, ``lead_m_per_rad``, ``input_unit``).
-    date : datetime.datetime
-        The measurement's date.
-    """
-
-    axis_id: str
-    key: str
-    gains: str
-    gains_name: str
-    limits: object
-    frfs: tuple[str, ...]
-    frf_names: tuple[str, ...]
-    frf_options: dict
-    fit: dict
-    date: _dt.datetime
+from .snapshot import Snapshot, model_of
 
 
 @dataclass(frozen=True)
@@ -56,17 +25,16 @@ class Proposal:
     summary: dict
 
 
-def retune_axis(task: RetuneTask) -> Proposal:
+def retune_axis(task: Snapshot) -> Proposal:
     """Tune and certify (module docstring); DesignError when no design of the structure meets the limits."""
     from ..control.filters import FilterPack
     from ..errors import DesignError
-    from ..io import read_document, read_frf
+    from ..io import read_document
     from ..io.document import strip_none
     from ..io.gains import gains_document, read_sampling
     from ..machines.certificate import certify
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
-    from .forecast import _model
 
     installed = read_document(task.gains)
     kind = installed.get("controller")
@@ -78,8 +46,8 @@ def retune_axis(task: RetuneTask) -> Proposal:
     fs, delay, _ = read_sampling(installed, task.gains_name)
     from dataclasses import replace
 
-    model = replace(_model(task.fit, {}), lead_given="lead_m_per_rad" in installed.get("model", {}))
-    frfs = [read_frf(p, **task.frf_options) for p in task.frfs]
+    model = replace(model_of(task.fit), lead_given="lead_m_per_rad" in installed.get("model", {}))
+    frfs = task.read_frfs()
     design = tuners[kind](model, limits=task.limits, filters=pack, fs=fs, delay_samples=delay, frf=frfs,
                           filter_choice="identical")
     doc = gains_document(design)
@@ -97,7 +65,7 @@ def retune_axis(task: RetuneTask) -> Proposal:
     return Proposal(task.axis_id, task.key, doc, summary)
 
 
-def run_retune(task: RetuneTask):
+def run_retune(task: Snapshot):
     """:func:`retune_axis` under the worker settings; a failure is returned as its message (one line)."""
     from .task import _one_line, worker_settings
 

@@ -245,23 +245,18 @@ def _take(summary: RunSummary, writer: HistoryWriter, task: MeasurementTask, out
 def _propose(fleet, manifest: Manifest, history, plan: Plan, engine: Engine, summary: RunSummary):
     """Re-tune the red and amber axes that have no proposal for their newest measurement (module docstring)."""
     from ..io import write_document
-    from .drift import MODEL_PARAMETERS
-    from .retune import Proposal, RetuneTask, run_retune
-    from .status import _finite, _proposal, fit_of, proposal_name
+    from .retune import Proposal, run_retune
+    from .snapshot import has_fit, snapshot
+    from .status import _proposal, proposal_name
 
     tasks = []
     for a in fleet.axes:
         newest = a.newest
         if a.light not in ("red", "amber") or a.proposal is not None or newest is None:
             continue
-        if not all(_finite(newest.get(n)) for n in MODEL_PARAMETERS):
+        if not has_fit(newest):
             continue
-        meas = plan.measurement(newest["key"])
-        entry = manifest.axis(a.axis_id)
-        tasks.append(RetuneTask(a.axis_id, newest["key"], str(entry.gains), manifest.relative(entry.gains),
-                                entry.limits, tuple(str(p) for p in meas.frfs),
-                                tuple(manifest.relative(p) for p in meas.frfs), dict(entry.frf_options),
-                                fit_of(newest), newest["measured_at"]))
+        tasks.append(snapshot(manifest.axis(a.axis_id), manifest, newest, plan.measurement(newest["key"])))
     if not tasks:
         return fleet
     folder = Path(history) / PROPOSALS

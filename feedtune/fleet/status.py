@@ -23,9 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .drift import MODEL_PARAMETERS, TRENDED_PARAMETERS, WEEK_S, DriftSettings, Trend, alarm_of, pooled_scatter, trend
+from .drift import TRENDED_PARAMETERS, WEEK_S, DriftSettings, Trend, alarm_of, pooled_scatter, trend
 from .forecast import RECENT, DriftLine, Forecast, ForecastTask, run_forecast
 from .history import PROPOSALS
+from .snapshot import MODEL_PARAMETERS, fit_of, has_fit, snapshot
 
 LIMIT_NAMES = {"ms": "Ms", "pm_deg": "PM", "gm_db": "GM", "disk_margin": "disk margin", "stable": "stability",
                "band_top": "the loop at the FRF's last line"}
@@ -285,28 +286,19 @@ def forecast_task(entry, manifest, rows, trends, plan, horizon) -> ForecastTask 
     if not drifting or not rows:
         return None
     newest = rows[-1]
-    if not all(_finite(newest.get(n)) for n in MODEL_PARAMETERS):
+    if not has_fit(newest):
         return None
     meas = plan.measurement(newest["key"])
     if meas is None:
         return None
     lines = tuple(DriftLine(t.name, t.level, t.slope, t.level_std, t.slope_std, t.cov) for t in drifting)
     recent = []
-    for r in [r for r in rows[:-1] if all(_finite(r.get(n)) for n in MODEL_PARAMETERS)][-(RECENT - 1):]:
+    for r in [r for r in rows[:-1] if has_fit(r)][-(RECENT - 1):]:
         m = plan.measurement(r["key"])
         if m is not None:
             recent.append((tuple(str(p) for p in m.frfs), fit_of(r)))
     held = {n: trends[n].mean for n in MODEL_PARAMETERS if n in trends and not alarm_of(trends[n])}
-    return ForecastTask(entry.id, str(entry.gains), manifest.relative(entry.gains), entry.limits,
-                        tuple(str(p) for p in meas.frfs), tuple(manifest.relative(p) for p in meas.frfs),
-                        dict(entry.frf_options), fit_of(newest), lines, newest["measured_at"], float(horizon),
-                        tuple(recent), held)
-
-
-def fit_of(row: dict) -> dict:
-    """The 2-mass fit of a history row as the forecast and the re-tune take it."""
-    return {**{n: float(row[n]) for n in MODEL_PARAMETERS}, "lead_m_per_rad": row.get("lead_m_per_rad"),
-            "input_unit": row.get("input_unit")}
+    return ForecastTask(snapshot(entry, manifest, newest, meas), lines, float(horizon), tuple(recent), held)
 
 
 def _light(rows, alarms, forecast, horizon) -> tuple[str, str]:

@@ -23,11 +23,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from ..analysis.limits import Limits
+from .snapshot import MODEL_PARAMETERS
 
 TRANSIENT = (OSError, MemoryError)
 """Failures of the machine, not of the data: the task is tried again by the next run (not written)."""
 
-BALLSCREW_PARAMS = ("m1", "m2", "b1", "b2", "k", "c")
 FRICTION_PARAMS = ("mass", "viscous", "coulomb", "offset")
 
 
@@ -218,7 +218,7 @@ def _identify(task: MeasurementTask, frfs: list, row: dict, warnings: list) -> N
     model = fit.model
     row["input_unit"] = model.input_unit
     row["lead_m_per_rad"] = float(model.lead_m_per_rad)
-    for name in BALLSCREW_PARAMS:
+    for name in MODEL_PARAMETERS:
         row[name] = float(getattr(model, name))
         row[f"{name}_std"] = float(fit.std.get(name, float("nan")))
     row["delay_s"], row["delay_s_std"] = float(fit.delay_s), float(fit.delay_std_s)
