@@ -36,19 +36,20 @@ from pathlib import Path
 WEEK = dt.timedelta(days=7)
 
 
-def single_task_seconds(plan, axis_id: str) -> float:
-    """Mean wall time of the task function on one axis' measurements, serially in this process, best of 3."""
+def single_task_seconds(plan, axis_id: str) -> tuple[float, float]:
+    """Mean wall and CPU time of the task function on one axis' measurements, serially in this process, best of 3."""
     from feedtune.fleet.task import run_measurement
 
     tasks = [t for t in plan.tasks if t.axis_id == axis_id]
     run_measurement(tasks[0])  # imports, caches
-    best = float("inf")
+    best, cpu = float("inf"), float("inf")
     for _ in range(3):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for t in tasks:
             run_measurement(t)
         best = min(best, (time.perf_counter() - t0) / len(tasks))
-    return best
+        cpu = min(cpu, (time.process_time() - c0) / len(tasks))
+    return best, cpu
 
 
 def kill_and_resume(manifest_path: Path, history: Path, rows: int) -> dict:
@@ -173,11 +174,12 @@ def main() -> None:
     manifest = load_manifest(folder / "fleet.toml")
     plan = plan_fleet(manifest)
     n_tasks = len(plan.tasks)
-    single = single_task_seconds(plan, manifest.axes[0].id)
+    single, single_cpu = single_task_seconds(plan, manifest.axes[0].id)
     ideal = single * n_tasks / out["cores"]
-    out.update({"tasks": n_tasks, "single_task_s": single, "ideal_fleet_s": ideal})
-    print(f"single task {single * 1e3:.0f} ms (this process, serial); ideal fleet {ideal:.1f} s on "
-          f"{out['cores']} cores")
+    out.update({"tasks": n_tasks, "single_task_s": single, "single_task_cpu_s": single_cpu, "ideal_fleet_s": ideal,
+                "load_average": os.getloadavg()})
+    print(f"single task {single * 1e3:.0f} ms wall, {single_cpu * 1e3:.0f} ms CPU (this process, serial); ideal "
+          f"fleet {ideal:.1f} s on {out['cores']} cores; load average {os.getloadavg()[0]:.1f}")
 
     local = work / "local.parquet"
     with Engine() as engine:
@@ -194,6 +196,7 @@ def main() -> None:
         out["local"]["total_wall_s"] = time.perf_counter() - t0
         print(f"local processes: measurements {s.wall_s:.1f} s ({1e3 * s.wall_s / n_tasks:.1f} ms per measurement, "
               f"{s.wall_s / len(manifest.axes):.2f} s per axis) = {s.wall_s / ideal:.2f} x ideal (target <= 2); "
+              f"{1e3 * out['local']['mean_task_cpu_s']:.0f} ms CPU per task in the workers; "
               f"status (drift, forecasts) {out['local']['status_wall_s']:.1f} s; worker peak memory "
               f"{max(out['local']['worker_peak_rss_mib'].values()):.0f} MiB")
         out["detection"] = detection(status, truth, START)

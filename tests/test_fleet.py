@@ -70,6 +70,18 @@ def test_the_csv_manifest_is_the_toml_one(fleet, tmp_path):
         assert x.log_options["position"] == y.log_options["position"] == "x1"
 
 
+def test_option_tables_add_to_the_defaults(tmp_path):
+    p = tmp_path / "fleet.toml"
+    p.write_text('[defaults]\nlog_options = {position = "x1", velocity_threshold = 3.0}\nlimits = "thesis"\n'
+                 '[[axis]]\nmachine = "A"\naxis = "X"\ngains = "g.toml"\nlog_options = {velocity_threshold = 2.0}\n'
+                 '[[axis.measurement]]\ndate = 2025-01-06T08:30:00\nfrf = ["a.csv", "b.csv"]\nlog = "l.csv"\n',
+                 encoding="utf-8")
+    a = load_manifest(p).axes[0]
+    assert a.log_options == {"position": "x1", "input": "u", "velocity_threshold": 2.0}
+    assert [f.name for f in a.measurements[0].frfs] == ["a.csv", "b.csv"] and a.limits.name == "thesis"
+    assert a.measurements[0].date.hour == 8 and a.measurements[0].log == tmp_path / "l.csv"
+
+
 @pytest.mark.parametrize(("text", "words"), [
     ('[[axis]]\nmachine = "A"\naxis = "X"\ngains = "g.toml"\n', ["axis A/X", "measurement"]),
     ('[[axis]]\nmachine = "A"\naxis = "X"\ngains = "g.toml"\n[[axis.measurement]]\ndate = "soon"\nfrf = "a.csv"\n',

@@ -31,6 +31,7 @@ STRUCTURES = ("ballscrew",)
 
 AXIS_KEYS = frozenset({"machine", "axis", "structure", "gains", "limits", "report", "frf_options", "log_options",
                        "identify", "measurement"})
+OPTION_TABLES = ("frf_options", "log_options", "identify")
 LIMIT_KEYS = ("ms_max", "pm_min_deg", "gm_min_db", "disk_margin_min")
 FRF_OPTION_KEYS = frozenset({"quantity", "freq_var", "channels", "coherence", "columns", "skip_rows", "scale"})
 """Keyword arguments of :func:`feedtune.io.read_frf` a manifest may give (``[axis.frf_options]``)."""
@@ -184,7 +185,11 @@ def _from_document(path: Path, doc: Mapping) -> Manifest:
     for n, raw in enumerate(axes, 1):
         if not isinstance(raw, Mapping):
             raise DataError(f"{path}: [[axis]] number {n} must be a table")
-        entries.append(_axis(path, {**defaults, **raw}, f"{path}: axis {n}"))
+        merged = {**defaults, **raw}
+        for key in OPTION_TABLES:  # an axis' option table adds to the defaults' (its keys win)
+            if isinstance(defaults.get(key), Mapping) and isinstance(raw.get(key), Mapping):
+                merged[key] = {**defaults[key], **raw[key]}
+        entries.append(_axis(path, merged, f"{path}: axis {n}"))
     return _checked(Manifest(path.resolve(), str(doc.get("name") or path.stem), tuple(entries)))
 
 
