@@ -49,6 +49,18 @@ class TaskFailed:
     message: str
 
 
+def _failure(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+
+
+def _call(fn: Callable, item):
+    """``fn(item)`` in this process; an exception comes back as a :class:`TaskFailed` (one task, not the run)."""
+    try:
+        return fn(item)
+    except Exception as exc:
+        return TaskFailed(_failure(exc))
+
+
 def available_cores() -> int:
     """Cores this process may use (its CPU affinity where the platform says)."""
     try:
@@ -136,7 +148,7 @@ class Engine:
         if self._client is not None:
             return self._dask(fn, items)
         if self.jobs == 1:
-            return ((item, fn(item)) for item in items)
+            return ((item, _call(fn, item)) for item in items)
         return self._local(fn, items)
 
     def _local(self, fn, items) -> Iterator[tuple[object, object]]:
@@ -169,6 +181,8 @@ class Engine:
                         except BrokenProcessPool:
                             broken.append(i)
                             continue
+                        except Exception as exc:  # the task function raised (a bug) or its result did not pickle
+                            result = TaskFailed(_failure(exc))
                         self._finished += 1
                         yield items[i], result
                     if broken:
@@ -236,7 +250,7 @@ class Engine:
                 try:
                     result = fut.result()
                 except Exception as exc:  # KilledWorker, a lost connection: this task, not the run
-                    result = TaskFailed(f"the Dask cluster could not run it: {type(exc).__name__}: {exc}")
+                    result = TaskFailed(f"the Dask cluster could not run it: {_failure(exc)}")
                 fut.release()
                 yield items[i], result
                 submit()

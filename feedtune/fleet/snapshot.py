@@ -50,9 +50,14 @@ class Snapshot:
         return [read_frf(p, **self.frf_options) for p in (self.frfs if paths is None else paths)]
 
 
+def finite(value) -> bool:
+    """A number, not NaN or infinite (history cells are None where a fit failed)."""
+    return isinstance(value, (int, float)) and bool(np.isfinite(value))
+
+
 def has_fit(row: dict) -> bool:
     """The row holds a whole 2-mass fit (every parameter finite)."""
-    return all(isinstance(row.get(n), (int, float)) and np.isfinite(row[n]) for n in MODEL_PARAMETERS)
+    return all(finite(row.get(n)) for n in MODEL_PARAMETERS)
 
 
 def fit_of(row: dict) -> dict:

@@ -26,7 +26,7 @@ import numpy as np
 from .drift import TRENDED_PARAMETERS, WEEK_S, DriftSettings, Trend, alarm_of, pooled_scatter, trend
 from .forecast import RECENT, DriftLine, Forecast, ForecastTask, run_forecast
 from .history import PROPOSALS
-from .snapshot import MODEL_PARAMETERS, fit_of, has_fit, snapshot
+from .snapshot import MODEL_PARAMETERS, finite, fit_of, has_fit, snapshot
 
 LIMIT_NAMES = {"ms": "Ms", "pm_deg": "PM", "gm_db": "GM", "disk_margin": "disk margin", "stable": "stability",
                "band_top": "the loop at the FRF's last line"}
@@ -158,11 +158,7 @@ def _iso(v) -> str | None:
 
 def _dates_of(tr: Trend, rows: list) -> list:
     """The dates of a trend's measurements (rows without the parameter are not in the trend)."""
-    return [r["measured_at"] for r in rows if _finite(r.get(tr.name))]
-
-
-def _finite(v) -> bool:
-    return isinstance(v, (int, float)) and np.isfinite(v)
+    return [r["measured_at"] for r in rows if finite(r.get(tr.name))]
 
 
 # ------------------------------------------------------------------------------------------ building it
@@ -172,12 +168,12 @@ def _weeks(rows: list) -> np.ndarray:
 
 
 def _series(rows: list, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    use = [r for r in rows if _finite(r.get(name))]
+    use = [r for r in rows if finite(r.get(name))]
     if not use:
         return np.zeros(0), np.zeros(0), np.zeros(0)
-    t = _weeks(rows)[[i for i, r in enumerate(rows) if _finite(r.get(name))]]
+    t = _weeks(rows)[[i for i, r in enumerate(rows) if finite(r.get(name))]]
     y = np.array([float(r[name]) for r in use])
-    s = np.array([float(r[f"{name}_std"]) if _finite(r.get(f"{name}_std")) else 0.0 for r in use])
+    s = np.array([float(r[f"{name}_std"]) if finite(r.get(f"{name}_std")) else 0.0 for r in use])
     return t, y, s
 
 
