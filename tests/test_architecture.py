@@ -25,6 +25,7 @@ FACADES = {"plotting", "interop_control"}
 ALLOWED = {
     "cli": "*",
     "workflows": {"analysis", "control", "design", "identify", "io", "machines", "models", "report", "sim", "tune"},
+    "fleet": {"analysis", "control", "design", "identify", "io", "machines", "models", "report", "sim", "tune"},
     "report": {"analysis", "control", "io", "machines", "models", "sim"},
     "export": {"control", "io", "machines"},
     "tune": {"analysis", "control", "design", "models"},

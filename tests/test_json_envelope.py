@@ -69,6 +69,8 @@ def work(tmp_path_factory) -> Path:
             ["simulate", "gantry", "mass", "--out", "mass.csv", "--x", "-0.3", "--x", "0.3"],
             ["log", "convert", "examples/ballscrew_track.csv", "--keep", "x_ref", "--out", "ref.csv"],
             ["log", "convert", "examples/ballscrew_track.csv", "--keep", "u", "--out", "u.csv"],
+            ["fleet", "simulate", "fleet", "--axes", "2", "--weeks", "3", "--drift-share", "0"],
+            ["fleet", "run", "fleet/fleet.toml", "--history", "history.parquet", "--jobs", "1"],
         ):
             _main(args)
     from feedtune.io import read_log, write_log_csv
@@ -149,6 +151,10 @@ CASES = {  # id: (kind, arguments); each runs in well under 5 s
                                     "--time", "col0", "--map", "force=col1", "--map", "input=col3", "--scale",
                                     "force=-200", "--keep", "force,input", "--out", "daq.csv", "--force"]),
     "log merge": ("log.merge", ["log", "merge", "ref.csv", "u.csv", "--out", "merged.csv", "--force"]),
+    "fleet simulate": ("fleet.simulate", ["fleet", "simulate", "fleet_1", "--axes", "1", "--weeks", "2", "--force"]),
+    "fleet run": ("fleet.run", ["fleet", "run", "fleet/fleet.toml", "--history", "history.parquet", "--jobs", "1"]),
+    "fleet report": ("fleet.report", ["fleet", "report", "fleet/fleet.toml", "--history", "history.parquet", "--jobs",
+                                      "1", "--out", "fleet.html", "--force"]),
 }
 SLOW_CASES = {  # more than 5 s each (the gantry rope snap: compiling its closed loop)
     "simulate gantry ropesnap": ("simulate.gantry.ropesnap", ["simulate", "gantry", "ropesnap", "--gains",

@@ -142,6 +142,13 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
                     "    --unit position=rad --keep u,position --out reversals.csv",),
     "log resample": ("feedtune log resample examples/ballscrew_reversals.csv --fs 250 \\\n"
                      "    --out reversals_250hz.csv",),
+    "fleet simulate": ("feedtune fleet simulate fleet --axes 4 --weeks 5 --drift-share 0.5",),
+    "fleet run": ("feedtune fleet simulate fleet --axes 4 --weeks 5 --drift-share 0.5",
+                  "feedtune fleet run fleet/fleet.toml --history history.parquet"),
+    "fleet report": ("feedtune fleet simulate fleet --axes 4 --weeks 5 --drift-share 0.5",
+                     "feedtune fleet run fleet/fleet.toml --history history.parquet",
+                     "feedtune fleet report fleet/fleet.toml --history history.parquet \\\n"
+                     "    --out fleet.html"),
     "log merge": ("feedtune log convert examples/ballscrew_track.csv --keep u --out u.csv",
                   "feedtune log convert examples/ballscrew_track.csv --keep x2_table \\\n"
                   "    --out x.csv",

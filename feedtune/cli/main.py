@@ -18,6 +18,7 @@ from . import (
     design_cmd,
     design_gantry_cmd,
     export_cmd,
+    fleet_cmd,
     frf_cmd,
     help_text,
     identify_cmd,
@@ -82,6 +83,7 @@ app.add_typer(simulate_cmd.app, name="simulate")
 app.command("trajectory")(trajectory_cmd.trajectory)
 app.command("demo")(demo_cmd.demo)
 app.add_typer(log_cmd.app, name="log")
+app.add_typer(fleet_cmd.app, name="fleet")
 help_text.prepare_help(app)
 
 
