@@ -15,8 +15,8 @@ ROOT = Path(__file__).resolve().parents[1] / "feedtune"
 
 # Value-type modules at the bottom: everything may import them (numpy only below them).
 BASE = {
-    "errors", "frf", "log", "lti", "quantity", "frf_sampling", "spectrum", "blas", "display", "progress", "parallel",
-    "__init__", "__main__",
+    "errors", "frf", "log", "lti", "quantity", "frf_sampling", "frf_quality", "spectrum", "blas", "display", "progress",
+    "parallel", "__init__", "__main__",
 }
 # Facades above every package: they register their functions in display (display.facade), through which the value
 # types' .plot() and .to_control() reach them; only the package root imports them, so nothing below has an edge up.
@@ -25,7 +25,8 @@ FACADES = {"plotting", "interop_control"}
 ALLOWED = {
     "cli": "*",
     "workflows": {"analysis", "control", "design", "identify", "io", "machines", "models", "report", "sim", "tune"},
-    "fleet": {"analysis", "control", "design", "identify", "io", "machines", "models", "report", "sim", "tune"},
+    "fleet": {"analysis", "control", "design", "identify", "io", "machines", "models", "report", "sim", "tune",
+              "workflows"},
     "report": {"analysis", "control", "io", "machines", "models", "sim"},
     "export": {"control", "io", "machines"},
     "tune": {"analysis", "control", "design", "models"},

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from feedtune.analysis.band_edge import continue_plant
-from feedtune.analysis.trust import averages_of, hann_step_correlation, line_trust
+from feedtune.frf_quality import averages_of, hann_step_correlation, line_trust
 from feedtune.models import THESIS_TABLE_3_1
 from feedtune.models.rolloff import fit_rolloff, fitted_band
 

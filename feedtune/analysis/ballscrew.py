@@ -47,6 +47,7 @@ from ..control.ballscrew_law import BallScrewLaw
 from ..display import AnalysisDisplay, CaseDisplay
 from ..errors import DataError
 from ..frf import Frf
+from ..frf_quality import averages_of
 from ..lti import Zpk
 from ..models.ballscrew import BallScrewModel
 from .cases import (
@@ -62,7 +63,6 @@ from .cases import (
 )
 from .loop import LoopCase, LoopExtension, LoopMetrics, analyze_loops, extension_grid, junction_scale
 from .resolution import lightly_damped
-from .trust import averages_of
 
 
 @dataclass(frozen=True, repr=False)

@@ -1,7 +1,7 @@
 """A measured plant continued where its lines prove nothing: above the noise of a channel, and above the FRF.
 
-Per channel of a measured plant (:mod:`feedtune.analysis.trust`): the lines from where the channel turns to noise
-are replaced by the model times the roll-off identified on the channel's top trustworthy octave
+Per channel of a measured plant (:mod:`feedtune.frf_quality`): the lines from where the channel turns to noise
+at the top are replaced by the model times the roll-off identified on the channel's top trustworthy octave
 (:func:`feedtune.models.rolloff.fit_rolloff` on the ratio measured / model); and every channel is continued above the
 FRF's last line, up to the Nyquist frequency of the controller, by the same product. The verdict then covers the whole
 contour (the Nyquist count closes at ``fs / 2``) and says what it assumes there (:meth:`BandEdge.assumptions`):
@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..frf_quality import line_errors, trust_of
 from ..models.rolloff import Rolloff, fit_rolloff, fitted_band
 from .resolution import feature_points
-from .trust import line_errors, trust_of
 
 POINTS_PER_DECADE = 100
 """Density of the continuation above the FRF's last line."""
@@ -62,6 +62,11 @@ class BandEdge:
         return float(min(t.band_top_hz for t in self.trust))
 
     @property
+    def valid_from_hz(self) -> float:
+        """The bottom of the band where every channel is measured and trustworthy [Hz]."""
+        return float(max(t.band_bottom_hz for t in self.trust))
+
+    @property
     def noise_from_hz(self) -> float | None:
         """The lowest noise start over the channels [Hz], or None."""
         starts = [t.noise_from_hz for t in self.trust if t.noise_from_hz is not None]
@@ -77,12 +82,17 @@ class BandEdge:
             where = (f"from {t.noise_from_hz:.4g} Hz (where its lines turn to noise)" if t.noise_from_hz is not None
                      else f"above {lo:.4g} Hz (the FRF's last line)")
             out.append(f"{name} {where}: {r.describe()}")
+        for name, t in zip(self.channels, self.trust, strict=True):
+            if t.noise_below_hz is not None:
+                out.append(f"{name} up to {t.noise_below_hz:.4g} Hz (where its lines are noise): the model, scaled to "
+                           f"its lines at {t.band_bottom_hz:.4g} Hz")
         return out
 
     def to_dict(self) -> dict:
         """JSON-ready summary (units in the keys)."""
-        return {"valid_to_hz": self.valid_to_hz, "noise_from_hz": self.noise_from_hz,
-                "last_line_hz": self.last_line_hz, "extended_to_hz": self.extended_to_hz,
+        return {"valid_to_hz": self.valid_to_hz, "valid_from_hz": self.valid_from_hz,
+                "noise_from_hz": self.noise_from_hz, "last_line_hz": self.last_line_hz,
+                "extended_to_hz": self.extended_to_hz,
                 "channels": [{"channel": n, **t.to_dict(), "rolloff": r.to_dict()}
                              for n, t, r in zip(self.channels, self.trust, self.rolloffs, strict=True)],
                 "assumes": self.assumptions()}
@@ -120,7 +130,7 @@ def continue_plant(lines_hz: np.ndarray, response: np.ndarray, model_plant, fs: 
     coherence : ndarray, optional
         Coherence of the channels (same shape as ``response``).
     averages : float, optional
-        Averages of the estimate (:func:`~feedtune.analysis.trust.averages_of`).
+        Averages of the estimate (:func:`~feedtune.frf_quality.averages_of`).
     features : ndarray, shape (k, 2), optional
         Lightly damped roots of the model (Hz, damping): points around them above the FRF.
     channels : tuple of str, optional
@@ -142,7 +152,8 @@ def continue_plant(lines_hz: np.ndarray, response: np.ndarray, model_plant, fs: 
     errors = [line_errors(f, h2[k], None if coh2 is None else coh2[k], averages) for k in range(h2.shape[0])]
     trusts = [trust_of(f, e, averages) for e in errors]
     cut = [t.trusted_lines for t in trusts]
-    if not f_ext.size and all(n == f.size for n in cut):  # nothing to continue: the lines as they are
+    if not f_ext.size and all(n == f.size for n in cut) and all(t.first_line == 0 for t in trusts):
+        # nothing to continue: the lines as they are
         edge = BandEdge(names, tuple(trusts), tuple(Rolloff("none", 1.0 + 0j, 0.0) for _ in names), int(f.size),
                         float(f[-1]), None)
         return f, h, coherence, edge
@@ -166,6 +177,16 @@ def continue_plant(lines_hz: np.ndarray, response: np.ndarray, model_plant, fs: 
             out[k, n_ok:f.size] = m_need[band.size:] * r.response(f[n_ok:])
             if coh_out is not None:
                 coh_out[k, n_ok:f.size] = 1.0
+        lo = trusts[k].first_line
+        if lo:  # noise at the bottom: the model, scaled to the channel's first trustworthy octave
+            octave = np.arange(lo, max(int(np.searchsorted(f, 2.0 * f[lo], "right")), lo + 3))
+            m_lo = np.asarray(model_plant(f[np.r_[:lo, octave]]), complex).reshape(-1, lo + octave.size)[k]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = h2[k, octave] / m_lo[lo:]
+            c = complex(np.mean(ratio[np.isfinite(ratio)])) if np.isfinite(ratio).any() else 1.0 + 0j
+            out[k, :lo] = c * m_lo[:lo]
+            if coh_out is not None:
+                coh_out[k, :lo] = 1.0
         if f_ext.size:
             out[k, f.size:] = m_ext[k] * r.response(f_ext)
         rolloffs.append(r)

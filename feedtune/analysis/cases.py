@@ -298,7 +298,7 @@ def measured_cases(lines_hz: np.ndarray, response: np.ndarray, fs: float, delay_
     coherence : ndarray, optional
         Coherence of the measured channels (same shape as ``response``), for the scatter estimate.
     averages : float, optional
-        Averages of the estimate (:func:`~feedtune.analysis.trust.averages_of` of the FRF's metadata).
+        Averages of the estimate (:func:`~feedtune.frf_quality.averages_of` of the FRF's metadata).
     features : ndarray, shape (k, 2), optional
         Lightly damped roots of the model (Hz, damping): the continuation is resolved around them.
     channels : tuple of str, optional

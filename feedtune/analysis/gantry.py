@@ -38,6 +38,7 @@ from ..control.gantry import GantryReference
 from ..display import AnalysisDisplay, CaseDisplay
 from ..errors import DataError
 from ..frf import Frf
+from ..frf_quality import averages_of
 from ..lti import delay_response, zoh_double_integrator, zoh_response
 from ..models.gantry import GantryModel
 from .cases import CASES as CASES  # re-exported: the case names
@@ -64,7 +65,6 @@ from .mimo import (
     singular_values,
 )
 from .resolution import lightly_damped
-from .trust import averages_of
 
 GANTRY_CHANNELS = (("y1/u1", "y1/u2"), ("y2/u1", "y2/u2"))
 

@@ -653,7 +653,7 @@ def analyze_loop(freq_hz, L=None, *, evaluate: Callable[[np.ndarray], np.ndarray
         resolved with the rest of the contour (a :func:`model_extension` without ``loop`` needs no resolving first).
     noise_db : ndarray or LineNoise, shape (n,), optional
         Measurement scatter of a measured loop on ``freq_hz`` [dB]
-        (:func:`~feedtune.analysis.resolution.noise_db`): crossover chatter within it is merged and listed.
+        (:func:`~feedtune.frf_quality.noise_db`): crossover chatter within it is merged and listed.
     measured : bool
         ``freq_hz`` are an FRF's lines and ``evaluate`` interpolates between them: a warning names where the lines
         do not resolve the loop.

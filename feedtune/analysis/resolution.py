@@ -31,6 +31,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..errors import DataError
+from ..frf_quality import NOISE_BLOCK, _coherence_floor_db, _db_rows, noise_db
 
 WINDING_STEP_DEG = 20.0
 """Largest change of the angle of ``1 + l`` between neighbouring frequencies [deg]."""
@@ -350,8 +351,6 @@ TABLE_BLOCK = 1024
 :class:`LineNoise`): a block is always computed whole, from the same lines, so that a value never depends on what
 was asked before (numpy's vectorised log and angle may differ in the last bit between arrays of different lengths
 or alignments), and a few refinement points cost a few blocks, not the whole FRF."""
-NOISE_BLOCK = 128
-"""Lines per block of the dB magnitude and coherence floor :class:`LineNoise` reads (windows of 21 lines)."""
 
 
 def _blocks(cache: dict, n_lines: int, make: Callable[[int, int], np.ndarray], index: np.ndarray,
@@ -472,55 +471,6 @@ def interpolate_frf(freq_hz: np.ndarray, response: np.ndarray) -> Callable[[np.n
     evaluate.fresh = True  # every call returns a new array
     evaluate.lines = (f, h)  # the lines and the measured values on them (read only)
     return evaluate
-
-
-def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | None = None,
-             half_window: int = 10) -> np.ndarray:
-    """Measurement scatter of a measured response [dB, 1 sigma] per line (largest over leading axes).
-
-    From the line-to-line roughness: the running median of ``|d2|``, the second difference of ``20 log10 |H|`` over
-    ``2 half_window + 1`` lines, divided by ``0.6745 sqrt(6)`` (white scatter of ``sigma`` gives ``var d2 = 6
-    sigma^2``; the median ignores the few lines of a resonance). With a coherence ``gamma^2``, at least
-    ``20 log10(1 + sqrt((1 - gamma^2) / (2 gamma^2)))`` (one-average H1 error, Bendat and Piersol).
-    """
-    h = np.asarray(response, complex).reshape(-1, np.asarray(freq_hz).size)
-    db = _by_blocks(_db_rows, h)
-    n = db.shape[-1]
-    out = np.zeros(n)
-    if n >= 3:
-        d2 = np.abs(db[:, :-2] - 2 * db[:, 1:-1] + db[:, 2:])
-        d2 = np.pad(d2, ((0, 0), (1, 1)), mode="edge")
-        from scipy.ndimage import median_filter
-
-        # row by row: scipy's one-dimensional running median is ~8x faster than the 2-D filter of size (1, w)
-        med = np.vstack([median_filter(row, size=2 * half_window + 1, mode="nearest") for row in d2])
-        out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
-    if coherence is not None:
-        out = np.maximum(out, _by_blocks(_coherence_floor_db, np.asarray(coherence, float).reshape(-1, n)))
-    return out
-
-
-def _by_blocks(fn: Callable[[np.ndarray], np.ndarray], rows: np.ndarray) -> np.ndarray:
-    """``fn`` of the lines (last axis) of ``rows``, computed in blocks of :data:`NOISE_BLOCK` lines, the blocks
-    :class:`LineNoise` computes on demand (the whole-array and the per-line scatter read the same values, bit for
-    bit)."""
-    n = rows.shape[-1]
-    if n <= NOISE_BLOCK:
-        return fn(rows)
-    return np.concatenate([fn(rows[..., k:k + NOISE_BLOCK]) for k in range(0, n, NOISE_BLOCK)], axis=-1)
-
-
-def _db_rows(h: np.ndarray) -> np.ndarray:
-    """``20 log10 |h|`` of every line (rows x lines)."""
-    with np.errstate(divide="ignore"):
-        return 20 * np.log10(np.maximum(np.abs(h), 1e-300))
-
-
-def _coherence_floor_db(g: np.ndarray) -> np.ndarray:
-    """The one-average H1 error floor [dB] per line from the coherence rows ``g`` (largest over rows)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * np.clip(g, 1e-6, 1))))
-    return np.max(np.where(np.isfinite(c), c, 0.0), axis=0)
 
 
 class LineNoise:

@@ -38,6 +38,8 @@ def print_certificate(cert: dict, title: str | None = None) -> None:
                    f"{c['ms']:.3g} at {fmt(c['ms_freq_hz'], 'Hz')}, PM {fmt(c.get('pm_deg'), 'deg')}, GM "
                    f"{fmt(c.get('gm_increase_db'), 'dB')}{low}, DM {fmt(c.get('disk_margin'), '', 3)}, "
                    f"{'stable' if c['stable'] else 'UNSTABLE'}: {verdict}")
+        for note in band_notes(c):
+            typer.echo(f"    {note}")
     w = cert["worst"]
     act = w["active_limit"]
     active = "none" if act is None else f"{act['name']} = {act['value']:.4g} (limit {act['limit']:g}) on {act['frf']}"
@@ -47,6 +49,21 @@ def print_certificate(cert: dict, title: str | None = None) -> None:
     if sat:
         worst = min(sat, key=lambda s: s["overdrive_ratio"])
         typer.echo(f"  conditionally stable: {worst['text']}")
+
+
+def band_notes(figures: dict) -> list[str]:
+    """What a measured case's figures rest on beyond its proved band (its ``band_edge``): where a channel's lines are
+    noise, and, when the loop there is not small, the ``valid to ... assumes ...`` line."""
+    out = []
+    for ch in (figures.get("band_edge") or {}).get("channels", []):
+        where = []
+        if ch.get("noise_below_hz"):
+            where.append(f"up to {fmt(ch['noise_below_hz'], 'Hz')}")
+        if ch.get("noise_from_hz"):
+            where.append(f"from {fmt(ch['noise_from_hz'], 'Hz')} up")
+        if where:
+            out.append(f"{ch['channel']}: lines are noise {' and '.join(where)}; judged on the model there")
+    return out + list(figures.get("assumes") or [])
 
 
 def refuse_failed(delivery, what: str, *, allow_unstable: bool | None) -> str | None:

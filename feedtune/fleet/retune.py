@@ -30,11 +30,10 @@ def retune_axis(task: Snapshot) -> Proposal:
     from ..control.filters import FilterPack
     from ..errors import DesignError
     from ..io import read_document
-    from ..io.document import strip_none
-    from ..io.gains import gains_document, read_sampling
-    from ..machines.certificate import certify
+    from ..io.gains import read_sampling
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
+    from ..workflows.deliver import deliver
 
     installed = read_document(task.gains)
     kind = installed.get("controller")
@@ -50,13 +49,10 @@ def retune_axis(task: Snapshot) -> Proposal:
     frfs = task.read_frfs()
     design = tuners[kind](model, limits=task.limits, filters=pack, fs=fs, delay_samples=delay, frf=frfs,
                           filter_choice="identical")
-    doc = gains_document(design)
-    cert = certify(doc, "proposed gains", list(zip(task.frf_names, frfs, strict=True)), task.limits)
-    if not cert.ok:
-        raise DesignError("the re-tuned design fails its certificate: "
-                          + "; ".join(v for c in cert.frfs for v in c.check.violations))
-    doc["certificate"] = strip_none(cert.to_dict())
-    worst = cert.worst()
+    delivery = deliver(design, list(zip(task.frf_names, frfs, strict=True)), task.limits, where="proposed gains")
+    if not delivery.ok:
+        raise DesignError("the re-tuned design fails its certificate: " + "; ".join(delivery.violations()))
+    doc, worst = delivery.document, delivery.certificate.worst()
     gains = {**design.gains, **getattr(design, "ppi_gains", {})}
     summary = {"controller": kind, "measured_at": task.date.isoformat(), "key": task.key,
                "first_crossover_hz": worst["first_crossover_hz"], "ms": worst["ms"], "pm_deg": worst["pm_deg"],

@@ -199,9 +199,7 @@ def installed_gains(axis: SimulatedAxis, limits: Limits = DEFAULT_LIMITS) -> tup
     """The gains document commissioned on ``axis`` (module docstring) and its commissioning record."""
     from ..design.ppi import design_ppi
     from ..identify.ballscrew import fit_ballscrew
-    from ..io.document import strip_none
-    from ..io.gains import gains_document
-    from ..machines.certificate import certify
+    from ..workflows.deliver import deliver
 
     rng = np.random.default_rng(axis.seed + 1)
     frf, _, _ = axis.measured(-1.0, rng)
@@ -211,12 +209,10 @@ def installed_gains(axis: SimulatedAxis, limits: Limits = DEFAULT_LIMITS) -> tup
         f = 0.9**backoff
         design = design_ppi(fit.model, Kpx=NOMINAL_PPI["Kpx"], Kpv=NOMINAL_PPI["Kpv"] * scale * f,
                             Kiv=NOMINAL_PPI["Kiv"] * scale * f, filters=THESIS_FILTER_PACK, fs=FS_HZ, delay_samples=1)
-        doc = gains_document(design)
-        cert = certify(doc, f"{axis.id} commissioning", [("commissioning FRF", frf)], limits)
-        if cert.ok:
+        delivery = deliver(design, [("commissioning FRF", frf)], limits, where=f"{axis.id} commissioning")
+        if delivery.ok:
             break
-    doc["certificate"] = strip_none(cert.to_dict())
-    return doc, {"inertia_scale": scale, "backoff": 0.9**backoff, "ok": cert.ok}
+    return delivery.document, {"inertia_scale": scale, "backoff": 0.9**backoff, "ok": delivery.ok}
 
 
 def violation_week(axis: SimulatedAxis, doc: dict, limits: Limits = DEFAULT_LIMITS,

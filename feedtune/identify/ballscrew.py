@@ -34,6 +34,7 @@ import numpy as np
 from ..display import param_text
 from ..errors import DataError, UsageError
 from ..frf import Frf
+from ..frf_quality import averages_of, line_errors, trust_of
 from ..models.ballscrew import PARAM_NAMES, BallScrewModel, Mode, param_units
 
 DEFAULT_CHANNELS = ("x1/u", "x2/u")
@@ -217,7 +218,8 @@ def fit_ballscrew(
     _check_positive(poor_fit_threshold, "poor_fit_threshold", "[-]")
     if lead_m_per_rad is not None:
         _check_positive(lead_m_per_rad, "lead_m_per_rad", "m/rad")
-    series = _collect_series(frf_list, roles, lead_m_per_rad)
+    noise_notes: list[str] = []
+    series = _collect_series(frf_list, roles, lead_m_per_rad, noise_notes)
     input_unit = _common_input_unit(series)
 
     names = list(_FIT_ORDER if fit_delay else _FIT_ORDER[:-1])
@@ -234,7 +236,7 @@ def fit_ballscrew(
     delay = theta.get("delay", 0.0)
     quality = _fit_quality(in_band, model, delay)
     outliers = {ch: _outlier_lines(f, np.log(r)) for ch, f, r in _channel_ratios(in_band, model, delay)}
-    warnings = _fit_warnings(model, std, quality, in_band, band, poor_fit_threshold, converged, outliers)
+    warnings = noise_notes + _fit_warnings(model, std, quality, in_band, band, poor_fit_threshold, converged, outliers)
     return BallScrewFit(
         model=model,
         std={p: std[p] for p in PARAM_NAMES},
@@ -313,9 +315,12 @@ def _position_scale(unit: str, lead_m_per_rad: float | None, where: str) -> floa
 
 
 def _collect_series(
-    frf_list: list[Frf], roles: list[tuple[str, int, bool]], lead_m_per_rad: float | None
+    frf_list: list[Frf], roles: list[tuple[str, int, bool]], lead_m_per_rad: float | None,
+    notes: list[str] | None = None,
 ) -> list[_Series]:
-    """Extract the requested channels from all FRFs as position responses in rad."""
+    """Extract the requested channels from all FRFs as position responses in rad, each below where its lines turn
+    to noise (``notes`` gets a line per channel cut)."""
+    notes = [] if notes is None else notes
     series = []
     for name, role, required in roles:
         found = [frf for frf in frf_list if frf.has(name)]
@@ -329,9 +334,21 @@ def _collect_series(
                 raise DataError(f"{frf.source}: channel {name} has no frequencies above 0 Hz")
             pos = positive.as_quantity("position")
             scale = _position_scale(frf.output_unit, lead_m_per_rad, frf.source)
-            series.append(_Series(name, role, pos.freq_hz, pos.channel(name) * scale,
-                                  pos.channel_coherence(name), frf.source, frf.input_unit))
+            s = _Series(name, role, pos.freq_hz, pos.channel(name) * scale, pos.channel_coherence(name), frf.source,
+                        frf.input_unit)
+            series.append(_without_noise(s, averages_of(frf.meta), notes))
     return series
+
+
+def _without_noise(s: _Series, averages: float | None, notes: list[str]) -> _Series:
+    """The series below where its lines turn to noise (:mod:`feedtune.frf_quality`), with a note when lines were
+    left out: a fit never follows lines whose 2-sigma error holds the origin."""
+    coh = None if s.coherence is None or not np.all(np.isfinite(s.coherence)) else s.coherence
+    trust = trust_of(s.freq_hz, line_errors(s.freq_hz, s.response, coh, averages), averages)
+    if trust.noise_from_hz is None and trust.noise_below_hz is None:
+        return s
+    notes.append(f"{s.channel} ({s.source}): {trust.describe()}; left out of the fit")
+    return s.select(trust.band_bottom_hz, trust.band_top_hz)
 
 
 def _common_input_unit(series: list[_Series]) -> str:
