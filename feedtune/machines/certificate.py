@@ -72,10 +72,18 @@ class FrfSource:
 
     @classmethod
     def from_file(cls, path, frf, name: str | None = None) -> FrfSource:
-        """The FRF read from ``path``, identified by the SHA-256 of the file's bytes (read once more here)."""
+        """The FRF read from ``path``, identified by the SHA-256 of the file's bytes (read once more here).
+
+        An FRF argument that is not one plain file (pieces joined with ``+``, or ``FILE:OUT/IN,scale=...``: its
+        arrays are not the file's) is identified by its arrays (:meth:`from_memory`), named as typed."""
+        import os
+
         from ..io.gains_certificate import file_sha256
 
-        return cls(str(path) if name is None else name, frf, file_sha256(path), "file")
+        label = str(path) if name is None else name
+        if not os.path.isfile(path):
+            return cls.from_memory(label, frf)
+        return cls(label, frf, file_sha256(path), "file")
 
     @classmethod
     def from_memory(cls, name: str, frf) -> FrfSource:
