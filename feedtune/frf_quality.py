@@ -12,7 +12,7 @@ the larger of
 
 * its scatter: the line-to-line roughness of ``20 log10 |G|`` (:func:`noise_db`
   without coherence: the running median of the second difference over 21 lines / (0.6745 sqrt 6)), converted to a
-  relative error ``10^(sigma_dB / 20) - 1``;
+  relative error ``10^(sigma_dB / 20) - 1``, or that of its phase in rad (:func:`phase_scatter`), whichever is larger;
 * when the FRF records how many spectra it averaged (``segments`` of an H1 estimate, ``periods_total`` minus
   ``transient_periods`` of a periodic one) and its coherence ``gamma^2``: the random error of an averaged H1
   estimate, ``sqrt((1 - gamma^2) / (2 n gamma^2))`` (Bendat and Piersol, *Random Data*, 4th ed., eq. 9.90), with ``n``
@@ -147,7 +147,8 @@ def line_errors(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray
         Averages of the estimate (:func:`averages_of`).
     """
     f = np.asarray(freq_hz, float)
-    eps = 10.0 ** (noise_db(f, np.asarray(response, complex).reshape(-1, f.size)) / 20.0) - 1.0
+    h = np.asarray(response, complex).reshape(-1, f.size)
+    eps = np.maximum(10.0 ** (noise_db(f, h) / 20.0) - 1.0, phase_scatter(h))
     if coherence is not None and averages:
         g = np.clip(np.asarray(coherence, float).reshape(-1, f.size), 1e-6, 1.0)
         eps_c = np.max(np.sqrt((1.0 - g) / (2.0 * float(averages) * g)), axis=0)
@@ -204,7 +205,8 @@ def trusted_span(rel_error: np.ndarray) -> tuple[int, int]:
     idx = np.arange(n)
     suffix = (cum[-1] - cum[:-1]) / (n - idx)  # share of untrustworthy lines in [i, n)
     top = np.flatnonzero(bad & local & (suffix >= 0.5) & (n - idx >= MIN_NOISE_LINES) & (idx > body))
-    hi = int(top[0]) if top.size and local[-1] else n
+    ends_in_noise = bad[-TRUST_WINDOW:].mean() >= 0.5  # not local[-1]: the edge padding repeats the last line
+    hi = int(top[0]) if top.size and ends_in_noise else n
     if hi - lo < MIN_NOISE_LINES:
         return 0, n
     return lo, hi
@@ -242,6 +244,29 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
     if coherence is not None:
         out = np.maximum(out, _by_blocks(_coherence_floor_db, np.asarray(coherence, float).reshape(-1, n)))
     return out
+
+
+def phase_scatter(response: np.ndarray, half_window: int = 10) -> np.ndarray:
+    """Measurement scatter of the phase of a measured response [rad, 1 sigma] per line (largest over leading axes).
+
+    The running median of ``|d2|``, the second difference of the phase wrapped to ``(-pi, pi]``, over
+    ``2 half_window + 1`` lines, divided by ``0.6745 sqrt(6)``: for a small relative error it equals the scatter of
+    ``ln |H|`` (both are one part of the same complex error). Pure noise has a uniform phase, ``|d2|`` a median of
+    ``pi / 2`` and a scatter near 0.95 rad, where the magnitude's roughness alone (a log-Rayleigh variable, whose
+    median difference is small) reads only half as much.
+    """
+    h = np.asarray(response, complex)
+    h = h.reshape(-1, h.shape[-1])
+    n = h.shape[-1]
+    if n < 3:
+        return np.zeros(n)
+    ph = np.angle(h)
+    d2 = np.abs(np.angle(np.exp(1j * (ph[:, :-2] - 2 * ph[:, 1:-1] + ph[:, 2:]))))
+    d2 = np.pad(d2, ((0, 0), (1, 1)), mode="reflect")
+    from scipy.ndimage import median_filter
+
+    med = np.vstack([median_filter(row, size=2 * half_window + 1, mode="mirror") for row in d2])
+    return np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
 
 
 def _by_blocks(fn: Callable[[np.ndarray], np.ndarray], rows: np.ndarray) -> np.ndarray:

@@ -68,7 +68,9 @@ def test_a_touch_the_lines_exclude_is_merged_and_never_moves_the_crossover():
         excluded += sum(r["smooth"] == "excludes" and r["kept_hz"] is None and 80 < r["freq_hz"][0] < 125
                         for r in m.merged_crossovers)
     assert excluded >= 3  # the noise made touches at the dip, and the smooth fit excluded them
-    assert clean >= 10  # the lines rule the crossing out in most measurements (2 sigma: not in every one)
+    # the lines rule the crossing out in most measurements: 2 sigma in the two widest windows that describe them
+    # (not in every one: where they cannot, the crossing is kept, never claimed past the plant's)
+    assert clean >= 6
 
 
 def test_an_odd_cluster_keeps_its_first_crossing_with_its_worst_margin():
@@ -98,3 +100,4 @@ def test_smooth_verdict_against_known_curves():
     rng = np.random.default_rng(0)
     assert smooth_verdict(x, rng.standard_normal(x.size) * 3.0, sig, np.log(100), np.log(102), 1.0) == "undecided"
     assert smooth_verdict(x[:4], x[:4], sig[:4], np.log(100), np.log(102), 1.0) is None
+

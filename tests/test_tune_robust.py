@@ -162,6 +162,9 @@ def test_tune_cli_certifies_every_frf_and_analyze_agrees(structure, tmp_path, ca
     assert [c["ms"] for c in again["frfs"]] == pytest.approx([c["ms"] for c in cert["frfs"]], rel=1e-9)
     code, _, err = run(args, capsys, monkeypatch)  # no overwrite without --force (a usage error)
     assert code == 2 and "--force" in err and err.count("\n") == 1
+    (tmp_path / "g.toml").unlink()  # the JSON twin alone is refused too, before the search (not after it)
+    code, _, err = run(args, capsys, monkeypatch)
+    assert code == 2 and "g.json exists" in err and not (tmp_path / "g.toml").exists()
 
 
 # ------------------------------------------------------------------ the x axis (loop shaping) over several FRFs

@@ -121,6 +121,9 @@ SMOOTH_LINES = 10
 own."""
 SMOOTH_WINDOWS = (10, 7, 5, 3)
 """Half widths [lines] of the windows :func:`smooth_verdict` tries, widest first."""
+SMOOTH_AGREE = 2
+"""Windows (the widest that describe their lines) whose fits must all exclude a crossing for :func:`smooth_verdict` to
+exclude it [-]."""
 SMOOTH_MAX_CHI2 = 2.0
 """A smooth fit whose reduced chi-square exceeds this [-] does not describe the lines: a narrower window is tried."""
 
@@ -134,9 +137,11 @@ def smooth_verdict(x: np.ndarray, y: np.ndarray, sigma: np.ndarray, lo: float, h
     A quadratic in ``x`` is fitted by weighted least squares to the lines from :data:`SMOOTH_WINDOWS` lines below
     ``lo`` to as many above ``hi``, the widest window whose fit describes its lines (reduced chi-square at most
     :data:`SMOOTH_MAX_CHI2`: the curve is smooth at that scale) first. The fit and its standard error are evaluated
-    over ``[lo, hi]``: ``"excludes"`` when ``side * fit > CHATTER_SIGMAS * error`` everywhere there, ``"confirms"``
-    when the fit itself reaches the other side, else ``"undecided"`` (also when no window's fit describes its lines).
-    None with fewer than 6 lines.
+    over ``[lo, hi]``: ``"excludes"`` when ``side * fit > CHATTER_SIGMAS * error`` everywhere there in each of the
+    :data:`SMOOTH_AGREE` widest windows whose fits describe their lines (a wide window's quadratic may pass over a
+    narrow dip the plant has, a mode's notch: the next narrower window must agree), ``"confirms"`` when the widest
+    such fit reaches the other side, else ``"undecided"`` (also when no window's fit describes its lines). None with
+    fewer than 6 lines.
     """
     x, y = np.asarray(x, float), np.asarray(y, float)
     s = np.maximum(np.asarray(sigma, float), 1e-12)
@@ -147,6 +152,7 @@ def smooth_verdict(x: np.ndarray, y: np.ndarray, sigma: np.ndarray, lo: float, h
     i0 = int(np.searchsorted(x, lo, "left"))
     i1 = int(np.searchsorted(x, hi, "right"))
     xe = np.linspace(lo, hi, 9)
+    verdicts = []
     for half in SMOOTH_WINDOWS:
         a, b = max(i0 - half, 0), min(i1 + half, x.size)
         if b - a < 6:
@@ -163,11 +169,14 @@ def smooth_verdict(x: np.ndarray, y: np.ndarray, sigma: np.ndarray, lo: float, h
         fit = X @ coef
         err = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", X, cov, X), 0.0))
         if np.all(side * fit > CHATTER_SIGMAS * err):
-            return "excludes"
-        if np.any(side * fit < 0):
-            return "confirms"
+            verdicts.append("excludes")
+        else:
+            verdicts.append("confirms" if np.any(side * fit < 0) else "undecided")
+    if not verdicts:
         return "undecided"
-    return "undecided"
+    if all(v == "excludes" for v in verdicts[:SMOOTH_AGREE]):
+        return "excludes"
+    return verdicts[0] if verdicts[0] != "excludes" else "undecided"
 
 
 def merge_chatter(crossings_hz: np.ndarray, values, freq_hz: np.ndarray, deviation: np.ndarray,

@@ -81,9 +81,9 @@ def _load_friction(path: Path | None):
 def _check_out(out: Path | None, force: bool) -> None:
     """Refuse an existing ``--out`` (without ``--force``) before any design work."""
     if out is not None:
-        from ..io.atomic import ensure_writable
+        from ..io.document import ensure_document_writable
 
-        ensure_writable(out, force)
+        ensure_document_writable(out, force)
 
 
 def _finish(design, *, frf_path, frf, limits, out, force, allow_unstable, as_json, friction=None,

@@ -178,14 +178,14 @@ def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pa
                     force: bool, as_json: bool, fs_override: bool = False, frf_options=None, objective=None) -> None:
     """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
     from ..control.ballscrew_law import all_gain_units
-    from ..io.atomic import ensure_writable
+    from ..io.document import ensure_document_writable
     from ..tune.mcppc import tune_mcppc
     from ..tune.ppi import tune_ppi
     from ..workflows.deliver import deliver
 
     choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
     if out is not None:
-        ensure_writable(out, force)  # refused before the search, not after it
+        ensure_document_writable(out, force)  # refused before the search, not after it
     model = _load_model(model_file)
     frfs = _frfs(frf, quantity, frf_options)
     rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in frfs], default_fs=DEFAULT_FS[structure],
@@ -218,7 +218,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
                fs_override: bool = False, frf_options=None, objective=None) -> None:
     """Tune an x axis by loop shaping on every FRF, certify, write, print."""
     from ..io import load_model
-    from ..io.atomic import ensure_writable
+    from ..io.document import ensure_document_writable
     from ..machines.certificate import FrfSource
     from ..tune.loopshape import tune_loopshape
     from ..workflows.deliver import deliver
@@ -226,7 +226,7 @@ def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | No
 
     choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
     if out is not None:
-        ensure_writable(out, force)
+        ensure_document_writable(out, force)
     if plant_file.suffix.lower() in (".toml", ".json"):
         plant = load_model(plant_file)
     else:
@@ -278,14 +278,14 @@ def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: l
                  policy, out: Path | None, force: bool, as_json: bool, fs_override: bool = False,
                  frf_options=None, objective=None) -> None:
     """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
-    from ..io.atomic import ensure_writable
+    from ..io.document import ensure_document_writable
     from ..tune.gantry import tune_gantry_mimo
     from ..tune.pid import tune_gantry_pid
     from ..workflows.deliver import deliver
     from .design_gantry_cmd import _gantry_model
 
     if out is not None:
-        ensure_writable(out, force)
+        ensure_document_writable(out, force)
     model = _gantry_model(model_file)
     frfs = _positioned_frfs(frf, xs, quantity, frf_options)
     rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in frfs], default_fs=DEFAULT_FS[structure],

@@ -233,6 +233,17 @@ def dumps_json(doc: Mapping[str, object]) -> str:
 
 
 # ------------------------------------------------------------------------------------------ write / read
+def ensure_document_writable(path: str | os.PathLike[str], force: bool, *, json_twin: bool = True) -> None:
+    """Check, before any long work, that :func:`write_document` may write ``path`` and, for a ``.toml`` file, its
+    JSON twin beside it (UsageError naming the file that exists without ``force``)."""
+    from .atomic import ensure_writable
+
+    p = Path(path)
+    ensure_writable(p, force)
+    if json_twin and p.suffix.lower() == ".toml":
+        ensure_writable(p.with_suffix(".json"), force)
+
+
 def write_document(path: str | os.PathLike[str], doc: Mapping[str, object], *, force: bool = False,
                    json_twin: bool = True) -> list[Path]:
     """Write ``doc`` as ``x.toml`` plus its JSON twin ``x.json`` (both or neither), or as ``x.json`` only.
