@@ -44,8 +44,6 @@ ANTI_WINDUP = ("none", "clamp")
 """``export c --anti-windup``: :data:`feedtune.export.c_common.ANTI_WINDUP`."""
 FILTER_CHOICES = ("own", "identical")
 """``--filters``: :data:`feedtune.tune.pid.FILTER_CHOICES`."""
-MACHINES = ("ballscrew", "gantry")
-"""``demo MACHINE``: the registered machines (:func:`feedtune.machines.machine_names`)."""
 LPF_ORDERS = ("1", "2")
 """``--lpf-order``: first or second order."""
 

@@ -17,6 +17,7 @@ from . import (
     demo_cmd,
     design_cmd,
     design_gantry_cmd,
+    design_loopshape_cmd,
     export_cmd,
     fleet_cmd,
     frf_cmd,
@@ -66,7 +67,7 @@ def _root(
 identify_cmd.app.command("gantry")(identify_gantry_cmd.gantry)
 identify_cmd.app.command("mass")(identify_gantry_cmd.mass)
 identify_cmd.app.command("resonances")(identify_resonances_cmd.resonances)
-design_cmd.app.command("loopshape")(design_gantry_cmd.loopshape)
+design_cmd.app.command("loopshape")(design_loopshape_cmd.loopshape)
 design_cmd.app.command("gantry")(design_gantry_cmd.gantry)
 design_cmd.app.command("pid")(design_gantry_cmd.pid)
 simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
