@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from ..structures import controller
 from .common import FORCE_OPTION, JSON_OPTION
 from .frf_options import (
     FRF_CHANNEL_OPTION,
@@ -37,9 +38,9 @@ app = typer.Typer(
 NOTCH_HELP = "Notch HZ,ZETA_Z,ZETA_P (repeatable), e.g. --notch 420,0.55,0.7 --notch 1080,0.05,0.7."
 NOTCH_OPTION = typer.Option(None, "--notch", metavar="HZ,ZETA_Z,ZETA_P", help=NOTCH_HELP)
 LPF_OPTION = typer.Option(None, "--lpf", metavar="HZ", help="First-order low-pass pole frequency [Hz] (eq. 3.10).")
-DEFAULT_FS = 20000.0
-"""Sample rate [Hz] of ``design ppc|ppi`` without ``--fs`` and without a rate recorded in the FRF."""
-FS_OPTION = fs_option("20000 Hz")
+DEFAULT_FS = controller("mcppc").default_fs_hz
+"""Sample rate [Hz] of ``design ppc|ppi`` without ``--fs`` and without a rate recorded in the FRF (the registry's)."""
+FS_OPTION = fs_option(f"{DEFAULT_FS:g} Hz")
 QUANTITY_OPTION = typer.Option(
     None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
     help="Quantity of the --frf file (position, velocity or acceleration) if not in its metadata.",

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import typer
 
+from ..structures import controller
 from .common import FORCE_OPTION, JSON_OPTION
 from .design_cmd import (
     ALLOW_OPTION,
@@ -50,9 +51,10 @@ from .limits_options import (
 from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION, fs_option, target_sampling
 
-DEFAULT_FS = 15000.0
-"""Sample rate [Hz] of ``design loopshape|gantry|pid`` without ``--fs`` and without a rate recorded in an FRF."""
-FS_OPTION = fs_option("15000 Hz")
+DEFAULT_FS = controller("mimo").default_fs_hz
+"""Sample rate [Hz] of ``design gantry|pid`` without ``--fs`` and without a rate recorded in an FRF (the
+registry's)."""
+FS_OPTION = fs_option(f"{DEFAULT_FS:g} Hz")
 LPF_OPTION = typer.Option(None, "--lpf", metavar="HZ", help="Low-pass frequency [Hz] of the filter pack.")
 LEAD_OPTION = typer.Option(
     None, "--lead", metavar="HZ,DEG",

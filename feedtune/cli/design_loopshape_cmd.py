@@ -12,6 +12,7 @@ from pathlib import Path
 
 import typer
 
+from ..structures import controller
 from .common import FORCE_OPTION, JSON_OPTION
 from .design_cmd import (
     ALLOW_OPTION,
@@ -23,7 +24,6 @@ from .design_cmd import (
     QUANTITY_OPTION,
 )
 from .design_gantry_cmd import (
-    DEFAULT_FS,
     FS_OPTION,
     LEAD_OPTION,
     LPF_OPTION,
@@ -155,7 +155,8 @@ def loopshape(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(plant_file, plant if isinstance(plant, Frf) else None),
-                                               (frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
+                                               (frf, measured)], default_fs=controller("loopshape").default_fs_hz,
+                         override=fs_override)
     rate.report(as_json, "design loopshape")
     fs, delay_samples = rate.fs_hz, rate.delay_samples
     filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
