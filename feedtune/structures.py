@@ -29,7 +29,7 @@ entry here (docs/architecture.md, "Adding a plant structure").
 Examples
 --------
 >>> plant("two_mass").model_kind, [c.name for c in controllers_of("two_mass")]
-('ballscrew', ['mcppc', 'ppi'])
+('ballscrew', ['mcppc', 'ppi', 'cascade'])
 >>> controller("mimo").command, gains_format(controller("mimo").gains_kind).title
 ('gantry', 'gantry MIMO or PID')
 """
@@ -171,6 +171,10 @@ class ControllerStructure:
         Its filter pack may hold lead stages.
     baseline : bool
         An industry baseline the report measures the improvements of the others against (P-PI, PID).
+    objective : str
+        Its tuner's objective unless told otherwise (empty: the tuners' default, :mod:`feedtune.tune.search`).
+    options : tuple of str
+        The options of ``feedtune tune`` that only it takes (``--position-fs`` ...); another structure refuses them.
     modules : tuple of str
         Its modules beyond those its parts name (paths under ``feedtune/``).
     """
@@ -187,6 +191,8 @@ class ControllerStructure:
     lpf_order: int = 1
     lead_stages: bool = False
     baseline: bool = False
+    objective: str = ""
+    options: tuple[str, ...] = ()
     modules: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -243,6 +249,12 @@ GAINS: tuple[GainsFormat, ...] = (
         "feedtune.machines.gantry.gains_analysis:analyze_axis_document", "feedtune.export.c_gantry:axis_header",
         report="feedtune.report.gantry_design:machine_subsections",
         modules=("control/axis.py", "machines/gantry/law.py")),
+    GainsFormat(
+        "cascade", "drive speed/position cascade", "feedtune.io.cascade_gains:cascade_gains_document",
+        "feedtune.machines.cascade.runtime:CascadeRuntime",
+        "feedtune.machines.cascade.gains_analysis:analyze_document", "feedtune.export.c_cascade:cascade_header",
+        modules=("control/cascade.py", "machines/cascade/law.py", "machines/cascade/twin.py",
+                 "models/cascade_plant.py", "analysis/cascade.py")),
 )
 """Every gains format."""
 
@@ -266,6 +278,11 @@ CONTROLLERS: tuple[ControllerStructure, ...] = (
         "loopshape", "x-axis loop shaping", ("rigid",), "axis", "feedtune.design.loopshape:LoopShapeDesign",
         "feedtune.tune.loopshape:tune_loopshape", "feedtune.cli.design_loopshape_cmd:tune_axis",
         default_fs_hz=15000.0, lead_stages=True),
+    ControllerStructure(
+        "cascade", "drive cascade", ("rigid", "two_mass"), "cascade", "feedtune.design.cascade:CascadeDesign",
+        "feedtune.tune.cascade:tune_cascade", "feedtune.cli.cascade_cmd:tune_command", default_fs_hz=8000.0,
+        lpf_order=2, objective="bandwidth",
+        options=("--filter", "--position-fs", "--current-loop-hz", "--position-encoder", "--match-margins")),
 )
 """Every controller structure."""
 

@@ -162,6 +162,7 @@ DELIVERY_ONLY = {
                        "machines/ballscrew/experiments.py"},
     "gantry_gains_document": {"workflows/deliver.py"},
     "axis_gains_document": {"workflows/deliver.py"},
+    "cascade_gains_document": {"workflows/deliver.py"},
     "certificate_section": {"workflows/deliver.py"},
 }
 

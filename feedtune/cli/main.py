@@ -14,6 +14,7 @@ import typer
 
 from . import (
     analyze_cmd,
+    cascade_cmd,
     demo_cmd,
     design_cmd,
     design_gantry_cmd,
@@ -70,6 +71,7 @@ identify_cmd.app.command("resonances")(identify_resonances_cmd.resonances)
 design_cmd.app.command("loopshape")(design_loopshape_cmd.loopshape)
 design_cmd.app.command("gantry")(design_gantry_cmd.gantry)
 design_cmd.app.command("pid")(design_gantry_cmd.pid)
+design_cmd.app.command("cascade")(cascade_cmd.design)
 simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
 
 app.add_typer(identify_cmd.app, name="identify")

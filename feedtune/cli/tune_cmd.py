@@ -11,12 +11,13 @@ in ``--json`` and in the gains file (``[certificate]``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import typer
 
 from ..structures import controllers
+from . import cascade_cmd
 from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .delivery import print_certificate
 from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION
@@ -210,6 +211,9 @@ class TuneRequest:
         How the FRF files are read.
     objective : Objective
         What the tuner maximises.
+    options : dict
+        The structure's own options (:attr:`feedtune.structures.ControllerStructure.options`) by name, as given
+        (None when not given).
     """
 
     plant_file: Path
@@ -228,6 +232,7 @@ class TuneRequest:
     fs_override: bool
     frf_options: object
     objective: object
+    options: dict = field(default_factory=dict)
 
 
 def print_tuned(title: str, shape: str | None, gains: dict, units: dict, tuning: dict, filters: dict, record: dict,
@@ -252,14 +257,16 @@ def tune(
     structure: str = typer.Argument(
         ..., **choice(TITLES, "STRUCTURE"),
         help="mcppc (MC-PPC: beta, pole frequency, zeta), ppi (P-PI cascade: Kpx, Kpv, Kiv), gantry (MIMO law: CoM "
-             "crossover, PM target, damping), pid (independent PIDs: bandwidth, zeta, rho) or loopshape (x axis: "
-             "crossover, PM target, lag, lead stages).",
+             "crossover, PM target, damping), pid (independent PIDs: bandwidth, zeta, rho), loopshape (x axis: "
+             "crossover, PM target, lag, lead stages) or cascade (a drive's speed PI with its current-setpoint "
+             "filters, then Kv with feedforward).",
     ),
     model_file: Path = typer.Argument(
         ..., metavar="MODEL",
         help="mcppc, ppi: ball-screw model file ('feedtune identify ballscrew'); gantry, pid: gantry model file "
              "('feedtune identify gantry'); loopshape: a model file (a gantry model's m_x, a rigid-body model's mass) "
-             "or a measured SISO FRF.",
+             "or a measured SISO FRF; cascade: a rigid-body or two-mass model, or the axis' measured FRF (current "
+             "setpoint in, motor speed or position out).",
     ),
     frf: list[Path] = FRFS_OPTION,
     x: list[float] = X_OPTION,
@@ -269,6 +276,11 @@ def tune(
     lpf_order: int = LPF_ORDER_OPTION,
     lead: list[str] = LEAD_OPTION,
     filters: str = FILTERS_OPTION,
+    drive_filter: list[str] = cascade_cmd.FILTER_OPTION,
+    position_fs: float = cascade_cmd.POSITION_FS_OPTION,
+    current_loop_hz: float = cascade_cmd.CURRENT_LOOP_OPTION,
+    position_encoder: str = cascade_cmd.TUNE_ENCODER_OPTION,
+    match_margins: Path = cascade_cmd.MATCH_OPTION,
     objective: str = OBJECTIVE_OPTION,
     compliance_max: float = COMPLIANCE_MAX_OPTION,
     fs: float = FS_OPTION,
@@ -314,16 +326,23 @@ def tune(
     entry = controller_by_command(structure)
     plants = tuple(plant(p) for p in entry.plants)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    goal = objective_options(objective, compliance_max, plants, structure)
+    goal = objective_options(objective or entry.objective or None, compliance_max, plants, structure)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
     if x and not any(p.positions for p in plants):
         raise UsageError(f"--x gives gantry FRF positions; {structure} has none")
     if lead and not entry.lead_stages:
         raise UsageError(f"--lead: the {entry.title} filter pack holds notches and a low-pass only")
+    own = {"--filter": drive_filter or None, "--position-fs": position_fs, "--current-loop-hz": current_loop_hz,
+           "--position-encoder": position_encoder, "--match-margins": match_margins}
+    foreign = next((k for k, v in own.items() if v is not None and k not in entry.options), None)
+    if foreign is not None:
+        takes = ", ".join(c.command for c in controllers() if foreign in c.options)
+        raise UsageError(f"{foreign} is an option of tune {takes}; {structure} has none")
     order = entry.lpf_order if lpf_order is None else lpf_order
     if order not in (1, 2):
         raise UsageError(f"--lpf-order must be 1 or 2, got {order}")
     request = TuneRequest(model_file, list(frf or []), list(x or []), design_x,
                           _loop_filters(notch, lpf, order, 0.7, lead), filters, fs, delay_samples, quantity, policy,
-                          out, force, as_json, fs_override, frf_options, goal)
+                          out, force, as_json, fs_override, frf_options, goal,
+                          {k: v for k, v in own.items() if k in entry.options})
     resolve(entry.tune_command)(entry, request)
