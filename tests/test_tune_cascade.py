@@ -163,3 +163,24 @@ def test_tuner_within_3_percent_of_dense_search_on_real_rigid_axes(which, real_d
     print(f"\n{which}: tuner {mine}\n{which}: dense ({count} points) {dense}")
     assert mine["passed"] and dense["passed"]
     assert mine["xo"] == pytest.approx(dense["xo"], rel=0.03)
+
+
+# ------------------------------------------------------------------------------------------ end to end, real units
+@pytest.mark.parametrize("which, unit", [("HSM150", "N*m"), ("ODrive", "V")])
+def test_real_rigid_axis_identify_tune_analyze_export_in_its_units(which, unit, real_data_dir, tmp_path, capsys,
+                                                                   monkeypatch):
+    make = _hsm_model if which == "HSM150" else _odrive_model
+    model = make(real_data_dir, tmp_path, capsys, monkeypatch)
+    gains, header = tmp_path / "gains.toml", tmp_path / "gains.h"
+    code, out, err = run(["tune", "cascade", model, "--filters", "identical", "--out", gains], capsys, monkeypatch)
+    assert code == 0, err
+    assert f"{unit}/(rad/s)" in out and "rests on the model alone" in out
+    text = gains.read_text()
+    assert 'kind = "cascade"' in text and f'"{unit}/(rad/s)"' in text
+    code, out, err = run(["analyze", gains, "--check"], capsys, monkeypatch)
+    assert code == 0, err
+    assert "position_ideal_discrete" in out and "check passed" in out
+    code, _, err = run(["export", "c", gains, "--out", header], capsys, monkeypatch)
+    assert code == 0, err
+    h = header.read_text()
+    assert f"the current setpoint in {unit}" in h and "Positions in rad" in h and "not certified" in h
