@@ -16,6 +16,7 @@ from pathlib import Path
 
 import typer
 
+from ..structures import controller
 from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .design_cmd import ALLOW_OPTION, DELAY_OPTION, OUT_OPTION, QUANTITY_OPTION
 from .frf_options import (
@@ -39,8 +40,6 @@ from .limits_options import (
 from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION
 
-DEFAULT_FS = 8000.0
-"""Speed-loop rate [Hz] without ``--fs``, a drive-tuning export's sample time or a rate recorded in the FRF (125 us)."""
 DEFAULT_POSITION_RATIO = 8
 """Speed-loop samples per position-loop sample without ``--position-fs`` (1 ms at 125 us)."""
 MODEL_SUFFIXES = (".toml", ".json")
@@ -219,7 +218,8 @@ def design(
     plant, plant_source = read_plant(plant_file, quantity, frf_options)
     sources = [plant_source] if plant_source is not None else read_sources([frf] if frf else [], quantity,
                                                                            frf_options)
-    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in sources], default_fs=DEFAULT_FS,
+    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in sources],
+                           default_fs=controller("cascade").default_fs_hz,
                            override=fs_override)
     rate.report(as_json, "design cascade")
     ratio = position_ratio(rate.fs_hz, position_fs)
@@ -269,7 +269,8 @@ def tune(structure_title: str, plant_file: Path, frf: list[Path] | None, *, filt
     plant, plant_source = read_plant(plant_file, quantity, frf_options)
     extra = [s for s in read_sources(list(frf or []), quantity, frf_options) if s.name != str(plant_file)]
     sources = ([plant_source] if plant_source is not None else []) + extra
-    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in sources], default_fs=DEFAULT_FS,
+    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in sources],
+                           default_fs=controller("cascade").default_fs_hz,
                            override=fs_override)
     rate.report(as_json, "tune cascade")
     ratio = position_ratio(rate.fs_hz, position_fs)
