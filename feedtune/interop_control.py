@@ -48,6 +48,7 @@ from .display import register_facade
 from .errors import DataError, UsageError
 from .frf import Frf
 from .lti import Zpk
+from .structures import plant_of, plant_of_model_kind, plants, resolve
 
 FORMS = ("ss", "tf")
 """Realizations :func:`to_control` builds: state space or transfer function."""
@@ -400,18 +401,12 @@ def to_control(obj, **kwargs):
     """A feedtune value as a python-control object (table in the module docstring); ``kwargs`` go to the
     converter (``form``, ``discrete``, ``delay``, ``x``)."""
     from .control.ballscrew_law import BallScrewLaw
-    from .models.ballscrew import BallScrewModel
-    from .models.gantry import GantryModel, GantryModelAtX
-    from .models.rigid import RigidBodyModel
 
     if isinstance(obj, Frf):
         return frf_to_control(obj, **kwargs)
-    if isinstance(obj, BallScrewModel):
-        return ballscrew_to_control(obj, **kwargs)
-    if isinstance(obj, (GantryModel, GantryModelAtX)):
-        return gantry_to_control(obj, **kwargs)
-    if isinstance(obj, RigidBodyModel):
-        return rigid_to_control(obj, **kwargs)
+    plant = plant_of(obj)  # a model of a plant structure: its conversion (feedtune.structures)
+    if plant is not None and plant.to_control:
+        return resolve(plant.to_control)(obj, **kwargs)
     if isinstance(obj, BallScrewLaw):
         return law_to_control(obj, **kwargs)
     if isinstance(obj, Zpk):
@@ -422,8 +417,9 @@ def to_control(obj, **kwargs):
                      "GantryModel, GantryModelAtX, RigidBodyModel, BallScrewLaw, designs and Zpk")
 
 
-FROM_KINDS = ("frf", "ballscrew", "gantry", "zpk")
-"""What :func:`from_control` builds."""
+FROM_KINDS = ("frf", *(p.model_kind for p in plants() if p.from_control), "zpk")
+"""What :func:`from_control` builds: an FRF, a model of each plant structure that has a conversion (by its model
+kind, :attr:`feedtune.structures.PlantStructure.from_control`), a zero-pole-gain system."""
 
 
 def from_control(sys, kind: str | None = None, **kwargs):
@@ -438,11 +434,11 @@ def from_control(sys, kind: str | None = None, **kwargs):
         elif sys.ninputs == 1 and sys.noutputs == 1:
             kind = "zpk"
         else:
-            raise UsageError("kind is needed for a MIMO system: frf, ballscrew or gantry", parameter="kind")
-    convert = {"frf": frf_from_control, "ballscrew": ballscrew_from_control, "gantry": gantry_from_control,
-               "zpk": zpk_from_control}.get(kind)
-    if convert is None:
+            raise UsageError(f"kind is needed for a MIMO system: {', '.join(FROM_KINDS[:-1])}", parameter="kind")
+    if kind not in FROM_KINDS:
         raise UsageError(f"kind must be one of {', '.join(FROM_KINDS)}, got {kind!r}", parameter="kind")
+    plant = plant_of_model_kind(kind)
+    convert = {"frf": frf_from_control, "zpk": zpk_from_control}.get(kind) or resolve(plant.from_control)
     return convert(sys, **kwargs)
 
 

@@ -107,7 +107,6 @@ def test_choice_lists_are_the_librarys():
     from feedtune.identify.kalman import METHODS as KALMAN_METHODS
     from feedtune.machines.ballscrew.experiments import EXCITATIONS
     from feedtune.machines.gantry.experiments import THESIS_TRACKING
-    from feedtune.machines.registry import machine_names
     from feedtune.models.friction import LAWS
     from feedtune.sim.contour import SHAPES, THESIS_FEATURES
     from feedtune.sim.engine import ENGINES
@@ -119,7 +118,7 @@ def test_choice_lists_are_the_librarys():
     assert h.FRICTION_LAWS == tuple(LAWS) and h.QUANTITIES == tuple(QUANTITIES) and h.SHAPES == tuple(SHAPES)
     assert h.FEATURES == tuple(THESIS_FEATURES) and h.TRACKING_TESTS == tuple(THESIS_TRACKING)
     assert h.LIMITS_PROFILES == tuple(PROFILES) and h.ANTI_WINDUP == tuple(ANTI_WINDUP)
-    assert h.FILTER_CHOICES == tuple(FILTER_CHOICES) and set(h.MACHINES) == set(machine_names())
+    assert h.FILTER_CHOICES == tuple(FILTER_CHOICES)
 
 
 def test_one_vocabulary_for_controllers_and_cases():
@@ -128,12 +127,13 @@ def test_one_vocabulary_for_controllers_and_cases():
     from feedtune.analysis.cases import CASE_TITLES, CASES
     from feedtune.cli.summary import CONTROLLER_NAMES
     from feedtune.cli.tune_cmd import TITLES
-    from feedtune.report import design, gantry_design, sections
+    from feedtune.report import design, sections
 
     assert tuple(CASE_TITLES) == CASES
     assert design.CASE_TITLES == CASE_TITLES
-    for kind, label in {**sections.CONTROLLER_LABELS, **gantry_design.MACHINE_LABELS}.items():
-        assert CONTROLLER_NAMES[kind] == label, kind
+    for kind, label in CONTROLLER_NAMES.items():
+        assert sections.controller_label(kind) == label, kind
+    assert sections.BASELINE_CONTROLLERS == ("P-PI", "PID")
     assert TITLES == {s: CONTROLLER_NAMES["mimo" if s == "gantry" else s] for s in TITLES}
 
 

@@ -371,8 +371,10 @@ def check_cases(limits: Limits, cases: dict, checked: list[str] | tuple[str, ...
 
 def check_analysis(analysis, limits: Limits) -> tuple[LimitCheck, str]:
     """Check an analysis of any machine (an object whose ``cases`` maps case names to results with ``metrics``, or
-    None): the limits in ``discrete`` when it was analysed on an FRF, else in ``ideal_discrete``; stability in every
-    case. Returns the check and the name of the checked case."""
+    None): the limits in ``discrete`` when it was analysed on an FRF, else in ``ideal_discrete``, in each of its loops
+    (``analysis.loops``: the prefixes of their case names, a cascade's ``position_discrete``; one loop by default);
+    stability in every case. Returns the check and the name of the checked case (of the first loop)."""
     metrics = {name: None if c is None else c.metrics for name, c in analysis.cases.items()}
     checked = "discrete" if metrics.get("discrete") is not None else "ideal_discrete"
-    return check_cases(limits, metrics, [checked]), checked
+    loops = [p + checked for p in getattr(analysis, "loops", ("",)) if metrics.get(p + checked) is not None]
+    return check_cases(limits, metrics, loops or [checked]), checked

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import typer
 
+from ..machines.registry import machines
 from .common import FORCE_OPTION, JSON_OPTION
-from .help_text import ENGINES, MACHINES, choice
+from .help_text import ENGINES, choice
 from .limits_options import (
     DM_MIN_OPTION,
     GM_LOW_MIN_OPTION,
@@ -20,10 +21,13 @@ from .limits_options import (
 )
 from .progress_display import QUIET_OPTION, show_progress
 
+DEMOS = tuple(m.name for m in machines() if m.demo is not None)
+"""``demo MACHINE``: the registered machines that have a demo (:mod:`feedtune.machines.registry`)."""
+
 
 def demo(
     machine: str = typer.Argument(
-        "ballscrew", **choice(MACHINES),
+        "ballscrew", **choice(DEMOS),
         help="Which twin: ballscrew (thesis ch. 3) or gantry (ch. 4).",
     ),
     out: Path = typer.Option(
@@ -68,13 +72,14 @@ def demo(
     show_progress(quiet)
     from ..io.atomic import staged_folder
     from ..machines import get_machine
+    from ..structures import plant
     from ..workflows import run_machine_demo
     from ..workflows.files import check_out_dir, write_texts
     from .tune_cmd import objective_options
 
-    get_machine(machine)
+    entry = get_machine(machine)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    goal = objective_options(objective, compliance_max, "mcppc" if machine == "ballscrew" else machine)
+    goal = objective_options(objective, compliance_max, (plant(entry.plant),), machine)
     check_out_dir(out, force)
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw, objective=goal)
     from .. import progress

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from ..structures import controller
 from .common import FORCE_OPTION, JSON_OPTION
 from .frf_options import (
     FRF_CHANNEL_OPTION,
@@ -37,9 +38,9 @@ app = typer.Typer(
 NOTCH_HELP = "Notch HZ,ZETA_Z,ZETA_P (repeatable), e.g. --notch 420,0.55,0.7 --notch 1080,0.05,0.7."
 NOTCH_OPTION = typer.Option(None, "--notch", metavar="HZ,ZETA_Z,ZETA_P", help=NOTCH_HELP)
 LPF_OPTION = typer.Option(None, "--lpf", metavar="HZ", help="First-order low-pass pole frequency [Hz] (eq. 3.10).")
-DEFAULT_FS = 20000.0
-"""Sample rate [Hz] of ``design ppc|ppi`` without ``--fs`` and without a rate recorded in the FRF."""
-FS_OPTION = fs_option("20000 Hz")
+DEFAULT_FS = controller("mcppc").default_fs_hz
+"""Sample rate [Hz] of ``design ppc|ppi`` without ``--fs`` and without a rate recorded in the FRF (the registry's)."""
+FS_OPTION = fs_option(f"{DEFAULT_FS:g} Hz")
 QUANTITY_OPTION = typer.Option(
     None, "--quantity", **choice(QUANTITIES, "QUANTITY"),
     help="Quantity of the --frf file (position, velocity or acceleration) if not in its metadata.",
@@ -106,16 +107,10 @@ def _finish(design, *, frf_path, frf, limits, out, force, allow_unstable, as_jso
 
 
 def _load_model(path: Path):
-    """The ball-screw model of a model file; DataError for a model of another kind."""
-    from ..errors import DataError
+    """The two-mass model of a model file; DataError for a model of another plant structure."""
     from ..io import load_model
-    from ..models.ballscrew import BallScrewModel
 
-    model = load_model(path)
-    if not isinstance(model, BallScrewModel):
-        raise DataError(f"{path}: a ball-screw model is needed (kind = \"ballscrew\", from 'feedtune identify "
-                        f"ballscrew'), got a {type(model).__name__}")
-    return model
+    return load_model(path, plants=("two_mass",))
 
 
 @app.command("ppc")
@@ -273,3 +268,39 @@ def ppi(
         )
     _finish(design, frf_path=frf, frf=measured, limits=policy, out=out, force=force, allow_unstable=allow_unstable,
             as_json=as_json, friction=friction, friction_band=friction_band, sampling=rate)
+
+
+# ------------------------------------------------------------------------------------------ tune mcppc|ppi
+def tune_two_mass(entry, request) -> None:
+    """``feedtune tune mcppc|ppi``: tune the structure ``entry`` on every FRF, certify the gains file as written,
+    write it, print the result (``request``: :class:`~feedtune.cli.tune_cmd.TuneRequest`)."""
+    from ..control.ballscrew_law import all_gain_units
+    from ..io.document import ensure_document_writable
+    from ..structures import resolve
+    from ..workflows.deliver import deliver
+    from .limits_options import OPTION_NAMES
+    from .tune_cmd import _filter_choice, _frfs, _report_tuned, print_tuned
+
+    r = request
+    choice = _filter_choice(r.filters, r.pack.notches, r.pack.lpf_hz)
+    if r.out is not None:
+        ensure_document_writable(r.out, r.force)  # refused before the search, not after it
+    model = _load_model(r.plant_file)
+    frfs = _frfs(r.frf, r.quantity, r.frf_options)
+    rate = target_sampling(r.fs, r.delay_samples, [(s.name, s.frf) for s in frfs], default_fs=entry.default_fs_hz,
+                           override=r.fs_override)
+    rate.report(r.as_json, f"tune {entry.command}")
+    design = resolve(entry.tuner)(model, limits=r.policy, filters=r.pack, fs=rate.fs_hz,
+                                  delay_samples=rate.delay_samples, frf=[s.frf for s in frfs] or None,
+                                  filter_choice=choice, objective=r.objective)
+    delivery = deliver(design, frfs, r.policy, where="tuned design")
+    gains = {**design.gains, **getattr(design, "ppi_gains", {})}
+    units = all_gain_units(model.input_unit)
+    result = {"kind": entry.gains_kind, "controller": design.kind, "gains": gains, "gain_units": units,
+              "filters": design.filters.to_dict(), "filter_choice": design.tuning.get("filters", {"choice": choice}),
+              "design": design.design_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
+              **rate.to_json()}
+    if _report_tuned(entry.title, delivery, result, r.out, r.force, r.as_json):
+        return
+    print_tuned(entry.title, None, gains, units, design.tuning, result["filters"], result["filter_choice"],
+                result["certificate"], r.out)

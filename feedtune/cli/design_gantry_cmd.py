@@ -1,8 +1,5 @@
-"""``feedtune design loopshape|gantry|pid``: the x axis and the gantry of thesis chapter 4.
+"""``feedtune design gantry|pid`` and ``feedtune tune gantry|pid``: the gantry of thesis chapter 4.
 
-* ``loopshape``: double-lead-and-integral loop shaping of an axis (eq. 4.17-4.20) from a mass, a gantry model
-  (its ``m_x``) or a measured SISO FRF; without ``--crossover-hz`` the highest crossover under the limits
-  (:func:`feedtune.tune.loopshape.tune_loopshape`).
 * ``gantry``: the MIMO law of eq. 4.30 (sensor/actuator averaging, lead, active damping, actuator-level
   integral) with feedforward and pre-filters scheduled in the table position.
 * ``gantry`` and ``pid`` take ``--friction F.toml [--friction-band V]``: the Stribeck friction feedforward of the
@@ -11,7 +8,9 @@
   (:func:`feedtune.tune.pid.tune_gantry_pid`), with ``--match`` to the Ms of a MIMO gains file and its filters;
   ``--filters own|identical`` says whether the tuner may choose its own notches and low-pass.
 
-The commands are registered on the ``design`` group in :mod:`feedtune.cli.main`.
+The commands are registered on the ``design`` group in :mod:`feedtune.cli.main`; :func:`tune_gantry` is ``feedtune
+tune gantry|pid`` (the registry of structures names it). The loop-shaping filter options and the delivery of a
+design are shared with ``design loopshape`` (:mod:`feedtune.cli.design_loopshape_cmd`).
 """
 
 from __future__ import annotations
@@ -20,6 +19,7 @@ from pathlib import Path
 
 import typer
 
+from ..structures import controller
 from .common import FORCE_OPTION, JSON_OPTION
 from .design_cmd import (
     ALLOW_OPTION,
@@ -51,9 +51,10 @@ from .limits_options import (
 from .progress_display import QUIET_OPTION, show_progress
 from .sampling_options import FS_OVERRIDE_OPTION, fs_option, target_sampling
 
-DEFAULT_FS = 15000.0
-"""Sample rate [Hz] of ``design loopshape|gantry|pid`` without ``--fs`` and without a rate recorded in an FRF."""
-FS_OPTION = fs_option("15000 Hz")
+DEFAULT_FS = controller("mimo").default_fs_hz
+"""Sample rate [Hz] of ``design gantry|pid`` without ``--fs`` and without a rate recorded in an FRF (the
+registry's)."""
+FS_OPTION = fs_option(f"{DEFAULT_FS:g} Hz")
 LPF_OPTION = typer.Option(None, "--lpf", metavar="HZ", help="Low-pass frequency [Hz] of the filter pack.")
 LEAD_OPTION = typer.Option(
     None, "--lead", metavar="HZ,DEG",
@@ -92,14 +93,9 @@ def _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead):
 
 def _gantry_model(path: Path):
     """The gantry model of a model file; DataError (a file of the wrong kind, exit 1) otherwise."""
-    from ..errors import DataError
     from ..io import load_model
-    from ..models.gantry import GantryModel
 
-    model = load_model(path)
-    if not isinstance(model, GantryModel):
-        raise DataError(f"{path}: a gantry model is needed (kind = \"gantry\"), got a {type(model).__name__}")
-    return model
+    return load_model(path, plants=("gantry",))
 
 
 def _x_grid(model, x_min: float, x_max: float, x_points: int):
@@ -162,156 +158,6 @@ def _gantry_finish(design, sources, *, limits, targets, out, force, allow_unstab
     _deliver_and_report(design, sources, limits=limits, targets=targets, out=out, force=force,
                         allow_unstable=allow_unstable, as_json=as_json, sampling=sampling, extra={"x_m": design.x},
                         extra_gains=lead)
-
-
-# ------------------------------------------------------------------------------------------ loopshape
-def loopshape(
-    plant_file: Path = typer.Argument(
-        ..., metavar="PLANT",
-        help="Model file (.toml/.json: a gantry model's m_x) or a measured SISO FRF (.csv/.mat/.uff).",
-    ),
-    crossover_hz: float = typer.Option(
-        None, "--crossover-hz", metavar="HZ",
-        help="Crossover frequency [Hz] (thesis: 130); without it the tuner finds the highest crossover under the "
-             "limits.",
-    ),
-    pm_deg: float = typer.Option(
-        None, "--pm-deg", metavar="DEG",
-        help="Phase margin at the crossover [deg] (thesis: 35); needed with --crossover-hz, fixes the target when "
-             "tuning.",
-    ),
-    pi_lag_deg: float = typer.Option(
-        None, "--pi-lag-deg", metavar="DEG",
-        help="Phase lag of the integral action at the crossover [deg] (default 10; searched when tuning unless given).",
-    ),
-    max_stage_deg: float = typer.Option(
-        70.0, "--max-stage-deg", metavar="DEG",
-        help="Largest phase of one lead stage [deg] (the tuner searches 1-3 stages instead).",
-    ),
-    mass: float = typer.Option(
-        None, "--mass", metavar="MASS",
-        help="Axis mass [V/(m/s^2)] (instead of the model's m_x or the FRF estimate).",
-    ),
-    channel: str = typer.Option(
-        None, "--channel", metavar="OUT/IN",
-        help="FRF channel OUT/IN when the FRF has several.",
-    ),
-    notch: list[str] = NOTCH_OPTION,
-    lpf: float = LPF_OPTION,
-    lpf_order: int = typer.Option(1, "--lpf-order", **choice(LPF_ORDERS), help="Low-pass order, 1 or 2."),
-    lpf_zeta: float = LPF_ZETA_OPTION,
-    lead: list[str] = LEAD_OPTION,
-    prefilter: str = typer.Option(
-        None, "--prefilter", metavar="VEL,ACC,JERK,SNAP",
-        help="Pre-filter gains VEL,ACC,JERK,SNAP [s, s^2, s^3, s^4] (eq. 4.20).",
-    ),
-    prefilter_hz: float = PREFILTER_HZ_OPTION,
-    friction: Path = FRICTION_OPTION,
-    friction_band: float = FRICTION_BAND_OPTION,
-    fs: float = FS_OPTION,
-    delay_samples: int = DELAY_OPTION,
-    fs_override: bool = FS_OVERRIDE_OPTION,
-    frf: Path = typer.Option(
-        None, "--frf", metavar="FRF",
-        help="Measured SISO FRF for the measured and discrete cases.",
-    ),
-    quantity: str = QUANTITY_OPTION,
-    frf_map: list[str] = FRF_MAP_OPTION,
-    frf_skip_rows: int = FRF_SKIP_ROWS_OPTION,
-    frf_scale: list[str] = FRF_SCALE_OPTION,
-    frf_channel: str = FRF_CHANNEL_OPTION,
-    frf_input_unit: str = FRF_INPUT_UNIT_OPTION,
-    limits: str = LIMITS_OPTION,
-    ms_max: float = MS_MAX_OPTION,
-    pm_min: float = PM_MIN_OPTION,
-    gm_min: float = GM_MIN_OPTION,
-    gm_low_min: float = GM_LOW_MIN_OPTION,
-    dm_min: float = DM_MIN_OPTION,
-    out: Path = OUT_OPTION,
-    force: bool = FORCE_OPTION,
-    allow_unstable: bool = ALLOW_OPTION,
-    as_json: bool = JSON_OPTION,
-    quiet: bool = QUIET_OPTION,
-) -> None:
-    """Design x-axis loop shaping, given or tuned under the limits.
-
-    Double-lead and integral loop shaping of an axis (thesis eq. 4.17-4.20), designed or tuned; optionally with
-    the Stribeck friction feedforward of an identified friction model (--friction, levels in the axis' command unit,
-    velocities in m/s)."""
-    show_progress(quiet)
-    from ..control.friction import friction_feedforward
-    from ..control.prefilter import PrefilterGains
-    from ..design.loopshape import _command_unit_of, design_loopshape
-    from ..errors import UsageError
-    from ..frf import Frf
-    from ..tune.loopshape import tune_loopshape
-    from .design_cmd import _load_friction
-    from .frf_options import FrfReadOptions, read_optional_frf
-
-    frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
-    if plant_file.suffix.lower() in (".toml", ".json"):
-        from ..io import load_model
-
-        plant = load_model(plant_file)
-    else:
-        plant = read_optional_frf(plant_file, quantity, options=frf_options)
-    if friction_band is not None and friction is None:
-        raise UsageError("--friction-band needs --friction")
-    friction_model = _load_friction(friction)
-    if friction_model is not None:  # refuse a unit mismatch before designing (with_friction checks it again)
-        unit = plant.input_unit if isinstance(plant, Frf) else _command_unit_of(plant)
-        friction_feedforward(friction_model, command_unit=unit, lead_m_per_rad=None, v_band=friction_band,
-                             where=str(friction), command_where=str(plant_file))
-    policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    measured = read_optional_frf(frf, quantity, options=frf_options)
-    rate = target_sampling(fs, delay_samples, [(plant_file, plant if isinstance(plant, Frf) else None),
-                                               (frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
-    rate.report(as_json, "design loopshape")
-    fs, delay_samples = rate.fs_hz, rate.delay_samples
-    filters = _loop_filters(notch, lpf, lpf_order, lpf_zeta, lead)
-    common = dict(filters=filters, fs=fs, delay_samples=delay_samples, prefilter=PrefilterGains.parse(prefilter),
-                  prefilter_hz=prefilter_hz, mass=mass, channel=channel)
-    if crossover_hz is not None:
-        if pm_deg is None:
-            raise UsageError("--crossover-hz needs --pm-deg (or give neither to tune the crossover)")
-        design = design_loopshape(plant, crossover_hz=crossover_hz, pm_deg=pm_deg,
-                                  pi_lag_deg=10.0 if pi_lag_deg is None else pi_lag_deg, max_stage_deg=max_stage_deg,
-                                  **common)
-    else:
-        design = tune_loopshape(plant, limits=policy, frf=measured,
-                                pm_bounds=None if pm_deg is None else (pm_deg, pm_deg),
-                                pi_lag_bounds=None if pi_lag_deg is None else (pi_lag_deg, pi_lag_deg), **common)
-        if not as_json:
-            _print_tuning(design.tuning)
-    if friction_model is not None:
-        design = design.with_friction(friction_model, v_band=friction_band, where=str(friction),
-                                      plant_where=str(plant_file))
-    sources = _axis_sources([(plant_file, plant if isinstance(plant, Frf) else None), (frf, measured)], channel)
-    _deliver_and_report(design, sources, limits=policy, targets=(design.crossover_hz, design.pm_deg), out=out,
-                        force=force, allow_unstable=allow_unstable, as_json=as_json, sampling=rate,
-                        extra={"lead_stages": [s.to_dict() for s in design.lead_stages]})
-
-
-def _axis_sources(frfs, channel: str | None) -> list:
-    """The x axis' FRFs as certification sources (each file once): the plant FRF it was designed on and ``--frf``;
-    with ``--channel`` an FRF of several channels is narrowed to that one (named ``FILE [CHANNEL]``)."""
-    from ..frf import Frf
-    from ..machines.certificate import FrfSource
-
-    out, seen = [], set()
-    for path, frf in frfs:
-        if frf is None or str(path) in seen:
-            continue
-        seen.add(str(path))
-        name = str(path)
-        if channel is not None and len(frf.channels) > 1:
-            coh = frf.channel_coherence(channel)
-            frf = Frf.from_channels(frf.freq_hz, {channel: frf.channel(channel)},
-                                    coherence=None if coh is None else {channel: coh}, quantity=frf.quantity,
-                                    input_unit=frf.input_unit, output_unit=frf.output_unit, meta=frf.meta)
-            name = f"{path} [{channel}]"
-        out.append(FrfSource.from_file(path, frf, name))
-    return out
 
 
 # ------------------------------------------------------------------------------------------ gantry
@@ -549,3 +395,64 @@ def pid(
     _gantry_finish(design, read_sources_of(frf, measured), limits=policy.override(ms_max=ms_max), targets=None,
                    out=out, force=force,
                    allow_unstable=allow_unstable, as_json=as_json, sampling=rate)  # --match: the MIMO design's Ms
+
+
+# ------------------------------------------------------------------------------------------ tune gantry|pid
+def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity: str | None, frf_options=None):
+    """Gantry FRFs as certification sources, each carrying its table position (``--x`` or its own ``x_m``)."""
+    from dataclasses import replace
+
+    from ..tune.gantry_cases import frf_positions
+    from .tune_cmd import _frfs
+
+    frfs = _frfs(paths, quantity, frf_options)
+    if xs and not frfs:
+        from ..errors import UsageError
+
+        raise UsageError("--x gives the table position of each --frf; without --frf use --design-x")
+    positions = frf_positions([s.frf for s in frfs], xs or None, 0.0)
+    return [replace(s, name=f"{s.name} (x = {x:g} m)", frf=replace(s.frf, meta={**s.frf.meta, "x_m": repr(float(x))}))
+            for s, x in zip(frfs, positions, strict=True)]
+
+
+def tune_gantry(entry, request) -> None:
+    """``feedtune tune gantry|pid``: tune the gantry MIMO law or the PID pair on every FRF at its position, certify,
+    write, print (``request``: :class:`~feedtune.cli.tune_cmd.TuneRequest`)."""
+    from ..io.document import ensure_document_writable
+    from ..structures import resolve
+    from ..workflows.deliver import deliver
+    from .common import fmt
+    from .limits_options import OPTION_NAMES
+    from .tune_cmd import _filter_choice, _report_tuned, print_tuned
+
+    r = request
+    if r.out is not None:
+        ensure_document_writable(r.out, r.force)
+    model = _gantry_model(r.plant_file)
+    frfs = _positioned_frfs(r.frf, r.xs, r.quantity, r.frf_options)
+    rate = target_sampling(r.fs, r.delay_samples, [(s.name, s.frf) for s in frfs], default_fs=entry.default_fs_hz,
+                           override=r.fs_override)
+    rate.report(r.as_json, f"tune {entry.command}")
+    choice = _filter_choice(r.filters, r.pack.notches, r.pack.lpf_hz)
+    design = resolve(entry.tuner)(model, filter_choice=choice, limits=r.policy, filters=r.pack, fs=rate.fs_hz,
+                                  delay_samples=rate.delay_samples, x=r.design_x, frf=[s.frf for s in frfs] or None,
+                                  objective=r.objective)
+    tuning = design.tuning
+    record = tuning.get("filters", {"choice": choice})
+    delivery = deliver(design, frfs, r.policy, where="tuned design")
+    doc = delivery.document
+    gains = {k: v["value"] for k, v in doc["gains"].items()}
+    units = {k: v["unit"] for k, v in doc["gains"].items()}
+    mimo = design.controller == "mimo"
+    if mimo:
+        gains["lead_gain"], units["lead_gain"] = design.law.lead_gain, f"{model.input_unit}/m"
+    result = {"kind": entry.gains_kind, "controller": design.controller, "design_x_m": design.x, "gains": gains,
+              "gain_units": units, "filters": design.law.filters.to_dict(), "filter_choice": record,
+              "design": design.design_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
+              **rate.to_json()}
+    if _report_tuned(entry.title, delivery, result, r.out, r.force, r.as_json):
+        return
+    shape = (f"CoM crossover target {fmt(design.crossover_hz, 'Hz')}, PM target {fmt(design.pm_deg, 'deg')}, "
+             f"damping increase {design.damping_increase:g}" if mimo else
+             f"bandwidth {fmt(tuning['bandwidth_hz'], 'Hz')}, zeta {tuning['zeta']:.3g}, rho {tuning['rho']:.3g}")
+    print_tuned(entry.title, shape, gains, units, tuning, result["filters"], record, result["certificate"], r.out)

@@ -44,8 +44,6 @@ ANTI_WINDUP = ("none", "clamp")
 """``export c --anti-windup``: :data:`feedtune.export.c_common.ANTI_WINDUP`."""
 FILTER_CHOICES = ("own", "identical")
 """``--filters``: :data:`feedtune.tune.pid.FILTER_CHOICES`."""
-MACHINES = ("ballscrew", "gantry")
-"""``demo MACHINE``: the registered machines (:func:`feedtune.machines.machine_names`)."""
 LPF_ORDERS = ("1", "2")
 """``--lpf-order``: first or second order."""
 
@@ -98,6 +96,8 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
                               "    --frf examples/ballscrew_frf.csv --out ppi.toml"),
     "design loopshape": (_GANTRY_MODEL, _AXIS),
     "design gantry": (_GANTRY_MODEL, _GANTRY_MIMO),
+    "design cascade": ("feedtune design cascade examples/vendor/auto_servo_tuning.xml \\\n"
+                       "    --drive-tuning examples/vendor/auto_servo_tuning.xml --out drive.toml",),
     "design pid": (_GANTRY_MODEL, _GANTRY_MIMO,
                    "feedtune design pid gantry.toml --match mimo.toml --out pid.toml"),
     "tune": (_BS_MODEL, "feedtune tune mcppc model.toml --frf examples/ballscrew_frf_m70.csv \\\n"

@@ -14,9 +14,11 @@ import typer
 
 from . import (
     analyze_cmd,
+    cascade_cmd,
     demo_cmd,
     design_cmd,
     design_gantry_cmd,
+    design_loopshape_cmd,
     export_cmd,
     fleet_cmd,
     frf_cmd,
@@ -66,9 +68,10 @@ def _root(
 identify_cmd.app.command("gantry")(identify_gantry_cmd.gantry)
 identify_cmd.app.command("mass")(identify_gantry_cmd.mass)
 identify_cmd.app.command("resonances")(identify_resonances_cmd.resonances)
-design_cmd.app.command("loopshape")(design_gantry_cmd.loopshape)
+design_cmd.app.command("loopshape")(design_loopshape_cmd.loopshape)
 design_cmd.app.command("gantry")(design_gantry_cmd.gantry)
 design_cmd.app.command("pid")(design_gantry_cmd.pid)
+design_cmd.app.command("cascade")(cascade_cmd.design)
 simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
 
 app.add_typer(identify_cmd.app, name="identify")

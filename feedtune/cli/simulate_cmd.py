@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from ..control.names import controller_name
+from ..machines.registry import machines_of
 from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt
 from .help_text import ENGINES, EXCITATIONS, choice
 from .progress_display import QUIET_OPTION, show_progress
@@ -20,8 +21,8 @@ app = typer.Typer(
 )
 
 MACHINE_OPTION = typer.Option(
-    "ballscrew", "--machine", **choice(("ballscrew",)),
-    help="Machine kind of the twin (ballscrew).",
+    "ballscrew", "--machine", **choice(machines_of("two_mass")),
+    help=f"The two-mass machine whose twin runs the experiment ({', '.join(machines_of('two_mass'))}).",
 )
 PARAM_OPTION = typer.Option(
     None,
@@ -52,6 +53,14 @@ def _runtime(gains: Path):
     from ..machines.ballscrew.runtime import GainsRuntime
 
     return GainsRuntime.from_file(gains)
+
+
+def _experiments(machine: str):
+    """The experiments module of a two-mass machine (:attr:`~feedtune.machines.registry.MachineEntry.experiments`)."""
+    from ..machines import get_machine
+    from ..structures import resolve
+
+    return resolve(get_machine(machine).experiments)
 
 
 def _check_csv(out: Path, what: str = "--out") -> None:
@@ -141,7 +150,6 @@ def frf(
     --keep-sampling is given.
     """
     show_progress(quiet)
-    from ..machines.ballscrew.experiments import measure_frf
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
@@ -150,7 +158,7 @@ def frf(
     check_distinct_outputs(("--out", out), ("--frf-out", frf_path))
     twin = twin_from_options(machine, param, ideal)
     ctrl = _runtime(gains) if gains is not None else None
-    res = measure_frf(
+    res = _experiments(machine).measure_frf(
         twin,
         excitation=excitation,
         rms=rms,
@@ -204,7 +212,6 @@ def track(
 
     Run a trajectory under the controller of a gains file; the log holds x_ref and derivatives, x1, x2, u."""
     show_progress(quiet)
-    from ..machines.ballscrew.experiments import run_tracking
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
@@ -213,7 +220,7 @@ def track(
     tr = _trajectory(
         trajectory_file, distance, waypoints, v_max, a_max, j_max, s_max, twin.fs, dwell_before, dwell_after
     )
-    res = run_tracking(twin, rt, tr, seed=seed, engine=engine)
+    res = _experiments(machine).run_tracking(twin, rt, tr, seed=seed, engine=engine)
     lines = (
         []
         if res.tripped
@@ -248,13 +255,13 @@ def ropesnap(
 
     Rope snap: a constant table force released at --t-release; the log holds the table displacement and u."""
     show_progress(quiet)
-    from ..machines.ballscrew.experiments import run_ropesnap
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
     twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
-    res = run_ropesnap(twin, rt, force=force_v, t_release=t_release, after_s=after, seed=seed, engine=engine)
+    res = _experiments(machine).run_ropesnap(twin, rt, force=force_v, t_release=t_release, after_s=after, seed=seed,
+                                             engine=engine)
     lines = []
     if not res.tripped:
         st = res.summary["settling_time_s"]
@@ -293,7 +300,6 @@ def cut(
     Slotting at constant feed (thesis 3.4): cutting force at the tooth-passing frequency entering and leaving."""
     show_progress(quiet)
     from ..errors import UsageError
-    from ..machines.ballscrew.experiments import SlotCut, run_cut
     from ..sim.trajectory import point_to_point
     from ..workflows.files import experiment_texts
 
@@ -310,7 +316,8 @@ def cut(
             raise UsageError(f"{name} must be > 0, got {v:g}")
     twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
-    sc = SlotCut(flutes, rpm, tool_diameter, cut_start, cut_length, mean_force, tooth_force)
+    experiments = _experiments(machine)
+    sc = experiments.SlotCut(flutes, rpm, tool_diameter, cut_start, cut_length, mean_force, tooth_force)
     tr = point_to_point(
         cut_start + cut_length + 0.03,
         v_max=speed,
@@ -320,7 +327,7 @@ def cut(
         dwell_before=0.05,
         dwell_after=0.2,
     )
-    res = run_cut(twin, rt, tr, sc, seed=seed, engine=engine)
+    res = experiments.run_cut(twin, rt, tr, sc, seed=seed, engine=engine)
     lines = (
         []
         if res.tripped

@@ -10,6 +10,7 @@ from __future__ import annotations
 import typer
 
 from ..control.names import CONTROLLER_NAMES, controller_name
+from ..structures import gains_formats
 from .common import fmt
 
 __all__ = ["CONTROLLER_NAMES", "print_design_summary"]
@@ -54,8 +55,9 @@ def print_design_summary(result: dict) -> None:
     for stage in result.get("lead_stages", []):
         typer.echo(f"  lead stage {stage['phase_deg']:.1f} deg at {stage['center_hz']:.4g} Hz "
                    f"(zero {stage['zero_hz']:.4g} Hz, pole {stage['pole_hz']:.4g} Hz, gamma {stage['gamma']:.3g})")
-    gantry = result.get("gains_kind", result.get("kind")) == "gantry"
-    head = "CoM crossovers [Hz]" if gantry else "crossovers [Hz]"
+    kind = result.get("gains_kind", result.get("kind"))
+    fmt_ = next((g for g in gains_formats() if g.kind == kind), None)
+    head = f"{fmt_.loop if fmt_ else ''} crossovers [Hz]".strip()
     typer.echo(f"{'case':15s} {head:30s} {'PM [deg] @Hz':>15s} {'GM [dB] @Hz':>15s} "
                f"{'Ms @Hz':>14s} {'disk':>5s}  {'|S|<1 bands [Hz]':28s} stable")
     for case, a in result["analysis"].items():
@@ -70,11 +72,8 @@ def print_design_summary(result: dict) -> None:
         bands = _listed([f"{hz(lo) if lo > 0 else '0'}-{hz(hi)}" for lo, hi in a["rejection_bands_hz"]])
         typer.echo(f"{case:15s} {xo:30s} {pm:>15s} {gm:>15s} {ms:>14s} {dm:>5s}  {bands:28s} "
                    f"{'yes' if a['stable'] else 'NO'}")
-    if gantry:
-        typer.echo("Ms = max sigma_max(S); stability by the MIMO Nyquist criterion on det(I + L); crossovers and "
-                   "margins of the CoM loop alpha^T L [1 1]^T; disk = balanced disk margin")
-    else:
-        typer.echo("PM, GM: the worst over every crossover; disk = balanced disk margin alpha")
+    typer.echo(fmt_.legend if fmt_ and fmt_.legend else
+               "PM, GM: the worst over every crossover; disk = balanced disk margin alpha")
     print_case_legend(result["analysis"])
     ideal = result["analysis"].get("ideal") or {}
     if ideal.get("disturbance_min_real_rad_per_V") is not None:

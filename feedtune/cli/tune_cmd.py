@@ -11,13 +11,16 @@ in ``--json`` and in the gains file (``[certificate]``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import typer
 
+from ..structures import controllers
+from . import cascade_cmd
 from .common import FORCE_OPTION, JSON_OPTION, fmt
 from .delivery import print_certificate
-from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION, _load_model
+from .design_cmd import DELAY_OPTION, LPF_OPTION, NOTCH_OPTION, QUANTITY_OPTION
 from .envelope import cli_text
 from .frf_options import (
     FRF_CHANNEL_OPTION,
@@ -38,7 +41,7 @@ from .limits_options import (
     limits_from_options,
 )
 from .progress_display import QUIET_OPTION, show_progress
-from .sampling_options import FS_OVERRIDE_OPTION, target_sampling
+from .sampling_options import FS_OVERRIDE_OPTION
 
 FRFS_OPTION = typer.Option(
     None, "--frf", metavar="FRF",
@@ -53,7 +56,6 @@ FS_OPTION = typer.Option(
     help="Sample rate of the target [Hz] (default: the rate the FRF files record, sampling_fs_hz, else 20000 for "
          "mcppc and ppi, 15000 for gantry, pid and loopshape).",
 )
-DEFAULT_FS = {"mcppc": 20000.0, "ppi": 20000.0, "gantry": 15000.0, "pid": 15000.0, "loopshape": 15000.0}
 X_OPTION = typer.Option(
     None, "--x", metavar="M",
     help="gantry, pid: table position [m] of each --frf, in order (repeatable; default: the position recorded in each "
@@ -119,15 +121,16 @@ def print_filters(pack: dict, record: dict) -> None:
         typer.echo(f"  {record.get('why', '')}")
 
 
-def objective_options(objective: str | None, compliance_max: float | None, structure: str):
-    """The objective of ``--objective`` / ``--compliance-max`` (checked before any work)."""
+def objective_options(objective: str | None, compliance_max: float | None, plants, name: str):
+    """The objective of ``--objective`` / ``--compliance-max`` (checked before any work) for the structure or
+    machine ``name`` whose plant structures are ``plants``."""
     from ..errors import UsageError
     from ..tune.search import OBJECTIVES, Objective
 
     if objective is not None and objective not in OBJECTIVES:
         raise UsageError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
-    if compliance_max is not None and structure not in ("mcppc", "ppi"):
-        raise UsageError(f"--compliance-max caps the ball screw's axial-mode compliance; {structure} has none")
+    if compliance_max is not None and not any(p.axial_mode for p in plants):
+        raise UsageError(f"--compliance-max caps the ball screw's axial-mode compliance; {name} has none")
     return Objective.of(objective, compliance_max)
 
 
@@ -173,158 +176,80 @@ def _report_tuned(title: str, delivery, result: dict, out: Path | None, force: b
     return False
 
 
-def _tune_ballscrew(structure: str, model_file: Path, frf: list[Path] | None, pack, filters: str | None,
-                    fs: float | None, delay_samples: int | None, quantity: str | None, policy, out: Path | None,
-                    force: bool, as_json: bool, fs_override: bool = False, frf_options=None, objective=None) -> None:
-    """Tune a ball-screw structure on every FRF, certify the gains file as written, write it, print the result."""
-    from ..control.ballscrew_law import all_gain_units
-    from ..io.document import ensure_document_writable
-    from ..tune.mcppc import tune_mcppc
-    from ..tune.ppi import tune_ppi
-    from ..workflows.deliver import deliver
+@dataclass(frozen=True)
+class TuneRequest:
+    """What ``feedtune tune`` was asked, options checked: the input of a structure's tuning command
+    (:attr:`feedtune.structures.ControllerStructure.tune_command`, ``tune_command(entry, request)``).
 
-    choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
-    if out is not None:
-        ensure_document_writable(out, force)  # refused before the search, not after it
-    model = _load_model(model_file)
-    frfs = _frfs(frf, quantity, frf_options)
-    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in frfs], default_fs=DEFAULT_FS[structure],
-                           override=fs_override)
-    rate.report(as_json, f"tune {structure}")
-    fs, delay_samples = rate.fs_hz, rate.delay_samples
-    tuner = {"mcppc": tune_mcppc, "ppi": tune_ppi}[structure]
-    design = tuner(model, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
-                   frf=[s.frf for s in frfs] or None, filter_choice=choice, objective=objective)
-    delivery = deliver(design, frfs, policy, where="tuned design")
-    gains = {**design.gains, **getattr(design, "ppi_gains", {})}
-    units = all_gain_units(model.input_unit)
-    result = {"kind": "ballscrew", "controller": design.kind, "gains": gains, "gain_units": units,
-              "filters": design.filters.to_dict(), "filter_choice": design.tuning.get("filters", {"choice": choice}),
-              "design": design.design_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
-              **rate.to_json()}
-    if _report_tuned(TITLES[structure], delivery, result, out, force, as_json):
-        return
-    typer.echo(f"{TITLES[structure]} tuned: " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}"
-                                                          for k, v in gains.items()))
-    print_objective(design.tuning)
-    print_filters(result["filters"], result["filter_choice"])
-    print_certificate(result["certificate"])
-    if out is not None:
-        typer.echo(f"wrote {out}")
+    Attributes
+    ----------
+    plant_file : Path
+        MODEL: a model file (or, where the structure takes one, a measured FRF).
+    frf : list of Path
+        The ``--frf`` files.
+    xs : list of float
+        ``--x``: the table position of each FRF [m] (structures whose plants are measured at positions).
+    design_x : float
+        ``--design-x`` [m].
+    pack : FilterPack
+        The filter pack of the options (candidates with ``--filters own``).
+    filters : str or None
+        ``--filters`` as given.
+    fs : float or None
+        ``--fs`` [Hz].
+    delay_samples : int or None
+        ``--delay-samples``.
+    quantity : str or None
+        ``--quantity`` of the FRF files.
+    policy : Limits
+        The limits.
+    out : Path or None
+        ``--out``.
+    force, as_json, fs_override : bool
+        ``--force``, ``--json``, ``--fs-override``.
+    frf_options : FrfReadOptions
+        How the FRF files are read.
+    objective : Objective
+        What the tuner maximises.
+    options : dict
+        The structure's own options (:attr:`feedtune.structures.ControllerStructure.options`) by name, as given
+        (None when not given).
+    """
+
+    plant_file: Path
+    frf: list
+    xs: list
+    design_x: float
+    pack: object
+    filters: str | None
+    fs: float | None
+    delay_samples: int | None
+    quantity: str | None
+    policy: object
+    out: Path | None
+    force: bool
+    as_json: bool
+    fs_override: bool
+    frf_options: object
+    objective: object
+    options: dict = field(default_factory=dict)
 
 
-def _tune_axis(plant_file: Path, frf: list[Path] | None, pack, filters: str | None, fs: float | None,
-               delay_samples: int | None, quantity: str | None, policy, out: Path | None, force: bool, as_json: bool,
-               fs_override: bool = False, frf_options=None, objective=None) -> None:
-    """Tune an x axis by loop shaping on every FRF, certify, write, print."""
-    from ..io import load_model
-    from ..io.document import ensure_document_writable
-    from ..machines.certificate import FrfSource
-    from ..tune.loopshape import tune_loopshape
-    from ..workflows.deliver import deliver
-    from .frf_options import read_optional_frf
-
-    choice = _filter_choice(filters, pack.notches, pack.lpf_hz)
-    if out is not None:
-        ensure_document_writable(out, force)
-    if plant_file.suffix.lower() in (".toml", ".json"):
-        plant = load_model(plant_file)
-    else:
-        plant = read_optional_frf(plant_file, quantity, options=frf_options)
-    frfs = _frfs(frf, quantity, frf_options)
-    plant_frf = [] if plant_file.suffix.lower() in (".toml", ".json") else [FrfSource.from_file(plant_file, plant)]
-    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in plant_frf + frfs],
-                           default_fs=DEFAULT_FS["loopshape"], override=fs_override)
-    rate.report(as_json, "tune loopshape")
-    fs, delay_samples = rate.fs_hz, rate.delay_samples
-    design = tune_loopshape(plant, limits=policy, filters=pack, fs=fs, delay_samples=delay_samples,
-                            frf=[s.frf for s in frfs] or None, filter_choice=choice, objective=objective)
-    delivery = deliver(design, plant_frf + [s for s in frfs if s.name != str(plant_file)], policy,
-                       where="tuned design")
-    tuning = design.tuning
-    result = {"kind": "axis", "controller": "loopshape", "design": design.design_dict(),
-              "filters": design.filters.to_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
-              **rate.to_json()}
-    if _report_tuned("loop-shaping design", delivery, result, out, force, as_json):
-        return
-    typer.echo(f"x-axis loop shaping tuned: crossover {fmt(tuning['crossover_hz'], 'Hz')}, PM target "
-               f"{fmt(tuning['pm_target_deg'], 'deg')}, integral lag {fmt(tuning['pi_lag_deg'], 'deg')}, "
-               f"{tuning['lead_stages']} lead stage(s)")
+def print_tuned(title: str, shape: str | None, gains: dict, units: dict, tuning: dict, filters: dict, record: dict,
+                certificate: dict, out: Path | None) -> None:
+    """What ``feedtune tune`` prints of a tuned design: its gains (or its shape alone when ``gains`` is empty), the
+    objective, the filters, the certificate and the file written."""
+    head = f"{title} tuned" + (f" ({shape})" if shape and gains else f": {shape}" if shape else "")
+    typer.echo(head + (": " + ", ".join(f"{k} {fmt(v, units.get(k, ''))}" for k, v in gains.items()) if gains else ""))
     print_objective(tuning)
-    print_filters(result["filters"], tuning.get("filters", {"choice": choice}))
-    print_certificate(result["certificate"])
+    print_filters(filters, record)
+    print_certificate(certificate)
     if out is not None:
         typer.echo(f"wrote {out}")
 
 
-def _positioned_frfs(paths: list[Path] | None, xs: list[float] | None, quantity: str | None, frf_options=None):
-    """Gantry FRFs as certification sources, each carrying its table position (``--x`` or its own ``x_m``)."""
-    from dataclasses import replace
-
-    from ..tune.gantry_cases import frf_positions
-
-    frfs = _frfs(paths, quantity, frf_options)
-    if xs and not frfs:
-        from ..errors import UsageError
-
-        raise UsageError("--x gives the table position of each --frf; without --frf use --design-x")
-    positions = frf_positions([s.frf for s in frfs], xs or None, 0.0)
-    return [replace(s, name=f"{s.name} (x = {x:g} m)", frf=replace(s.frf, meta={**s.frf.meta, "x_m": repr(float(x))}))
-            for s, x in zip(frfs, positions, strict=True)]
-
-
-def _tune_gantry(structure: str, model_file: Path, frf: list[Path] | None, xs: list[float] | None, design_x: float,
-                 filters_pack, filters: str | None, fs: float | None, delay_samples: int | None, quantity: str | None,
-                 policy, out: Path | None, force: bool, as_json: bool, fs_override: bool = False,
-                 frf_options=None, objective=None) -> None:
-    """Tune the gantry MIMO law or the PID pair on every FRF at its position, certify, write, print."""
-    from ..io.document import ensure_document_writable
-    from ..tune.gantry import tune_gantry_mimo
-    from ..tune.pid import tune_gantry_pid
-    from ..workflows.deliver import deliver
-    from .design_gantry_cmd import _gantry_model
-
-    if out is not None:
-        ensure_document_writable(out, force)
-    model = _gantry_model(model_file)
-    frfs = _positioned_frfs(frf, xs, quantity, frf_options)
-    rate = target_sampling(fs, delay_samples, [(s.name, s.frf) for s in frfs], default_fs=DEFAULT_FS[structure],
-                           override=fs_override)
-    rate.report(as_json, f"tune {structure}")
-    fs, delay_samples = rate.fs_hz, rate.delay_samples
-    common = {"limits": policy, "filters": filters_pack, "fs": fs, "delay_samples": delay_samples, "x": design_x,
-              "frf": [s.frf for s in frfs] or None, "objective": objective}
-    choice = _filter_choice(filters, filters_pack.notches, filters_pack.lpf_hz)
-    tuner = tune_gantry_mimo if structure == "gantry" else tune_gantry_pid
-    design = tuner(model, filter_choice=choice, **common)
-    tuning = design.tuning
-    record = tuning.get("filters", {"choice": choice})
-    delivery = deliver(design, frfs, policy, where="tuned design")
-    doc = delivery.document
-    gains = {k: v["value"] for k, v in doc["gains"].items()}
-    units = {k: v["unit"] for k, v in doc["gains"].items()}
-    if design.controller == "mimo":
-        gains["lead_gain"], units["lead_gain"] = design.law.lead_gain, f"{model.input_unit}/m"
-    result = {"kind": "gantry", "controller": design.controller, "design_x_m": design.x, "gains": gains,
-              "gain_units": units, "filters": design.law.filters.to_dict(), "filter_choice": record,
-              "design": design.design_dict(), "certificate": delivery.certificate.to_dict(OPTION_NAMES),
-              **rate.to_json()}
-    if _report_tuned(TITLES[structure], delivery, result, out, force, as_json):
-        return
-    shape = (f"CoM crossover target {fmt(design.crossover_hz, 'Hz')}, PM target {fmt(design.pm_deg, 'deg')}, "
-             f"damping increase {design.damping_increase:g}" if structure == "gantry" else
-             f"bandwidth {fmt(tuning['bandwidth_hz'], 'Hz')}, zeta {tuning['zeta']:.3g}, rho {tuning['rho']:.3g}")
-    typer.echo(f"{TITLES[structure]} tuned ({shape}): "
-               + ", ".join(f"{k} {fmt(v, units.get(k, ''))}" for k, v in gains.items()))
-    print_objective(tuning)
-    print_filters(result["filters"], record)
-    print_certificate(result["certificate"])
-    if out is not None:
-        typer.echo(f"wrote {out}")
-
-
-TITLES = {"mcppc": "MC-PPC", "ppi": "P-PI", "gantry": "MIMO", "pid": "PID", "loopshape": "x-axis loop shaping"}
-"""The structures ``feedtune tune`` tunes and their names (:data:`feedtune.control.names.CONTROLLER_NAMES`; the
+TITLES = {c.command: c.title for c in controllers()}
+"""The structures ``feedtune tune`` tunes (their command names) and their titles (:mod:`feedtune.structures`; the
 ``gantry`` structure is the MIMO law)."""
 
 
@@ -332,14 +257,16 @@ def tune(
     structure: str = typer.Argument(
         ..., **choice(TITLES, "STRUCTURE"),
         help="mcppc (MC-PPC: beta, pole frequency, zeta), ppi (P-PI cascade: Kpx, Kpv, Kiv), gantry (MIMO law: CoM "
-             "crossover, PM target, damping), pid (independent PIDs: bandwidth, zeta, rho) or loopshape (x axis: "
-             "crossover, PM target, lag, lead stages).",
+             "crossover, PM target, damping), pid (independent PIDs: bandwidth, zeta, rho), loopshape (x axis: "
+             "crossover, PM target, lag, lead stages) or cascade (a drive's speed PI with its current-setpoint "
+             "filters, then Kv with feedforward).",
     ),
     model_file: Path = typer.Argument(
         ..., metavar="MODEL",
         help="mcppc, ppi: ball-screw model file ('feedtune identify ballscrew'); gantry, pid: gantry model file "
              "('feedtune identify gantry'); loopshape: a model file (a gantry model's m_x, a rigid-body model's mass) "
-             "or a measured SISO FRF.",
+             "or a measured SISO FRF; cascade: a rigid-body or two-mass model, or the axis' measured FRF (current "
+             "setpoint in, motor speed or position out).",
     ),
     frf: list[Path] = FRFS_OPTION,
     x: list[float] = X_OPTION,
@@ -349,6 +276,11 @@ def tune(
     lpf_order: int = LPF_ORDER_OPTION,
     lead: list[str] = LEAD_OPTION,
     filters: str = FILTERS_OPTION,
+    drive_filter: list[str] = cascade_cmd.FILTER_OPTION,
+    position_fs: float = cascade_cmd.POSITION_FS_OPTION,
+    current_loop_hz: float = cascade_cmd.CURRENT_LOOP_OPTION,
+    position_encoder: str = cascade_cmd.TUNE_ENCODER_OPTION,
+    match_margins: Path = cascade_cmd.MATCH_OPTION,
     objective: str = OBJECTIVE_OPTION,
     compliance_max: float = COMPLIANCE_MAX_OPTION,
     fs: float = FS_OPTION,
@@ -387,32 +319,30 @@ def tune(
     frf_x0.3.csv --notch 110,0.5,0.7 --lpf 450 --lead 154,70 -o mimo_gains.toml"""
     show_progress(quiet)
     from ..errors import UsageError
+    from ..structures import controller_by_command, plant, resolve
     from .design_gantry_cmd import _loop_filters
     from .frf_options import FrfReadOptions
 
-    if structure not in TITLES:
-        raise UsageError(f"STRUCTURE must be one of {', '.join(TITLES)}, got {structure!r}")
+    entry = controller_by_command(structure)
+    plants = tuple(plant(p) for p in entry.plants)
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
-    goal = objective_options(objective, compliance_max, structure)
+    goal = objective_options(objective or entry.objective or None, compliance_max, plants, structure)
     frf_options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit)
-    gantry = structure in ("gantry", "pid")
-    if x and not gantry:
+    if x and not any(p.positions for p in plants):
         raise UsageError(f"--x gives gantry FRF positions; {structure} has none")
-    if lead and structure in ("mcppc", "ppi"):
-        raise UsageError(f"--lead: the {TITLES[structure]} filter pack holds notches and a low-pass only")
-    order = (2 if gantry else 1) if lpf_order is None else lpf_order
+    if lead and not entry.lead_stages:
+        raise UsageError(f"--lead: the {entry.title} filter pack holds notches and a low-pass only")
+    own = {"--filter": drive_filter or None, "--position-fs": position_fs, "--current-loop-hz": current_loop_hz,
+           "--position-encoder": position_encoder, "--match-margins": match_margins}
+    foreign = next((k for k, v in own.items() if v is not None and k not in entry.options), None)
+    if foreign is not None:
+        takes = ", ".join(c.command for c in controllers() if foreign in c.options)
+        raise UsageError(f"{foreign} is an option of tune {takes}; {structure} has none")
+    order = entry.lpf_order if lpf_order is None else lpf_order
     if order not in (1, 2):
         raise UsageError(f"--lpf-order must be 1 or 2, got {order}")
-    if gantry:
-        pack = _loop_filters(notch, lpf, order, 0.7, lead)
-        _tune_gantry(structure, model_file, frf, x, design_x, pack, filters, fs, delay_samples, quantity, policy, out,
-                     force, as_json, fs_override=fs_override, frf_options=frf_options, objective=goal)
-        return
-    if structure == "loopshape":
-        _tune_axis(model_file, frf, _loop_filters(notch, lpf, order, 0.7, lead), filters, fs, delay_samples,
-                   quantity, policy, out, force, as_json, fs_override=fs_override, frf_options=frf_options,
-                   objective=goal)
-        return
-    _tune_ballscrew(structure, model_file, frf, _loop_filters(notch, lpf, order, 0.7, None), filters, fs,
-                    delay_samples, quantity, policy, out, force, as_json, fs_override=fs_override,
-                    frf_options=frf_options, objective=goal)
+    request = TuneRequest(model_file, list(frf or []), list(x or []), design_x,
+                          _loop_filters(notch, lpf, order, 0.7, lead), filters, fs, delay_samples, quantity, policy,
+                          out, force, as_json, fs_override, frf_options, goal,
+                          {k: v for k, v in own.items() if k in entry.options})
+    resolve(entry.tune_command)(entry, request)

@@ -16,12 +16,14 @@ def parse_params(items: list[str] | None) -> dict[str, str]:
     return overrides
 
 
-def twin_from_options(machine: str, params: list[str] | None, ideal: bool, *, group: str = "ballscrew"):
-    """The registered machine's twin; UsageError when the command group does not simulate ``machine``."""
+def twin_from_options(machine: str, params: list[str] | None, ideal: bool, *, plant: str = "two_mass"):
+    """The registered machine's twin; UsageError when the command group does not simulate ``machine`` (it runs the
+    twins of the plant structure ``plant``)."""
     from ..errors import UsageError
-    from ..machines import get_machine
+    from ..machines import get_machine, machines_of
 
-    if machine != group:
-        raise UsageError(f"unknown machine {machine!r} for this command; it runs the {group} twin "
-                         f"(the gantry's experiments are under 'feedtune simulate gantry')")
+    names = machines_of(plant)
+    if machine not in names:
+        raise UsageError(f"unknown machine {machine!r} for this command; it runs the {' or '.join(names)} twin "
+                         f"('feedtune simulate --help' lists the other machines' experiments)")
     return get_machine(machine).twin(parse_params(params), ideal=ideal)

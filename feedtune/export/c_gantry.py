@@ -57,8 +57,8 @@ def _state_arrays(flt: dict[str, CFilter], names, opts: COptions) -> list[str]:
     return [f"    {opts.real} {flt[n].state(n.lower())};" for n in names]
 
 
-def gantry_header(doc: dict, rt, opts: COptions) -> str:
-    """The header of a gantry gains document executed by ``rt`` (a ``GantryRuntime``)."""
+def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str:
+    """The header of a gantry gains document executed by ``rt`` (a ``GantryRuntime``, which has validated it)."""
     prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
     mimo = rt.controller == "mimo"
     fr = rt.friction
@@ -186,12 +186,13 @@ def gantry_header(doc: dict, rt, opts: COptions) -> str:
     return "\n".join(out)
 
 
-def axis_header(doc: dict, rt, opts: COptions) -> str:
+def axis_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str:
     """The header of a loop-shaped x-axis gains document executed by ``rt`` (an ``AxisRuntime``).
 
     The integral action is inside the controller's sections (``K (Ti s + 1) / s`` times leads and filters), so there
     is no separate integrator to hold: ``--anti-windup clamp`` is refused for an axis (see :func:`check_axis`).
     """
+    check_axis(opts)
     prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
     pre = rt._prefilter_on
     fr = rt.friction

@@ -2,8 +2,8 @@
 
 One entry point for every gains kind (:func:`c_header`): the document is first read by the runtime that executes it
 (:func:`feedtune.machines.load_runtime`), so the header refuses exactly what the runtime refuses, with the same
-one-line error; then the emitter of its kind (:data:`EMITTERS`) renders it. Headers need only ``<string.h>`` (and
-``<math.h>`` for the ball screw's friction feedforward) and compile with ``gcc -Wall -Wextra -Werror -std=c99``.
+one-line error; then the emitter its gains format names (:mod:`feedtune.structures`) renders it. Headers need only
+``<string.h>`` (and ``<math.h>`` for a friction feedforward) and compile with ``gcc -Wall -Wextra -Werror -std=c99``.
 Options (:class:`~feedtune.export.c_common.COptions`): the prefix of the identifiers, an output limit and
 conditional-integration anti-windup, a warning line, and the precision: ``double`` (default) or ``float``, whose
 filters are rewritten in difference form so that a float32 target stays within
@@ -13,32 +13,7 @@ filters are rewritten in difference form so that a float32 target stays within
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
-from .c_ballscrew import ballscrew_header
 from .c_common import COptions
-from .c_gantry import axis_header, check_axis, gantry_header
-
-
-def _ballscrew(doc: dict, rt, opts: COptions, where: str) -> str:
-    return ballscrew_header(doc, rt, opts, where)
-
-
-def _gantry(doc: dict, rt, opts: COptions, where: str) -> str:
-    return gantry_header(doc, rt, opts)
-
-
-def _axis(doc: dict, rt, opts: COptions, where: str) -> str:
-    check_axis(opts)
-    return axis_header(doc, rt, opts)
-
-
-EMITTERS: dict[str, Callable[[dict, object, COptions, str], str]] = {
-    "ballscrew": _ballscrew,
-    "gantry": _gantry,
-    "axis": _axis,
-}
-"""The header emitter of each gains-file ``kind``."""
 
 
 def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max: float | None = None,
@@ -80,8 +55,9 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
         Bad options.
     """
     from ..machines import load_runtime
+    from ..structures import gains_format, resolve
 
     opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning, precision=precision,
                     scale_out=scale_out, out_unit=out_unit)
     rt = load_runtime(doc, where)
-    return EMITTERS[doc["kind"]](doc, rt, opts, where)
+    return resolve(gains_format(doc["kind"]).emitter)(doc, rt, opts, where)

@@ -132,10 +132,22 @@ SCHEMAS = {
                                        "properties": {"mass": {"anyOf": [_QUANTITY, _NUMBER]}}},
                        "prefilter": {"type": "object"}},
     },
+    "cascade": {  # the drive cascade (io/cascade_gains.py, docs/cascade.md)
+        "type": "object", "required": [*_REQUIRED, "position_loop"],
+        "properties": {**_COMMON, "kind": {"const": "cascade"},
+                       "filters": {"type": "object", "required": ["current_setpoint", "current_setpoint_sos"],
+                                   "properties": {"current_setpoint_sos": _SOS, "current_setpoint": {
+                                       "type": "array", "maxItems": MAX_SECTIONS, "items": {"type": "object"}}}},
+                       "position_loop": {"type": "object", "required": ["ratio"],
+                                         "properties": {"ratio": {"type": "integer", "minimum": 1,
+                                                                  "maximum": MAX_DELAY_SAMPLES},
+                                                        "encoder": {"enum": ["motor", "load"]}}}},
+    },
 }
 """The JSON Schema of each gains ``kind``."""
 
-CHECKED_SECTIONS = ("sampling", "gains", "filters", "reference", "schedule", "feedforward", "prefilter", "model")
+CHECKED_SECTIONS = ("sampling", "gains", "filters", "reference", "schedule", "feedforward", "prefilter", "model",
+                    "position_loop")
 """Sections whose numbers a target or the analysis uses (checked finite and in range)."""
 
 

@@ -1,7 +1,10 @@
-"""Machines feedtune simulates and deploys to, one sub-package each, and their registry."""
+"""Machines feedtune simulates, one sub-package each, and their registry; the runtime and analysis of a gains
+document by its kind (:mod:`feedtune.machines.gains`)."""
 
-from .registry import GainsAnalysis, Machine, analyze_gains, get_machine, load_runtime, machine_names, machine_of_gains
+from .gains import GainsAnalysis, Runtime, analyze_gains, gains_format_of, load_runtime
+from .registry import Machine, get_machine, machine_names, machines, machines_of
 
 __all__ = [
-    "GainsAnalysis", "Machine", "analyze_gains", "get_machine", "load_runtime", "machine_names", "machine_of_gains",
+    "GainsAnalysis", "Machine", "Runtime", "analyze_gains", "gains_format_of", "get_machine", "load_runtime",
+    "machine_names", "machines", "machines_of",
 ]

@@ -352,7 +352,7 @@ def certify(doc: Mapping, where: str, frfs: Sequence, limits: Limits | None = No
         analysis on the FRF of the design's position; ``None`` for the analysis on the model): used for the FRF that
         *is* (the same object) one of ``frfs`` instead of analysing it again.
     """
-    from .registry import analyze_gains
+    from .gains import analyze_gains
 
     policy = limits or DEFAULT_LIMITS
     out = []

@@ -1,103 +1,88 @@
-"""The ``Machine`` protocol and the registry of the machines feedtune simulates and deploys to.
+"""The ``Machine`` protocol and the registry of the machines feedtune simulates.
 
 A machine is one sub-package of :mod:`feedtune.machines`: its twin (physics and the compiled closed loop), its
-runtime (the control law executed sample by sample from a gains file), its experiments and its demo settings. The
-registry maps a machine name (``feedtune simulate MACHINE``) and a gains file's ``kind`` to it, so that commands
-dispatch in one place. Adding a machine is one sub-package and one line in :data:`MACHINES` (see
-``docs/architecture.md``).
+experiments and its demo. It names the plant structure of its twin (:mod:`feedtune.structures`); the gains documents
+its twin runs are executed by the runtimes the registry of structures names (:mod:`feedtune.machines.gains`), as on
+a real target. The registry maps a machine name (``feedtune simulate --machine NAME``, ``feedtune demo NAME``) to it.
+Adding a machine is one sub-package and one line in :func:`_machines` (see ``docs/architecture.md``).
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from ..errors import DataError, UsageError
-
-
-class Runtime(Protocol):
-    """What every runtime offers: a control law executed one sample at a time at the target's rate."""
-
-    fs: float
-    preview_samples: int
-
-    def reset(self) -> None:
-        """Zero every state."""
-
-    def check_target(self, fs: float) -> None:
-        """DataError when the gains were designed for another sample rate than ``fs`` [Hz]."""
+from ..errors import UsageError
 
 
 class Machine(Protocol):
-    """One simulated and deployable machine."""
+    """One simulated machine."""
 
     name: str
     title: str
-    gains_kinds: tuple[str, ...]
+    plant: str
+    experiments: str
+    demo: str | None
 
     def twin(self, overrides: Mapping[str, object] | None = None, *, ideal: bool = False) -> Any:
         """The digital twin with parameter overrides (``NAME -> value``); ``ideal`` drops unmodelled effects."""
 
-    def runtime(self, doc: Mapping, where: str) -> Runtime:
-        """The runtime executing a gains document of one of :attr:`gains_kinds`."""
-
-    def analyze(self, doc: Mapping, where: str, frf=None) -> GainsAnalysis:
-        """Every analysis case of a gains document of one of :attr:`gains_kinds`, with a measured FRF or not."""
-
-
-@dataclass(frozen=True)
-class GainsAnalysis:
-    """The analysis of a gains document and its ``feedtune analyze --json`` dictionary (without the check).
-
-    Attributes
-    ----------
-    analysis : object
-        The library analysis (ball screw: ``BallScrewAnalysis``; gantry/axis: ``GantryAnalysis``/``AxisAnalysis``).
-    result : dict
-        ``kind``, ``controller``, ``gains`` with ``gain_units``, machine-specific keys and ``analysis``.
-    law, model : object
-        The control law and the plant model read from the document (``model`` is None for an axis).
-    """
-
-    analysis: Any
-    result: dict
-    law: Any
-    model: Any
-
-
-def plain_gains(section: Mapping | None) -> dict:
-    """``{name: value}`` of a gains-file section whose entries are numbers or ``{value, unit}`` tables."""
-    return {k: (v["value"] if isinstance(v, Mapping) else v) for k, v in (section or {}).items()}
-
 
 @dataclass(frozen=True)
 class MachineEntry:
-    """A :class:`Machine` built from two factories (imported lazily by the machine's package)."""
+    """A :class:`Machine` (built by the machine's package).
+
+    Attributes
+    ----------
+    name : str
+        ``feedtune simulate --machine NAME``, ``feedtune demo NAME``.
+    title : str
+        What it is, for messages.
+    plant : str
+        The plant structure of its twin (``two_mass``, ``gantry``).
+    axes : tuple of str
+        The plant structures of its twin's further axes, run by their own gains documents (the gantry's x axis:
+        ``rigid``).
+    make_twin : callable
+        ``make_twin(overrides, ideal) -> twin`` (imports the twin lazily).
+    experiments : str
+        The module of its experiments (``feedtune simulate``'s commands for its plant structure call them).
+    demo : str, optional
+        ``package.module:function`` of its demo pipeline (``feedtune demo NAME``), or None.
+    params : str
+        ``package.module:Class`` of its twin's parameters (their defaults: the twin's).
+    log_source : str
+        How the ``source`` of the logs its twin writes begins (the report's saturation level of a twin run).
+    modules : tuple of str
+        Its modules (paths under ``feedtune/``): they may name its kinds.
+    """
 
     name: str
     title: str
-    gains_kinds: tuple[str, ...]
+    plant: str
     make_twin: Callable[..., Any]
-    make_runtime: Callable[[Mapping, str], Runtime]
-    make_analysis: Callable[[Mapping, str, Any], GainsAnalysis]
+    experiments: str
+    params: str
+    axes: tuple[str, ...] = ()
+    demo: str | None = None
+    log_source: str = ""
+    modules: tuple[str, ...] = ()
 
     def twin(self, overrides: Mapping[str, object] | None = None, *, ideal: bool = False) -> Any:
         return self.make_twin(dict(overrides or {}), ideal)
 
-    def runtime(self, doc: Mapping, where: str) -> Runtime:
-        return self.make_runtime(doc, where)
 
-    def analyze(self, doc: Mapping, where: str, frf=None) -> GainsAnalysis:
-        return self.make_analysis(doc, where, frf)
-
-
-def _machines() -> dict[str, Machine]:
+def _machines() -> dict[str, MachineEntry]:
     from .ballscrew import MACHINE as BALLSCREW
     from .gantry import MACHINE as GANTRY
 
     return {m.name: m for m in (BALLSCREW, GANTRY)}
+
+
+def machines() -> tuple[MachineEntry, ...]:
+    """Every registered machine."""
+    return tuple(_machines().values())
 
 
 def machine_names() -> tuple[str, ...]:
@@ -105,72 +90,14 @@ def machine_names() -> tuple[str, ...]:
     return tuple(_machines())
 
 
-def get_machine(name: str) -> Machine:
+def machines_of(plant: str) -> tuple[str, ...]:
+    """The names of the machines whose twin has the plant structure ``plant``."""
+    return tuple(m.name for m in _machines().values() if m.plant == plant)
+
+
+def get_machine(name: str) -> MachineEntry:
     """The machine called ``name``; UsageError listing the known ones otherwise."""
     machines = _machines()
     if name not in machines:
         raise UsageError(f"unknown machine {name!r}; known machines: {', '.join(machines)}")
     return machines[name]
-
-
-def gains_kinds() -> dict[str, Machine]:
-    """Every gains-file ``kind`` and the machine that executes it."""
-    return {k: m for m in _machines().values() for k in m.gains_kinds}
-
-
-def machine_of_gains(doc: Mapping, where: str) -> Machine:
-    """The machine that executes a gains document, by its ``kind``, once the document is valid
-    (:func:`feedtune.io.gains_schema.validate_gains`: one-line DataError naming the file and key)."""
-    from ..io.gains_schema import validate_gains
-
-    kinds = gains_kinds()
-    kind = doc.get("kind") if isinstance(doc, Mapping) else None
-    if not isinstance(kind, str) or kind not in kinds:
-        known = ", ".join(repr(k) for k in kinds)
-        raise DataError(f"{where}: gains file kind {kind!r} unknown; expected one of {known}")
-    validate_gains(doc, where)
-    return kinds[kind]
-
-
-def load_runtime(path_or_doc, where: str | None = None) -> Runtime:
-    """The runtime of a gains file or document, chosen by its ``kind`` through the registry.
-
-    Parameters
-    ----------
-    path_or_doc : path-like or dict
-        A ``.toml``/``.json`` gains file, or the document read from one.
-    where : str, optional
-        Name used in error messages (default: the path, or ``"gains document"``).
-
-    Raises
-    ------
-    DataError
-        Unreadable file, or a ``kind`` no registered machine executes.
-    """
-    if isinstance(path_or_doc, Mapping):
-        doc, name = path_or_doc, where or "gains document"
-    else:
-        from ..io import read_document
-
-        doc, name = read_document(os.fspath(path_or_doc)), where or str(path_or_doc)
-    return machine_of_gains(doc, name).runtime(doc, name)
-
-
-def analyze_gains(doc: Mapping, where: str, frf=None) -> GainsAnalysis:
-    """The analysis of a gains document by the machine of its ``kind`` (what ``feedtune analyze GAINS`` prints).
-
-    Parameters
-    ----------
-    doc : Mapping
-        The gains document.
-    where : str
-        Its name in error messages.
-    frf : Frf, optional
-        Measured FRF of the machine, for the measured and discrete cases.
-
-    Raises
-    ------
-    DataError
-        A ``kind`` no registered machine executes, or a document its machine refuses.
-    """
-    return machine_of_gains(doc, where).analyze(doc, where, frf)

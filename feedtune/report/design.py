@@ -16,6 +16,7 @@ from functools import partial
 
 import numpy as np
 
+from ..structures import gains_formats
 from .certificate import certificate_blocks
 from .collect import FrfInput, GainsInput, Inputs
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
@@ -448,7 +449,8 @@ def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: d
 
     designs, frf_name = build_designs(inputs, names, colors, limits)
     machines, machine_designs = machine_subsections(inputs, names, limits, data, warnings, colors)
-    other = _unanalysed_section([g for g in inputs.gains if g.kind not in ("ballscrew", "gantry", "axis")], names)
+    drawn = {f.kind for f in gains_formats() if f.report}  # the formats whose report module draws them
+    other = _unanalysed_section([g for g in inputs.gains if g.kind not in drawn], names)
     if not designs and not machines and other is None:
         return None, []
     store = data.setdefault("design", {})

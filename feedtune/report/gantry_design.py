@@ -44,11 +44,10 @@ from .figures import (
     singular_value_figure,
 )
 from .objective import objective_block
-from .sections import Colors, ReportLimits, parameter_table, quantity_value, tuning_table
+from .sections import Colors, ReportLimits, controller_label, parameter_table, quantity_value, tuning_table
 from .trust import mask_note
 
 GANTRY_CHANNELS = ("y1/u1", "y1/u2", "y2/u1", "y2/u2")
-MACHINE_LABELS = {"mimo": "MIMO", "pid": "PID", "loopshape": "x-axis loop shaping"}
 
 
 @dataclass(frozen=True)
@@ -127,7 +126,7 @@ def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits
         fi = gantry_frf(inputs, design_position(gi)) if gi.kind == "gantry" else a_frf
         frf = fi.frf if fi is not None else None
         analysis, result, law = analyze_machine_gains(gi, fi, limits)
-        label = MACHINE_LABELS.get(result["controller"], result["controller"])
+        label = controller_label(result["controller"])
         channels = GANTRY_CHANNELS if gi.kind == "gantry" else (tuple(frf.channels) if frf is not None else ())
         band_top = model_band_top(inputs, "gantry") if gi.kind == "gantry" else None
         d = MachineDesign(names[gi.path], label, "", gi.kind, analysis, result,

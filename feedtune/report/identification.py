@@ -9,6 +9,7 @@ from functools import partial
 
 import numpy as np
 
+from ..structures import plant_of, resolve
 from .collect import FrfInput, FrictionCurveInput, Inputs, LogInput, ModelInput
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
 from .figures import PALETTE, Curve, frf_figure, friction_figure, gantry_mass_figure
@@ -205,7 +206,7 @@ def friction_curves(inputs: Inputs) -> list[FrictionCurve]:
             title = ("Stribeck model (eq. 2.1)" if law == "stribeck" else f"{law} friction law") + (
                 " with viscous friction" if getattr(m, "viscous_pos", 0.0) and law != "coulomb-viscous" else "")
             out.append(FrictionCurve(mi, m.force, m.velocity_unit, m.command_unit, m.characteristic_speed, title))
-        elif mi.kind == "rigid" and hasattr(m, "friction"):
+        elif plant_of(m) is not None and hasattr(m, "friction"):  # a plant model with its own friction (rigid)
             out.append(FrictionCurve(mi, m.friction, m.velocity_unit, m.command_unit, 0.0,
                                      "rigid-body friction (viscous + Coulomb)"))
     return out
@@ -411,6 +412,26 @@ def _gantry_section(mi: ModelInput, name: str, inputs: Inputs, names: Mapping, l
     return Section(f"model-{name}", f"Gantry model {name}", blocks), used
 
 
+def ballscrew_model_section(mi: ModelInput, name: str, inputs: Inputs, names: Mapping, limits: ReportLimits,
+                            warnings: list[str]) -> tuple[Section, set[str]]:
+    """The section of a two-mass (ball-screw) model file and the names of the FRFs it draws."""
+    frfs = [(names[f.path], f) for f in inputs.frfs]
+    used = {n for n, f in frfs if any(f.frf.has(ch) for ch in BALLSCREW_CHANNELS)}
+    return _ballscrew_model_section(mi, name, frfs, limits, warnings), used
+
+
+def gantry_model_section(mi: ModelInput, name: str, inputs: Inputs, names: Mapping, limits: ReportLimits,
+                         warnings: list[str]) -> tuple[Section, set[str]]:
+    """The section of a gantry model file and the names of the FRFs it draws."""
+    return _gantry_section(mi, name, inputs, names, limits, warnings)
+
+
+def rigid_model_section(mi: ModelInput, name: str, inputs: Inputs, names: Mapping, limits: ReportLimits,
+                        warnings: list[str]) -> tuple[None, set[str]]:
+    """None: a rigid-body model is drawn by its friction in the friction subsection (:func:`friction_curves`)."""
+    return None, set()
+
+
 def _generic_model_section(mi: ModelInput, name: str) -> Section:
     blocks: list = []
     params = mi.doc.get("params")
@@ -443,16 +464,14 @@ def identification_section(inputs: Inputs, names: Mapping, limits: ReportLimits,
     ident = data.setdefault("identification", {})
     for mi in inputs.models:
         name = names[mi.path]
-        if mi.kind == "ballscrew" and mi.model is not None:
-            ident[name] = _model_data(mi)
-            subs.append(_ballscrew_model_section(mi, name, frfs, limits, warnings))
-            used_frfs |= {n for n, f in frfs if any(f.frf.has(ch) for ch in BALLSCREW_CHANNELS)}
-        elif mi.kind == "gantry" and mi.model is not None:
-            ident[name] = _model_data(mi)
-            section, used = _gantry_section(mi, name, inputs, names, limits, warnings)
-            subs.append(section)
+        plant = plant_of(mi.model) if mi.model is not None else None
+        if plant is not None and plant.report is not None:  # the section its plant structure names
+            section, used = resolve(plant.report)(mi, name, inputs, names, limits, warnings)
+            if section is not None:
+                ident[name] = _model_data(mi)
+                subs.append(section)
             used_frfs |= used
-        elif mi.model is not None and mi.kind in ("friction", "rigid"):
+        elif mi.model is not None and mi.kind == "friction":
             continue  # shown in the friction subsection
         else:
             ident[name] = _model_data(mi)

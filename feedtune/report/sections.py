@@ -8,13 +8,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..analysis.limits import DEFAULT_LIMITS, Limits
+from ..structures import controller_title, controllers
 from .content import Cell, Table, text_cell
 from .figures import PALETTE
 
-CONTROLLER_LABELS = {"mcppc": "MC-PPC", "ppi": "P-PI", "pid": "PID", "mimo": "MIMO"}
-"""Display names of the controller kinds written in gains files and twin logs."""
-BASELINE_CONTROLLERS = ("P-PI", "PID")
-"""Labels taken as the baseline of improvement percentages (the industry controllers), in this order."""
+BASELINE_CONTROLLERS = tuple(c.title for c in controllers() if c.baseline)
+"""Labels taken as the baseline of improvement percentages (the industry controllers: P-PI, PID), in this order."""
 
 
 @dataclass(frozen=True)
@@ -60,10 +59,9 @@ class ReportLimits:
 
 
 def controller_label(name: str | None) -> str:
-    """``"mcppc"`` -> ``"MC-PPC"``; other names unchanged; empty -> ``"controller"``."""
-    if not name:
-        return "controller"
-    return CONTROLLER_LABELS.get(str(name).strip().lower(), str(name).strip())
+    """``"mcppc"`` -> ``"MC-PPC"`` (:func:`feedtune.structures.controller_title`); other names unchanged; empty ->
+    ``"controller"``."""
+    return controller_title(name)
 
 
 def display_names(paths: Iterable[Path]) -> dict[Path, str]:

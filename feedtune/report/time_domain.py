@@ -104,16 +104,16 @@ def log_warnings(name: str, log, limits: ReportLimits) -> list[str]:
 
 
 def twin_u_max(machine: str) -> float | None:
-    """The command saturation [V] of a machine's twin with its default parameters (``u_max``)."""
+    """The command saturation [V] of a registered machine's twin with its default parameters (``u_max``; None for
+    a name no machine has)."""
     from dataclasses import fields
 
-    if machine == "ballscrew":
-        from ..machines.ballscrew.twin import TwinParams as Params
-    elif machine == "gantry":
-        from ..machines.gantry.twin import GantryTwinParams as Params
-    else:
+    from ..machines.registry import get_machine, machine_names
+    from ..structures import resolve
+
+    if machine not in machine_names():
         return None
-    value = next((f.default for f in fields(Params) if f.name == "u_max"), None)
+    value = next((f.default for f in fields(resolve(get_machine(machine).params)) if f.name == "u_max"), None)
     return float(value) if isinstance(value, (int, float)) else None
 
 

@@ -3,22 +3,6 @@
 from __future__ import annotations
 
 
-def _ballscrew_demo(*, seed, engine, limits, keep_raw, objective):
-    from .ballscrew_demo import run_demo
-
-    return run_demo(seed=seed, engine=engine, limits=limits, objective=objective)
-
-
-def _gantry_demo(*, seed, engine, limits, keep_raw, objective):
-    from .gantry_demo import run_gantry_demo
-
-    return run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=limits, objective=objective)
-
-
-DEMOS = {"ballscrew": _ballscrew_demo, "gantry": _gantry_demo}
-"""The demo pipeline of each registered machine (a new machine adds one entry)."""
-
-
 def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limits=None, keep_raw: bool = False,
                      objective=None):
     """The demo of a registered machine (:func:`feedtune.machines.get_machine`): measure, identify, tune, test and
@@ -27,7 +11,8 @@ def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limit
     Parameters
     ----------
     machine : str
-        ``ballscrew`` or ``gantry`` (UsageError for another name).
+        A registered machine with a demo (:attr:`~feedtune.machines.registry.MachineEntry.demo`): ``ballscrew``,
+        ``gantry`` (UsageError for another name).
     seed : int
         Seed of the excitation phases and the measurement noise.
     engine : str
@@ -46,9 +31,11 @@ def run_machine_demo(machine: str, *, seed: int = 0, engine: str = "auto", limit
         ``texts`` (the files), ``to_dict()``, ``summary()`` (what ``feedtune demo`` prints).
     """
     from ..errors import UsageError
-    from ..machines import get_machine
+    from ..machines import get_machine, machines
+    from ..structures import resolve
 
-    get_machine(machine)
-    if machine not in DEMOS:
-        raise UsageError(f"machine {machine!r} has no demo; demos: {', '.join(DEMOS)}")
-    return DEMOS[machine](seed=seed, engine=engine, limits=limits, keep_raw=keep_raw, objective=objective)
+    entry = get_machine(machine)
+    if entry.demo is None:
+        raise UsageError(f"machine {machine!r} has no demo; demos: "
+                         f"{', '.join(m.name for m in machines() if m.demo is not None)}")
+    return resolve(entry.demo)(seed=seed, engine=engine, limits=limits, keep_raw=keep_raw, objective=objective)

@@ -348,3 +348,7 @@ def _figures(res, keys) -> dict:
     return {k: res.summary.get(k) for k in keys}
 
 
+def machine_demo(*, seed, engine, limits, keep_raw, objective) -> DemoResult:
+    """The ball-screw machine's demo as ``feedtune demo ballscrew`` runs it
+    (:func:`feedtune.workflows.run_machine_demo`; ``keep_raw`` is the gantry's)."""
+    return run_demo(seed=seed, engine=engine, limits=limits, objective=objective)

@@ -2,13 +2,13 @@
 FRF and the verdict.
 
 Every path from a controller to a gains file goes through :func:`deliver`: ``feedtune design``, ``feedtune tune``,
-both demos and library users. It builds the gains document of the design's structure (:data:`STRUCTURES`: one entry
-per controller structure, naming its gains kind and its document builder), certifies the document *as written* on
-every FRF given (:func:`feedtune.machines.certificate.certify`: the analysis ``feedtune analyze GAINS --frf F``
-runs, so the certificate checks what a target loads), or on the design model alone when there is none, and, when
-it was certified on measured FRFs, stores the certificate with the digests of its FRFs and of the gains it
-certifies in the document's ``[certificate]`` (:func:`~feedtune.machines.certificate.certificate_section`). The
-same design on the same FRFs under the same limits writes the same certificate whichever command made it.
+both demos and library users. It builds the gains document of the design's controller structure (the registry of
+structures, :mod:`feedtune.structures`, names its gains format and that format's document builder), certifies the
+document *as written* on every FRF given (:func:`feedtune.machines.certificate.certify`: the analysis ``feedtune
+analyze GAINS --frf F`` runs, so the certificate checks what a target loads), or on the design model alone when there
+is none, and, when it was certified on measured FRFs, stores the certificate with the digests of its FRFs and of the
+gains it certifies in the document's ``[certificate]`` (:func:`~feedtune.machines.certificate.certificate_section`).
+The same design on the same FRFs under the same limits writes the same certificate whichever command made it.
 
 Examples
 --------
@@ -21,75 +21,29 @@ Examples
 (True, 'file')
 >>> delivery.write("mcppc.toml")  # doctest: +SKIP
 
-Adding a controller structure is one entry in :data:`STRUCTURES` (keyed by the design's class name).
+Adding a controller structure is one entry in :data:`feedtune.structures.CONTROLLERS` (naming its design class).
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..analysis.limits import DEFAULT_LIMITS, Limits
 from ..errors import DesignError, UsageError
+from ..structures import ControllerStructure, controller_of, controllers, gains_format, resolve
 
 
 # ------------------------------------------------------------------------------------------ structures
-def _ballscrew_document(design) -> dict:
-    from ..io.gains import gains_document
-
-    return gains_document(design)
-
-
-def _gantry_document(design) -> dict:
-    from ..io.gantry_gains import gantry_gains_document
-
-    return gantry_gains_document(design)
-
-
-def _axis_document(design) -> dict:
-    from ..io.gantry_gains import axis_gains_document
-
-    return axis_gains_document(design)
-
-
-@dataclass(frozen=True)
-class Structure:
-    """A controller structure as delivered.
-
-    Attributes
-    ----------
-    name : str
-        The controller name its gains file records (``controller``): ``mcppc``, ``ppi``, ``mimo``, ``pid``,
-        ``loopshape``.
-    gains_kind : str
-        The gains document's ``kind`` (the machine that runs it): ``ballscrew``, ``gantry``, ``axis``.
-    document : callable
-        ``document(design) -> dict``: the gains document of a design of this structure.
-    """
-
-    name: str
-    gains_kind: str
-    document: Callable[[object], dict] = field(repr=False)
-
-
-STRUCTURES: dict[str, Structure] = {
-    "McppcDesign": Structure("mcppc", "ballscrew", _ballscrew_document),
-    "PpiDesign": Structure("ppi", "ballscrew", _ballscrew_document),
-    "GantryMimoDesign": Structure("mimo", "gantry", _gantry_document),
-    "GantryPidDesign": Structure("pid", "gantry", _gantry_document),
-    "LoopShapeDesign": Structure("loopshape", "axis", _axis_document),
-}
-"""Every controller structure :func:`deliver` knows, by the class name of its design (a new structure: one entry)."""
-
-
-def structure_of(design) -> Structure:
-    """The :class:`Structure` of a design; UsageError naming the known ones otherwise."""
-    entry = STRUCTURES.get(type(design).__name__)
+def structure_of(design) -> ControllerStructure:
+    """The controller structure of a design (:func:`feedtune.structures.controller_of`); UsageError naming the
+    known ones otherwise."""
+    entry = controller_of(design)
     if entry is None:
         raise UsageError(f"deliver: {type(design).__name__} is not a design feedtune delivers; known: "
-                         f"{', '.join(STRUCTURES)}", parameter="design")
+                         f"{', '.join(c.design.rpartition(':')[2] for c in controllers())}", parameter="design")
     return entry
 
 
@@ -102,7 +56,8 @@ class Delivery:
     ----------
     design : object
         The design delivered (with its friction feedforward, when one was given).
-    structure : Structure
+    structure : ControllerStructure
+        Its controller structure (:mod:`feedtune.structures`).
     document : dict
         The gains document as it is written; with a ``[certificate]`` when certified on measured FRFs.
     certificate : Certificate
@@ -112,7 +67,7 @@ class Delivery:
     """
 
     design: object = field(repr=False)
-    structure: Structure
+    structure: ControllerStructure = field(repr=False)
     document: dict = field(repr=False)
     certificate: object
     target_violations: tuple[str, ...] = ()
@@ -190,8 +145,8 @@ def deliver(design, frfs: Sequence = (), limits: Limits | None = None, *, fricti
 
     Parameters
     ----------
-    design : McppcDesign, PpiDesign, GantryMimoDesign, GantryPidDesign or LoopShapeDesign
-        A design or a tuner's result (any structure of :data:`STRUCTURES`).
+    design : object
+        A design or a tuner's result of any controller structure (:data:`feedtune.structures.CONTROLLERS`).
     frfs : sequence of FrfSource or (str, Frf)
         The measured FRFs to certify on (:class:`~feedtune.machines.certificate.FrfSource` says what identifies
         each: the SHA-256 of its file, or of its arrays for a pair); a gantry FRF is checked at the table position
@@ -221,7 +176,7 @@ def deliver(design, frfs: Sequence = (), limits: Limits | None = None, *, fricti
     policy = limits or DEFAULT_LIMITS
     if friction is not None and hasattr(design, "with_friction"):
         design = design.with_friction(friction, v_band=friction_band)
-    doc = entry.document(design)
+    doc = resolve(gains_format(entry.gains_kind).document)(design)
     if friction is not None and not hasattr(design, "with_friction"):
         from ..io.gains import with_friction_feedforward
 
@@ -243,4 +198,4 @@ def deliver(design, frfs: Sequence = (), limits: Limits | None = None, *, fricti
     return Delivery(design, entry, doc, cert, missed)
 
 
-__all__ = ["STRUCTURES", "Delivery", "Structure", "deliver", "structure_of"]
+__all__ = ["Delivery", "deliver", "structure_of"]

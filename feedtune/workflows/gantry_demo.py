@@ -395,4 +395,9 @@ def identified_errors(result: GantryDemoResult) -> dict[str, float]:
     return {k: float(got[k] / true[k] - 1.0) for k in ("m", "J0", "d", "m_x", "c", "k") if true[k]}
 
 
-__all__ = ["DEMO_XS", "GantryDemoResult", "identified_errors", "run_gantry_demo"]
+def machine_demo(*, seed, engine, limits, keep_raw, objective) -> GantryDemoResult:
+    """The gantry machine's demo as ``feedtune demo gantry`` runs it (:func:`feedtune.workflows.run_machine_demo`)."""
+    return run_gantry_demo(seed=seed, engine=engine, keep_raw=keep_raw, limits=limits, objective=objective)
+
+
+__all__ = ["DEMO_XS", "GantryDemoResult", "identified_errors", "machine_demo", "run_gantry_demo"]

@@ -1,4 +1,4 @@
-"""The ball-screw drive (thesis chapter 3): two-mass twin, MC-PPC/P-PI runtime, experiments."""
+"""The ball-screw drive (thesis chapter 3): the two-mass twin, its experiments and its demo."""
 
 from __future__ import annotations
 
@@ -12,17 +12,8 @@ def _twin(overrides: dict, ideal: bool):
     return BallScrewTwin(base.with_overrides(overrides))
 
 
-def _runtime(doc, where: str):
-    from .runtime import GainsRuntime
-
-    return GainsRuntime.from_document(dict(doc), where)
-
-
-def _analysis(doc, where: str, frf):
-    from .gains_analysis import analyze_document
-
-    return analyze_document(doc, where, frf)
-
-
-MACHINE = MachineEntry(name="ballscrew", title="ball-screw drive", gains_kinds=("ballscrew",), make_twin=_twin,
-                       make_runtime=_runtime, make_analysis=_analysis)
+MACHINE = MachineEntry(
+    name="ballscrew", title="ball-screw drive", plant="two_mass", make_twin=_twin,
+    experiments="feedtune.machines.ballscrew.experiments", params="feedtune.machines.ballscrew.twin:TwinParams",
+    demo="feedtune.workflows.ballscrew_demo:machine_demo", log_source="twin ",
+    modules=("machines/ballscrew/", "workflows/ballscrew_demo.py", "workflows/comparison.py"))

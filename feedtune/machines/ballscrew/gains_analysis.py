@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from ..registry import GainsAnalysis, plain_gains
+from ..gains import GainsAnalysis, plain_gains
 
 
 def analyze_document(doc: Mapping, where: str, frf=None) -> GainsAnalysis:

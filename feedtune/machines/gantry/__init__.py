@@ -1,4 +1,4 @@
-"""The linear-motor T-gantry (thesis chapter 4): twin, MIMO/PID and x-axis runtimes, experiments."""
+"""The linear-motor T-gantry (thesis chapter 4): the twin with its x axis, its experiments and its demo."""
 
 from __future__ import annotations
 
@@ -12,18 +12,9 @@ def _twin(overrides: dict, ideal: bool):
     return GantryTwin(base.with_overrides(overrides))
 
 
-def _runtime(doc, where: str):
-    from .runtime import AxisRuntime, GantryRuntime
-
-    cls = AxisRuntime if doc.get("kind") == "axis" else GantryRuntime
-    return cls.from_document(dict(doc), where)
-
-
-def _analysis(doc, where: str, frf):
-    from .gains_analysis import analyze_document
-
-    return analyze_document(doc, where, frf)
-
-
-MACHINE = MachineEntry(name="gantry", title="linear-motor T-gantry", gains_kinds=("gantry", "axis"),
-                       make_twin=_twin, make_runtime=_runtime, make_analysis=_analysis)
+MACHINE = MachineEntry(
+    name="gantry", title="linear-motor T-gantry", plant="gantry", make_twin=_twin,
+    experiments="feedtune.machines.gantry.experiments", params="feedtune.machines.gantry.twin:GantryTwinParams",
+    axes=("rigid",),
+    demo="feedtune.workflows.gantry_demo:machine_demo", log_source="gantry twin ",
+    modules=("machines/gantry/", "workflows/gantry_demo.py", "cli/simulate_gantry_cmd.py"))
