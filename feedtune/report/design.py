@@ -19,7 +19,7 @@ import numpy as np
 from ..structures import gains_formats
 from .certificate import certificate_blocks
 from .collect import FrfInput, GainsInput, Inputs
-from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
+from .content import Cell, FigureBlock, Paragraph, Section, Table, Verdict, text_cell
 from .figures import (
     Curve,
     controller_figure,
@@ -70,6 +70,7 @@ class BallScrewDesign:
     masks: dict = field(default_factory=dict)
     support: dict = field(default_factory=dict)
     bandwidth: dict = field(default_factory=dict)
+    notes: tuple = ()
 
     @property
     def main_case(self) -> str:
@@ -135,11 +136,14 @@ def store_bandwidth(store: dict, d, limits: ReportLimits) -> None:
                                            "cases": d.bandwidth}
 
 
-def verdict_paragraph(d, limits: ReportLimits):
-    """The pass/fail line of a design (an Alert when it fails)."""
+def verdict_paragraph(d, limits: ReportLimits) -> Verdict:
+    """The pass/fail line of a design, with what its checked case assumes above the measured band."""
     text = verdict_line(d.label, d.name, d.result["check"], CASE_TITLES, limits.policy.describe(),
                         (d.result.get("verdict") or {}).get("basis_text"))
-    return Paragraph(text) if d.result["check"].get("ok") else Alert(text)
+    assumes = (d.result["analysis"].get(d.main_case) or {}).get("assumes") or []
+    if assumes:
+        text += " Above the measured band the figures are " + "; ".join(assumes) + "."
+    return Verdict(text, bool(d.result["check"].get("ok")))
 
 
 def analysis_frf(inputs: Inputs) -> FrfInput | None:
@@ -385,11 +389,24 @@ def _controller(d: BallScrewDesign) -> FigureBlock:
 # ------------------------------------------------------------------------------------------ warnings
 def design_warnings(d, limits: ReportLimits) -> list[str]:
     """The design's check under the policy (stability in every case, the limits in its main case), one line per
-    violation, as ``feedtune analyze --check`` reports them, and what the verdict's notes say (an edited
-    certificate ignored)."""
+    violation, as ``feedtune analyze --check`` reports them, what the verdict's notes say (an edited
+    certificate ignored) and the FRF's sampling warnings (:func:`sampling_warnings`)."""
     cert = d.result.get("verdict") or {}
     ignored = [n for n in cert.get("notes", []) if cert.get("stored_status") in ("edited", "undigested")][:1]
-    return [f"{d.label} ({d.name}): {v}" for v in d.result["check"]["violations"]] + ignored
+    return [f"{d.label} ({d.name}): {v}" for v in d.result["check"]["violations"]] + ignored + list(d.notes)
+
+
+def sampling_warnings(frf_name: str | None, frf, law) -> tuple[str, ...]:
+    """What ``feedtune analyze GAINS --frf F`` warns about the FRF against the gains' sample rate: an FRF ending far
+    below the Nyquist frequency (the loop above it rests on the model; :func:`feedtune.frf_sampling.band_warning`)."""
+    from ..errors import cli_message
+    from ..frf_sampling import band_warning
+
+    fs = getattr(law, "fs", None)
+    if frf is None or not fs:
+        return ()
+    w = band_warning(frf, float(fs), frf_name)
+    return () if w is None else (cli_message(w),)
 
 
 def verdict_result(analysis, limits: ReportLimits, gi: GainsInput, fi: FrfInput | None = None) -> dict:
@@ -433,7 +450,8 @@ def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
             label = f"{label} ({g.path.stem})"
         law, model, analysis, result = analyze_gains(g, fi, limits)
         d = BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre,
-                            case_masks(analysis, frf, BALLSCREW_CHANNELS, limits.coherence_trust), support)
+                            case_masks(analysis, frf, BALLSCREW_CHANNELS, limits.coherence_trust), support,
+                            notes=sampling_warnings(names[fi.path] if fi is not None else None, frf, law))
         designs.append(replace(d, bandwidth=bandwidth_table_entry(d)))
     return designs, (names[fi.path] if fi is not None else None)
 

@@ -28,6 +28,7 @@ from .design import (
     controller_grid,
     design_warnings,
     model_band_top,
+    sampling_warnings,
     store_bandwidth,
     support_of,
     verdict_paragraph,
@@ -67,6 +68,7 @@ class MachineDesign:
     support: dict = field(default_factory=dict)
     bandwidth: dict = field(default_factory=dict)
     channels: tuple = ()
+    notes: tuple = ()
 
     @property
     def main_case(self) -> str:
@@ -132,7 +134,8 @@ def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits
         d = MachineDesign(names[gi.path], label, "", gi.kind, analysis, result,
                           names[fi.path] if fi is not None else None, gi.doc.get("design"), law,
                           case_masks(analysis, frf, channels, limits.coherence_trust),
-                          support_of(frf, channels, limits.coherence_trust, band_top), channels=channels)
+                          support_of(frf, channels, limits.coherence_trust, band_top), channels=channels,
+                          notes=sampling_warnings(names[fi.path] if fi is not None else None, frf, law))
         out.append(replace(d, bandwidth=bandwidth_table_entry(d)))
     labels = [d.label for d in out]
     out = [replace(d, label=f"{d.label} ({d.name})") if labels.count(d.label) > 1 else d for d in out]

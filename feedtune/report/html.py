@@ -15,7 +15,7 @@ import json
 from contextlib import contextmanager
 from functools import partial
 
-from .content import Alert, Cell, FigureBlock, Paragraph, Report, Section, Table
+from .content import Alert, Cell, FigureBlock, Paragraph, Report, Section, Table, Verdict
 from .figures import figure_png
 
 DATA_ELEMENT_ID = "feedtune-report-data"
@@ -39,7 +39,8 @@ th, td { border: 1px solid var(--line); padding: 2px 6px; vertical-align: top; o
 th { hyphens: auto; overflow-wrap: normal; }
 th { background: var(--head); text-align: left; font-weight: 600; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; overflow-wrap: normal; }
-p.verdict { font-weight: 600; }
+p.verdict { font-weight: 600; border-left: 4px solid #1a7f37; padding-left: 8px; }
+p.verdict.fail { border-left-color: var(--warn); color: #4a2a00; background: var(--warn-bg); }
 p.note { color: var(--muted); font-size: 0.85em; margin: 2px 0 12px; }
 div.warning { background: var(--warn-bg); border-left: 4px solid var(--warn); color: #4a2a00; padding: 6px 10px;
               margin: 6px 0; font-size: 0.92em; }
@@ -112,6 +113,8 @@ def _block(b, pngs: dict) -> str:
         return _figure(b, pngs[b.name])
     if isinstance(b, Alert):
         return f'<div class="warning">{_esc(b.text)}</div>'
+    if isinstance(b, Verdict):
+        return f'<p class="verdict {"pass" if b.ok else "fail"}">{_esc(b.text)}</p>'
     if isinstance(b, Paragraph):
         return f"<p>{_esc(b.text)}</p>"
     raise TypeError(f"unknown report block {type(b).__name__}")

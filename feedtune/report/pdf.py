@@ -15,7 +15,7 @@ import io
 import os
 import textwrap
 
-from .content import Alert, FigureBlock, Paragraph, Report, Section, Table
+from .content import Alert, FigureBlock, Paragraph, Report, Section, Table, Verdict
 
 PAGE_IN = (8.27, 11.69)
 """A4 portrait [in]."""
@@ -244,6 +244,8 @@ def _section(flow: _Flow, s: Section, level: int, images: dict, toc: list, page_
             _figure(flow, b, images[b.name])
         elif isinstance(b, Alert):
             _paragraph(flow, b.text, WARN_COLOR)
+        elif isinstance(b, Verdict):
+            _paragraph(flow, b.text, "black" if b.ok else WARN_COLOR)
         elif isinstance(b, Paragraph):
             _paragraph(flow, b.text)
     for sub in s.subsections:
@@ -263,13 +265,12 @@ def _title_page(flow: _Flow, report: Report, created: str) -> None:
     flow.text(0, f"feedtune {__version__} report, {created}, built from {n_files} input files. SI units; tracking "
                  "and displacement errors in µm.", BODY_PT + 1, color=MUTED)
     flow.y += 0.4
-    verdicts = [b for s in report.sections if s.key == "summary" for b in s.blocks
-                if isinstance(b, (Paragraph, Alert)) and (": PASS under" in b.text or ": FAIL under" in b.text)]
+    verdicts = [b for s in report.sections if s.key == "summary" for b in s.blocks if isinstance(b, Verdict)]
     if verdicts:
         flow.text(0, "Verdict per design", H3_PT, weight="bold")
         flow.y += _line_in(H3_PT) + 0.04
         for b in verdicts:
-            _paragraph(flow, b.text, WARN_COLOR if isinstance(b, Alert) else "black")
+            _paragraph(flow, b.text, "black" if b.ok else WARN_COLOR)
         flow.y += 0.2
     if report.warnings:
         flow.text(0, f"{len(report.warnings)} warnings: see the Summary.", BODY_PT + 0.5, color=WARN_COLOR)

@@ -402,11 +402,26 @@ def ropesnap_runs(inputs: Inputs, names: Mapping, colors: Colors, strict: bool, 
             continue
         metrics, options, _ = found
         base, pre = _label(li, gains_docs)
-        force = li.log.meta.get("force_v")
-        group = ("ropesnap", str(force) if force is not None else "")
-        title = f"rope snap, {force} V" if force is not None else "rope snap"
+        force = rope_force(li.log)
+        group = ("ropesnap", force)
+        title = f"rope snap {force}" if force else "rope snap"
         runs.append(Run(names[li.path], li, base, colors(base), group, title, metrics, base, pre, options))
     return _unique_labels(runs, colors)
+
+
+def rope_force(log) -> str:
+    """The rope force a rope-snap log records, as the demos name it: ``57 N`` (``force_N``, the force on the table),
+    else ``0.5 V`` (``force_V``, the force as a command-equivalent), else ``""``."""
+    from ..display import quantity
+
+    for key, unit in (("force_n", "N"), ("force_v", "V")):
+        value = next((v for k, v in log.meta.items() if k.lower() == key), None)
+        if value is not None:
+            try:
+                return quantity(float(value), unit)
+            except (TypeError, ValueError):
+                return f"{value} {unit}"
+    return ""
 
 
 def _groups(runs: list[Run]) -> list[list[Run]]:
@@ -829,7 +844,8 @@ def time_domain_section(inputs: Inputs, names: Mapping, limits: ReportLimits, da
     if snaps:
         for r in snaps:
             data.setdefault("ropesnap", {})[r.name] = {"log": r.name, "kind": "ropesnap", "controller": r.label,
-                                                       "options": dict(r.options), "metrics": r.metrics.to_dict()}
+                                                       "run": r.group_title, "options": dict(r.options),
+                                                       "metrics": r.metrics.to_dict()}
         table, reductions = _ropesnap_table(snaps)
         comparison["ropesnap"] = reductions
         blocks = [table]
