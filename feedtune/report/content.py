@@ -119,11 +119,14 @@ class FigureBlock:
 
     ``source`` is the figure, or a callable without arguments that draws it: the figure is then built on first use
     of :attr:`figure` (the report draws its figures where it renders them, possibly in several processes).
+    ``shows`` names the designs (or runs) the figure compares, ``((label, colour), ...)``: each must be visible in it
+    (a test counts each colour's pixels in the axes).
     """
 
     name: str
     caption: str
     source: Any
+    shows: tuple = ()
 
     @property
     def figure(self):

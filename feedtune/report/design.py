@@ -136,11 +136,12 @@ def store_bandwidth(store: dict, d, limits: ReportLimits) -> None:
                                            "cases": d.bandwidth}
 
 
-def verdict_paragraph(d, limits: ReportLimits) -> Verdict:
-    """The pass/fail line of a design, with what its checked case assumes above the measured band."""
+def verdict_paragraph(d, limits: ReportLimits, assumes: bool = True) -> Verdict:
+    """The pass/fail line of a design; with ``assumes``, what its checked case assumes above the measured band
+    (``assumes`` of ``feedtune analyze --json``: the design section says it, the summary points there)."""
     text = verdict_line(d.label, d.name, d.result["check"], CASE_TITLES, limits.policy.describe(),
                         (d.result.get("verdict") or {}).get("basis_text"))
-    assumes = (d.result["analysis"].get(d.main_case) or {}).get("assumes") or []
+    assumes = (d.result["analysis"].get(d.main_case) or {}).get("assumes") or [] if assumes else []
     if assumes:
         text += " Above the measured band the figures are " + "; ".join(assumes) + "."
     return Verdict(text, bool(d.result["check"].get("ok")))
@@ -279,13 +280,18 @@ def _case_name(designs) -> str:
     return CASE_TITLES[designs[0].main_case]
 
 
+def shows(designs) -> tuple:
+    """``((label, colour), ...)`` of the designs a figure compares (:attr:`FigureBlock.shows`)."""
+    return tuple(dict.fromkeys((d.label, d.color) for d in designs))
+
+
 def _pole_map(designs: list[BallScrewDesign]) -> FigureBlock:
     open_loop = designs[0].model.poles()
     closed = [(d.label, d.color, np.array([complex(*p) for p in d.result["closed_loop_poles"]])) for d in designs]
     top = max(m.freq_hz for d in designs for m in d.model.modes()) if designs[0].model.modes() else 100.0
     fig = partial(pole_map_figure, open_loop, closed, zoom_rad_s=2 * np.pi * 3 * top)
     return FigureBlock("design-poles", "Open-loop poles of the design model and closed-loop poles of each "
-                       "controller including its filter pack (thesis Fig. 3.6).", fig)
+                       "controller including its filter pack (thesis Fig. 3.6).", fig, shows(designs))
 
 
 def _loop(designs, limits: ReportLimits) -> FigureBlock:
@@ -295,7 +301,7 @@ def _loop(designs, limits: ReportLimits) -> FigureBlock:
     fig = partial(loop_figure, main + ideal, cross, title="Loop transfer L")
     return FigureBlock("design-loop", f"Loop transfer L = K1 G11 + K2 G21 (eq. 3.24/3.25), solid: "
                        f"{_case_name(designs)}, dashed: model with the continuous controller; circles: "
-                       "crossovers (thesis Fig. 3.10a-b)." + _masked_note(designs, limits), fig)
+                       "crossovers (thesis Fig. 3.10a-b)." + _masked_note(designs, limits), fig, shows(designs))
 
 
 def _nyquist(designs, limits: ReportLimits) -> FigureBlock:
@@ -303,7 +309,7 @@ def _nyquist(designs, limits: ReportLimits) -> FigureBlock:
     ms = {d.label: d.analysis.cases[d.main_case].metrics.ms for d in designs}
     return FigureBlock("design-nyquist", f"Nyquist plot of L ({_case_name(designs)}), dotted circles: distance "
                        "1/Ms from -1 (thesis Fig. 3.10c-d)." + _masked_note(designs, limits),
-                       partial(nyquist_figure, main, ms))
+                       partial(nyquist_figure, main, ms), shows(designs))
 
 
 def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
@@ -314,7 +320,7 @@ def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
     return FigureBlock("design-sensitivity", f"Sensitivity S = 1/(1 + L), solid: {_case_name(designs)}; "
                        "|S| < 1 (below 0 dB) where disturbances are rejected (thesis Fig. 3.11). Ms is the "
                        "analysis' peak over every line." + _masked_note(designs, limits),
-                       partial(sensitivity_figure, main + ideal, peaks, limits.ms_max))
+                       partial(sensitivity_figure, main + ideal, peaks, limits.ms_max), shows(designs))
 
 
 def _disturbance(designs) -> FigureBlock:
@@ -333,7 +339,7 @@ def _disturbance(designs) -> FigureBlock:
                            title="Disturbance transfer x2/d2")
     return FigureBlock("design-disturbance", "Disturbance transfer from a force d2 on the table to the table "
                        "position x2 (eq. 3.26/3.27), on the model; solid: continuous, dashed: discrete "
-                       "controller (thesis Fig. 3.12).", fig)
+                       "controller (thesis Fig. 3.12).", fig, shows(designs))
 
 
 def _prefiltered(designs) -> list[Curve]:
@@ -362,7 +368,7 @@ def _tracking(designs, limits: ReportLimits) -> FigureBlock:
     extra = " and with the trajectory pre-filter of the gains file (dash-dot)" if pre else ""
     return FigureBlock("design-tracking", f"Command tracking x2/x_r ({_case_name(designs)}) with the rotary "
                        "command generator and feedforward (solid), with feedback only (dotted)" + extra +
-                       " (thesis Fig. 3.13)." + _masked_note(designs, limits), fig)
+                       " (thesis Fig. 3.13)." + _masked_note(designs, limits), fig, shows(leaders))
 
 
 def controller_grid(fs: float) -> np.ndarray:
@@ -446,7 +452,7 @@ def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
     support = support_of(frf, BALLSCREW_CHANNELS, limits.coherence_trust, model_band_top(inputs, "ballscrew"))
     designs = []
     for g, pre, label in zip(ballscrew, prefilters, labels, strict=True):
-        if labels.count(label) > 1:
+        if labels.count(label) > 1:  # named by the gains file, as its runs are (the same colour in every figure)
             label = f"{label} ({g.path.stem})"
         law, model, analysis, result = analyze_gains(g, fi, limits)
         d = BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre,

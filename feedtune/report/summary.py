@@ -30,14 +30,24 @@ def headline_table(designs: list, limits: ReportLimits) -> Table:
                      Cell(worst.get("ms"), "", key=[*k, "ms"]), Cell(worst.get("pm_deg"), "deg", key=[*k, "pm_deg"]),
                      Cell(worst.get("gm_db"), "dB", key=[*k, "gm_db"]),
                      Cell(worst.get("gm_low_db"), "dB", key=[*k, "gm_low_db"]),
-                     text_cell(BASIS_TEXT.get(verdict.get("basis"), "-")), bandwidth_cell(d, d.main_case)])
+                     text_cell(BASIS_TEXT.get(verdict.get("basis"), "-")), _proved_cell(d),
+                     bandwidth_cell(d, d.main_case)])
     return Table("Designs at a glance: verdict, guaranteed bandwidth and the limit that binds",
                  ["controller", "verdict", "guaranteed bandwidth", "limit that binds", "Ms", "PM", "GM",
-                  "gain-reduction GM", "verdict rests on", "tracking bandwidth"], rows,
+                  "gain-reduction GM", "verdict rests on", "lines prove to", "tracking bandwidth"], rows,
                  f"Verdict under {limits.policy.describe()}, the worst over every FRF the design is certified on. "
                  "Guaranteed bandwidth: the first crossover the loop may have (possible crossings within the FRF's "
-                 "scatter counted, docs/verdicts.md). Limit that binds: the limit with the least slack. "
-                 + bandwidth_note(limits))
+                 "scatter counted, docs/verdicts.md). Limit that binds: the limit with the least slack. Lines prove "
+                 "to: the top of the band the measured lines prove the figures in; above it the analysis continues the "
+                 "plant as the design section states. " + bandwidth_note(limits))
+
+
+def _proved_cell(d) -> Cell:
+    """Up to where the measured lines prove the checked case's figures (``band_edge.valid_to_hz``) [Hz]."""
+    edge = (d.result["analysis"].get(d.main_case) or {}).get("band_edge") or {}
+    if edge.get("valid_to_hz") is None:
+        return text_cell("-")
+    return Cell(edge["valid_to_hz"], "Hz", key=["design", d.name, "analysis", d.main_case, "band_edge", "valid_to_hz"])
 
 
 def _span(values: list[float]) -> tuple[float, float] | None:
@@ -190,7 +200,7 @@ def summary_section(designs: list, data: dict, warnings: list[str],
     checked = checked_statements(designs, data, limits, inputs)
     blocks: list = []
     red = reductions(data)
-    blocks.extend(verdict_paragraph(d, limits) for d in designs)
+    blocks.extend(verdict_paragraph(d, limits, assumes=False) for d in designs)
     sentence = _reduction_sentence(red)
     if sentence:
         blocks.append(Paragraph(sentence + " Negative values are increases."))
