@@ -1,7 +1,9 @@
 """What a reader of a report sees, measured from the outputs a PDF reader extracts (poppler's ``pdftotext`` and
-``pdfimages``): the text in each table cell's region, and the pixels of each design's colour inside a figure's axes.
+``pdfimages``): the text in each table cell's region, and the pixels of each design's colour inside a figure's axes;
+and the headless Chromium the browser tests lay pages out in.
 
-Used by tests/test_report_browser.py (the demo reports) and tests/test_report_layout.py (small cases).
+Used by tests/test_report_browser.py (the demo reports), tests/test_report_layout.py (small cases) and
+tests/test_explore.py (the interactive page).
 """
 
 from __future__ import annotations
@@ -19,6 +21,22 @@ COLOR_TOLERANCE = 40
 """Largest difference per RGB channel [0-255] of a pixel counted as a design's colour (anti-aliased edges)."""
 MIN_PIXELS = 60
 """Pixels of its colour a design's curve must have inside a figure's axes to count as visible."""
+BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
+
+
+def chromium() -> str | None:
+    """The first Chromium-like browser on the PATH, or None."""
+    return next((p for p in map(shutil.which, BROWSERS) if p), None)
+
+
+BROWSER = chromium()
+
+
+def run_browser(args: list[str], profile: Path) -> subprocess.CompletedProcess:
+    """Headless :data:`BROWSER` with ``args`` and its own profile folder."""
+    cmd = [BROWSER, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--no-first-run",
+           f"--user-data-dir={profile}", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=180, check=False)
 
 
 def have_poppler() -> bool:

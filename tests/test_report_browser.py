@@ -19,19 +19,26 @@ import html
 import json
 import os
 import re
-import shutil
-import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
-from report_checks import MIN_PIXELS, axes_mask, cell_problems, colour_pixels, have_poppler, pdf_images, pdf_words
+from report_checks import (
+    BROWSER,
+    MIN_PIXELS,
+    axes_mask,
+    cell_problems,
+    colour_pixels,
+    have_poppler,
+    pdf_images,
+    pdf_words,
+    run_browser,
+)
 
 from feedtune.workflows import run_machine_demo
 from feedtune.workflows.files import write_texts
 
-BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 DESKTOP, NARROW = 1280, 800
 """Viewport widths [px]: a laptop screen (every table fits without scrolling) and a narrow window (wide tables
 scroll inside their own box, the page does not)."""
@@ -77,28 +84,16 @@ window.addEventListener('load', () => {
 </script>"""
 
 
-def chromium() -> str | None:
-    """The first Chromium-like browser on the PATH, or None."""
-    return next((p for p in map(shutil.which, BROWSERS) if p), None)
-
-
-BROWSER = chromium()
 pytestmark = pytest.mark.slow
 needs_browser = pytest.mark.skipif(BROWSER is None, reason="no Chromium on the PATH (Debian: apt-get install chromium)")
 needs_poppler = pytest.mark.skipif(not have_poppler(), reason="no pdftotext/pdfimages (Debian: poppler-utils)")
-
-
-def _run_browser(args: list[str], profile: Path) -> subprocess.CompletedProcess:
-    cmd = [BROWSER, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--no-first-run",
-           f"--user-data-dir={profile}", *args]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=180, check=False)
 
 
 def probe(report: Path, width: int, tmp: Path) -> dict:
     """Lay out ``report`` at a viewport ``width`` [px] wide and return what the probe script measured."""
     page = tmp / f"probe_{width}_{report.parent.name}.html"
     page.write_text(report.read_text(encoding="utf-8").replace("</body>", PROBE + "</body>"), encoding="utf-8")
-    res = _run_browser([f"--window-size={width},900", "--dump-dom", page.as_uri()], tmp / "profile")
+    res = run_browser([f"--window-size={width},900", "--dump-dom", page.as_uri()], tmp / "profile")
     m = re.search(r'<pre id="feedtune-probe">(.*?)</pre>', res.stdout, re.S)
     assert m is not None, f"the probe did not run (exit {res.returncode}): {res.stderr[-2000:]}"
     return json.loads(html.unescape(m.group(1)))
@@ -106,7 +101,7 @@ def probe(report: Path, width: int, tmp: Path) -> dict:
 
 def screenshot(report: Path, height: int, out: Path, tmp: Path) -> None:
     """A full-page screenshot of ``report`` at :data:`DESKTOP` width."""
-    _run_browser([f"--window-size={DESKTOP},{height + 20}", f"--screenshot={out}", report.as_uri()],
+    run_browser([f"--window-size={DESKTOP},{height + 20}", f"--screenshot={out}", report.as_uri()],
                  tmp / "profile")
 
 
