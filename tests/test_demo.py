@@ -9,6 +9,7 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
+from feedtune.analysis.comparison import verdict_line
 from feedtune.analysis.limits import DEFAULT_LIMITS
 from feedtune.analysis.metrics import ropesnap_metrics, tracking_metrics
 from feedtune.cli import demo_cmd, simulate_cmd, trajectory_cmd
@@ -17,7 +18,6 @@ from feedtune.io import read_document, read_log, write_document
 from feedtune.machines.ballscrew.runtime import GainsRuntime
 from feedtune.models import THESIS_TABLE_3_1 as MODEL
 from feedtune.workflows.ballscrew_demo import run_demo
-from feedtune.workflows.comparison import verdict_line
 from feedtune.workflows.files import write_texts
 
 

@@ -225,7 +225,7 @@ def test_comparison_is_table_3_2_with_reductions_from_the_logs(report, demo_resu
         red = row["reduction_pct"]["MC-PPC"]
         assert red["max"] == pytest.approx(100 * (1 - mc["max_m"] / pp["max_m"]))
         assert red["rms"] == pytest.approx(100 * (1 - mc["rms_m"] / pp["rms_m"]))
-    snap = report.data["comparison"]["ropesnap"]["rope snap, 0.5 V"]["MC-PPC"]
+    snap = report.data["comparison"]["ropesnap"]["rope snap 0.5 V"]["MC-PPC"]
     rope = next(r for r in demo_result.rows if r["test"] == "0.5 V")
     assert snap["peak"] == pytest.approx(100 * (1 - rope["mcppc"]["peak_um"] / rope["ppi"]["peak_um"]), rel=1e-6)
     assert snap["settling_time"] == pytest.approx(
@@ -522,24 +522,25 @@ def test_gantry_runs_use_each_side_and_the_table_displacement(tmp_path):
     assert snap_entry["metrics"] == expected and expected["peak_abs_m"] == pytest.approx(5e-6, rel=1e-9)
 
 
-def test_summary_names_every_figure_a_baseline_wins():
-    from feedtune.report.summary import _baseline_wins
+def test_summary_counts_the_figures_as_the_demos_do():
+    from feedtune.report.summary import comparison_sentences
 
-    data = {"comparison": {
-        "tracking": {"rows": [{"run": "tracking 200 mm/s", "runs": {
-            "MIMO": {"max_m": 2e-6, "rms_m": 1e-6},
-            "PID (pid_gains)": {"max_m": 4e-6, "rms_m": 3e-6},
-            "PID (pid_own_gains)": {"max_m": 1e-6, "rms_m": 0.999e-6}}}]},
-        "ropesnap": {"rope snap": {"MIMO": {"baseline": "PID (pid_gains)", "peak": 50.0, "settling_time": 20.0},
-                                   "PID (pid_own_gains)": {"baseline": "PID (pid_gains)", "peak": 60.0,
-                                                           "settling_time": 10.0}}}}}
-    text = _baseline_wins(data)
-    # the own-filter PID: max 1 < 2 um, rope-snap peak 0.4 < 0.5 of the baseline's; its RMS is within 0.5 %
-    assert text == ("PID (pid_own_gains) is better than MIMO in 2 of 4 figures: tracking 200 mm/s max, rope snap "
-                    "peak.")
-    data["comparison"]["tracking"]["rows"][0]["runs"]["PID (pid_own_gains)"]["max_m"] = 3e-6
-    data["comparison"]["ropesnap"]["rope snap"]["PID (pid_own_gains)"]["peak"] = 40.0
-    assert _baseline_wins(data) is None
+    own = "PID (pid_own_gains)"
+    data = {"comparison": {"tracking": {"rows": [{"run": "tracking, peak speed 200 mm/s", "runs": {
+        "MIMO": {"max_m": 2e-6, "rms_m": 1e-6}, own: {"max_m": 1e-6, "rms_m": 0.999e-6}}}]}},
+        "ropesnap": {"a.csv": {"controller": "MIMO", "run": "rope snap 57 N",
+                               "metrics": {"peak_abs_m": 5e-6, "settling_time_s": 0.05, "settled": True}},
+                     "b.csv": {"controller": own, "run": "rope snap 57 N",
+                               "metrics": {"peak_abs_m": 4e-6, "settling_time_s": None, "settled": False}}},
+        "contour": {"c.csv": {"controller": "MIMO", "run": "circle", "metrics": {"max_m": 1e-6, "rms_m": 1e-6}},
+                    "d.csv": {"controller": own, "run": "circle", "metrics": {"max_m": 2e-6, "rms_m": 1.5e-6}}}}
+    # by hand: max 2 > 1 um (PID), RMS within 0.5 % (tie), rope-snap peak 5 > 4 um (PID), settling: only MIMO settles
+    # (MIMO), contour max and RMS (MIMO): the rule of feedtune demo's table (feedtune.analysis.comparison)
+    assert comparison_sentences(data) == [
+        f"MIMO is better in 3 of 6 figures, {own} in 2, 1 tie(s) within 0.5 % or both missing; {own} is better in: "
+        "track 200 mm/s max, rope snap 57 N peak."]
+    data["comparison"]["tracking"]["rows"][0]["runs"][own]["max_m"] = 3e-6
+    assert comparison_sentences(data)[0].startswith(f"MIMO is better in 4 of 6 figures, {own} in 1")
 
 
 # ------------------------------------------------------------------------------------------ what the reader sees

@@ -115,6 +115,9 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "report": (_BS_MODEL, "feedtune report model.toml examples/ballscrew_frf.csv \\\n"
                           "    examples/ballscrew_track.csv examples/ballscrew_ropesnap.csv \\\n"
                           "    --out report.html"),
+    "explore": (_BS_MODEL, _BS_MCPPC,
+                "feedtune explore mcppc.toml --frf examples/ballscrew_frf.csv \\\n"
+                "    --out explore.html"),
     "simulate frf": ("feedtune simulate frf --seed 1 --out excitation.csv",),
     "simulate track": (_BS_MODEL, _BS_MCPPC,
                        "feedtune simulate track --gains mcppc.toml --distance 0.02 --v-max 0.2 \\\n"

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import typer
 
+from ..models.ballscrew import LOWER_BOUNDS
 from .common import FORCE_OPTION, JSON_OPTION, fmt, fmt_band, fmt_param, parse_float_pair
 from .envelope import cli_text, emit, quantities, quantity
 from .frf_options import (
@@ -27,9 +28,6 @@ from .progress_display import QUIET_OPTION, show_progress
 app = typer.Typer(rich_markup_mode="rich", help="Identify models from FRFs and logs.", no_args_is_help=True)
 
 
-BALLSCREW_LOWER_BOUNDS = {"b1": 0.0, "b2": 0.0, "c": 0.0}
-"""The parameters :func:`feedtune.identify.ballscrew.fit_ballscrew` bounds below (m1, m2 and k are fitted as
-logarithms): a value on its bound is printed as such."""
 
 
 @app.command("ballscrew")
@@ -103,7 +101,7 @@ def ballscrew(
     typer.echo("Ball-screw 2-mass model (eq. 3.1):")
     for name in ("m1", "m2", "b1", "b2", "k", "c"):
         std = result.get("std", {}).get(name)
-        typer.echo(f"  {name:3s} = {fmt_param(p[name], units.get(name, ''), std, BALLSCREW_LOWER_BOUNDS.get(name))}")
+        typer.echo(f"  {name:3s} = {fmt_param(p[name], units.get(name, ''), std, LOWER_BOUNDS.get(name))}")
     for m in result["modes"]:
         typer.echo(f"  mode: {m['freq_hz']:.2f} Hz, damping {100 * m['zeta']:.2f} %")
     typer.echo(f"  real pole: {fmt(result['real_pole_hz'], 'Hz')}; band {fmt_band(*result['band_hz'])}")

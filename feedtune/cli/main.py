@@ -19,6 +19,7 @@ from . import (
     design_cmd,
     design_gantry_cmd,
     design_loopshape_cmd,
+    explore_cmd,
     export_cmd,
     fleet_cmd,
     frf_cmd,
@@ -82,6 +83,7 @@ app.command("prefilter")(prefilter_cmd.prefilter)
 app.add_typer(analyze_cmd.app, name="analyze")
 app.add_typer(export_cmd.app, name="export")
 app.command("report")(report_cmd.report)
+app.command("explore")(explore_cmd.explore)
 app.add_typer(simulate_cmd.app, name="simulate")
 app.command("trajectory")(trajectory_cmd.trajectory)
 app.command("demo")(demo_cmd.demo)

@@ -20,6 +20,10 @@ import numpy as np
 from ..errors import DataError
 
 PARAM_NAMES = ("m1", "m2", "b1", "b2", "k", "c")
+LOWER_BOUNDS = {"b1": 0.0, "b2": 0.0, "c": 0.0}
+"""Damping coefficients are not negative: :func:`feedtune.identify.ballscrew.fit_ballscrew` bounds them at 0 (m1, m2
+and k are fitted as logarithms, never on a bound); a value on its bound is shown as such (the command line and the
+report alike, :func:`feedtune.display.param_text`)."""
 
 
 def param_units(input_unit: str = "V") -> dict[str, str]:

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .collect import Inputs, collect_inputs
-from .content import Report, Section
+from .content import Alert, Report, Section
 from .design import design_section
 from .html import render_html, render_pngs
 from .identification import identification_section
@@ -50,6 +50,13 @@ def plain(obj):
     return obj
 
 
+def section_alerts(sections) -> list[str]:
+    """The text of every warning (:class:`~feedtune.report.content.Alert`) the sections show, in display order: the
+    summary lists each of them (a warning shown in a section is never missing from the summary)."""
+    return [b.text for top in sections if top is not None for s in top.walk() for b in s.blocks
+            if isinstance(b, Alert)]
+
+
 def _sections(inputs: Inputs, limits: ReportLimits, strict: bool) -> tuple[list[Section], dict, list[str]]:
     names = display_names([*(m.path for m in inputs.models), *(g.path for g in inputs.gains),
                            *(f.path for f in inputs.frfs), *(x.path for x in inputs.logs)])
@@ -59,7 +66,7 @@ def _sections(inputs: Inputs, limits: ReportLimits, strict: bool) -> tuple[list[
     ident = identification_section(inputs, names, limits, data, warnings)
     design, designs = design_section(inputs, names, limits, data, warnings, colors)
     time = time_domain_section(inputs, names, limits, data, warnings, colors, strict)
-    warnings = list(dict.fromkeys(warnings))
+    warnings = list(dict.fromkeys([*warnings, *section_alerts([ident, design, time])]))
     summary = summary_section(designs, data, warnings, limits, inputs)
     body = [s for s in (summary, ident, design, time, inputs_section(inputs, names)) if s is not None]
     return [s for s in body if not s.is_empty()], data, warnings

@@ -12,21 +12,24 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-#: Significant digits of the numbers shown in tables.
-DISPLAY_DIGITS = 4
+from ..display import DIGITS as DISPLAY_DIGITS
 
 
 def format_number(value: float | None, digits: int = DISPLAY_DIGITS) -> str:
-    """A number for display with ``digits`` significant digits; ``"-"`` for None or non-finite values.
+    """A number for display with ``digits`` significant digits, as the command line prints it
+    (:func:`feedtune.display.number`: plain from 1e-4 to 1e6, whole numbers without a fraction); ``"-"`` for None or
+    non-finite values.
 
     Examples
     --------
-    >>> format_number(0.000123456), format_number(1234567.0), format_number(None)
-    ('0.0001235', '1.235e+06', '-')
+    >>> format_number(0.000123456), format_number(1234567.0), format_number(98127.4), format_number(None)
+    ('0.0001235', '1.235e+06', '98130', '-')
     """
+    from ..display import plain_number
+
     if value is None or not math.isfinite(float(value)):
         return "-"
-    return f"{float(value):.{digits}g}"
+    return plain_number(float(value), digits)
 
 
 @dataclass(frozen=True)
@@ -116,11 +119,14 @@ class FigureBlock:
 
     ``source`` is the figure, or a callable without arguments that draws it: the figure is then built on first use
     of :attr:`figure` (the report draws its figures where it renders them, possibly in several processes).
+    ``shows`` names the designs (or runs) the figure compares, ``((label, colour), ...)``: each must be visible in it
+    (a test counts each colour's pixels in the axes).
     """
 
     name: str
     caption: str
     source: Any
+    shows: tuple = ()
 
     @property
     def figure(self):
@@ -140,8 +146,17 @@ class Paragraph:
 
 
 @dataclass(frozen=True)
+class Verdict(Paragraph):
+    """A design's pass/fail line, shown emphasised (highlighted when it fails). Not a warning: the violations of a
+    failing design are listed among the warnings on their own."""
+
+    ok: bool = True
+
+
+@dataclass(frozen=True)
 class Alert:
-    """A warning shown highlighted."""
+    """A warning shown highlighted. Every alert a section shows is also listed in the summary's warnings
+    (:func:`feedtune.report.build.build_report` gathers them)."""
 
     text: str
 

@@ -19,7 +19,7 @@ import numpy as np
 from ..structures import gains_formats
 from .certificate import certificate_blocks
 from .collect import FrfInput, GainsInput, Inputs
-from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
+from .content import Cell, FigureBlock, Paragraph, Section, Table, Verdict, text_cell
 from .figures import (
     Curve,
     controller_figure,
@@ -70,6 +70,7 @@ class BallScrewDesign:
     masks: dict = field(default_factory=dict)
     support: dict = field(default_factory=dict)
     bandwidth: dict = field(default_factory=dict)
+    notes: tuple = ()
 
     @property
     def main_case(self) -> str:
@@ -135,11 +136,15 @@ def store_bandwidth(store: dict, d, limits: ReportLimits) -> None:
                                            "cases": d.bandwidth}
 
 
-def verdict_paragraph(d, limits: ReportLimits):
-    """The pass/fail line of a design (an Alert when it fails)."""
+def verdict_paragraph(d, limits: ReportLimits, assumes: bool = True) -> Verdict:
+    """The pass/fail line of a design; with ``assumes``, what its checked case assumes above the measured band
+    (``assumes`` of ``feedtune analyze --json``: the design section says it, the summary points there)."""
     text = verdict_line(d.label, d.name, d.result["check"], CASE_TITLES, limits.policy.describe(),
                         (d.result.get("verdict") or {}).get("basis_text"))
-    return Paragraph(text) if d.result["check"].get("ok") else Alert(text)
+    assumes = (d.result["analysis"].get(d.main_case) or {}).get("assumes") or [] if assumes else []
+    if assumes:
+        text += " Above the measured band the figures are " + "; ".join(assumes) + "."
+    return Verdict(text, bool(d.result["check"].get("ok")))
 
 
 def analysis_frf(inputs: Inputs) -> FrfInput | None:
@@ -275,13 +280,18 @@ def _case_name(designs) -> str:
     return CASE_TITLES[designs[0].main_case]
 
 
+def shows(designs) -> tuple:
+    """``((label, colour), ...)`` of the designs a figure compares (:attr:`FigureBlock.shows`)."""
+    return tuple(dict.fromkeys((d.label, d.color) for d in designs))
+
+
 def _pole_map(designs: list[BallScrewDesign]) -> FigureBlock:
     open_loop = designs[0].model.poles()
     closed = [(d.label, d.color, np.array([complex(*p) for p in d.result["closed_loop_poles"]])) for d in designs]
     top = max(m.freq_hz for d in designs for m in d.model.modes()) if designs[0].model.modes() else 100.0
     fig = partial(pole_map_figure, open_loop, closed, zoom_rad_s=2 * np.pi * 3 * top)
     return FigureBlock("design-poles", "Open-loop poles of the design model and closed-loop poles of each "
-                       "controller including its filter pack (thesis Fig. 3.6).", fig)
+                       "controller including its filter pack (thesis Fig. 3.6).", fig, shows(designs))
 
 
 def _loop(designs, limits: ReportLimits) -> FigureBlock:
@@ -291,7 +301,7 @@ def _loop(designs, limits: ReportLimits) -> FigureBlock:
     fig = partial(loop_figure, main + ideal, cross, title="Loop transfer L")
     return FigureBlock("design-loop", f"Loop transfer L = K1 G11 + K2 G21 (eq. 3.24/3.25), solid: "
                        f"{_case_name(designs)}, dashed: model with the continuous controller; circles: "
-                       "crossovers (thesis Fig. 3.10a-b)." + _masked_note(designs, limits), fig)
+                       "crossovers (thesis Fig. 3.10a-b)." + _masked_note(designs, limits), fig, shows(designs))
 
 
 def _nyquist(designs, limits: ReportLimits) -> FigureBlock:
@@ -299,7 +309,7 @@ def _nyquist(designs, limits: ReportLimits) -> FigureBlock:
     ms = {d.label: d.analysis.cases[d.main_case].metrics.ms for d in designs}
     return FigureBlock("design-nyquist", f"Nyquist plot of L ({_case_name(designs)}), dotted circles: distance "
                        "1/Ms from -1 (thesis Fig. 3.10c-d)." + _masked_note(designs, limits),
-                       partial(nyquist_figure, main, ms))
+                       partial(nyquist_figure, main, ms), shows(designs))
 
 
 def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
@@ -310,7 +320,7 @@ def _sensitivity(designs, limits: ReportLimits) -> FigureBlock:
     return FigureBlock("design-sensitivity", f"Sensitivity S = 1/(1 + L), solid: {_case_name(designs)}; "
                        "|S| < 1 (below 0 dB) where disturbances are rejected (thesis Fig. 3.11). Ms is the "
                        "analysis' peak over every line." + _masked_note(designs, limits),
-                       partial(sensitivity_figure, main + ideal, peaks, limits.ms_max))
+                       partial(sensitivity_figure, main + ideal, peaks, limits.ms_max), shows(designs))
 
 
 def _disturbance(designs) -> FigureBlock:
@@ -329,7 +339,7 @@ def _disturbance(designs) -> FigureBlock:
                            title="Disturbance transfer x2/d2")
     return FigureBlock("design-disturbance", "Disturbance transfer from a force d2 on the table to the table "
                        "position x2 (eq. 3.26/3.27), on the model; solid: continuous, dashed: discrete "
-                       "controller (thesis Fig. 3.12).", fig)
+                       "controller (thesis Fig. 3.12).", fig, shows(designs))
 
 
 def _prefiltered(designs) -> list[Curve]:
@@ -358,7 +368,7 @@ def _tracking(designs, limits: ReportLimits) -> FigureBlock:
     extra = " and with the trajectory pre-filter of the gains file (dash-dot)" if pre else ""
     return FigureBlock("design-tracking", f"Command tracking x2/x_r ({_case_name(designs)}) with the rotary "
                        "command generator and feedforward (solid), with feedback only (dotted)" + extra +
-                       " (thesis Fig. 3.13)." + _masked_note(designs, limits), fig)
+                       " (thesis Fig. 3.13)." + _masked_note(designs, limits), fig, shows(leaders))
 
 
 def controller_grid(fs: float) -> np.ndarray:
@@ -385,11 +395,24 @@ def _controller(d: BallScrewDesign) -> FigureBlock:
 # ------------------------------------------------------------------------------------------ warnings
 def design_warnings(d, limits: ReportLimits) -> list[str]:
     """The design's check under the policy (stability in every case, the limits in its main case), one line per
-    violation, as ``feedtune analyze --check`` reports them, and what the verdict's notes say (an edited
-    certificate ignored)."""
+    violation, as ``feedtune analyze --check`` reports them, what the verdict's notes say (an edited
+    certificate ignored) and the FRF's sampling warnings (:func:`sampling_warnings`)."""
     cert = d.result.get("verdict") or {}
     ignored = [n for n in cert.get("notes", []) if cert.get("stored_status") in ("edited", "undigested")][:1]
-    return [f"{d.label} ({d.name}): {v}" for v in d.result["check"]["violations"]] + ignored
+    return [f"{d.label} ({d.name}): {v}" for v in d.result["check"]["violations"]] + ignored + list(d.notes)
+
+
+def sampling_warnings(frf_name: str | None, frf, law) -> tuple[str, ...]:
+    """What ``feedtune analyze GAINS --frf F`` warns about the FRF against the gains' sample rate: an FRF ending far
+    below the Nyquist frequency (the loop above it rests on the model; :func:`feedtune.frf_sampling.band_warning`)."""
+    from ..errors import cli_message
+    from ..frf_sampling import band_warning
+
+    fs = getattr(law, "fs", None)
+    if frf is None or not fs:
+        return ()
+    w = band_warning(frf, float(fs), frf_name)
+    return () if w is None else (cli_message(w),)
 
 
 def verdict_result(analysis, limits: ReportLimits, gi: GainsInput, fi: FrfInput | None = None) -> dict:
@@ -429,11 +452,12 @@ def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
     support = support_of(frf, BALLSCREW_CHANNELS, limits.coherence_trust, model_band_top(inputs, "ballscrew"))
     designs = []
     for g, pre, label in zip(ballscrew, prefilters, labels, strict=True):
-        if labels.count(label) > 1:
+        if labels.count(label) > 1:  # named by the gains file, as its runs are (the same colour in every figure)
             label = f"{label} ({g.path.stem})"
         law, model, analysis, result = analyze_gains(g, fi, limits)
         d = BallScrewDesign(names[g.path], label, colors(label), law, model, analysis, result, pre,
-                            case_masks(analysis, frf, BALLSCREW_CHANNELS, limits.coherence_trust), support)
+                            case_masks(analysis, frf, BALLSCREW_CHANNELS, limits.coherence_trust), support,
+                            notes=sampling_warnings(names[fi.path] if fi is not None else None, frf, law))
         designs.append(replace(d, bandwidth=bandwidth_table_entry(d)))
     return designs, (names[fi.path] if fi is not None else None)
 

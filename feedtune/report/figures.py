@@ -48,8 +48,19 @@ NYQUIST_WIDTH_IN = 6.5
 """Width of the (square) Nyquist figures [in]."""
 PIXEL_COLUMNS = 900
 """Columns of the min/max envelope of a time series (one per pixel of a full-width axis)."""
-PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
-"""Colours given to controllers/runs in order of appearance."""
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9")
+"""Colours given to designs and their runs in order of appearance: the Okabe-Ito colours that stay apart for readers
+with any common colour-vision deficiency (blue, vermillion, bluish green, reddish purple, orange, sky blue; their
+yellow and black are left out: too faint on white, and black marks the reference lines). A seventh design reuses the
+first colour with its own marker and width."""
+WIDTH_SCALE = (2.2, 1.3, 0.85, 0.7, 0.6, 0.5)
+"""Line width factor of the k-th colour: the first design drawn widest and each later one narrower and above it, so
+curves that coincide stay visible side by side (one nested in the other) instead of the last hiding the others."""
+MARKERS = ("o", "s", "^", "D", "v", "P")
+"""Marker of the k-th colour on frequency-response curves, spaced along the curve and offset per design: each design
+is told apart in print and without colour."""
+MARKER_EVERY = 0.13
+"""Distance between markers along a curve [fraction of the axes diagonal]."""
 LEFT_IN, RIGHT_IN, BOTTOM_IN = 0.8, 0.2, 0.5
 """Fixed figure margins [in]."""
 TICK_LABEL_PT, TICK_PAD_PT = 8.0, 3.0
@@ -505,6 +516,44 @@ def _phase_aligned(h: np.ndarray) -> np.ndarray:
     return p - 360.0 * np.ceil((p[0] - 90.0) / 360.0)
 
 
+def look_index(color: str) -> int | None:
+    """The palette place of a design's colour (its width and marker, :data:`WIDTH_SCALE`, :data:`MARKERS`); None for
+    other colours (greys of reference lines)."""
+    try:
+        return PALETTE.index(color)
+    except ValueError:
+        return None
+
+
+def draw_curve(ax, x, y, c: Curve, *, width: float | None = None, label: str | None = "", markers: bool = True):
+    """One curve in its design's look: its colour, a width that nests it in the curves drawn before it
+    (:data:`WIDTH_SCALE`, narrower ones on top) and, on solid lines when ``markers``, its marker every
+    :data:`MARKER_EVERY` of the axes' diagonal, offset per design so that markers of coinciding curves do not
+    cover each other."""
+    k = look_index(c.color)
+    lw = (c.width if width is None else width) * (1.0 if k is None else WIDTH_SCALE[k])
+    kw = {"color": c.color, "lw": lw, "label": c.label if label == "" else label}
+    if k is not None:
+        kw["zorder"] = 2.0 + 0.05 * k
+        if markers and c.style in ("-", "solid"):
+            kw.update(marker=MARKERS[k], markevery=(0.02 + 0.023 * k, MARKER_EVERY), ms=4.2, mfc="white",
+                      mew=1.0)
+    return ax.plot(x, y, c.style, **kw)
+
+
+DB_SPAN = 140.0
+"""Decibels shown below the highest curve of a dB axis: a notch or the zero of a discrete filter at the Nyquist
+frequency (-700 dB) would otherwise set the scale and flatten every curve that matters."""
+
+
+def _db_span(ax) -> None:
+    """The y axis of a dB plot limited to :data:`DB_SPAN` below its highest curve (only when the data reach lower)."""
+    values = [np.asarray(line.get_ydata(), float) for line in ax.get_lines()]
+    values = np.concatenate([v[np.isfinite(v)] for v in values]) if values else np.empty(0)
+    if values.size and values.min() < values.max() - DB_SPAN:
+        ax.set_ylim(values.max() - DB_SPAN, values.max() + 0.05 * DB_SPAN)
+
+
 def _mark_points(ax, xs, ys, color, marker="o") -> None:
     if len(xs):
         ax.plot(xs, ys, marker, color=color, ms=5, mfc="white", mew=1.3, zorder=5)
@@ -657,7 +706,9 @@ def pole_map_figure(open_loop: np.ndarray, closed: Sequence[tuple[str, str, np.n
     for k, ax in enumerate(axes[0]):
         ax.plot(open_loop.real, open_loop.imag, "x", color="0.2", ms=8, mew=1.6, label="open loop (model)")
         for label, color, p in closed:
-            ax.plot(p.real, p.imag, "o", mfc="none", color=color, ms=7, mew=1.4, label=f"closed loop, {label}")
+            k = look_index(color)
+            ax.plot(p.real, p.imag, MARKERS[k] if k is not None else "o", mfc="none", color=color, ms=7, mew=1.4,
+                    label=f"closed loop, {label}")
         ax.axvline(0, color="0.4", lw=0.7)
         ax.axhline(0, color="0.4", lw=0.7)
         ax.set_xlabel("real part [rad/s]")
@@ -682,10 +733,10 @@ def loop_figure(curves: Sequence[Curve], crossovers: dict[str, Sequence[float]],
     trusted = []
     for c in curves:
         fx, m = log_envelope(c.x, _shown(c, np.abs(c.y)))
-        mag.plot(fx, _db(m), c.style, color=c.color, lw=c.width, label=c.label)
+        draw_curve(mag, fx, _db(m), c)
         idx = log_decimate(c.x)
         p = _shown(c, _phase_deg(c.y))[idx]
-        ph.plot(c.x[idx], p, c.style, color=c.color, lw=c.width * 0.9)
+        draw_curve(ph, c.x[idx], p, c, width=c.width * 0.9, label=None)
         trusted.append(p)
         wc = crossovers.get(c.label, ())
         _mark_points(mag, list(wc), [0.0] * len(wc), c.color)
@@ -714,7 +765,7 @@ def nyquist_figure(curves: Sequence[Curve], ms: dict[str, float], *, title: str 
     ax = axes[0, 0]
     th = np.linspace(0, 2 * np.pi, 181)
     for c in curves:
-        ax.plot(_shown(c, c.y.real), _shown(c, c.y.imag), c.style, color=c.color, lw=c.width, label=c.label)
+        draw_curve(ax, _shown(c, c.y.real), _shown(c, c.y.imag), c)
         if ms.get(c.label):
             r = 1.0 / ms[c.label]
             ax.plot(-1 + r * np.cos(th), r * np.sin(th), ":", color=c.color, lw=1.0,
@@ -744,7 +795,7 @@ def sensitivity_figure(curves: Sequence[Curve], peaks: dict[str, tuple[float, fl
         if c.label in peaks:
             f0, ms = peaks[c.label]
             _mark_points(ax, [f0], [20 * np.log10(ms)], c.color)
-        ax.plot(fx, _db(m), c.style, color=c.color, lw=c.width, label=label)
+        draw_curve(ax, fx, _db(m), c, label=label)
         finite = _db(m)[np.isfinite(m)]
         if finite.size:
             top = max(top, float(finite.max()))
@@ -768,16 +819,18 @@ def magnitude_figure(curves: Sequence[Curve], *, ylabel: str, scale: float = 1.0
     ax = axes[0, 0]
     for c in curves:
         fx, m = log_envelope(c.x, _shown(c, np.abs(c.y) * scale))
-        ax.plot(fx, _db(m) if db else m, c.style, color=c.color, lw=c.width, label=c.label)
+        draw_curve(ax, fx, _db(m) if db else m, c)
     if loglog and not db:
         _log_y(ax)
+    if db:
+        _db_span(ax)
     _freq_axis(ax, not phase)
     ax.set_ylabel(ylabel)
     if phase:
         ph = axes[1, 0]
         for c in curves:
             idx = log_decimate(c.x)
-            ph.plot(c.x[idx], _shown(c, _phase_wrapped(c.y))[idx], c.style, color=c.color, lw=c.width * 0.9)
+            draw_curve(ph, c.x[idx], _shown(c, _phase_wrapped(c.y))[idx], c, width=c.width * 0.9, label=None)
         ph.set_ylabel("phase [deg]")
         ph.set_ylim(-185, 185)
         ph.yaxis.set_major_locator(FixedLocator([-180, -90, 0, 90, 180]))
@@ -822,10 +875,36 @@ def controller_figure(paths: Sequence[Curve], filters: Sequence[Curve], *, unit:
 # ------------------------------------------------------------------------------------------ time domain
 @dataclass(frozen=True)
 class TimePanel:
-    """One row of a time figure: its y label and curves (x in s)."""
+    """One row of a time figure: its y label and curves (x in s).
+
+    ``own_scale``: when the largest peak of some curves dwarfs the others' (:data:`DWARF_RATIO`), the smaller ones are
+    drawn again in a row of their own, at their scale (:func:`dwarf_split`)."""
 
     ylabel: str
     curves: Sequence[Curve]
+    own_scale: bool = False
+
+
+DWARF_RATIO = 4.0
+"""A curve whose peak is below this fraction of the largest peak of its panel is dwarfed: it gets a row at its own
+scale."""
+
+
+def dwarf_split(curves: Sequence[Curve]) -> tuple[list[Curve], list[Curve]]:
+    """``(all, dwarfed)``: the dwarfed curves are those whose peak ``|y|`` is below ``1 / DWARF_RATIO`` of the
+    largest (none when every curve is within that ratio).
+
+    Examples
+    --------
+    >>> t = np.linspace(0, 1, 5)
+    >>> big, small = Curve(t, 385 * np.sin(t), "PID"), Curve(t, 6 * np.sin(t), "MIMO")
+    >>> [c.label for c in dwarf_split([big, small])[1]]
+    ['MIMO']
+    """
+    peaks = [float(np.nanmax(np.abs(c.y), initial=0.0)) for c in curves]
+    top = max(peaks, default=0.0)
+    small = [c for c, p in zip(curves, peaks, strict=True) if top > 0 and p * DWARF_RATIO < top]
+    return list(curves), small
 
 
 @dataclass(frozen=True)
@@ -848,7 +927,7 @@ def _plot_time(ax, c: Curve, t0: float | None = None, t1: float | None = None, c
         i0, i1 = np.searchsorted(x, [t0, t1])
         x, y = x[max(i0 - 1, 0):i1 + 1], y[max(i0 - 1, 0):i1 + 1]
     x, y = envelope(x, y, columns)
-    ax.plot(x, y, c.style, color=c.color, lw=c.width * 0.8, label=c.label)
+    draw_curve(ax, x, y, c, width=c.width * 0.8, markers=False)
 
 
 def time_figure(panels: Sequence[TimePanel], windows: Sequence[Window], spectrum: Sequence[Curve], *,
@@ -858,7 +937,15 @@ def time_figure(panels: Sequence[TimePanel], windows: Sequence[Window], spectrum
 
     Panels without curves are left out; so is the spectrum when it has no curve.
     """
-    panels = [p for p in panels if p.curves]
+    split = []
+    for p in panels:
+        if not p.curves:
+            continue
+        split.append(p)
+        small = dwarf_split(p.curves)[1] if p.own_scale else []
+        if small:  # the dwarfed curves again, at their own scale
+            split.append(TimePanel(f"the smaller {_unit_of(p.ylabel)}", small))
+    panels = split
     rows = len(panels) + (1 if spectrum else 0)
     cols = 1 + len(windows)
     legend = list(dict.fromkeys(c.label for p in panels for c in p.curves if c.label))
@@ -894,7 +981,7 @@ def time_figure(panels: Sequence[TimePanel], windows: Sequence[Window], spectrum
         ax = axes[-1, 0]
         for c in spectrum:
             x, y = log_envelope(c.x, c.y)
-            ax.plot(x, y, c.style, color=c.color, lw=c.width * 0.9, label=c.label)
+            draw_curve(ax, x, y, c, width=c.width * 0.9, markers=False)
         _freq_axis(ax)
         if spectrum_loglog:
             _log_y(ax)
@@ -908,22 +995,26 @@ def contour_figure(paths: Sequence[tuple[str, str, np.ndarray, np.ndarray, np.nd
                    errors: Sequence[Curve], *, title: str):
     """x-y path against its reference and the contour error versus time (Fig. 4.20-4.22).
 
-    ``paths`` holds ``(label, colour, x_ref, y_ref, x, y)`` [m]; ``errors`` the contour error [µm] vs t [s].
+    ``paths`` holds ``(label, colour, x_ref, y_ref, x, y)`` [m]; ``errors`` the contour error [µm] vs t [s], drawn as
+    magnitudes on a log axis when one run's error dwarfs another's (:func:`dwarf_split`).
     """
     fig, axes = new_figure(1, 2, height=3.6, legend=["reference"] + [p[0] for p in paths])
     ax, ae = axes[0]
     for i, (label, color, xr, yr, x, y) in enumerate(paths):
         if i == 0:
             ax.plot(xr * 1e3, yr * 1e3, color="0.2", lw=1.0, ls="--", label="reference")
-        ax.plot(x * 1e3, y * 1e3, color=color, lw=1.0, label=label)
+        draw_curve(ax, x * 1e3, y * 1e3, Curve(x, y, label, color, "-", 1.0), markers=False)
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.set_aspect("equal", adjustable="datalim")
+    dwarfed = bool(dwarf_split(errors)[1])  # one run's error dwarfs another's: magnitudes on a log axis show both
     for c in errors:
-        t, e = envelope(c.x, c.y, PIXEL_COLUMNS // 2)
-        ae.plot(t, e, color=c.color, lw=0.8, label=c.label)
+        t, e = envelope(c.x, np.abs(c.y) if dwarfed else c.y, PIXEL_COLUMNS // 2)
+        draw_curve(ae, t, e, c, width=0.8, markers=False)
     ae.set_xlabel("time [s]")
-    ae.set_ylabel("contour error [µm]")
+    ae.set_ylabel("|contour error| [µm]" if dwarfed else "contour error [µm]")
+    if dwarfed:
+        _log_y(ae)
     set_title(fig, title)
     add_legend(fig)
     return fig
@@ -1006,13 +1097,14 @@ def singular_value_figure(curves: Sequence[tuple], *, ylabel: str, peaks: dict |
         if peaks and label in peaks:
             f0, v = peaks[label]
             _mark_points(ax, [f0], [20 * np.log10(v)], color)
-        ax.plot(fx, _db(h), "-", color=color, lw=1.5, label=labels[2 * k])
+        draw_curve(ax, fx, _db(h), Curve(f, hi, labels[2 * k], color, "-", 1.5))
         fl, low = log_envelope(f, _shown(probe, lo))
-        ax.plot(fl, _db(low), "--", color=color, lw=1.0, label=labels[2 * k + 1])
+        draw_curve(ax, fl, _db(low), Curve(f, lo, labels[2 * k + 1], color, "--", 1.0))
     if level_db is not None:
         ax.axhline(level_db, color="0.3", lw=0.8)
     if ms_limit:
         ax.axhline(20 * np.log10(ms_limit), color="0.3", lw=0.8, ls=":", label=f"Ms limit {ms_limit:.3g}")
+    _db_span(ax)
     _freq_axis(ax)
     ax.set_ylabel(ylabel)
     set_title(fig, title)
@@ -1026,7 +1118,7 @@ def det_nyquist_figure(curves: Sequence[Curve], *, title: str = "MIMO Nyquist pl
                                                                          "|det(I + L)| = 1"])
     ax = axes[0, 0]
     for c in curves:
-        ax.plot(_shown(c, c.y.real), _shown(c, c.y.imag), c.style, color=c.color, lw=c.width, label=c.label)
+        draw_curve(ax, _shown(c, c.y.real), _shown(c, c.y.imag), c)
     ax.plot([0], [0], "+", color="k", ms=12, mew=2, label="origin")
     th = np.linspace(0, 2 * np.pi, 181)
     ax.plot(np.cos(th), np.sin(th), color="0.6", lw=0.7, ls="--", label="|det(I + L)| = 1")

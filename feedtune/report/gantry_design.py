@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import partial
+from pathlib import PurePath
 
 import numpy as np
 
@@ -28,6 +29,8 @@ from .design import (
     controller_grid,
     design_warnings,
     model_band_top,
+    sampling_warnings,
+    shows,
     store_bandwidth,
     support_of,
     verdict_paragraph,
@@ -67,6 +70,7 @@ class MachineDesign:
     support: dict = field(default_factory=dict)
     bandwidth: dict = field(default_factory=dict)
     channels: tuple = ()
+    notes: tuple = ()
 
     @property
     def main_case(self) -> str:
@@ -132,10 +136,13 @@ def build_machine_designs(inputs: Inputs, names: Mapping, colors: Colors, limits
         d = MachineDesign(names[gi.path], label, "", gi.kind, analysis, result,
                           names[fi.path] if fi is not None else None, gi.doc.get("design"), law,
                           case_masks(analysis, frf, channels, limits.coherence_trust),
-                          support_of(frf, channels, limits.coherence_trust, band_top), channels=channels)
+                          support_of(frf, channels, limits.coherence_trust, band_top), channels=channels,
+                          notes=sampling_warnings(names[fi.path] if fi is not None else None, frf, law))
         out.append(replace(d, bandwidth=bandwidth_table_entry(d)))
     labels = [d.label for d in out]
-    out = [replace(d, label=f"{d.label} ({d.name})") if labels.count(d.label) > 1 else d for d in out]
+    # named by the gains file, as its runs are: a design has one colour in every figure, design and time domain
+    out = [replace(d, label=f"{d.label} ({PurePath(d.name).stem})") if labels.count(d.label) > 1 else d
+           for d in out]
     return [replace(d, color=colors(d.label)) for d in out]
 
 
@@ -181,6 +188,13 @@ def _note(designs: list[MachineDesign], limits: ReportLimits) -> str:
     return mask_note(_mask(d), _case(d).freq_hz, limits.coherence_trust, ", ".join(d.channels))
 
 
+def with_shows(block: FigureBlock, designs) -> FigureBlock:
+    """``block`` naming the designs it compares (:attr:`FigureBlock.shows`)."""
+    from dataclasses import replace
+
+    return replace(block, shows=shows(designs))
+
+
 def _gantry_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[FigureBlock]:
     from ..analysis.mimo import return_difference_det, singular_values
 
@@ -201,7 +215,7 @@ def _gantry_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[
                       mask=_mask(d)) for d in designs]
     tracking += [Curve(_case(d).freq_hz, _case(d).tracking_no_ff, f"{d.label}, feedback only", d.color, ":", 1.2,
                        _mask(d)) for d in designs]
-    return [
+    return [with_shows(b, designs) for b in [
         FigureBlock("gantry-sv-loop", f"Upper and lower singular values of the loop L = G K ({case_name}) "
                     "(thesis Fig. 4.13 left)." + note,
                     partial(singular_value_figure, curves("L"), ylabel="sigma(L) [dB]", title="Singular values of L")),
@@ -219,7 +233,7 @@ def _gantry_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[
                     "pre-filters and with feedback only." + note,
                     partial(magnitude_figure, tracking, ylabel="|ybar/y_r| [dB]", db=True, phase=True,
                                      title="Centre-of-mass tracking ybar/y_r")),
-    ]
+    ]]
 
 
 def _axis_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[FigureBlock]:
@@ -235,7 +249,7 @@ def _axis_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[Fi
                    mask=_mask(d)) for d in designs]
     track += [Curve(_case(d).freq_hz, _case(d).tracking_no_ff, f"{d.label}, feedback only", d.color, ":", 1.2,
                     _mask(d)) for d in designs]
-    return [
+    return [with_shows(b, designs) for b in [
         FigureBlock("axis-loop", f"x-axis loop gain ({case_name}), crossovers marked (thesis Fig. 4.9 left)." + note,
                     partial(loop_figure, loop, cross, title="x-axis loop transfer L")),
         FigureBlock("axis-nyquist", f"x-axis Nyquist plot ({case_name}) (thesis Fig. 4.9 right)." + note,
@@ -247,7 +261,7 @@ def _axis_figures(designs: list[MachineDesign], limits: ReportLimits) -> list[Fi
         FigureBlock("axis-tracking", f"x-axis tracking x/x_r ({case_name})." + note,
                     partial(magnitude_figure, track, ylabel="|x/x_r| [dB]", db=True, phase=True,
                             title="x-axis tracking")),
-    ]
+    ]]
 
 
 def _controller_block(d: MachineDesign) -> FigureBlock | None:

@@ -12,10 +12,11 @@ import base64
 import datetime as _dt
 import html
 import json
+import re
 from contextlib import contextmanager
 from functools import partial
 
-from .content import Alert, Cell, FigureBlock, Paragraph, Report, Section, Table
+from .content import Alert, Cell, FigureBlock, Paragraph, Report, Section, Table, Verdict
 from .figures import figure_png
 
 DATA_ELEMENT_ID = "feedtune-report-data"
@@ -35,11 +36,13 @@ nav a, a { color: #0b5cad; text-decoration: none; }
 div.table-wrap { max-width: 100%; overflow-x: auto; margin: 10px 0 4px; }
 table { border-collapse: collapse; font-size: 0.8em; line-height: 1.35; width: auto; max-width: 100%; }
 caption { text-align: left; font-weight: 600; padding: 4px 0; font-size: 1.08em; }
-th, td { border: 1px solid var(--line); padding: 2px 6px; vertical-align: top; overflow-wrap: break-word; }
-th { hyphens: auto; overflow-wrap: normal; }
+th, td { border: 1px solid var(--line); padding: 2px 6px; vertical-align: top; overflow-wrap: normal;
+         word-break: normal; hyphens: manual; }
+span.w { white-space: nowrap; }
 th { background: var(--head); text-align: left; font-weight: 600; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; overflow-wrap: normal; }
-p.verdict { font-weight: 600; }
+p.verdict { font-weight: 600; border-left: 4px solid #1a7f37; padding-left: 8px; }
+p.verdict.fail { border-left-color: var(--warn); color: #4a2a00; background: var(--warn-bg); }
 p.note { color: var(--muted); font-size: 0.85em; margin: 2px 0 12px; }
 div.warning { background: var(--warn-bg); border-left: 4px solid var(--warn); color: #4a2a00; padding: 6px 10px;
               margin: 6px 0; font-size: 0.92em; }
@@ -54,11 +57,15 @@ def _esc(text: str) -> str:
     return html.escape(str(text), quote=True)
 
 
+_HYPHENATED = re.compile(r"\b[A-Za-z]+(?:-[A-Za-z]+)+\b")
+
+
 def _breakable(text: str) -> str:
     """Escaped text that may break after ``_`` (and after ``/`` in a path without spaces): long file names wrap
-    inside narrow columns."""
+    inside narrow columns. A hyphenated word (``pre-filter``, ``MC-PPC``) is kept on one line, as the PDF keeps it."""
     out = _esc(text).replace("_", "_<wbr>")
-    return out.replace("/", "/<wbr>") if " " not in text else out
+    out = out.replace("/", "/<wbr>") if " " not in text else out
+    return _HYPHENATED.sub(lambda m: f'<span class="w">{m.group(0)}</span>', out)
 
 
 def _cell(cell: Cell) -> str:
@@ -82,7 +89,7 @@ def _plain_value(v):
 
 
 def _table(t: Table) -> str:
-    head = "".join(f"<th>{_esc(c)}</th>" for c in t.columns)
+    head = "".join(f"<th>{_breakable(c)}</th>" for c in t.columns)
     body = "\n".join("<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in t.rows)
     note = f'<p class="note">{_esc(t.note)}</p>' if t.note else ""
     return (f'<div class="table-wrap"><table><caption>{_esc(t.title)}</caption><thead><tr>{head}</tr></thead>\n'
@@ -112,6 +119,8 @@ def _block(b, pngs: dict) -> str:
         return _figure(b, pngs[b.name])
     if isinstance(b, Alert):
         return f'<div class="warning">{_esc(b.text)}</div>'
+    if isinstance(b, Verdict):
+        return f'<p class="verdict {"pass" if b.ok else "fail"}">{_esc(b.text)}</p>'
     if isinstance(b, Paragraph):
         return f"<p>{_esc(b.text)}</p>"
     raise TypeError(f"unknown report block {type(b).__name__}")

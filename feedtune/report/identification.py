@@ -52,6 +52,22 @@ def coherence_warnings(name: str, frf, band_hz, limits: ReportLimits) -> list[st
     return out
 
 
+def fit_alerts(name: str, doc: Mapping) -> list[Alert]:
+    """The warnings a model file's identification stored (``fit.warnings``), as the identify command printed them."""
+    fit = doc.get("fit") if isinstance(doc.get("fit"), Mapping) else {}
+    return [Alert(f"{name}: {text}") for text in fit.get("warnings") or []]
+
+
+def frf_alerts(name: str, frf) -> list[Alert]:
+    """What ``feedtune analyze``/``tune`` warn about an FRF file as they read it: a sampled log's ZOH and
+    computational delay left in (:func:`feedtune.frf_sampling.double_counting_warning`)."""
+    from ..errors import cli_message
+    from ..frf_sampling import double_counting_warning
+
+    w = double_counting_warning(frf, name)
+    return [] if w is None else [Alert(cli_message(w))]
+
+
 def _fit_quality_warnings(name: str, fit: Mapping, limits: ReportLimits) -> list[str]:
     out = []
     for ch, q in (fit.get("fit") or {}).items():
@@ -157,14 +173,16 @@ def _ballscrew_model_section(mi: ModelInput, name: str, frfs: list[tuple[str, Fr
     blocks: list = []
     std = dict(fit.get("std") or {})
     std["__key__"] = ["identification", name, "fit", "std"]
+    from ..models.ballscrew import LOWER_BOUNDS
+
     blocks.append(parameter_table("Identified parameters (eq. 3.1, thesis Table 3.1)", doc.get("params", {}),
-                                  ["identification", name, "params"], std=std if len(std) > 1 else None))
+                                  ["identification", name, "params"], std=std if len(std) > 1 else None,
+                                  lower=LOWER_BOUNDS))
     blocks.append(_modes_table(name, doc, fit))
     fit_table = _fit_table(name, fit)
     if fit_table is not None:
         blocks.append(fit_table)
-    for text in fit.get("warnings") or []:
-        blocks.append(Alert(f"{name}: {text}"))
+    blocks += fit_alerts(name, doc)
     quality = _fit_quality_warnings(name, fit, limits)
     warnings.extend(quality)
     blocks.extend(Alert(w) for w in quality)
@@ -173,6 +191,7 @@ def _ballscrew_model_section(mi: ModelInput, name: str, frfs: list[tuple[str, Fr
     matching = [(n, f) for n, f in frfs if any(f.frf.has(ch) for ch in BALLSCREW_CHANNELS)]
     for fname, fi in matching:
         blocks.append(_frf_block(fname, fi.frf, mi.model, fit, limits.coherence_trust))
+        blocks.extend(frf_alerts(fname, fi.frf))
         coh = coherence_warnings(fname, fi.frf, band, limits)
         warnings.extend(coh)
         blocks.extend(Alert(w) for w in coh)
@@ -325,6 +344,7 @@ def friction_section(inputs: Inputs, names: Mapping, data: dict) -> Section | No
         data.setdefault("identification", {})[name] = _model_data(fc.mi)
         blocks.append(parameter_table(f"{fc.title[0].upper()}{fc.title[1:]}: {name}", fc.mi.doc.get("params", {}),
                                       ["identification", name, "params"]))
+        blocks += fit_alerts(name, fc.mi.doc)
     pts = [Curve(sc[0], sc[1], f"disturbance estimate {n}", PALETTE[0]) for n, sc in scatters]
     if doc_units is not None and not curves and not pts:
         vel_unit, cmd_unit = doc_units
@@ -404,10 +424,12 @@ def _gantry_section(mi: ModelInput, name: str, inputs: Inputs, names: Mapping, l
               FigureBlock(f"gantry-mass-{name}", "Mass distribution, yaw inertia and yaw-mode frequency versus "
                           f"table position over the span ±L/2 = ±{half:.3g} m; points: identified per position "
                           "(thesis Fig. 4.5).", fig)]
+    blocks += fit_alerts(name, mi.doc)
     used = set()
     for fi in inputs.frfs:
         if all(fi.frf.has(ch) for ch in GANTRY_CHANNELS):
             blocks.append(_gantry_frf_block(names[fi.path], fi, model))
+            blocks.extend(frf_alerts(names[fi.path], fi.frf))
             used.add(names[fi.path])
     return Section(f"model-{name}", f"Gantry model {name}", blocks), used
 
@@ -441,6 +463,7 @@ def _generic_model_section(mi: ModelInput, name: str) -> Section:
         blocks.append(Paragraph(f"{name}: {mi.note}; the parameters are listed as stored."))
     if not blocks:
         blocks.append(Paragraph(f"{name}: model kind {mi.kind!r} holds no parameter table to show."))
+    blocks += fit_alerts(name, mi.doc)
     return Section(f"model-{name}", f"Model {name} ({mi.kind})", blocks)
 
 
@@ -479,7 +502,7 @@ def identification_section(inputs: Inputs, names: Mapping, limits: ReportLimits,
     for name, fi in frfs:
         if name in used_frfs:
             continue
-        blocks: list = [_frf_block(name, fi.frf, threshold=limits.coherence_trust)]
+        blocks: list = [_frf_block(name, fi.frf, threshold=limits.coherence_trust), *frf_alerts(name, fi.frf)]
         blocks.extend(Paragraph(w + "; no model fit band to judge it against.")
                       for w in coherence_warnings(name, fi.frf, None, limits))
         subs.append(Section(f"frf-{name}", f"Measured FRF {name}", blocks))

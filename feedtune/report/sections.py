@@ -115,12 +115,17 @@ def quantity_value(entry) -> tuple[float | None, str]:
 
 
 def parameter_table(title: str, params: Mapping, key: list, *, std: Mapping | None = None,
-                    units: Mapping | None = None, note: str = "") -> Table:
+                    units: Mapping | None = None, note: str = "", lower: Mapping | None = None) -> Table:
     """Parameters ``{name: {value, unit} or number}`` with their standard deviations when given.
 
     ``key`` is the data path of ``params``; values are looked up as ``key + [name, "value"]`` for quantities
-    and ``key + [name]`` for bare numbers. ``std`` values sit at ``std_key`` (``std["__key__"]``).
+    and ``key + [name]`` for bare numbers. ``std`` values sit at ``std_key`` (``std["__key__"]``). A value on its
+    ``lower`` bound (``{name: bound}``, :func:`feedtune.display.at_lower_bound`: a bounded fit leaves it there up to
+    rounding, ``b1 = 3e-33`` with a std of ``1e-3``) reads ``0 V/(rad/s) (at its lower bound)``, as the identify
+    command prints it.
     """
+    from ..display import at_lower_bound, quantity
+
     std = dict(std or {})
     std_key = std.pop("__key__", None)
     rows = []
@@ -131,12 +136,15 @@ def parameter_table(title: str, params: Mapping, key: list, *, std: Mapping | No
         unit = unit or str((units or {}).get(name, ""))
         unit = "" if unit == "-" else unit
         vkey = [*key, name, "value"] if isinstance(entry, Mapping) else [*key, name]
-        row = [text_cell(name), Cell(value, unit, key=vkey)]
+        s = std.get(name)
+        sv = float(s) if isinstance(s, (int, float)) and not isinstance(s, bool) else None
+        bound = (lower or {}).get(name)
+        on_bound = at_lower_bound(value, sv, bound)
+        row = [text_cell(name), text_cell(f"{quantity(bound, unit)} (at its lower bound)") if on_bound
+               else Cell(value, unit, key=vkey)]
         if std:
-            s = std.get(name)
-            sv = float(s) if isinstance(s, (int, float)) and not isinstance(s, bool) else None
             row.append(Cell(sv, unit, key=None if sv is None or std_key is None else [*std_key, name]))
-            rel = None if sv is None or not value else 100.0 * sv / abs(value)
+            rel = None if sv is None or not value or on_bound else 100.0 * sv / abs(value)
             row.append(text_cell("> 1000 %") if rel is not None and rel > 1000 else Cell(rel, "%"))
         rows.append(row)
     columns = ["parameter", "value", "standard deviation", "relative std"] if std else ["parameter", "value"]

@@ -6,25 +6,48 @@ from collections.abc import Mapping
 
 from .collect import Inputs
 from .content import Alert, Cell, Paragraph, Section, Table, text_cell
-from .design import CASE_TITLES, bandwidth_cell, bandwidth_note, verdict_paragraph
+from .design import bandwidth_cell, bandwidth_note, verdict_paragraph
 from .sections import BASELINE_CONTROLLERS, ReportLimits
+from .trust import limit_text
+
+BASIS_TEXT = {"frfs": "certified now on the FRF", "certificate": "the file's certificate",
+              "model": "the design model only"}
+"""What a verdict rests on, in a table cell (``verdict.basis`` of ``feedtune analyze --json``)."""
 
 
-def _verdict_table(designs: list, limits: ReportLimits) -> Table:
+def headline_table(designs: list, limits: ReportLimits) -> Table:
+    """One line per design: the verdict, the bandwidth it guarantees (the certificate's lowest first crossover over
+    its FRFs, possible crossings counted), the limit that binds, the worst margins, what the verdict rests on and
+    the tracking bandwidth, as ``feedtune analyze GAINS --json``'s ``verdict`` states them."""
     rows = []
     for d in designs:
-        case = d.main_case
-        m = d.result["analysis"][case]
-        k = ["design", d.name, "analysis", case]
+        verdict = d.result.get("verdict") or {}
+        worst = (verdict.get("certificate") or {}).get("worst") or {}
+        k = ["design", d.name, "verdict", "certificate", "worst"]
         rows.append([text_cell(d.label), text_cell("PASS" if d.result["check"].get("ok") else "FAIL"),
-                     text_cell(CASE_TITLES[case]), Cell(m["stable"], key=[*k, "stable"]),
-                     Cell(m["crossovers_hz"], "Hz", key=[*k, "crossovers_hz"]),
-                     Cell(m["phase_margin_deg"], "deg", key=[*k, "phase_margin_deg"]),
-                     Cell(m["gain_margin_db"], "dB", key=[*k, "gain_margin_db"]),
-                     Cell(m["ms"], "", key=[*k, "ms"]), bandwidth_cell(d, case)])
-    return Table("Controllers", ["controller", "verdict", "case", "stable", "crossovers", "phase margin",
-                                 "gain margin", "Ms", "tracking bandwidth"], rows,
-                 f"Verdict under {limits.policy.describe()}. " + bandwidth_note(limits))
+                     Cell(worst.get("first_crossover_hz"), "Hz", key=[*k, "first_crossover_hz"]),
+                     text_cell(limit_text(worst.get("active_limit"))),
+                     Cell(worst.get("ms"), "", key=[*k, "ms"]), Cell(worst.get("pm_deg"), "deg", key=[*k, "pm_deg"]),
+                     Cell(worst.get("gm_db"), "dB", key=[*k, "gm_db"]),
+                     Cell(worst.get("gm_low_db"), "dB", key=[*k, "gm_low_db"]),
+                     text_cell(BASIS_TEXT.get(verdict.get("basis"), "-")), _proved_cell(d),
+                     bandwidth_cell(d, d.main_case)])
+    return Table("Designs at a glance: verdict, guaranteed bandwidth and the limit that binds",
+                 ["controller", "verdict", "guaranteed bandwidth", "limit that binds", "Ms", "PM", "GM",
+                  "gain-reduction GM", "verdict rests on", "lines prove to", "tracking bandwidth"], rows,
+                 f"Verdict under {limits.policy.describe()}, the worst over every FRF the design is certified on. "
+                 "Guaranteed bandwidth: the first crossover the loop may have (possible crossings within the FRF's "
+                 "scatter counted, docs/verdicts.md). Limit that binds: the limit with the least slack. Lines prove "
+                 "to: the top of the band the measured lines prove the figures in; above it the analysis continues the "
+                 "plant as the design section states. " + bandwidth_note(limits))
+
+
+def _proved_cell(d) -> Cell:
+    """Up to where the measured lines prove the checked case's figures (``band_edge.valid_to_hz``) [Hz]."""
+    edge = (d.result["analysis"].get(d.main_case) or {}).get("band_edge") or {}
+    if edge.get("valid_to_hz") is None:
+        return text_cell("-")
+    return Cell(edge["valid_to_hz"], "Hz", key=["design", d.name, "analysis", d.main_case, "band_edge", "valid_to_hz"])
 
 
 def _span(values: list[float]) -> tuple[float, float] | None:
@@ -118,43 +141,57 @@ def _is_baseline(label: str) -> bool:
     return any(label == b or label.startswith(b + " ") for b in BASELINE_CONTROLLERS)
 
 
-def _figures_by_label(data: Mapping) -> dict[str, dict[str, float]]:
-    """``{label: {figure: value}}`` of every compared run (smaller is better): tracking max/RMS [m] per run, and for
-    rope snaps and contours the value relative to the group's baseline ``1 - reduction / 100`` (the baseline's is
-    1)."""
-    comp = data.get("comparison") or {}
-    out: dict[str, dict[str, float]] = {}
-    for row in (comp.get("tracking") or {}).get("rows", []):
+def comparison_rows(data: Mapping) -> list[dict]:
+    """The compared runs as the demos' comparison rows (:mod:`feedtune.analysis.comparison`): one row per test
+    ``{"test": name, label: {"max_um", "rms_um"} or {"peak_um", "settling_time_s"}}``: tracking and cutting runs
+    (Table 3.2), rope snaps (None where a run did not settle) and contours."""
+    rows = []
+    for row in ((data.get("comparison") or {}).get("tracking") or {}).get("rows", []):
+        entry: dict = {"test": test_name(row["run"])}
         for label, run in row["runs"].items():
-            for key, what in (("max_m", "max"), ("rms_m", "RMS")):
-                if run.get(key) is not None:
-                    out.setdefault(label, {})[f"{row['run']} {what}"] = run[key]
-    for section, figures in (("ropesnap", (("peak", "peak"), ("settling_time", "settling time"))),
-                             ("contour", (("max", "max"),))):
-        for test, per in (comp.get(section) or {}).items():
-            for label, red in per.items():
-                base = red.get("baseline")
-                for key, what in figures:
-                    if red.get(key) is not None:
-                        out.setdefault(label, {})[f"{test} {what}"] = 1.0 - red[key] / 100.0
-                        out.setdefault(base, {})[f"{test} {what}"] = 1.0
+            entry[label] = {"max_um": _um(run.get("max_m")), "rms_um": _um(run.get("rms_m"))}
+        rows.append(entry)
+    tests: dict[str, dict] = {}
+    for run in (data.get("ropesnap") or {}).values():
+        m = run.get("metrics") or {}
+        tests.setdefault(run.get("run") or "rope snap", {})[run["controller"]] = {
+            "peak_um": _um(m.get("peak_abs_m")),
+            "settling_time_s": m.get("settling_time_s") if m.get("settled", True) else None}
+    for run in (data.get("contour") or {}).values():
+        m = run.get("metrics") or {}
+        tests.setdefault(run.get("run") or "contour", {})[run["controller"]] = {
+            "max_um": _um(m.get("max_m")), "rms_um": _um(m.get("rms_m"))}
+    rows += [{"test": test, **per} for test, per in tests.items()]
+    return rows
+
+
+def test_name(title: str) -> str:
+    """A run group's title as the demos name their tests: ``tracking, peak speed 200 mm/s`` -> ``track 200 mm/s``,
+    ``cut, peak speed 200 mm/s`` -> ``cut 200 mm/s``; other titles unchanged."""
+    for prefix, shown in (("tracking, peak speed ", "track "), ("cut, peak speed ", "cut ")):
+        if title.startswith(prefix):
+            return shown + title[len(prefix):]
+    return title
+
+
+def _um(x):
+    return None if x is None else 1e6 * float(x)
+
+
+def comparison_sentences(data: Mapping) -> list[str]:
+    """For every proposal (a controller other than P-PI, PID and their variants) against every baseline they were
+    both run with: how many figures each wins and which ones the baseline wins, the sentence ``feedtune demo``
+    prints (:func:`feedtune.analysis.comparison.verdict_line`, the same rows, the same tie rule)."""
+    from ..analysis.comparison import verdict_line
+
+    rows = comparison_rows(data)
+    labels = list(dict.fromkeys(k for r in rows for k in r if k != "test"))
+    out = []
+    for p in (lb for lb in labels if not _is_baseline(lb)):
+        for b in (lb for lb in labels if _is_baseline(lb)):
+            if any(p in r and b in r for r in rows):
+                out.append(verdict_line(rows, (p, p), (b, b)))
     return out
-
-
-def _baseline_wins(data: Mapping) -> str | None:
-    """A sentence naming, for every proposal and every baseline (P-PI, PID, and their variants), the figures in
-    which the baseline is better (by more than 0.5 %), or None."""
-    figs = _figures_by_label(data)
-    proposals = [lb for lb in figs if not _is_baseline(lb)]
-    baselines = [lb for lb in figs if _is_baseline(lb)]
-    parts = []
-    for p in proposals:
-        for b in baselines:
-            wins = [k for k, v in figs[b].items() if k in figs[p] and v < figs[p][k] - 0.005 * abs(figs[p][k])]
-            if wins:
-                parts.append(f"{b} is better than {p} in {len(wins)} of {len(set(figs[b]) & set(figs[p]))} "
-                             f"figures: {', '.join(wins)}.")
-    return " ".join(parts) or None
 
 
 def summary_section(designs: list, data: dict, warnings: list[str],
@@ -163,16 +200,15 @@ def summary_section(designs: list, data: dict, warnings: list[str],
     checked = checked_statements(designs, data, limits, inputs)
     blocks: list = []
     red = reductions(data)
-    blocks.extend(verdict_paragraph(d, limits) for d in designs)
+    blocks.extend(verdict_paragraph(d, limits, assumes=False) for d in designs)
     sentence = _reduction_sentence(red)
     if sentence:
         blocks.append(Paragraph(sentence + " Negative values are increases."))
-    wins = _baseline_wins(data)
-    if wins:
-        blocks.append(Alert("The baseline wins here: " + wins))
-    data.setdefault("verdict", {})["baseline_wins"] = wins
+    sentences = comparison_sentences(data)
+    blocks.extend(Paragraph(t) for t in sentences)
+    data.setdefault("verdict", {})["comparison"] = sentences
     if designs:
-        blocks.append(_verdict_table(designs, limits))
+        blocks.append(headline_table(designs, limits))
     data["summary"] = {"reductions": red, "warnings": list(warnings), "limits": limits.to_dict()}
     table = _reduction_table(red)
     if table is not None:

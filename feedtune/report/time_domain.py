@@ -20,7 +20,7 @@ from ..errors import DataError
 from .collect import Inputs, LogInput
 from .content import Alert, Cell, FigureBlock, Paragraph, Section, Table, text_cell
 from .design import PREFILTER_SUFFIX
-from .figures import Curve, TimePanel, Window, contour_figure, time_figure
+from .figures import DWARF_RATIO, Curve, TimePanel, Window, contour_figure, dwarf_split, time_figure
 from .sections import Colors, ReportLimits, baseline_of, controller_label, improvement_pct
 
 TRACKING_KINDS = ("track", "cut")
@@ -370,9 +370,9 @@ def _unique_labels(runs: list[Run], colors: Colors) -> list[Run]:
     seen: dict[tuple, int] = {}
     for r in runs:
         seen[(r.group, r.label)] = seen.get((r.group, r.label), 0) + 1
-    return [replace(r, label=f"{r.label} ({_run_tag(r.li)})", base_label=f"{r.base_label} ({_run_tag(r.li)})",
-                    color=colors(f"{r.label} ({_run_tag(r.li)})")) if seen[(r.group, r.label)] > 1 else r
-            for r in runs]
+    out = [replace(r, label=f"{r.label} ({_run_tag(r.li)})", base_label=f"{r.base_label} ({_run_tag(r.li)})")
+           if seen[(r.group, r.label)] > 1 else r for r in runs]
+    return [replace(r, color=colors(r.label)) for r in out]  # a design's runs in the design's colour
 
 
 def tracking_runs(inputs: Inputs, names: Mapping, colors: Colors, strict: bool, warnings: list[str],
@@ -387,7 +387,7 @@ def tracking_runs(inputs: Inputs, names: Mapping, colors: Colors, strict: bool, 
         base, pre = _label(li, gains_docs)
         label = base + (PREFILTER_SUFFIX if pre else "")
         group, title = _group(li)
-        runs.append(Run(names[li.path], li, label, colors(label), group, title, metrics, base, pre, options, sides))
+        runs.append(Run(names[li.path], li, label, "", group, title, metrics, base, pre, options, sides))
     runs = _unique_labels(runs, colors)
     return sorted(runs, key=lambda r: (r.group[0] == "cut", str(type(r.group[1])), r.group[1]))
 
@@ -402,11 +402,26 @@ def ropesnap_runs(inputs: Inputs, names: Mapping, colors: Colors, strict: bool, 
             continue
         metrics, options, _ = found
         base, pre = _label(li, gains_docs)
-        force = li.log.meta.get("force_v")
-        group = ("ropesnap", str(force) if force is not None else "")
-        title = f"rope snap, {force} V" if force is not None else "rope snap"
-        runs.append(Run(names[li.path], li, base, colors(base), group, title, metrics, base, pre, options))
+        force = rope_force(li.log)
+        group = ("ropesnap", force)
+        title = f"rope snap {force}" if force else "rope snap"
+        runs.append(Run(names[li.path], li, base, "", group, title, metrics, base, pre, options))
     return _unique_labels(runs, colors)
+
+
+def rope_force(log) -> str:
+    """The rope force a rope-snap log records, as the demos name it: ``57 N`` (``force_N``, the force on the table),
+    else ``0.5 V`` (``force_V``, the force as a command-equivalent), else ``""``."""
+    from ..display import quantity
+
+    for key, unit in (("force_n", "N"), ("force_v", "V")):
+        value = next((v for k, v in log.meta.items() if k.lower() == key), None)
+        if value is not None:
+            try:
+                return quantity(float(value), unit)
+            except (TypeError, ValueError):
+                return f"{value} {unit}"
+    return ""
 
 
 def _groups(runs: list[Run]) -> list[list[Run]]:
@@ -435,7 +450,7 @@ def _tracking_figure(group: list[Run]) -> FigureBlock:
             spec.append(Curve(r.metrics.freq_hz, r.metrics.amplitude * 1e6, r.label, r.color))
     unit = next((group[0].li.log.unit(u) for u in ("u", "u1") if u in group[0].li.log), "") or "V"
     windows = worst_window(tracking_windows(group[0].li.log), err)
-    panels = [TimePanel("tracking error [µm]", err), TimePanel(f"control signal [{unit}]", cmd)]
+    panels = [TimePanel("tracking error [µm]", err, own_scale=True), TimePanel(f"control signal [{unit}]", cmd)]
     fig = partial(time_figure, panels, windows, spec, time_label="time [s]", spectrum_label="error amplitude [µm]",
                   title=group[0].group_title)
     what = "cutting" if group[0].group[0] == "cut" else "tracking"
@@ -446,7 +461,23 @@ def _tracking_figure(group: list[Run]) -> FigureBlock:
     res = f" Spectrum: Hann window over the whole run, line spacing {df:.3g} Hz." if df else ""
     return FigureBlock(f"time-{group[0].group[0]}-{group[0].group[1]}",
                        f"{group[0].group_title[0].upper()}{group[0].group_title[1:]}: {what} error, control signal "
-                       "and error amplitude spectrum (thesis Fig. 3.15)." + zoom + res, fig)
+                       "and error amplitude spectrum (thesis Fig. 3.15)." + zoom + _dwarf_note(err) + res, fig,
+                       _shows(group))
+
+
+def _shows(group: list[Run]) -> tuple:
+    """``((label, colour), ...)`` of the runs a figure compares (:attr:`FigureBlock.shows`)."""
+    return tuple(dict.fromkeys((r.label, r.color) for r in group))
+
+
+def _dwarf_note(curves: list[Curve]) -> str:
+    """Caption text naming the runs drawn again at their own scale (:func:`feedtune.report.figures.dwarf_split`)."""
+    small = dwarf_split(curves)[1]
+    if not small:
+        return ""
+    names = ", ".join(dict.fromkeys(c.label for c in small))
+    return (f" The second row draws {names} again at their own scale: their peak is below 1/{DWARF_RATIO:g} of the "
+            "largest.")
 
 
 def _stats_cells(metrics, part: str, key: list) -> list[Cell]:
@@ -643,7 +674,8 @@ def _ropesnap_figure(group: list[Run]) -> FigureBlock:
         asd.append(Curve(m.asd_freq_hz, m.asd * 1e6, r.label, r.color))
     unit = next((group[0].li.log.unit(u) for u in ("u", "u1") if u in group[0].li.log), "") or "V"
     window = ropesnap_window(group)
-    fig = partial(time_figure, [TimePanel("table displacement [µm]", disp), TimePanel(f"control signal [{unit}]", cmd)],
+    fig = partial(time_figure, [TimePanel("table displacement [µm]", disp, own_scale=True),
+                                TimePanel(f"control signal [{unit}]", cmd)],
                       [window], asd, time_label="time after the release [s]", spectrum_label="ASD [µm/√Hz]",
                       title=group[0].group_title, spectrum_loglog=True)
     title = group[0].group_title
@@ -653,7 +685,7 @@ def _ropesnap_figure(group: list[Run]) -> FigureBlock:
     return FigureBlock(f"time-ropesnap-{group[0].group[1]}", f"{title[0].upper()}{title[1:]}: table "
                        "displacement from its pre-release level, control signal and amplitude spectral density "
                        "of the displacement after the release (thesis Fig. 3.14, 4.17); right: zoomed on the "
-                       "response after the release." + res, fig)
+                       "response after the release." + _dwarf_note(disp) + res, fig, _shows(group))
 
 
 def _ropesnap_table(runs: list[Run]) -> tuple[Table, dict]:
@@ -746,7 +778,7 @@ def _contour_runs(inputs: Inputs, names: Mapping, colors: Colors, data: dict, st
         metrics = _contour_metrics(d, source)
         data.setdefault("contour", {})[names[li.path]] = {"log": names[li.path], "controller": label, "run": title,
                                                           "metrics": metrics}
-        out.append((Run(names[li.path], li, label, colors(label), group, title, metrics, label, False), d))
+        out.append((Run(names[li.path], li, label, "", group, title, metrics, label, False), d))
     unique = _unique_labels([r for r, _ in out], colors)
     for (r, _), u in zip(out, unique, strict=True):
         data["contour"][r.name]["controller"] = u.label
@@ -787,9 +819,11 @@ def _contour_subsection(inputs: Inputs, names: Mapping, colors: Colors, data: di
                           log["y"][::step]))
             errors.append(Curve(log.t, distance[r.name] * 1e6, r.label, r.color))
         title = group[0].group_title
+        scale = (f" The errors differ by more than a factor of {DWARF_RATIO:g}: their magnitudes are drawn on a "
+                 "logarithmic axis." if dwarf_split(errors)[1] else "")
         blocks.append(FigureBlock(f"contour-{group[0].group[1]}", f"{title[0].upper()}{title[1:]}: path against "
-                                  "the reference and the contour error (thesis Fig. 4.20-4.22).",
-                                  partial(contour_figure, paths, errors, title=title)))
+                                  "the reference and the contour error (thesis Fig. 4.20-4.22)." + scale,
+                                  partial(contour_figure, paths, errors, title=title), _shows(group)))
     return Section("time-contour", "Contouring", blocks)
 
 
@@ -829,7 +863,8 @@ def time_domain_section(inputs: Inputs, names: Mapping, limits: ReportLimits, da
     if snaps:
         for r in snaps:
             data.setdefault("ropesnap", {})[r.name] = {"log": r.name, "kind": "ropesnap", "controller": r.label,
-                                                       "options": dict(r.options), "metrics": r.metrics.to_dict()}
+                                                       "run": r.group_title, "options": dict(r.options),
+                                                       "metrics": r.metrics.to_dict()}
         table, reductions = _ropesnap_table(snaps)
         comparison["ropesnap"] = reductions
         blocks = [table]

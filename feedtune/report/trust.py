@@ -115,7 +115,24 @@ def bandwidth_entry(value_hz: float | None, case: str, support_hz: Mapping[str, 
 
 
 ITEM_TEXT = {"ms": ("Ms", "", "<="), "pm_deg": ("PM", " deg", ">="), "gm_db": ("GM", " dB", ">="),
-             "gm_low_db": ("gain-reduction GM", " dB", ">="), "disk_margin": ("disk margin", "", ">=")}
+             "gm_low_db": ("gain-reduction GM", " dB", ">="), "disk_margin": ("disk margin", "", ">="),
+             "band_top": ("|L| at the top of the proved band", "", "<=")}
+
+
+def limit_text(item: Mapping | None) -> str:
+    """The limit closest to binding (a limit item of ``feedtune analyze --json``'s certificate, ``active_limit``) in
+    words: ``PM 30.13 deg (limit 30 deg) at 116.1 Hz on frf.csv``; ``-`` without one."""
+    from ..display import number
+
+    if not item:
+        return "-"
+    what, unit, _ = ITEM_TEXT.get(item["name"], (item["name"], "", ""))
+    value = item.get("value")
+    value = abs(value) if item["name"] == "gm_db" and value is not None else value
+    text = f"{what} {number(value)}{unit} (limit {number(item.get('limit'))}{unit})"
+    if item.get("freq_hz") is not None:
+        text += f" at {number(item['freq_hz'])} Hz"
+    return text + (f" on {item['frf']}" if item.get("frf") else "")
 
 
 def verdict_line(label: str, name: str, check: Mapping, case_titles: Mapping[str, str], policy_text: str,

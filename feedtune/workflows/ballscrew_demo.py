@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..analysis.comparison import better_per_figure, reduction_pct, verdict_line
 from ..analysis.limits import DEFAULT_LIMITS, Limits
 from ..errors import DesignError
-from .comparison import better_per_figure, reduction_pct, verdict_line
 from .files import experiment_texts, plain_json
 
 SPEEDS_M_PER_S = (0.2, 0.5, 1.0)
@@ -74,12 +74,13 @@ class DemoResult:
         """What the demo prints: the identified model, both tuned designs with the limits and the rule, and the
         comparison (:meth:`table`)."""
         from ..display import at_lower_bound, quantity
+        from ..models.ballscrew import LOWER_BOUNDS
 
         ident = self.identified
         std = ident.get("std") or {}
 
-        def param(k, v):  # the fit's parameters are bounded below by 0 (eq. 3.1): a value on 0 is printed as 0
-            at_bound = at_lower_bound(v, std.get(k), 0.0)
+        def param(k, v):  # the fit's damping parameters are bounded below by 0: a value on 0 is printed as 0
+            at_bound = at_lower_bound(v, std.get(k), LOWER_BOUNDS.get(k))
             return f"{k} = {quantity(0.0 if at_bound else v, ident['units'].get(k, ''))}" + (
                 " (at its lower bound)" if at_bound else "")
 

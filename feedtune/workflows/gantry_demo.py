@@ -87,7 +87,7 @@ class GantryDemoResult:
 
     def table(self) -> str:
         """The comparison as text: the limits and rules, the three controllers and the verdict against each PID."""
-        from .comparison import verdict_line
+        from ..analysis.comparison import verdict_line
 
         objectives = sorted({d["objective"] for d in self.designs.values() if d.get("objective")})
         lines = [f"Limits: {self.limits.get('profile')}; every controller tuned for the {' / '.join(objectives) or '-'}"
@@ -352,11 +352,11 @@ def run_gantry_demo(seed: int = 0, *, params=None, engine: str = "auto", xs=DEMO
     DesignError
         No design meets the limits on the measured FRFs, or an identification run tripped.
     """
+    from ..analysis.comparison import better_per_figure
     from ..analysis.limits import DEFAULT_LIMITS
     from ..errors import UsageError
     from ..io import dumps_json
     from ..machines.gantry.twin import GantryTwin
-    from .comparison import better_per_figure
     from .files import plain_json
 
     xs = [float(x) for x in xs]
