@@ -88,6 +88,7 @@ def demo(
         progress.step("writing the files")
         staged = write_texts(result.texts, force=True, out_dir=stage)
         write_demo_report(stage, True, machine, policy)
+    progress.done()
     written = [out / p.name for p in staged]
     report_path = out / REPORT_NAME
     if as_json:
