@@ -181,25 +181,22 @@ def search(label: str) -> Iterator[Meter]:
 def tasked(label: str) -> Callable:
     """Decorator: the function runs as the :func:`task` ``label`` (library functions that take seconds: an FRF
     estimate, a friction fit)."""
-    import functools
-
-    def wrap(fn):
-        @functools.wraps(fn)
-        def run(*args, **kwargs):
-            with task(label):
-                return fn(*args, **kwargs)
-        return run
-    return wrap
+    return _running(task, label)
 
 
 def searching(label: str) -> Callable:
     """Decorator: the function runs as :func:`search` ``label`` (its checks report through :func:`judged`)."""
+    return _running(search, label)
+
+
+def _running(context: Callable, label: str) -> Callable:
+    """Decorator: the function runs inside ``context(label)``."""
     import functools
 
     def wrap(fn):
         @functools.wraps(fn)
         def run(*args, **kwargs):
-            with search(label):
+            with context(label):
                 return fn(*args, **kwargs)
         return run
     return wrap

@@ -163,18 +163,20 @@ SPINNER = "⠋⠙⠹⠸⠼⠴⠦⠧⠇⠏"
 
 
 def _clean_end(run, summary: str, written: list[str]):
-    """Progress within 2 s (or 1 s after the command line's own start on a loaded machine), and a final screen that
-    ends with the summary and the paths written, with no progress line among or after them."""
+    """Progress within 2 s (on a loaded machine: within 2.5 times the command line's own start, which it cannot
+    beat), and a final screen that ends with the summary and the paths written, with no progress line among or
+    after them."""
     from pty_screen import feedtune_command, run_on_terminal
 
     assert run.code == 0, "\n".join(run.lines[-30:])
     shown = run.first_seen(lambda text: any(ch in text for ch in SPINNER))
     start = run_on_terminal(feedtune_command("--version")).seconds  # the interpreter and the command line's import
-    assert shown is not None and shown < max(2.0, start + 1.0), (shown, start)
-    tail = run.tail(len(written) + 12)
-    assert tail[-len(written):] == written, "\n".join(run.lines[-30:])
-    assert any(line.startswith(summary) for line in tail), "\n".join(run.lines[-30:])
-    assert not any(ch in line for line in tail for ch in SPINNER + "━"), "\n".join(run.lines[-30:])
+    assert shown is not None and shown < max(2.0, 2.5 * start), (shown, start)
+    assert run.tail(len(written)) == written, "\n".join(run.lines[-30:])
+    at = max((i for i, line in enumerate(run.lines) if line.startswith(summary)), default=None)
+    assert at is not None, "\n".join(run.lines[-30:])
+    assert not any(ch in line for line in run.lines[at:] for ch in SPINNER + "━"), "\n".join(run.lines[-30:])
+    assert not any(line.startswith("done ") for line in run.lines[at:]), "\n".join(run.lines[-30:])
 
 
 @pytest.mark.slow

@@ -69,7 +69,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import progress
-from ..analysis.ballscrew import analyze_case, plant_cases
+from ..analysis.ballscrew import analyze_case
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF, PlantCase
 from ..analysis.check import check_design, resolve_limits
 from ..analysis.limits import Limits
@@ -81,7 +81,7 @@ from ..design.ppi import PpiDesign, design_ppi
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
+from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks, search_cases
 from .compliance import AxialCompliance
 from .filter_choice import tune_with_own_filters
 from .search import CheckedCases, Objective, robust_frfs
@@ -481,10 +481,7 @@ def tune_ppi(
     if filter_choice not in ("identical", "own"):
         raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
     with progress.search("tuning P-PI"):
-        progress.figure(*(("Ki2", f"{model.input_unit}/(rad s)") if obj.by_gain else ("first crossover", "Hz")))
-        progress.note(f"the plant cases of {len(frfs)} FRF(s), continued above their lines" if frfs else
-                      "the plant cases of the model")
-        cases = [plant_cases(model, fs, delay_samples, f) for f in (frfs or [None])]  # once: every search shares them
+        cases = search_cases(model, fs, delay_samples, frfs, obj.by_gain)  # once: every search shares them
         pcs = [c[case] for c in cases]
         if filter_choice == "identical":
             return _search(model, filters, cases, frfs, case, policy, obj, fs, delay_samples)
