@@ -83,7 +83,8 @@ def demo(
     check_out_dir(out, force)
     from ..workflows.warmup import MACHINE_KERNELS, ensure_kernels
 
-    ensure_kernels(MACHINE_KERNELS.get(machine))  # a first run compiles them as a step of its own, on every core
+    if engine != "python":  # a first run compiles them as a step of its own, on every core
+        ensure_kernels(MACHINE_KERNELS.get(machine, ()))
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw, objective=goal)
     from .. import progress
 
