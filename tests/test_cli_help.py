@@ -32,8 +32,8 @@ PYTHON_TYPE = re.compile(r"<(?:bool|int|float|str|path|file|directory|Path|list\
 range>``, ``<bool>``, ``<h1|periodic>``."""
 ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
-SLOW_EXAMPLES = {"demo", "tune", "report", "explore", "frf estimate", "identify mass", "design pid", "simulate frf",
-                 "simulate track", "simulate ropesnap", "simulate cut", "simulate gantry frf",
+SLOW_EXAMPLES = {"demo", "warmup", "tune", "report", "explore", "frf estimate", "identify mass", "design pid",
+                 "simulate frf", "simulate track", "simulate ropesnap", "simulate cut", "simulate gantry frf",
                  "simulate gantry axis-frf", "simulate gantry mass", "simulate gantry ropesnap",
                  "simulate gantry track", "simulate gantry contour"}
 """Examples that run a twin experiment, a tuner's search or the demo (2-30 s each on a 2-core machine): CI runs them

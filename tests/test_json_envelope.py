@@ -160,6 +160,7 @@ CASES = {  # id: (kind, arguments); each runs in well under 5 s
                                       "1", "--out", "fleet.html", "--force"]),
 }
 SLOW_CASES = {  # more than 5 s each (the gantry rope snap: compiling its closed loop)
+    "warmup": ("warmup", ["warmup"]),
     "simulate gantry ropesnap": ("simulate.gantry.ropesnap", ["simulate", "gantry", "ropesnap", "--gains",
                                                               "mimo.toml", "--t-release", "0.2", "--after", "0.1",
                                                               "--out", "g_rope.csv", "--force"]),

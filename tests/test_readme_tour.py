@@ -111,3 +111,23 @@ def test_readme_tour_runs(tmp_path):
     for name in ("mcppc.h", "report.html", "demo_out/report.html", "friction.toml", "mcppc_pf.toml"):
         assert (out / name).stat().st_size > 0, name
     assert "#include" in (out / "mcppc.h").read_text(encoding="utf-8")
+
+
+@pytest.mark.slow  # a fit, a design, four analysis cases and the report's figures
+def test_readme_library_example_passes_the_default_limits_and_prints_its_verdict(monkeypatch, capsys):
+    """The README's library example runs as printed from the repository root; its design passes the default limits
+    (its comment says so), and the Ms it prints is the one its comment states."""
+    pytest.importorskip("control")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    text = README.read_text(encoding="utf-8")
+    start = text.index("```python\n", text.index("## Library")) + len("```python\n")
+    code = text[start:text.index("```", start)]
+    monkeypatch.chdir(REPO)
+    scope: dict = {}
+    exec(compile(code, "README.md (Library)", "exec"), scope)
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0] == "True []"
+    assert f"{float(printed[1]):.3f}" in code  # the Ms the comment states
+    assert 1.0 < float(printed[1]) <= 2.5  # within the default limit it claims to pass

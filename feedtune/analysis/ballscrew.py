@@ -1146,7 +1146,8 @@ def analyze_case(law: BallScrewLaw, pc: PlantCase, *, responses: bool = True) ->
 
 
 def analyze_ballscrew(
-    law: BallScrewLaw, model: BallScrewModel, frf: Frf | None = None, freq_hz: np.ndarray | None = None
+    law: BallScrewLaw, model: BallScrewModel, frf: Frf | None = None, freq_hz: np.ndarray | None = None, *,
+    cases: dict | None = None,
 ) -> BallScrewAnalysis:
     """Analyse a ball-screw control law in all cases (see module docstring).
 
@@ -1163,6 +1164,9 @@ def analyze_ballscrew(
         Measured ``x1/u`` and ``x2/u`` (measured and discrete cases).
     freq_hz : ndarray, optional
         Grid for the model cases [Hz] (default :func:`default_grid`).
+    cases : dict, optional
+        :func:`plant_cases` of ``model`` and ``frf`` at the law's rate and delay, made already (a tuner checking many
+        laws on the same FRF makes them once; their continuation above the FRF is a fit); ``freq_hz`` is then unused.
 
     Returns
     -------
@@ -1170,7 +1174,8 @@ def analyze_ballscrew(
         Each case keeps its loop ``L``; ``S``, ``tracking``, ``tracking_no_ff`` and ``disturbance`` are computed when
         first read (:class:`CaseResponse`).
     """
-    cases = plant_cases(model, law.fs, law.delay_samples, frf, freq_hz)
+    if cases is None:
+        cases = plant_cases(model, law.fs, law.delay_samples, frf, freq_hz)
     given = [pc for pc in cases.values() if pc is not None]
     done = iter(_analyze(law, given, True, keep=False))
     return BallScrewAnalysis({name: None if pc is None else next(done) for name, pc in cases.items()})

@@ -58,7 +58,7 @@ def resolve_limits(limits: Limits | None = None, *, ms_max: float | None = None,
 
 
 def check_design(design, *, frf: Frf | None = None, limits: Limits | None = None, ms_max: float | None = None,
-                 pm_min_deg: float | None = None) -> DesignCheck:
+                 pm_min_deg: float | None = None, cases: dict | None = None) -> DesignCheck:
     """Analyse ``design`` (MC-PPC or P-PI) in every case and compare it with the limits.
 
     Parameters
@@ -70,9 +70,12 @@ def check_design(design, *, frf: Frf | None = None, limits: Limits | None = None
         The limits policy (default: the ``textbook`` profile).
     ms_max, pm_min_deg : float, optional
         Overrides of the policy's peak sensitivity [-] and phase margin [deg].
+    cases : dict, optional
+        The plant cases of ``design.model`` and ``frf`` at the design's rate and delay, made already
+        (:func:`~feedtune.analysis.ballscrew.plant_cases`: a tuner checking many designs on one FRF makes them once).
     """
     pol = resolve_limits(limits, ms_max=ms_max, pm_min_deg=pm_min_deg)
     law = design.law()
-    analysis = analyze_ballscrew(law, design.model, frf)
+    analysis = analyze_ballscrew(law, design.model, frf, cases=cases)
     check, worst = check_analysis(analysis, pol)
     return DesignCheck(analysis, closed_loop_poles(law, design.model), check, worst)

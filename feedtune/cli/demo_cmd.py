@@ -81,6 +81,10 @@ def demo(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     goal = objective_options(objective, compliance_max, (plant(entry.plant),), machine)
     check_out_dir(out, force)
+    from ..workflows.warmup import MACHINE_KERNELS, ensure_kernels
+
+    if engine != "python":  # a first run compiles them as a step of its own, on every core
+        ensure_kernels(MACHINE_KERNELS.get(machine, ()))
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw, objective=goal)
     from .. import progress
 
@@ -88,6 +92,7 @@ def demo(
         progress.step("writing the files")
         staged = write_texts(result.texts, force=True, out_dir=stage)
         write_demo_report(stage, True, machine, policy)
+    progress.done()
     written = [out / p.name for p in staged]
     report_path = out / REPORT_NAME
     if as_json:

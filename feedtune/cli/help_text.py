@@ -141,6 +141,7 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "trajectory": ("feedtune trajectory --distance 0.1 --v-max 0.5 --a-max 9.81 --j-max 500 \\\n"
                    "    --out traj.csv",),
     "demo": ("feedtune demo --out demo_out",),
+    "warmup": ("feedtune warmup",),
     "log convert": ("feedtune log convert examples/ballscrew_reversals.csv --map position=x2 \\\n"
                     "    --unit position=rad --keep u,position --out reversals.csv",),
     "log resample": ("feedtune log resample examples/ballscrew_reversals.csv --fs 250 \\\n"

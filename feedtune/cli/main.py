@@ -34,6 +34,7 @@ from . import (
     simulate_gantry_cmd,
     trajectory_cmd,
     tune_cmd,
+    warmup_cmd,
 )
 
 app = typer.Typer(
@@ -87,6 +88,7 @@ app.command("explore")(explore_cmd.explore)
 app.add_typer(simulate_cmd.app, name="simulate")
 app.command("trajectory")(trajectory_cmd.trajectory)
 app.command("demo")(demo_cmd.demo)
+app.command("warmup")(warmup_cmd.warmup)
 app.add_typer(log_cmd.app, name="log")
 app.add_typer(fleet_cmd.app, name="fleet")
 help_text.prepare_help(app)

@@ -84,6 +84,7 @@ def report(
     line, as for 'feedtune analyze track' (e.g. --map x_ref=cmd --map x2_table=pos for a foreign tracking log);
     logs inside folders are read as feedtune logs."""
     show_progress(quiet)
+    from .. import progress
     from ..report.build import build_report, write_report
     from ..report.collect import parse_log_kinds
     from ..report.sections import ReportLimits
@@ -95,6 +96,7 @@ def report(
     built = build_report(paths, title=title, log_kinds=parse_log_kinds(log_kind), strict=strict,
                          limits=ReportLimits(policy), log_reader=options.read, frfs=frfs)
     written = write_report(built, out, pdf=pdf, force=force)
+    progress.done()
     result = report_summary(built, written)
     if as_json:
         from .envelope import emit

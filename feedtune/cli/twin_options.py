@@ -1,4 +1,5 @@
-"""Building a twin from ``--machine``, ``--param NAME=VALUE`` and ``--ideal`` (every simulate command)."""
+"""Building a twin from ``--machine``, ``--param NAME=VALUE`` and ``--ideal`` (every simulate command), its kernels
+compiled first when they are not built yet (:func:`feedtune.workflows.warmup.ensure_kernels`)."""
 
 from __future__ import annotations
 
@@ -19,11 +20,16 @@ def parse_params(items: list[str] | None) -> dict[str, str]:
 def twin_from_options(machine: str, params: list[str] | None, ideal: bool, *, plant: str = "two_mass"):
     """The registered machine's twin; UsageError when the command group does not simulate ``machine`` (it runs the
     twins of the plant structure ``plant``)."""
+    from .. import progress
     from ..errors import UsageError
     from ..machines import get_machine, machines_of
+    from ..workflows.warmup import MACHINE_KERNELS, ensure_kernels
 
     names = machines_of(plant)
     if machine not in names:
         raise UsageError(f"unknown machine {machine!r} for this command; it runs the {' or '.join(names)} twin "
                          f"('feedtune simulate --help' lists the other machines' experiments)")
-    return get_machine(machine).twin(parse_params(params), ideal=ideal)
+    twin = get_machine(machine).twin(parse_params(params), ideal=ideal)
+    ensure_kernels(MACHINE_KERNELS.get(machine, ()))  # a first run compiles them as a step of its own
+    progress.step(f"running the {machine} twin")
+    return twin

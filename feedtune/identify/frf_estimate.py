@@ -29,6 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .. import progress
 from ..errors import DataError, UsageError
 from ..frf import Frf, normalize_quantity
 from ..log import Log
@@ -46,6 +47,7 @@ PERIOD_MIN_CORRELATION = 0.5
 
 
 # --------------------------------------------------------------------------------------------- public API
+@progress.tasked("estimating the FRF")
 def estimate_frf(
     log: Log,
     *,

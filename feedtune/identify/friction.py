@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import progress
 from ..errors import DataError, IllConditionedError, Notice, UsageError
 from ..log import Log
 from ..models.ballscrew import BallScrewModel
@@ -507,6 +508,7 @@ def _reversal_mask(t: np.ndarray, v: np.ndarray, guard_s: float) -> np.ndarray:
     return ok
 
 
+@progress.tasked("fitting the friction (Kalman disturbance estimate)")
 def identify_friction(log: Log | Sequence[Log], *, position: str, command: str, model=None,
                       mass: float | None = None,
                       viscous: float | None = None, command_scale: float = 1.0,

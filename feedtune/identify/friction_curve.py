@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import progress
 from ..errors import DataError, IllConditionedError, UsageError
 from ..log import Log
 from ..models.friction import (
@@ -940,6 +941,7 @@ class SteadyStateFriction:
         }
 
 
+@progress.tasked("fitting the friction curve")
 def identify_friction_curve(log: Log | Sequence[Log], *, position: str, command: str, law: str = "stribeck",
                             command_scale: float = 1.0, command_unit: str | None = None,
                             cutoff_hz: float | None = None, settings: PlateauSettings | None = None

@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import progress
 from ..blas import blas_single_threaded
 from ..errors import DataError, IllConditionedError, Notice, UsageError
 from ..log import Log
@@ -441,6 +442,7 @@ def _at_bound(theta: np.ndarray, lower: np.ndarray, upper: np.ndarray, jac: np.n
 
 
 @blas_single_threaded
+@progress.tasked("fitting the friction (joint fit)")
 def fit_joint_friction(log: Log | Sequence[Log], *, position: str, command: str, law: str = "stribeck",
                        command_scale: float = 1.0, command_unit: str | None = None, cutoff_hz: float | None = None,
                        filter_order: int = 4, decimate: int | None = None, min_speed: float | None = None,

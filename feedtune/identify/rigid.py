@@ -63,6 +63,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import progress
 from ..errors import DataError, IllConditionedError, UsageError
 from ..log import Log
 from ..models.rigid import RigidBodyModel
@@ -594,6 +595,7 @@ def _check_mass(values: dict[str, float], std: dict[str, float], unit: str, wher
 
 
 # ------------------------------------------------------------------------------------------ public API
+@progress.tasked("fitting the rigid body")
 def fit_rigid(log: Log | Sequence[Log], *, force: str, position: str, asymmetric: bool = False,
               cutoff_hz: float | None = None, filter_order: int = 4, decimate: int | None = None,
               force_scale: float = 1.0, velocity_threshold: float | None = None,

@@ -12,7 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..analysis.ballscrew import analyze_case
+from .. import progress
+from ..analysis.ballscrew import analyze_case, plant_cases
 from ..analysis.cases import PlantCase
 from ..control.filters import TWO_PI
 from .filter_choice import merge_resonances, resonance_peaks, sensitivity_peaks
@@ -42,3 +43,13 @@ def ballscrew_sensitivity_peaks(law, pcs: Sequence[PlantCase], above_hz: float, 
         for f in sensitivity_peaks(r.freq_hz, s, above_hz, n):
             found.append((float(np.interp(f, r.freq_hz, s)), f))
     return [f for _, f in sorted(found, reverse=True)[:n]]
+
+
+def search_cases(model, fs: float, delay_samples: int, frfs: Sequence, by_gain: bool) -> list[dict]:
+    """The plant cases (:func:`~feedtune.analysis.ballscrew.plant_cases`, one dict per FRF, or of the model alone
+    when ``frfs`` is empty) every search of a ball-screw tuner shares, made once; names the figure of the running
+    :func:`feedtune.progress.search` (``Ki2`` when ``by_gain``, else the first crossover)."""
+    progress.figure(*(("Ki2", f"{model.input_unit}/(rad s)") if by_gain else ("first crossover", "Hz")))
+    progress.note(f"the plant cases of {len(frfs)} FRF(s), continued above their lines" if frfs else
+                  "the plant cases of the model")
+    return [plant_cases(model, fs, delay_samples, f) for f in (frfs or [None])]

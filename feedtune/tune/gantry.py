@@ -31,6 +31,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from .. import progress
 from ..analysis.gantry import analyze_gantry_case, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, check_cases
 from ..analysis.mimo import matmul, sensitivity_gain
@@ -75,6 +76,7 @@ CROSSOVER_RANGE_HZ = (5.0, 250.0)
 """Search bounds of the CoM crossover target [Hz]."""
 
 
+@progress.searching("tuning gantry MIMO")
 def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | None = None, fs: float = 15000.0,
                      delay_samples: int = 1, x: float = 0.0, frf: Frf | Sequence[Frf] | None = None,
                      positions: Sequence[float] | None = None, pm_targets=PM_TARGETS_DEG,
@@ -122,6 +124,7 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     """
     policy = limits or DEFAULT_LIMITS
     obj = gantry_objective(objective)
+    progress.figure(*(("ki", f"{model.input_unit}/(m s)") if obj.by_gain else ("first crossover", "Hz")))
     check_sampling(fs, delay_samples)
     filters = filters or FilterPack()
     filters.check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"

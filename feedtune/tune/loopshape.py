@@ -39,6 +39,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .. import progress
 from ..analysis.gantry import analyze_axis_case, axis_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
 from ..control.discretize import check_sampling
@@ -239,6 +240,7 @@ def _bounds(value, default, name: str, lo_limit: float, hi_limit: float) -> tupl
     return b
 
 
+@progress.searching("tuning x-axis loop shaping")
 def tune_loopshape(
     plant,
     *,
@@ -312,6 +314,7 @@ def tune_loopshape(
     t0 = time.perf_counter()
     policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
     obj = gantry_objective(objective)
+    progress.figure(*(("K", "") if obj.by_gain else ("first crossover", "Hz")))
     check_sampling(fs, delay_samples)
     pack = filters if filters is not None else FilterPack()
     pack.check_nyquist(fs)

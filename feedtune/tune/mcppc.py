@@ -22,7 +22,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..analysis.ballscrew import analyze_case, loop_on_grid, plant_cases
+from .. import progress
+from ..analysis.ballscrew import analyze_case, loop_on_grid
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..analysis.check import check_design, resolve_limits
 from ..control.discretize import check_sampling
@@ -31,7 +32,7 @@ from ..design.mcppc import McppcDesign, design_mcppc
 from ..errors import DesignError, FeedtuneError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
+from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks, search_cases
 from .compliance import AxialCompliance
 from .filter_choice import tune_with_own_filters
 from .search import (
@@ -99,25 +100,35 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
     filters.check_nyquist(fs)  # bad input is refused before the search, not turned into "no design"
     frfs = robust_frfs(frf)
     case = CHECKED_WITH_FRF if frfs else CHECKED_WITHOUT_FRF
-    pcs = [plant_cases(model, fs, delay_samples, f)[case] for f in (frfs or [None])]
-    if filter_choice == "own":
-        def tune(filters: FilterPack, **shapes) -> McppcDesign:
-            return tune_mcppc(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
-                              frf=frfs or None, pole_range_hz=pole_range_hz, objective=obj,
-                              **({"betas": betas, "zetas": zetas} | shapes))
+    if filter_choice not in ("identical", "own"):
+        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
+    with progress.search("tuning MC-PPC"):
+        cases = search_cases(model, fs, delay_samples, frfs, obj.by_gain)  # once: every search shares them
+        pcs = [c[case] for c in cases]
 
+        def tune(filters: FilterPack, **shapes) -> McppcDesign:
+            return _search(model, filters, cases, frfs, case, policy, obj, fs, delay_samples, pole_range_hz,
+                           **({"betas": betas, "zetas": zetas} | shapes))
+
+        if filter_choice == "identical":
+            return tune(filters)
         design, record = tune_with_own_filters(
             tune, lambda d: {"betas": (d.beta,), "zetas": (d.zeta,)}, filters, ballscrew_resonances(pcs, fs),
             lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, d.tuning["first_crossover_hz"]), fs,
             {"betas": QUICK_BETAS, "zetas": QUICK_ZETAS}, objective=obj)
-        if design is None:
-            raise DesignError(f"no MC-PPC meets the limits ({policy.describe()}) in the {case} case with or without "
-                              "the filters tried")
-        return replace(design, tuning={**design.tuning, "filters": record,
-                                       "rule": design.tuning["rule"] + " (own filters)"})
-    if filter_choice != "identical":
-        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
+    if design is None:
+        raise DesignError(f"no MC-PPC meets the limits ({policy.describe()}) in the {case} case with or without "
+                          "the filters tried")
+    return replace(design, tuning={**design.tuning, "filters": record,
+                                   "rule": design.tuning["rule"] + " (own filters)"})
 
+
+def _search(model: BallScrewModel, filters: FilterPack, cases: list[dict], frfs: list, case: str, policy,
+            obj: Objective, fs: float, delay_samples: int, pole_range_hz: tuple[float, float], *, betas,
+            zetas) -> McppcDesign:
+    """The search of the module docstring with one filter pack over the shapes ``betas`` x ``zetas``, on the plant
+    cases ``cases`` (one dict per FRF, of :func:`~feedtune.analysis.ballscrew.plant_cases`)."""
+    pcs = [c[case] for c in cases]
     designs: dict = {}
 
     def design_of(shape: dict, pole_hz: float) -> tuple | None:
@@ -165,7 +176,8 @@ def tune_mcppc(model: BallScrewModel, *, limits=None, filters: FilterPack | None
 
     def full_check(design) -> list:
         if id(design) not in verdicts:
-            verdicts[id(design)] = (design, [check_design(design, frf=f, limits=policy) for f in (frfs or [None])])
+            verdicts[id(design)] = (design, [check_design(design, frf=f, limits=policy, cases=cs)
+                                             for f, cs in zip(frfs or [None], cases, strict=True)])
         return verdicts[id(design)][1]
 
     def accept(c: Candidate) -> bool:

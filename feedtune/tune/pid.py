@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import progress
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF
 from ..analysis.gantry import analyze_gantry_case, default_grid, gantry_plant_cases
 from ..analysis.limits import DEFAULT_LIMITS, Limits, check_cases
@@ -314,6 +315,7 @@ def _resolve_choice(filter_choice: str | None, filters: FilterPack | None) -> st
     return choice
 
 
+@progress.searching("tuning gantry PIDs")
 def tune_gantry_pid(
     model: GantryModel,
     *,
@@ -389,6 +391,7 @@ def tune_gantry_pid(
     t0 = time.perf_counter()
     policy = (limits or DEFAULT_LIMITS).override(ms_max=ms_max)
     obj = gantry_objective(objective)
+    progress.figure(*(("ki (both sides)", f"{model.input_unit}/(m s)") if obj.by_gain else ("first crossover", "Hz")))
     check_sampling(fs, delay_samples)
     choice = _resolve_choice(filter_choice, filters)
     given = filters or FilterPack()

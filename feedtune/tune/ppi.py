@@ -68,7 +68,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..analysis.ballscrew import analyze_case, plant_cases
+from .. import progress
+from ..analysis.ballscrew import analyze_case
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF, PlantCase
 from ..analysis.check import check_design, resolve_limits
 from ..analysis.limits import Limits
@@ -80,7 +81,7 @@ from ..design.ppi import PpiDesign, design_ppi
 from ..errors import DesignError, UsageError
 from ..frf import Frf
 from ..models.ballscrew import BallScrewModel
-from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks
+from .ballscrew_filters import ballscrew_resonances, ballscrew_sensitivity_peaks, search_cases
 from .compliance import AxialCompliance
 from .filter_choice import tune_with_own_filters
 from .search import CheckedCases, Objective, robust_frfs
@@ -97,6 +98,9 @@ GRID_POINTS = 16
 """Shapes per axis of the first, coarse pass."""
 STARTS = 3
 """Nelder-Mead starts per stage (the best separated grid cells)."""
+SCREEN_GRID_POINTS = 6
+"""Shapes per axis of the grid a filter candidate's screen falls back to when the candidate makes the current
+winner's shape infeasible (the screen otherwise climbs from that shape alone)."""
 NM_EVALUATIONS = 60
 """Surrogate evaluations per Nelder-Mead run."""
 EDGE_TOL = 1e-3
@@ -250,8 +254,9 @@ class SurrogateSet:
         self.evaluations = 0
 
     def edge(self, wi: float, kpx: float) -> Edge | None:
-        """:meth:`Surrogate.edge` over every member."""
+        """:meth:`Surrogate.edge` over every member (one candidate judged, :func:`feedtune.progress.judged`)."""
         self.evaluations += 1
+        progress.judged()
         return _common_edge(self.members, wi, kpx)
 
 
@@ -343,9 +348,9 @@ class _ShapeSearch:
             self._cache[x] = _Shape(x, self.s.edge(np.exp(x[0]), np.exp(x[1])))
         return self._cache[x]
 
-    def grid(self) -> tuple[np.ndarray, list[_Shape]]:
-        ax = np.linspace(self.lo, self.hi, GRID_POINTS)
-        return ax, [self.shape((a, b)) for a in ax for b in ax]
+    def grid(self, points: int = GRID_POINTS) -> list[_Shape]:
+        ax = np.linspace(self.lo, self.hi, points)
+        return [self.shape((a, b)) for a in ax for b in ax]
 
     def starts(self, cells: list[_Shape], key, step: float) -> list[_Shape]:
         """Up to :data:`STARTS` best cells by ``key`` (descending), more than 1.5 grid steps apart from each other."""
@@ -473,22 +478,38 @@ def tune_ppi(
     filters.check_nyquist(fs)
     frfs = robust_frfs(frf)
     case = CHECKED_WITH_FRF if frfs else CHECKED_WITHOUT_FRF
-    pcs = [plant_cases(model, fs, delay_samples, f)[case] for f in (frfs or [None])]
-    if filter_choice == "own":
-        def tune(filters: FilterPack) -> PpiDesign:
-            return tune_ppi(model, limits=policy, filters=filters, fs=fs, delay_samples=delay_samples,
-                            frf=frfs or None, crossover_tie=crossover_tie, objective=obj)
+    if filter_choice not in ("identical", "own"):
+        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
+    with progress.search("tuning P-PI"):
+        cases = search_cases(model, fs, delay_samples, frfs, obj.by_gain)  # once: every search shares them
+        pcs = [c[case] for c in cases]
+        if filter_choice == "identical":
+            return _search(model, filters, cases, frfs, case, policy, obj, fs, delay_samples)
+
+        def tune(filters: FilterPack, start: tuple[float, float] | None = None) -> PpiDesign:
+            return _search(model, filters, cases, frfs, case, policy, obj, fs, delay_samples, start)
+
+        def at_shape(d: PpiDesign) -> dict:
+            """The screen of a filter candidate: the search from the current winner's shape (no grid)."""
+            return {"start": (TWO_PI * d.tuning["pi_corner_hz"], TWO_PI * d.tuning["position_corner_hz"])}
 
         design, record = tune_with_own_filters(
-            tune, lambda d: {}, filters, ballscrew_resonances(pcs, fs),
+            tune, at_shape, filters, ballscrew_resonances(pcs, fs),
             lambda d: ballscrew_sensitivity_peaks(d.law(), pcs, d.tuning["first_crossover_hz"]), fs, objective=obj)
-        if design is None:
-            raise DesignError(f"no P-PI meets the limits ({policy.describe()}) in the {case} case with or without "
-                              "the filters tried")
-        return replace(design, tuning={**design.tuning, "filters": record,
-                                       "rule": design.tuning["rule"] + " (own filters)"})
-    if filter_choice != "identical":
-        raise UsageError(f"filter_choice must be 'identical' or 'own', got {filter_choice!r}")
+    if design is None:
+        raise DesignError(f"no P-PI meets the limits ({policy.describe()}) in the {case} case with or without "
+                          "the filters tried")
+    return replace(design, tuning={**design.tuning, "filters": record,
+                                   "rule": design.tuning["rule"] + " (own filters)"})
+
+
+def _search(model: BallScrewModel, filters: FilterPack, cases: list[dict], frfs: list, case: str, policy: Limits,
+            obj: Objective, fs: float, delay_samples: int, start: tuple[float, float] | None = None) -> PpiDesign:
+    """The search of the module docstring with one filter pack on the plant cases ``cases`` (one dict per FRF, of
+    :func:`~feedtune.analysis.ballscrew.plant_cases`); from ``start`` (``(Kiv / Kpv, Kpx)`` [rad/s, 1/s]) the grid
+    is skipped and the shapes climb from there (a filter candidate screened at the current winner's shape)."""
+    crossover_tie = obj.tie
+    pcs = [c[case] for c in cases]
     M = model.total_inertia
     z_box = (TWO_PI * SHAPE_LOW_HZ, TWO_PI * SHAPE_HIGH_FRACTION * min(float(pc.freq_hz[-1]) for pc in pcs))
     kpv_box = (M * TWO_PI * SHAPE_LOW_HZ, M * TWO_PI * fs / 2)
@@ -496,9 +517,10 @@ def tune_ppi(
     search = _ShapeSearch(sur, (float(np.log(z_box[0])), float(np.log(z_box[1]))))
 
     # step 2: shapes on the surrogate
-    ax, cells = search.grid()
-    step = float(ax[1] - ax[0])
-    feasible = [c for c in cells if c.edge is not None]
+    step = float(search.hi - search.lo) / (GRID_POINTS - 1)
+    feasible = [] if start is None else [c for c in [search.shape(np.log(start))] if c.edge is not None]
+    if not feasible:  # no start, or the filters make it infeasible: the grid (coarse for a screen)
+        feasible = [c for c in search.grid(GRID_POINTS if start is None else SCREEN_GRID_POINTS) if c.edge is not None]
     if not feasible:
         raise DesignError(f"no P-PI gains in the search box meet the limits ({policy.describe()}) with a stable loop "
                           f"in the {case} case; relax the limits or adjust the filter pack")
@@ -520,10 +542,13 @@ def tune_ppi(
     # step 3: the analysis decides
     checks = {"n": 0}
 
-    def analyze(wi: float, kpx: float, kpv: float):
+    def law_of(wi: float, kpx: float, kpv: float):
         checks["n"] += 1
-        law = design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kpv * wi, filters=filters, fs=fs,
-                         delay_samples=delay_samples).law()
+        return design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kpv * wi, filters=filters, fs=fs,
+                          delay_samples=delay_samples).law()
+
+    def analyze(wi: float, kpx: float, kpv: float):
+        law = law_of(wi, kpx, kpv)
         try:
             return [analyze_case(law, pc, responses=False).metrics for pc in pcs]
         except ResolutionError:  # the loop passes through -1
@@ -539,9 +564,7 @@ def tune_ppi(
     compliance = None if obj.compliance_max is None else AxialCompliance(model, fs, delay_samples)
 
     def judge(wi: float, kpx: float, kpv: float):
-        checks["n"] += 1
-        law = design_ppi(model, Kpx=kpx, Kpv=kpv, Kiv=kpv * wi, filters=filters, fs=fs,
-                         delay_samples=delay_samples).law()
+        law = law_of(wi, kpx, kpv)
 
         def metrics_of(pc):
             try:
@@ -552,6 +575,7 @@ def tune_ppi(
         m = in_turn.guaranteed(metrics_of, policy, case)
         if m is not None and compliance is not None and compliance(law) > obj.compliance_max:
             return None
+        progress.judged(None if m is None else kpv * wi * kpx if obj.by_gain else float(m.crossovers_hz[0]))
         return m
 
     checked: list[_Checked] = []
@@ -580,7 +604,8 @@ def tune_ppi(
     for c in order:
         design = design_ppi(model, Kpx=c.kpx, Kpv=c.kpv, Kiv=c.kpv * c.wi, filters=filters, fs=fs,
                             delay_samples=delay_samples)
-        verdicts = [check_design(design, frf=f, limits=policy) for f in (frfs or [None])]
+        verdicts = [check_design(design, frf=f, limits=policy, cases=cs) for f, cs in zip(frfs or [None], cases,
+                                                                                         strict=True)]
         if all(v.ok for v in verdicts):
             break
         refused.append("; ".join(x for v in verdicts for x in v.violations))

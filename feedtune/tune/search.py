@@ -42,6 +42,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .. import progress
+
 BOUND_SLACK = 1e-9
 """Relative slack of a cheap necessary condition against the check's own figures [-] (rounding)."""
 CHEAP_MARGIN = 5e-3
@@ -239,6 +241,7 @@ def feasibility_edge(check: Callable[[float], Probe], scan: np.ndarray, *,
         nonlocal n, beaten
         n += 1
         p = check(float(s))
+        progress.judged(merit(p) if p.ok else None)
         if early:
             v = merit(p)
             if p.ok and v > beat:
@@ -832,6 +835,7 @@ def highest_feasible(check: Callable[[dict, float], Candidate | None], shapes, l
                 c = None
             ok = c is not None and c.passed
             memo[scale] = Probe(scale, ok, math.nan if c is None else c.objective, None, c)
+            progress.judged(merit_of(c) if ok else None)
         return memo[scale]
 
     brackets: dict[int, tuple] = {}  # shape -> (pass, fail above or None)

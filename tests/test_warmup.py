@@ -1,0 +1,56 @@
+"""The kernels compiled ahead (feedtune.workflows.warmup, ``feedtune warmup``): into the cache folder in use, recorded
+in its stamp, loaded (not compiled again) by a later process."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = """
+import json, sys, time
+from feedtune.workflows.warmup import ensure_kernels, kernels_ready, stamp_path
+before = kernels_ready(["Kalman filter"])
+first = ensure_kernels(["Kalman filter"], processes=1)
+again = ensure_kernels(["Kalman filter"], processes=1)
+print(json.dumps({"before": before, "first": first, "again": again, "ready": kernels_ready(["Kalman filter"]),
+                  "all_ready": kernels_ready(), "stamp": str(stamp_path())}))
+"""
+
+
+def _run(cache: Path, code: str) -> dict:
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"} | {"XDG_CACHE_HOME": str(cache)}
+    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.slow  # two fresh interpreters and a compile: ~4 s on an idle 2-core machine
+def test_ensure_kernels_compiles_once_into_a_fresh_cache_and_a_new_process_loads_it(tmp_path):
+    out = _run(tmp_path, SCRIPT)
+    assert out["before"] is False and out["ready"] is True and out["all_ready"] is False
+    assert set(out["first"]) == {"Kalman filter"} and out["first"]["Kalman filter"] > 0
+    assert out["again"] is None  # built already: nothing to do
+    stamp = Path(out["stamp"])
+    assert stamp.parent.is_relative_to(tmp_path / "feedtune" / "numba")  # the fresh cache folder, not the user's
+    assert "Kalman filter" in json.loads(stamp.read_text())["kernels"]
+    assert any(stamp.parent.rglob("*.nbi")), "numba wrote no cache index"
+    # a new process finds it built and loads the machine code from the cache instead of compiling it
+    loaded = _run(tmp_path, "import json, time\nfrom feedtune.workflows.warmup import _kalman, kernels_ready\n"
+                            "t0 = time.process_time(); _kalman()\n"
+                            "print(json.dumps({'ready': kernels_ready(['Kalman filter']), "
+                            "'cpu': time.process_time() - t0}))")
+    assert loaded["ready"] is True
+    assert loaded["cpu"] < 0.5 * out["first"]["Kalman filter"] + 0.05, (loaded, out)
+
+
+def test_unknown_kernel_is_a_usage_error():
+    from feedtune.errors import UsageError
+    from feedtune.workflows.warmup import compile_kernels
+
+    with pytest.raises(UsageError, match="unknown kernels"):
+        compile_kernels(["no such kernel"])
