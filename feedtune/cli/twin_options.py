@@ -24,4 +24,10 @@ def twin_from_options(machine: str, params: list[str] | None, ideal: bool, *, gr
     if machine != group:
         raise UsageError(f"unknown machine {machine!r} for this command; it runs the {group} twin "
                          f"(the gantry's experiments are under 'feedtune simulate gantry')")
-    return get_machine(machine).twin(parse_params(params), ideal=ideal)
+    overrides = parse_params(params)
+    try:
+        return get_machine(machine).twin(overrides, ideal=ideal)
+    except UsageError as exc:
+        if not overrides:
+            raise
+        raise UsageError(f"--param: {exc}") from None

@@ -4,6 +4,8 @@ One entry point for every gains kind (:func:`c_header`): the document is first r
 (:func:`feedtune.machines.load_runtime`), so the header refuses exactly what the runtime refuses, with the same
 one-line error; then the emitter of its kind (:data:`EMITTERS`) renders it. Headers need only ``<string.h>`` (and
 ``<math.h>`` for the ball screw's friction feedforward) and compile with ``gcc -Wall -Wextra -Werror -std=c99``.
+The document's strings reach the header only as comment-safe text (:mod:`feedtune.export.c_text`): nothing a gains
+file says can become code.
 Options (:class:`~feedtune.export.c_common.COptions`): the prefix of the identifiers, an output limit and
 conditional-integration anti-windup, a warning line, and the precision: ``double`` (default) or ``float``, whose
 filters are rewritten in difference form so that a float32 target stays within
@@ -18,6 +20,7 @@ from collections.abc import Callable
 from .c_ballscrew import ballscrew_header
 from .c_common import COptions
 from .c_gantry import axis_header, check_axis, gantry_header
+from .c_text import comment_safe, comment_text
 
 
 def _ballscrew(doc: dict, rt, opts: COptions, where: str) -> str:
@@ -81,7 +84,8 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
     """
     from ..machines import load_runtime
 
-    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning, precision=precision,
+    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup,
+                    warning=None if warning is None else comment_text(warning, 1000), precision=precision,
                     scale_out=scale_out, out_unit=out_unit)
-    rt = load_runtime(doc, where)
-    return EMITTERS[doc["kind"]](doc, rt, opts, where)
+    rt = load_runtime(doc, where)  # validates the document itself
+    return EMITTERS[doc["kind"]](comment_safe(doc), rt, opts, where)  # its text only as comment-safe text

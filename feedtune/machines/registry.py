@@ -121,8 +121,13 @@ def gains_kinds() -> dict[str, Machine]:
 def machine_of_gains(doc: Mapping, where: str) -> Machine:
     """The machine that executes a gains document, by its ``kind``, once the document is valid
     (:func:`feedtune.io.gains_schema.validate_gains`: one-line DataError naming the file and key)."""
+    from ..io.gains import SCHEMA
     from ..io.gains_schema import validate_gains
 
+    if isinstance(doc, Mapping):  # a model or another document is named as such, before its kind is looked at
+        from ..io.document import require_schema
+
+        require_schema(doc, "feedtune.gains", where, written=SCHEMA)
     kinds = gains_kinds()
     kind = doc.get("kind") if isinstance(doc, Mapping) else None
     if not isinstance(kind, str) or kind not in kinds:
