@@ -112,9 +112,11 @@ def prepare() -> str:
 
     given = _os.environ.get(ENV_VARIABLE)
     if given:
-        problem = "is a relative path" if not _os.path.isabs(given) else (
-            folder_problem(given) if _os.path.lexists(given) else None)
-        problem = problem and f"{given} ({ENV_VARIABLE}) {problem}"
+        if not _os.path.isabs(given):
+            problem = f"{given} ({ENV_VARIABLE}) is a relative path"
+        else:  # created 0700 when missing, checked as the default folder's last level
+            problem = private_folder(given, 1)
+            problem = problem and f"{problem} ({ENV_VARIABLE})"
     else:
         given = kernel_cache_dir()
         problem = private_folder(given, 3)

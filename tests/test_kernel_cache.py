@@ -79,6 +79,24 @@ def test_a_symlinked_or_foreign_folder_is_not_trusted(tmp_path):
     assert "owned by user id 4242" in kc.folder_problem(str(tmp_path / "real"))
 
 
+def test_a_numba_cache_dir_the_user_names_is_made_private_or_refused(monkeypatch, tmp_path):
+    """Before: a NUMBA_CACHE_DIR that did not exist yet was left to numba, which made it with the umask's mode."""
+    old = os.umask(0o002)
+    try:
+        monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+        assert kc.prepare() == str(tmp_path / "mine")
+        assert stat.S_IMODE((tmp_path / "mine").stat().st_mode) == 0o700
+        (tmp_path / "shared").mkdir(mode=0o700)
+        (tmp_path / "shared").chmod(0o775)
+        monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "shared"))
+        with pytest.warns(kc.KernelCacheWarning, match=r"shared is writable by its group \(mode 775\) "
+                                                        r"\(NUMBA_CACHE_DIR\)"):
+            used = kc.prepare()
+        assert used != str(tmp_path / "shared") and stat.S_IMODE(os.stat(used).st_mode) == 0o700
+    finally:
+        os.umask(old)
+
+
 def test_a_relative_xdg_cache_home_is_ignored(monkeypatch, tmp_path):
     monkeypatch.setenv("XDG_CACHE_HOME", "relative/cache")
     monkeypatch.setenv("HOME", str(tmp_path))
