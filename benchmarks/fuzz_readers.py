@@ -1,7 +1,7 @@
 """The long fuzz run of every reader and document loader (issue 14), by hand:
 ``python benchmarks/fuzz_readers.py [EXAMPLES [READER]]`` (default 3000 per reader; MDF logs take ~0.5 s each:
 every MDF read starts a crash probe in a child process; ``long``: the counts of the slow test,
-tests/test_fuzz_readers.py's ``long_examples``: ``FEEDTUNE_FUZZ_SECONDS`` of CPU over all readers, default 120 s).
+tests/test_fuzz_readers.py's ``long_examples``: ``FEEDTUNE_FUZZ_SECONDS`` of CPU over all readers, default 90 s).
 
 Byte-level mutations of a valid file of each format (tests/fuzz_inputs.py) must be read or refused with feedtune's
 own error. Prints, per reader, the examples run, how many were read, refused and crashed, the distinct crash

@@ -56,7 +56,7 @@ EXAMPLES_PER_MINUTE = {"frf csv": 10_000, "frf uff": 12_000, "frf mat": 15_000, 
 """Examples of each reader in a minute of CPU on this project's 2-core machine (measured 2-8 ms an example, an MDF
 file 0.66 s: every MDF read starts a crash probe in a child)."""
 
-DEFAULT_FUZZ_SECONDS = 120.0
+DEFAULT_FUZZ_SECONDS = 90.0
 """CPU time of the slow fuzz run over all readers by default [s]: within the slow set's share of CI's time."""
 
 
