@@ -24,19 +24,17 @@ Sub-packages:
 * :mod:`feedtune.interop_control` -- to and from python-control (``to_control``, ``from_control``)
 """
 
-import os as _os
-
+from . import _kernel_cache
 from ._kernel_cache import kernel_cache_dir
-
-_os.environ.setdefault("NUMBA_CACHE_DIR", kernel_cache_dir())
-
 from .errors import DataError, DesignError, FeedtuneError, UsageError
-from .frf import Frf
-from .log import Log
+
+_kernel_cache.install()  # the kernel cache folder is chosen and checked when numba is first imported
 
 __version__ = "0.1.0"
 
 _LAZY = {
+    # value types
+    "Frf": "frf", "Log": "log",
     # files
     "read_frf": "io", "write_frf": "io", "read_log": "io", "write_log_csv": "io", "load_model": "io",
     "save_model": "io", "read_document": "io", "write_document": "io", "merge_logs": "log_merge",
@@ -71,7 +69,7 @@ _LAZY = {
 }
 """Public names loaded on first access: ``{name: module under feedtune}``."""
 
-__all__ = ["DataError", "DesignError", "FeedtuneError", "Frf", "Log", "UsageError", "__version__", "kernel_cache_dir"]
+__all__ = ["DataError", "DesignError", "FeedtuneError", "UsageError", "__version__", "kernel_cache_dir"]
 __all__ += sorted(_LAZY)
 
 
@@ -90,8 +88,8 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))
 
 
-# The facades register their functions in feedtune.display (display.facade), through which the value types' .plot(),
-# .to_control() and .from_control() reach them; importing any feedtune module runs this file first. Both keep their
-# heavy imports (matplotlib, the report, python-control, scipy) inside functions, so this stays cheap.
-from . import interop_control as _interop_control  # noqa: E402, F401
-from . import plotting as _plotting  # noqa: E402, F401
+def _load_facades() -> None:
+    """Import the facades, which register their functions in feedtune.display (display.facade), through which the
+    value types' .plot(), .to_control() and .from_control() reach them. display.facade calls this on first use, so
+    ``import feedtune`` (and the command line's start, whose interrupt handler comes first) stays cheap."""
+    from . import interop_control, plotting  # noqa: F401

@@ -1,6 +1,6 @@
 """``python -m feedtune``: the same command line as the ``feedtune`` script."""
 
-from feedtune.cli.main import main
+from feedtune.cli.start import main
 
 if __name__ == "__main__":
     main()

@@ -337,8 +337,9 @@ _FACADES: dict[str, Callable] = {}
 def register_facade(name: str, fn: Callable) -> Callable:
     """Register ``fn`` under ``name`` for the value types' ``.plot()``, ``.to_control()`` and ``.from_control()``.
 
-    The facades call this at import time and the package root imports them, so the value types at the bottom reach
-    them through :func:`facade` without importing them (no import cycle, eager or lazy). Returns ``fn``.
+    The facades call this at import time and the package root imports them (on the first :func:`facade` call), so
+    the value types at the bottom reach them through :func:`facade` without importing them (no import cycle, eager or
+    lazy). Returns ``fn``.
     """
     _FACADES[name] = fn
     return fn
@@ -352,11 +353,15 @@ def facade(name: str) -> Callable:
     >>> facade("plot_frf").__module__
     'feedtune.plotting'
     """
+    if name not in _FACADES:
+        from . import _load_facades
+
+        _load_facades()
     try:
         return _FACADES[name]
     except KeyError:
-        raise RuntimeError(f"no facade function {name!r} is registered; feedtune/__init__.py imports "
-                           "feedtune.plotting and feedtune.interop_control, which register theirs") from None
+        raise RuntimeError(f"no facade function {name!r} is registered; feedtune.plotting and "
+                           "feedtune.interop_control register theirs") from None
 
 
 # ------------------------------------------------------------------------------------------ mixins

@@ -73,6 +73,14 @@ class IllConditionedError(DataError):
     """A least-squares problem has no reliable solution (reason in the message)."""
 
 
+class FeedtuneWarning(UserWarning):
+    """A warning of feedtune's own: the command line prints it as one ``feedtune: warning: ...`` line."""
+
+
+class FeedtuneNote(FeedtuneWarning):
+    """Information the user should see once (a newer document version read): ``feedtune: note: ...``."""
+
+
 class Notice(str):
     """A warning in the library's words: the text (a plain ``str`` everywhere) names parameters, as errors do, and
     the command line prints it with their options (:func:`cli_message`), or prints ``cli`` when its advice is a
@@ -117,6 +125,26 @@ CLI_OPTIONS: dict[str, str] = {
     "cutoff_hz": "--lpf-hz",
     "reversal_guard_s": "--reversal-guard",
     "lead_m_per_rad": "--lead",
+    "period_s": "--period",
+    "after_s": "--after",
+    "drift_m_per_s": "--drift",
+    "run_ropesnap.force": "--rope-force",
+    "default_x_grid.n": "--x-points",
+    "shift_s": "--shift",
+    "force_n": "--rope-force",
+    "v_band": "--friction-band",
+    "xs": "--x",
+    "fit_ballscrew.channels": "--channel",
+    "band_hz": "--band",
+    "read_frf.freq_var": "--mat-freq",
+    "read_frf.channels": "--mat-channel",
+    "read_log.skip_rows": "--skip-rows",
+    "L": "--span",
+    "PlateauSettings.min_duration": "--plateau-min-duration",
+    "PlateauSettings.vel_tol": "--plateau-vel-tol",
+    "PlateauSettings.acc_tol": "--plateau-acc-tol",
+    "PlateauSettings.min_speed": "--min-speed",
+    "units": "--unit",
 }
 """How the command line spells a library parameter where it is not ``--`` plus the name with dashes for
 underscores (``lpf_hz`` -> ``--lpf-hz``). Keys are the parameters errors carry, qualified by their owner where one

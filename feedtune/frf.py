@@ -42,17 +42,26 @@ def normalize_quantity(name: str, where: str = "quantity") -> str:
         raise DataError(f"{where}: unknown quantity {name!r}; expected position, velocity or acceleration")
     return aliases[key]
 
+MAX_FREQ_HZ = 10e6
+"""Highest frequency of an FRF [Hz]: the Nyquist frequency of the fastest drive sampling is far below."""
+
 
 def check_frequency_grid(freq_hz: np.ndarray, where: str) -> np.ndarray:
-    """Validate a frequency grid (1-D, finite, >= 0, strictly increasing); return it as float array."""
+    """Validate a frequency grid (1-D, at least 2 lines, finite, 0 .. :data:`MAX_FREQ_HZ`, strictly increasing);
+    return it as float array."""
     f = np.asarray(freq_hz, dtype=float)
-    if f.ndim != 1 or f.size == 0:
-        raise DataError(f"{where}: frequency column must be a non-empty 1-D list of numbers")
+    if f.ndim != 1 or f.size < 2:
+        raise DataError(f"{where}: frequency column must be a 1-D list of at least 2 frequencies, got "
+                        f"{f.size if f.ndim == 1 else f.shape}")
     if not np.all(np.isfinite(f)):
         bad = int(np.flatnonzero(~np.isfinite(f))[0])
         raise DataError(f"{where}: frequency value at row {bad + 1} is not finite")
     if np.any(f < 0):
         raise DataError(f"{where}: frequencies must be >= 0 Hz")
+    if np.any(f > MAX_FREQ_HZ):
+        bad = int(np.flatnonzero(f > MAX_FREQ_HZ)[0])
+        raise DataError(f"{where}: frequency {f[bad]:g} Hz at row {bad + 1} is above {MAX_FREQ_HZ / 1e6:g} MHz, "
+                        "beyond any drive's FRF (a unit or a corrupt row?)")
     d = np.diff(f)
     if np.any(d <= 0):
         bad = int(np.flatnonzero(d <= 0)[0])
@@ -110,6 +119,12 @@ class Frf:
             coh = np.asarray(self.coherence, dtype=float)
             if coh.shape != h.shape:
                 raise DataError(f"{where}: coherence shape {coh.shape} differs from response shape {h.shape}")
+            with np.errstate(invalid="ignore"):
+                bad = np.argwhere((coh < 0) | (coh > 1))
+            if bad.size:
+                o, i, k = (int(v) for v in bad[0])
+                raise DataError(f"{where}: coherence {coh[o, i, k]:g} of {self.outputs[o]}/{self.inputs[i]} at "
+                                f"{f[k]:g} Hz is outside 0..1")
         object.__setattr__(self, "freq_hz", f)
         object.__setattr__(self, "response", h)
         object.__setattr__(self, "outputs", tuple(self.outputs))

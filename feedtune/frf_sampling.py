@@ -48,6 +48,9 @@ NYQUIST_FRACTION = 0.25
 #: Metadata ``method`` values written by :func:`feedtune.identify.frf_estimate.estimate_frf` (a sampled log).
 _LOG_ESTIMATE_METHODS = ("h1", "periodic")
 
+MAX_DELAY_SAMPLES = 100
+"""Longest computational delay of a controller [samples]: a drive computes its command within a few samples."""
+
 
 def _sample_rate(fs: float) -> float:
     try:
@@ -64,8 +67,9 @@ def _delay(delay_samples: float) -> float:
         value = float(delay_samples)
     except (TypeError, ValueError):
         raise UsageError(f"delay_samples must be a number of samples >= 0, got {delay_samples!r}") from None
-    if isinstance(delay_samples, bool) or not (math.isfinite(value) and value >= 0):
-        raise UsageError(f"delay_samples must be a number of samples >= 0, got {delay_samples!r}")
+    if isinstance(delay_samples, bool) or not (math.isfinite(value) and 0 <= value <= MAX_DELAY_SAMPLES):
+        raise UsageError(f"delay_samples must be a number of samples in 0 .. {MAX_DELAY_SAMPLES} (a drive's "
+                         f"computational delay), got {delay_samples!r}", parameter="delay_samples")
     return value
 
 

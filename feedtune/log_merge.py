@@ -26,11 +26,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .budget import check_memory
 from .errors import DataError, UsageError
 from .log import Log
 from .log_resample import ANTI_ALIAS_FRACTION, resample_signal, uniform_instants
 
 __all__ = ["ANTI_ALIAS_FRACTION", "merge_logs"]
+
+FS_MAX_HZ = 10e6
+"""Highest sample rate of a merged log [Hz] (the plausible rates of :mod:`feedtune.io.log_read`)."""
 
 
 @dataclass(frozen=True)
@@ -48,14 +52,16 @@ def _offset_value(spec, x: np.ndarray, name: str) -> float:
     if isinstance(spec, str):
         head, _, count = spec.partition(":")
         if head.strip() != "mean" or not count.strip().isdigit() or int(count) < 1:
-            raise UsageError(f"offset of {name!r}: expected a number or 'mean:N' (N >= 1 samples), got {spec!r}")
+            raise UsageError(f"offset of {name!r}: expected a number or 'mean:N' (N >= 1 samples), got {spec!r}",
+                             parameter="offset")
         n = int(count)
         if n > x.size:
-            raise DataError(f"offset of {name!r}: 'mean:{n}' needs {n} samples, the signal has {x.size}")
+            raise DataError(f"offset of {name!r}: 'mean:{n}' needs {n} samples, the signal has {x.size}",
+                            parameter="offset")
         return float(np.mean(x[:n]))
     value = float(spec)
     if not np.isfinite(value):
-        raise UsageError(f"offset of {name!r} must be finite, got {spec!r}")
+        raise UsageError(f"offset of {name!r} must be finite, got {spec!r}", parameter="offset")
     return value
 
 
@@ -81,7 +87,8 @@ def _collect(logs: Sequence[Log], shift_s: Mapping[str, float]) -> list[_Signal]
             signals[name] = _Signal(name, log.t + shift, x, log.unit(name), log.fs, log.source)
     for name in shift_s:
         if name not in signals:
-            raise UsageError(f"shift: no signal {name!r} in the logs (signals: {', '.join(sorted(signals))})")
+            raise DataError(f"shift_s: no signal {name!r} in the logs (signals: {', '.join(sorted(signals))})",
+                            parameter="shift_s")
     return list(signals.values())
 
 
@@ -116,9 +123,10 @@ def merge_logs(logs: Sequence[Log], *, fs: float | None = None, shift_s: Mapping
     Raises
     ------
     UsageError
-        Options naming no signal, bad offsets.
+        Bad offsets, a sample rate outside (0, 10 MHz], a base that would exceed the memory budget.
     DataError
-        A signal twice, logs that do not overlap in time, a rate to integrate without a ``/s`` unit.
+        Options naming no signal of the logs, a signal twice, logs that do not overlap in time, a rate to
+        integrate without a ``/s`` unit.
     """
     if not logs:
         raise UsageError("merge_logs needs at least one log")
@@ -126,17 +134,22 @@ def merge_logs(logs: Sequence[Log], *, fs: float | None = None, shift_s: Mapping
     units, integrate = dict(units or {}), dict(integrate or {})
     sigs = _collect(logs, shift_s)
     names = {s.name for s in sigs}
-    for what, table in (("offset", offset), ("scale", scale), ("unit", units)):
+    for what, table in (("offset", offset), ("scale", scale), ("units", units)):
         unknown = sorted(set(table) - names)
         if unknown:
-            raise UsageError(f"{what}: no signal {unknown[0]!r} in the logs (signals: {', '.join(sorted(names))})")
+            raise DataError(f"{what}: no signal {unknown[0]!r} in the logs (signals: {', '.join(sorted(names))})",
+                            parameter=what)
     rate = min(s.fs for s in sigs) if fs is None else float(fs)
-    if not (np.isfinite(rate) and rate > 0):
-        raise UsageError(f"fs must be a sample rate > 0 Hz, got {fs!r}")
+    if not (np.isfinite(rate) and 0 < rate <= FS_MAX_HZ):
+        raise UsageError(f"fs must be a sample rate in (0, {FS_MAX_HZ:g}] Hz, got {fs!r}", parameter="fs")
     start, end = max(s.t[0] for s in sigs), min(s.t[-1] for s in sigs)
     if end - start < 2.0 / rate:
         spans = "; ".join(f"{s.name} {s.t[0]:.6g}-{s.t[-1]:.6g} s" for s in sigs)
-        raise DataError(f"the logs do not overlap in time after the shifts ({spans})")
+        after = " after shift_s" if shift_s else ""
+        raise DataError(f"the logs do not overlap in time{after} ({spans})", parameter="shift_s" if shift_s else None)
+    n = (end - start) * rate
+    check_memory(n * 8.0 * (4 + len(sigs) + len(integrate)), f"merging {len(sigs)} signals over {end - start:.6g} s "
+                 f"at fs={rate:g} Hz ({n:.3g} samples)", parameter="fs")
     t = uniform_instants(start, end, rate)
     out: dict[str, np.ndarray] = {}
     out_units: dict[str, str] = {}
@@ -160,9 +173,9 @@ def merge_logs(logs: Sequence[Log], *, fs: float | None = None, shift_s: Mapping
         steps[s.name] = ", ".join(done)
     for new, name in integrate.items():
         if name not in out:
-            raise UsageError(f"integrate {new}={name}: no signal {name!r} in the logs")
+            raise DataError(f"integrate {new}={name}: no signal {name!r} in the logs", parameter="integrate")
         if new in out:
-            raise UsageError(f"integrate {new}={name}: a signal {new!r} exists already")
+            raise DataError(f"integrate {new}={name}: a signal {new!r} exists already", parameter="integrate")
         x = out[name]
         out[new] = np.concatenate([[0.0], np.cumsum((x[1:] + x[:-1]) * 0.5) / rate])
         out_units[new] = _integral_unit(out_units[name], name)

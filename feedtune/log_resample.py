@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .budget import check_memory
 from .errors import DataError, UsageError
 from .log import Log
 
@@ -193,7 +194,7 @@ def resample_log(log: Log, fs: float | None = None, *, max_gap: float = MAX_GAP)
     Raises
     ------
     UsageError
-        ``fs`` or ``max_gap`` not a positive number.
+        ``fs`` or ``max_gap`` not a positive number, a resampled log beyond the memory budget.
     DataError
         A gap longer than ``max_gap`` median intervals, a log too short to low-pass.
 
@@ -216,6 +217,10 @@ def resample_log(log: Log, fs: float | None = None, *, max_gap: float = MAX_GAP)
                         f"intervals) at t = {report.gap_at_s:.6g} s is longer than the max_gap of {max_gap:g} median "
                         "intervals; resampling across it invents the samples in it (cut the log there, or pass a "
                         "larger max_gap)", parameter="max_gap")
+    n = (float(log.t[-1]) - float(log.t[0])) * fs
+    grid = max(1.0, math.ceil(2.0 * report.median_rate_hz / fs))  # the finer grid of a non-uniform log's low-pass
+    check_memory(n * 8.0 * (2 + len(log.signals)) + n * grid * 8.0 * 3, f"resampling {len(log.signals)} signals "
+                 f"over {log.t[-1] - log.t[0]:.6g} s at fs={fs:g} Hz ({n:.3g} samples)", parameter="fs")
     t_out = uniform_instants(float(log.t[0]), float(log.t[-1]), float(fs))
     if t_out.size < 2:
         raise DataError(f"{log.source}: {log.t[-1] - log.t[0]:.4g} s hold fewer than two samples at {fs:g} Hz")

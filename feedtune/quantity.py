@@ -31,8 +31,8 @@ def is_quantity(entry: object) -> bool:
             and not isinstance(entry["value"], bool))
 
 
-def value_of(entry: object, unit: str | None = None, where: str = "") -> float:
-    """The number of a bare number or a quantity dict, checking its unit.
+def value_of(entry: object, unit: str | None = None, where: str = "", *, finite: bool = True) -> float:
+    """The number of a bare number or a quantity dict, checking its unit and that it is finite.
 
     Parameters
     ----------
@@ -42,6 +42,15 @@ def value_of(entry: object, unit: str | None = None, where: str = "") -> float:
         Expected unit; a quantity with another unit is a :class:`DataError` (bare numbers are accepted).
     where : str
         Location for messages, e.g. ``"model.toml: params.m1"``.
+    finite : bool
+        Refuse NaN and infinite values (a :class:`DataError` naming ``where``); False for entries that may be
+        unknown (a standard deviation written as ``nan``).
+
+    Raises
+    ------
+    DataError
+        Not a number, a unit other than ``unit``, an integer beyond the range of a float, or (with ``finite``) NaN or
+        an infinite value.
     """
     label = where or "value"
     if isinstance(entry, Mapping):
@@ -53,7 +62,14 @@ def value_of(entry: object, unit: str | None = None, where: str = "") -> float:
             raise DataError(f"{label}: unit {got!r} where {unit!r} is expected")
         entry = entry["value"]
     if isinstance(entry, str) and entry in _NONFINITE_STRINGS:
-        return _NONFINITE_STRINGS[entry]
+        entry = _NONFINITE_STRINGS[entry]
     if isinstance(entry, bool) or not isinstance(entry, (int, float, np.integer, np.floating)):
-        raise DataError(f"{label}: expected a number, got {entry!r}")
-    return float(entry)
+        raise DataError(f"{label}: expected a number, got {str(entry)[:40]!r}")
+    try:
+        v = float(entry)
+    except OverflowError:
+        raise DataError(f"{label}: integer with {len(str(abs(int(entry))))} digits, beyond the range of a float") \
+            from None
+    if finite and not math.isfinite(v):
+        raise DataError(f"{label}: expected a finite number, got {v!r}")
+    return v

@@ -15,7 +15,10 @@ from pathlib import Path
 
 TOKENS = [b"nan", b"inf", b"-inf", b"1e999", b"-1", b"0", b"", b"\x00", b"\xff\xfe", b"\r", b"\r\n", b",,,,", b";",
           b'"', b"#", b"[", b"{", b"}", b"]", b"=", b"9" * 400, b"x" * 1000, "\u00e9".encode(), b"true",
-          b"[[1, 2]]"]
+          b"[[1, 2]]",
+          # what the hostile run found: nesting bombs, integers beyond the float range, dotted-key depth
+          b"[" * 5000 + b"]" * 5000, b'{"a": ' * 3000 + b"1" + b"}" * 3000, b"{a = " * 3000 + b"1" + b"}" * 3000,
+          b"9" * 5001, b"-" + b"9" * 320, b"." .join([b"a"] * 500), b"1e308", b"1.8e308", b"4.9e-324"]
 
 
 def mutate(data: bytes, rng: random.Random) -> bytes:
@@ -80,7 +83,7 @@ def readers(examples: Path, tmp: Path) -> dict[str, tuple[str, bytes, Callable[[
         [Notch(420.0, 0.55, 0.7)], 2000.0))), force=True)
     log = "t,u,x1,x2\n" + "".join(f"{k / 1000:.3f},{(k % 7) / 7:.4f},{k * 1e-4:.6f},{k * 1.1e-4:.6f}\n"
                                   for k in range(300))
-    (tmp / "log.csv").write_text("# unit: u [V]\n# unit: x1 [rad]\n# unit: x2 [rad]\n" + log)
+    (tmp / "log.csv").write_text("# unit: u = V\n# unit: x1 = rad\n# unit: x2 = rad\n" + log)
     import numpy as np
     import scipy.io
 

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1] / "feedtune"
 # Value-type modules at the bottom: everything may import them (numpy only below them).
 BASE = {
     "errors", "frf", "log", "lti", "quantity", "frf_sampling", "frf_quality", "spectrum", "blas", "display", "progress",
-    "parallel", "structures", "__init__", "__main__",
+    "parallel", "structures", "__init__", "__main__", "budget", "_kernel_cache",
 }
 # Facades above every package: they register their functions in display (display.facade), through which the value
 # types' .plot() and .to_control() reach them; only the package root imports them, so nothing below has an edge up.
@@ -147,11 +147,14 @@ def test_only_the_package_root_imports_the_facades():
 
 
 def test_the_package_root_imports_the_facades():
-    """The root imports both facades, so their functions are registered once any feedtune module is imported."""
+    """The root imports both facades (in ``_load_facades``, which ``display.facade`` calls on first use: ``import
+    feedtune`` stays cheap), so their functions are registered before any value type needs one."""
     tree = ast.parse((ROOT / "__init__.py").read_text(encoding="utf-8"))
-    imported = {a.name for node in tree.body if isinstance(node, ast.ImportFrom) and node.level == 1
+    imported = {a.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.level == 1
                 and node.module is None for a in node.names}
     assert FACADES <= imported, sorted(FACADES - imported)
+    display = (ROOT / "display.py").read_text(encoding="utf-8")
+    assert "_load_facades()" in display
 
 
 # The one delivery exit (docs/architecture.md): a gains document is built from a design, certified and given its

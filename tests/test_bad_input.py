@@ -47,8 +47,8 @@ def test_an_frf_scaled_by_1e_300_is_named_not_an_internal_error(examples_dir, tm
 
 @pytest.mark.parametrize("args, words", [
     (["simulate", "frf", "-o", "s.csv", "--seed", "-1"], "--seed"),
-    (["simulate", "frf", "-o", "s.csv", "--period", "1e-9"], "excitation period 1e-09 s holds"),
-    (["simulate", "gantry", "frf", "-o", "g.csv", "--period", "1e-7"], "excitation period 1e-07 s holds"),
+    (["simulate", "frf", "-o", "s.csv", "--period", "1e-9"], "excitation period --period 1e-09 s holds"),
+    (["simulate", "gantry", "frf", "-o", "g.csv", "--period", "1e-7"], "excitation period --period 1e-07 s holds"),
     (["simulate", "frf", "-o", "f.csv", "--frf-out", "f.csv"], "--frf-out f.csv is also the file of --out"),
     (["simulate", "gantry", "frf", "-o", "g.csv", "--frf-out", "g.csv"], "is also the file of --out"),
 ])
@@ -114,6 +114,8 @@ def test_a_signal_stops_the_demo_with_a_message_and_leaves_no_temporary_file(sig
 
 
 def test_numba_caches_go_to_a_user_cache_folder():
+    import numba  # noqa: F401 (the cache folder is chosen when numba is first imported)
+
     import feedtune
 
     cache = os.environ["NUMBA_CACHE_DIR"]

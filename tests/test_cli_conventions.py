@@ -26,14 +26,14 @@ def test_a_signal_swallowed_by_a_library_is_still_reported_as_the_interruption(m
 
     import feedtune.cli.main as cli
 
-    def swallowing_app(standalone_mode=False):
+    def swallowing_app(**kwargs):
         try:
             os.kill(os.getpid(), signal.SIGINT)  # the handler main() installed raises inside this try
         except BaseException:  # what the library does
             pass
         raise RuntimeError("no compiled object yet")
 
-    monkeypatch.setattr(cli, "app", swallowing_app)
+    monkeypatch.setattr(cli, "_command", lambda: swallowing_app)
     with pytest.raises(SystemExit) as exc:
         cli.main()
     assert exc.value.code == 130

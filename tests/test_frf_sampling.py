@@ -110,7 +110,7 @@ def test_sampling_state_of_other_files():
 @pytest.mark.parametrize("fs, delay, err, match", [
     (0, 1, UsageError, "fs must be > 0"),
     ("fast", 1, UsageError, "fs must be a number"),
-    (FS, -1, UsageError, "delay_samples must be a number of samples >= 0"),
+    (FS, -1, UsageError, "delay_samples must be a number of samples in 0 .. 100"),
     (FS, float("nan"), UsageError, "delay_samples"),
     (100, 1, DataError, "above the Nyquist frequency 50 Hz"),
 ])
@@ -161,7 +161,7 @@ def test_frf_command_removes_sampling_when_asked(twin_files, tmp_path, capsys, m
     assert code == 0 and "ZOH and computational delay (1 sample(s) at 20000 Hz) removed" in out
     code, _, err = run(["frf", twin_files / "log.csv", *FRF_ARGS, "--remove-sampling", "-2"], capsys, monkeypatch)
     assert code == 2 and err.strip().splitlines() == [
-        "feedtune: error: --remove-sampling expects the computational delay in samples (>= 0, e.g. 1), got -2"]
+        "feedtune: error: --remove-sampling expects the computational delay in samples (0 .. 100, e.g. 1), got -2"]
 
 
 def test_analyze_and_design_warn_about_a_frf_with_sampling_kept(twin_files, tmp_path, capsys, monkeypatch):

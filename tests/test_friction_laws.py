@@ -350,7 +350,7 @@ def test_cli_steady_state(tmp_path, capsys, monkeypatch):
     code, _, err = run(["identify", "friction", path, "--plateau-vel-tol", "0.1"], capsys, monkeypatch)
     _one_line_error(code, err, 2, "--plateau-vel-tol needs --steady-state")
     code, _, err = run(["identify", "friction", path, "--steady-state", "--law", "dahl"], capsys, monkeypatch)
-    _one_line_error(code, err, 2, "friction law must be one of stribeck, hump, lugre, coulomb-viscous")
+    _one_line_error(code, err, 2, "friction --law must be one of stribeck, hump, lugre, coulomb-viscous")
     mirrored = tmp_path / "mirrored.csv"
     log = _plateau_log(truth)
     write_log_csv(Log(log.t, {"x": log["x"], "u": -log["u"]}, dict(log.units)), mirrored)

@@ -94,10 +94,10 @@ def test_identify_gantry_bad_input(frf_dir, tmp_path, capsys, monkeypatch):
     code, _, err = run(["identify", "gantry", bad, files[1], files[2], *_x_options(), "--span", "1.484"], capsys,
                        monkeypatch)
     assert code == 1 and str(bad) in err and "'rad'" in err and "unit m" in err and err.count("\n") == 1
-    # fewer than three positions
+    # fewer than three positions: the --x options cannot make a J(x) fit
     code, _, err = run(["identify", "gantry", *files[:2], *_x_options(XS[:2]), "--span", "1.484"], capsys,
                        monkeypatch)
-    assert code == 1 and ">= 3" in err
+    assert code == 2 and ">= 3" in err and "--x" in err
     # --x count differs from the file count
     code, _, err = run(["identify", "gantry", *files, *_x_options(XS[:2]), "--span", "1.484"], capsys, monkeypatch)
     assert code == 2 and "3 FRF file(s) but 2 --x" in err
@@ -180,7 +180,7 @@ def test_bad_options_are_usage_errors(gains_files, tmp_path, capsys, monkeypatch
     assert code == 2 and "unknown twin parameter 'nonsense'" in err
     code, _, err = run(["simulate", "gantry", "ropesnap", "--gains", a, "--out", tmp_path / "r.csv"], capsys,
                        monkeypatch)
-    assert code == 2 and "kind 'gantry'" in err
+    assert code == 1 and "kind 'gantry'" in err  # a file of the wrong kind: the data
     code, _, err = run(["simulate", "gantry", "frf", "--out", tmp_path / "r.txt"], capsys, monkeypatch)
     assert code == 2 and ".csv" in err
     code, _, err = run(["simulate", "gantry", "track", "--gains", g, "--out", tmp_path / "r.csv", "--x", "0.9"],

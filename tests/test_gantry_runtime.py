@@ -200,7 +200,7 @@ def _broken(mutate):
 
 @pytest.mark.parametrize("mutate, words", [
     (lambda d: d.update(kind="lathe"), "kind 'lathe'"),
-    (lambda d: d.update(schema="feedtune.gains/2"), "not supported"),
+    (lambda d: d.update(schema="feedtune.gains/2"), "comes from a newer feedtune"),
     (lambda d: d.update(controller="lqr"), "controller: expected one of 'mimo', 'pid', got 'lqr'"),
     (lambda d: d.pop("schedule"), "schedule is missing"),
     (lambda d: d["filters"].pop("lead_sos"), "filters.lead_sos"),

@@ -167,9 +167,9 @@ def test_wrong_channels(noisy_frfs):
 
 
 def test_fewer_than_three_positions(noisy_frfs):
-    with pytest.raises(DataError, match=">= 3 distinct"):
+    with pytest.raises(UsageError, match=">= 3 distinct"):
         fit_gantry(noisy_frfs[:2], XS[:2], L=T.L)
-    with pytest.raises(DataError, match=">= 3 distinct"):
+    with pytest.raises(UsageError, match=">= 3 distinct"):
         fit_gantry(noisy_frfs, (0.0, 0.0, 0.15), L=T.L)
     with pytest.raises(UsageError, match="one position per FRF"):
         fit_gantry(noisy_frfs, XS[:2], L=T.L)
@@ -252,7 +252,7 @@ def test_mass_fit_bad_logs():
         fit_mass_distribution([log, collinear], (0.0, 0.1), vel_ref="v_ref")
     with pytest.raises(DataError, match="no signal 'acc'"):
         fit_mass_distribution([log, log], (0.0, 0.1), acc_ref="acc")
-    with pytest.raises(DataError, match=">= 2 distinct"):
+    with pytest.raises(UsageError, match=">= 2 distinct"):
         fit_mass_distribution([log, log], (0.0, 0.0))
     with pytest.raises(DataError, match="unit"):
         fit_axis_mass(dataclasses.replace(log, units={**log.units, "a_ref": "rad/s^2"}), u="u1")

@@ -127,7 +127,11 @@ def test_value_of_and_require_schema():
     assert value_of(2.0) == 2.0
     assert value_of(quantity(3.0, "m"), "m") == 3.0
     assert value_of(4, "m") == 4.0
-    assert value_of({"value": "inf", "unit": "Hz"}, "Hz") == math.inf
+    assert value_of({"value": "inf", "unit": "Hz"}, "Hz", finite=False) == math.inf
+    with pytest.raises(DataError, match=r"m.toml: fs: expected a finite number, got inf"):
+        value_of({"value": "inf", "unit": "Hz"}, "Hz", "m.toml: fs")
+    with pytest.raises(DataError, match=r"m.toml: k: integer with 400 digits, beyond the range of a float"):
+        value_of(10**399, where="m.toml: k")
     with pytest.raises(DataError, match=r"m.toml: params.k: unit 'N/m' where 'V/rad' is expected"):
         value_of(quantity(1.0, "N/m"), "V/rad", "m.toml: params.k")
     with pytest.raises(DataError, match="expected a number"):
@@ -136,7 +140,7 @@ def test_value_of_and_require_schema():
     newer = r"m\.toml: feedtune\.model/2 comes from a newer feedtune; this feedtune reads feedtune\.model/1"
     with pytest.raises(DataError, match=newer):
         require_schema({"schema": "feedtune.model/2"}, "feedtune.model", "m.toml")
-    with pytest.raises(DataError, match=r"feedtune\.gains document; expected feedtune\.model"):
+    with pytest.raises(DataError, match=r"this is a gains file, .*\(feedtune\.gains\); expected a model file"):
         require_schema({"schema": "feedtune.gains/1"}, "feedtune.model", "m.toml")
     with pytest.raises(DataError, match="no 'schema' entry"):
         require_schema({}, "feedtune.model", "m.toml")

@@ -75,9 +75,9 @@ def test_csv_magnitude_phase_columns(tmp_path):
 
 
 def test_csv_phase_rad_and_reads_open_file():
-    text = "freq_hz,x2/u.mag,x2/u.phase_rad\n5,3,3.141592653589793\n"
+    text = "freq_hz,x2/u.mag,x2/u.phase_rad\n5,3,3.141592653589793\n6,3,0\n"
     frf = read_frf_csv(io.StringIO(text))
-    np.testing.assert_allclose(frf.channel("x2/u"), [-3.0], atol=1e-15)
+    np.testing.assert_allclose(frf.channel("x2/u"), [-3.0, 3.0], atol=1e-15)
     assert frf.source == "<stream>"
 
 
@@ -94,7 +94,7 @@ def test_csv_acceleration_of_mass_converts_to_position(tmp_path):
 
 
 def test_csv_quantity_argument_overrides_metadata(tmp_path):
-    p = _write(tmp_path, "q.csv", "# quantity: position\nfreq_hz,x1/u.re,x1/u.im\n1,1,0\n")
+    p = _write(tmp_path, "q.csv", "# quantity: position\nfreq_hz,x1/u.re,x1/u.im\n1,1,0\n2,1,0\n")
     assert read_frf_csv(p, quantity="vel").quantity == "velocity"
     assert read_frf_csv(p).quantity == "position"
 

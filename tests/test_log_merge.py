@@ -59,7 +59,7 @@ def test_bad_merges_are_named():
     daq, amp = _instruments()
     with pytest.raises(DataError, match=r"'f' is in daq\.csv and in"):
         merge_logs([daq, daq])
-    with pytest.raises(UsageError, match="offset: no signal 'g'"):
+    with pytest.raises(DataError, match="offset: no signal 'g'"):
         merge_logs([daq, amp], offset={"g": 1.0})
     with pytest.raises(UsageError, match="'mean:N'"):
         merge_logs([daq, amp], offset={"f": "median:3"})

@@ -288,7 +288,7 @@ def test_cli_prefilter_bad_input_is_one_line(twin_runs, tmp_path, capsys, monkey
     assert out.read_text() == "x = 1\n"
     code, _, err = run(["prefilter", log_path, "--gains", gains, "--out", gains], capsys, monkeypatch)
     assert code == 2 and "--force" in err
-    code, _, err = run(["prefilter", log_path, "--out", out], capsys, monkeypatch)
+    code, _, err = run(["prefilter", log_path, "--out", tmp_path / "new.toml"], capsys, monkeypatch)
     assert code == 2 and "--out needs --gains" in err
 
 

@@ -101,8 +101,8 @@ def _broken(edit):
     ("edit", "needle"),
     [
         (lambda d: d.update(kind="gantry"), "machine kind 'gantry'"),
-        (lambda d: d.update(schema="feedtune.gains/2"), "not supported"),
-        (lambda d: d.update(schema="something"), "not a feedtune gains file"),
+        (lambda d: d.update(schema="feedtune.gains/2"), "comes from a newer feedtune"),
+        (lambda d: d.update(schema="something"), "is not of the form 'feedtune.gains/<version>'"),
         (lambda d: d["gains"].pop("Kv1"), "gains.Kv1 is missing"),
         (lambda d: d["gains"].update(Kx1={"value": 1.0, "unit": "V/m"}), "expected 'V/rad'"),
         (lambda d: d["filters"].update(filter_pack_sos=[[1, 0, 0, 0, 0, 0]]), "a0 = 0"),

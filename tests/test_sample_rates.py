@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from cli_run import run
 
-from feedtune.errors import DataError, UsageError
+from feedtune.errors import DataError
 from feedtune.models import THESIS_TABLE_3_1
 
 PPI_GAINS = ["--kpx", "60", "--kpv", "0.8", "--kiv", "100", "--allow-unstable"]
@@ -96,11 +96,11 @@ def test_the_delay_record_is_used_unless_given(files, capsys, monkeypatch):
     ["tune", "mcppc", "{model}", "--frf", "{f2500}", "--fs", "20000"],
     ["design", "ppi", "{model}", *PPI_GAINS, "--frf", "{f2500}", "--fs", "2503"],  # 0.12 % off
 ], ids=["design-ppc", "design-ppi", "tune-mcppc", "just-over-0.1%"])
-def test_fs_disagreeing_with_the_frf_is_a_usage_error(command, files, capsys, monkeypatch):
+def test_fs_disagreeing_with_the_frf_is_a_data_error(command, files, capsys, monkeypatch):
     args = [a.format(**files) for a in command]
     code, out, err = run(args, capsys, monkeypatch)
     lines = err.strip().splitlines()
-    assert code == 2 and out == "" and len(lines) == 1, err
+    assert code == 1 and out == "" and len(lines) == 1, err
     fs = args[-1]
     assert lines[0] == (f"feedtune: error: {files['f2500']} records a sample rate of 2500 Hz (sampling_fs_hz), but "
                         f"--fs is {fs} Hz; omit --fs to use the recorded rate, or pass --fs-override to proceed at "
@@ -124,18 +124,18 @@ def test_fs_override_proceeds_with_a_warning(files, capsys, monkeypatch):
     assert code == 0 and f"feedtune: warning: {text}" in err.splitlines() and "P-PI gains" in out
 
 
-def test_two_frfs_recording_different_rates_are_a_usage_error(files, capsys, monkeypatch):
+def test_two_frfs_recording_different_rates_are_a_data_error(files, capsys, monkeypatch):
     code, _, err = run(["tune", "mcppc", files["model"], "--frf", files["f2500"], "--frf", files["f5000"]],
                        capsys, monkeypatch)
-    assert code == 2 and err.strip().splitlines() == [
+    assert code == 1 and err.strip().splitlines() == [
         f"feedtune: error: {files['f2500']} records a sample rate of 2500 Hz but {files['f5000']} records 5000 Hz "
         "(sampling_fs_hz); give the target's rate with --fs (and --fs-override)"]
 
 
-def test_two_frfs_recording_different_delays_are_a_usage_error(files, capsys, monkeypatch):
+def test_two_frfs_recording_different_delays_are_a_data_error(files, capsys, monkeypatch):
     code, _, err = run(["tune", "mcppc", files["model"], "--frf", files["f2500"], "--frf", files["f2500_d2"]],
                        capsys, monkeypatch)
-    assert code == 2 and "--delay-samples" in err and str(files["f2500_d2"]) in err
+    assert code == 1 and "--delay-samples" in err and str(files["f2500_d2"]) in err
 
 
 def test_without_fs_and_record_the_default_is_named(files, capsys, monkeypatch):
@@ -154,7 +154,7 @@ def test_analyze_checks_the_gains_file_rate_against_the_frf(files, tmp_path, cap
     code, _, err = run(["design", "ppi", files["model"], *PPI_GAINS, "--out", gains], capsys, monkeypatch)
     assert code == 0, err
     code, _, err = run(["analyze", gains, "--frf", files["f2500"]], capsys, monkeypatch)
-    assert code == 2 and err.strip().splitlines() == [
+    assert code == 1 and err.strip().splitlines() == [
         f"feedtune: error: {files['f2500']} records a sample rate of 2500 Hz (sampling_fs_hz), but {gains}'s "
         "sampling.fs_hz is 20000 Hz; pass --fs-override to proceed at 20000 Hz anyway"]
     rec, _ = run_json(["analyze", gains, "--frf", files["f2500"], "--fs-override"], capsys, monkeypatch)
@@ -189,7 +189,7 @@ def test_gantry_commands_follow_the_rule(files, tmp_path, capsys, monkeypatch):
     save_model(model, THESIS_GANTRY)
     for cmd in (["design", "gantry", model], ["design", "pid", model], ["tune", "gantry", model]):
         code, _, err = run([*cmd, "--frf", files["f2500"], "--fs", "15000"], capsys, monkeypatch)
-        assert code == 2 and "--fs-override" in err and "15000 Hz" in err, (cmd, err)
+        assert code == 1 and "--fs-override" in err and "15000 Hz" in err, (cmd, err)
 
 
 def test_the_rule_in_the_library():
@@ -205,7 +205,7 @@ def test_the_rule_in_the_library():
     got = target_sampling(None, None, [("a.csv", rec), ("b.csv", None)], default_fs=20000.0)
     assert (got.fs_hz, got.fs_source, got.fs_files, got.delay_samples, got.delay_source) == (
         2500.0, "frf", ("a.csv",), 1, "default")
-    with pytest.raises(UsageError, match=r"a\.csv records a sample rate of 2500 Hz"):
+    with pytest.raises(DataError, match=r"a\.csv records a sample rate of 2500 Hz"):
         target_sampling(20000.0, None, [("a.csv", rec)], default_fs=20000.0)
     bad = replace(frf, meta={**frf.meta, "sampling_fs_hz": "fast"})
     with pytest.raises(DataError, match=r"x\.csv: metadata sampling_fs_hz = 'fast' is not a sample rate"):
@@ -243,8 +243,9 @@ def test_implausible_and_plausible_time_bases(tmp_path):
 
     slow = tmp_path / "slow.csv"
     _log_csv(slow, [0.5 * k for k in range(100)], header="t")  # 2 Hz, not integers
-    with pytest.raises(DataError, match=r"slow\.csv: column 't': the time stamps give fs = 2 Hz, below 10 Hz; "
-                                        r"check the time unit: convert it to seconds with scale=t=FACTOR"):
+    with pytest.raises(DataError, match=r"slow\.csv: column 't': the time stamps give fs = 2 Hz, below 100 Hz, "
+                                        r"implausible for a servo log; check the time unit: convert it to seconds "
+                                        r"with scale=t=FACTOR"):
         read_log(slow)
     fast = tmp_path / "fast.csv"
     _log_csv(fast, [1e-8 * k for k in range(100)])  # 100 MHz
@@ -259,6 +260,16 @@ def test_implausible_and_plausible_time_bases(tmp_path):
     stated = tmp_path / "stated.csv"
     _log_csv(stated, [400 * k for k in range(100)], header="time [us]")
     assert read_log(stated).fs == pytest.approx(2500.0)
+    # a time in ms under a header that says s (a 20 kHz log read 1000 x too slow) is caught as well, as is a scale
+    # that makes the rate implausible
+    ms_as_s = tmp_path / "ms_as_s.csv"
+    _log_csv(ms_as_s, [0.05 * k for k in range(100)], header="time [s]")
+    with pytest.raises(DataError, match=r"column 'time': the time stamps \(in s, the unit the file states\) give "
+                                        r"fs = 20 Hz, below 100 Hz"):
+        read_log(ms_as_s)
+    assert read_log(ms_as_s, scale={"time": 1e-3}).fs == pytest.approx(20000.0)
+    with pytest.raises(DataError, match=r"\(with the scale given\) give fs = 2\.5 Hz"):
+        read_log(stated, scale={"time": 1e3})
 
 
 # ------------------------------------------------------------------------------------------------- real data
@@ -286,4 +297,4 @@ def test_real_two_mass_bench(real_data_dir, tmp_path, capsys, monkeypatch):
     explicit, _ = run_json([*design, "--fs", "2500"], capsys, monkeypatch)
     assert explicit["analysis"] == rec["analysis"]
     code, _, err = run([*design, "--fs", "20000"], capsys, monkeypatch)
-    assert code == 2 and "records a sample rate of 2500 Hz" in err and "--fs-override" in err
+    assert code == 1 and "records a sample rate of 2500 Hz" in err and "--fs-override" in err

@@ -284,7 +284,8 @@ def limits_profile(name: str) -> Limits:
     try:
         return PROFILES[str(name).strip().lower()]
     except KeyError:
-        raise UsageError(f"unknown limits profile {name!r}; expected {' or '.join(PROFILES)}") from None
+        raise UsageError(f"unknown limits profile {name!r}; expected {' or '.join(PROFILES)}", parameter="limits") \
+            from None
 
 
 @dataclass(frozen=True)

@@ -43,7 +43,6 @@ _ANGLE_UNITS = {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "μrad": 
 #: Trajectory derivative names that are never a measured position.
 _REFERENCE_DERIVATIVES = ("v_ref", "a_ref", "j_ref", "s_ref")
 
-
 def _length_signal(log: Log, name: str, role: str) -> np.ndarray:
     """Signal ``name`` in metres, else a DataError naming its unit and the conversion options."""
     x = log.get(name)
@@ -117,7 +116,7 @@ def _commanded_motion(log: Log, reference: str, angular: bool = False) -> tuple[
 
 
 def analyze_tracking_log(
-    log: Log, *, error: str | None = None, reference: str = "x_ref", position: str | None = None,
+    log: Log, *, error: str | None = None, reference: str | None = None, position: str | None = None,
     angular: bool = False,
 ) -> TrackingMetrics:
     """Tracking-error metrics of a log (thesis Table 3.2, §4.5).
@@ -129,8 +128,8 @@ def analyze_tracking_log(
     error : str, optional
         Column holding the tracking error, commanded minus actual [m]. Default: ``e2`` when present and
         ``position`` is not given; otherwise ``reference - position``.
-    reference : str
-        Commanded table position [m] (default ``x_ref``).
+    reference : str, optional
+        Commanded table position [m] (default ``x_ref``; a name given must be in the log).
     position : str, optional
         Measured table position [m]. Default ``x2_table``, else the only other signal in m.
     angular : bool
@@ -152,6 +151,10 @@ def analyze_tracking_log(
     _check_name(error, "error")
     _check_name(reference, "reference")
     _check_name(position, "position")
+    if reference is not None and reference not in log:  # named, so it must be there (the default may be absent)
+        raise DataError(f"{log.source}: no reference {reference!r}; signals: {', '.join(log.signals) or 'none'}",
+                        parameter="reference")
+    reference = reference or _DEFAULT_REFERENCE
     if error is not None:
         e, unit = _tracking_signal(log, error, "error", angular)
     elif position is None and _ERROR_NAME in log:

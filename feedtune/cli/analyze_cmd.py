@@ -55,6 +55,9 @@ ROPESNAP_UNITS = {"t_release_s": "s", "baseline_m": "m", "peak_m": "m", "peak_ab
 class AnalyzeGroup(TyperGroup):
     """Command group that treats ``analyze FILE ...`` as ``analyze gains FILE ...``."""
 
+    default_command = GAINS_COMMAND
+    """The command a first argument that is a gains file runs."""
+
     def parse_args(self, ctx, args: list[str]) -> list[str]:
         """Insert the ``gains`` command before a first argument that is a gains file, not a command."""
         if args and args[0] not in self.commands and not args[0].startswith("-"):
@@ -182,8 +185,8 @@ def track(
         help="Tracking-error column [m, or rad for a rotary axis] (default e2 when present).",
     ),
     reference: str = typer.Option(
-        "x_ref", "--reference", metavar="COLUMN",
-        help="Commanded position column [m or rad].",
+        None, "--reference", metavar="COLUMN",
+        help="Commanded position column [m or rad] (default x_ref).",
     ),
     position: str = typer.Option(
         None, "--position", metavar="COLUMN",

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+from collections.abc import Iterator
 from pathlib import Path
 
 import typer
@@ -127,3 +129,20 @@ def check_distinct_outputs(*named) -> None:
         if key in seen:
             raise UsageError(f"{option} {path} is also the file of {seen[key]}; give the outputs different names")
         seen[key] = option
+
+
+@contextlib.contextmanager
+def option_names(**spellings: str) -> Iterator[None]:
+    """Within the block, an error about a library parameter names the command's own option for it where that is not
+    ``--`` plus the parameter's name (``simulate cut`` gives the trajectory's ``v_max`` as ``--speed``)::
+
+        with option_names(v_max="--speed", distance="--cut-length"):
+            tr = point_to_point(cut_start + cut_length, v_max=speed, ...)
+    """
+    from ..errors import FeedtuneError
+
+    try:
+        yield
+    except FeedtuneError as exc:
+        exc.options = {**(getattr(exc, "options", None) or {}), **spellings}
+        raise

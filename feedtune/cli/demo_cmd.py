@@ -88,7 +88,7 @@ def demo(
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw, objective=goal)
     from .. import progress
 
-    with staged_folder(out) as stage:  # the folder appears whole, the report in it, or not at all
+    with staged_folder(out, force) as stage:  # the folder appears whole, the report in it, or not at all
         progress.step("writing the files")
         staged = write_texts(result.texts, force=True, out_dir=stage)
         write_demo_report(stage, True, machine, policy)

@@ -131,8 +131,8 @@ def loopshape(
     show_progress(quiet)
     from ..control.friction import friction_feedforward
     from ..control.prefilter import PrefilterGains
-    from ..design.loopshape import _command_unit_of, design_loopshape
-    from ..errors import UsageError
+    from ..design.loopshape import _command_unit_of, axis_plant, design_loopshape
+    from ..errors import DataError, UsageError
     from ..frf import Frf
     from ..tune.loopshape import tune_loopshape
     from .design_cmd import _load_friction
@@ -143,6 +143,10 @@ def loopshape(
         from ..io import load_model
 
         plant = load_model(plant_file)
+        try:
+            axis_plant(plant, mass=mass)  # a model of the wrong kind, named with its file before any work
+        except DataError as exc:
+            raise DataError(f"{plant_file}: {exc}") from None
     else:
         plant = read_optional_frf(plant_file, quantity, options=frf_options)
     if friction_band is not None and friction is None:

@@ -149,9 +149,14 @@ def report(
     show_progress(quiet)
     from ..fleet import fleet_status, load_manifest, plan_fleet, write_fleet_report
     from ..io import ensure_writable
+    from .report_cmd import HTML_SUFFIXES
 
     horizon = _horizon(horizon)
     history = _history(history)
+    if out.suffix.lower() not in HTML_SUFFIXES:
+        from ..errors import UsageError
+
+        raise UsageError(f"--out {out}: the fleet page is an HTML file; give a name ending in .html")
     ensure_writable(out, force)
     manifest = load_manifest(manifest_file)
     if not history.is_dir():

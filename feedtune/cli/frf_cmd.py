@@ -43,6 +43,9 @@ ESTIMATE_COMMAND = "estimate"
 class FrfGroup(TyperGroup):
     """Command group that treats ``frf LOG ...`` as ``frf estimate LOG ...``."""
 
+    default_command = ESTIMATE_COMMAND
+    """The command a first argument that is not a command runs."""
+
     def parse_args(self, ctx, args: list[str]) -> list[str]:
         """Insert the ``estimate`` command before a first argument that is not a command."""
         if args and args[0] not in self.commands and not args[0].startswith("-"):
@@ -122,10 +125,22 @@ def _check_delay_samples(delay_samples: float | None) -> None:
     import math
 
     from ..errors import UsageError
+    from ..frf_sampling import MAX_DELAY_SAMPLES
 
-    if delay_samples is not None and not (math.isfinite(delay_samples) and delay_samples >= 0):
-        raise UsageError(f"--remove-sampling expects the computational delay in samples (>= 0, e.g. 1), "
-                         f"got {delay_samples:g}")
+    if delay_samples is not None and not (math.isfinite(delay_samples) and 0 <= delay_samples <= MAX_DELAY_SAMPLES):
+        raise UsageError(f"--remove-sampling expects the computational delay in samples (0 .. {MAX_DELAY_SAMPLES}, "
+                         f"e.g. 1), got {delay_samples:g}")
+
+
+def _check_frf_out(out: Path) -> None:
+    """UsageError naming --out unless ``out`` names a format feedtune writes FRFs in (.csv, .txt, .mat, .uff)."""
+    from ..errors import UsageError
+    from ..io.frf_read import frf_format
+
+    try:
+        frf_format(out, writing=True)
+    except UsageError as exc:
+        raise UsageError(f"--out {exc}") from None
 
 
 def _print_summary(result: dict) -> None:
@@ -221,11 +236,11 @@ def estimate(
     With --remove-sampling the ZOH and the computational delay of a controller's own log are removed.
     """
     show_progress(quiet)
+    from ..errors import UsageError
     from ..frf_sampling import mark_sampling_kept
     from ..frf_sampling import remove_sampling as remove_zoh_and_delay
     from ..identify.frf_estimate import estimate_frf
     from ..io import ensure_writable, write_frf
-    from ..io.frf_read import frf_format
     from .frf_options import quantity_option
     from .log_options import read_log_with_options
 
@@ -234,8 +249,10 @@ def estimate(
     quantity = quantity_option(quantity)
     _check_delay_samples(remove_sampling)
     if out is not None:
-        frf_format(out, writing=True)
+        _check_frf_out(out)
         ensure_writable(out, force)
+    if period_samples is not None and period_samples < 2:
+        raise UsageError(f"--period-samples expects the excitation period in samples (>= 2), got {period_samples}")
     log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
     estimate = estimate_frf(log, input=input_, outputs=outputs, reference=reference, method=method,
                             period_samples=period_samples, transient_periods=transient_periods, nperseg=nperseg,
@@ -316,10 +333,9 @@ def merge(
     refused."""
     show_progress(quiet)
     from ..io import ensure_writable, write_frf
-    from ..io.frf_read import frf_format
     from .frf_options import FrfReadOptions, check_pieces_named, parse_frf_argument, read_frf_pieces
 
-    frf_format(out, writing=True)
+    _check_frf_out(out)
     ensure_writable(out, force)
     options = FrfReadOptions.from_cli(frf_map, frf_skip_rows, frf_scale, None, frf_input_unit)
     parsed = [p for text in pieces for p in parse_frf_argument(text)]

@@ -9,6 +9,7 @@ irregular instants (a drive polled over USB) on a uniform base (:func:`feedtune.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import typer
@@ -19,6 +20,14 @@ from .progress_display import QUIET_OPTION, show_progress
 
 app = typer.Typer(rich_markup_mode="rich", help="Convert, merge and resample logs from other tools.",
                   no_args_is_help=True)
+
+
+def _check_log_out(out: Path) -> None:
+    """UsageError unless the output is a .csv (or .txt) file: the log commands write feedtune CSV logs."""
+    from ..errors import UsageError
+
+    if out.suffix.lower() not in (".csv", ".txt"):
+        raise UsageError(f"--out {out}: the log commands write feedtune CSV logs (.csv)")
 
 
 def _summary(log, out: Path, as_json: bool, extra: dict | None = None) -> None:
@@ -61,20 +70,25 @@ def convert(
     An amplifier trace with a 3-line preamble, time in ms: feedtune log convert a3MR.csv --skip-rows 3 --time Time
     --scale Time=1e-3 --map n="Analog 1" --unit n=rpm --keep n --out amp.csv"""
     show_progress(quiet)
-    from ..errors import UsageError
+    from ..errors import DataError, UsageError
     from ..io import write_log_csv
     from ..io.atomic import ensure_writable
     from ..log import Log
     from .log_options import read_log_with_options
 
     ensure_writable(out, force)
+    _check_log_out(out)
+    names = None
+    if keep is not None:
+        names = [n.strip() for n in keep.split(",")]
+        if not names or any(not n for n in names):
+            raise UsageError(f"--keep expects comma-separated signal names such as u,x2, got {keep!r}")
     log = read_log_with_options(log_file, map_, fs, time, scale, unit, skip_rows)
-    if keep:
-        names = [n.strip() for n in keep.split(",") if n.strip()]
+    if names:
         missing = [n for n in names if n not in log.signals]
         if missing:
-            raise UsageError(f"--keep {missing[0]!r}: no such signal in {log_file} (signals: "
-                             f"{', '.join(log.signals)})")
+            raise DataError(f"--keep {missing[0]!r}: no such signal in {log_file} (signals: "
+                            f"{', '.join(log.signals)})")
         log = Log(log.t, {n: log[n] for n in names}, {n: log.unit(n) for n in names}, log.meta)
     write_log_csv(log, out, force=force)
     _summary(log, out, as_json)
@@ -119,20 +133,32 @@ def merge(
     from .log_options import parse_assignments, scale_factor
 
     ensure_writable(out, force)
+    _check_log_out(out)
     if len(log_files) < 2:
         raise UsageError("log merge needs two or more logs")
+    from ..io.log_read import FS_MAX_HZ
+
+    if fs is not None and not 0 < fs <= FS_MAX_HZ:
+        raise UsageError(f"--fs expects a sample rate in (0, {FS_MAX_HZ / 1e6:g} MHz], got {fs:g}")
     shifts = {}
     for name, text in parse_assignments(shift, "--shift", "SECONDS").items():
         try:
             shifts[name] = float(text)
         except ValueError:
             raise UsageError(f"--shift {name}={text}: SECONDS must be a number") from None
+        if not math.isfinite(shifts[name]):
+            raise UsageError(f"--shift {name}={text}: SECONDS must be a finite number")
     offsets: dict[str, float | str] = {}
     for name, text in parse_assignments(offset, "--offset", "VALUE").items():
         try:
             offsets[name] = float(text)
         except ValueError:
             offsets[name] = text  # "mean:N", checked by merge_logs
+        if isinstance(offsets[name], float) and not math.isfinite(offsets[name]):
+            raise UsageError(f"--offset {name}={text}: VALUE must be a finite number")
+    for item in integrate or []:
+        if "=" not in item:
+            raise UsageError(f"--integrate expects NEW=NAME (e.g. x=v), got {item!r}")
     factors = {name: scale_factor(name, text) for name, text in parse_assignments(scale, "--scale", "FACTOR").items()}
     logs = [read_log(p) for p in log_files]
     merged = merge_logs(logs, fs=fs, shift_s=shifts, offset=offsets, scale=factors,
@@ -177,6 +203,7 @@ def resample(
     from ..log_resample import resample_log, time_base_report
     from .log_options import LogOptions
 
+    _check_log_out(out)
     ensure_writable(out, force)
     if fs is not None and not fs > 0:
         raise UsageError(f"--fs expects a sample rate > 0 Hz, got {fs:g}")

@@ -80,9 +80,10 @@ class LogOptions:
     ) -> LogOptions:
         """Parse the raw option values; a malformed item is a UsageError naming the option."""
         from ..errors import UsageError
+        from ..io.log_read import FS_MAX_HZ
 
-        if fs is not None and not (math.isfinite(fs) and fs > 0):
-            raise UsageError(f"--fs expects a sample rate > 0 Hz, got {fs:g}")
+        if fs is not None and not (math.isfinite(fs) and 0 < fs <= FS_MAX_HZ):
+            raise UsageError(f"--fs expects a sample rate in (0, {FS_MAX_HZ / 1e6:g} MHz], got {fs:g}")
         if isinstance(skip_rows, bool) or not isinstance(skip_rows, int) or skip_rows < 0:
             raise UsageError(f"--skip-rows expects an integer >= 0, got {skip_rows!r}")
         if time is not None and not time.strip():

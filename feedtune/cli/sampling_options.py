@@ -122,21 +122,21 @@ def _recorded(frfs: list[tuple[str, object]], reader: Callable[[object, str], fl
 
 
 def _fs_from_frfs(recorded: list[tuple[str, float]]) -> tuple[float, tuple[str, ...]]:
-    """The one rate the FRFs record; UsageError naming two files that disagree."""
-    from ..errors import UsageError
+    """The one rate the FRFs record; DataError naming two files that disagree."""
+    from ..errors import DataError
     from ..frf_sampling import rates_disagree
 
     first, fs = recorded[0]
     for name, value in recorded[1:]:
         if rates_disagree(value, fs):
-            raise UsageError(f"{first} records a sample rate of {fs:g} Hz but {name} records {value:g} Hz "
+            raise DataError(f"{first} records a sample rate of {fs:g} Hz but {name} records {value:g} Hz "
                              "(sampling_fs_hz); give the target's rate with --fs (and --fs-override)")
     return fs, tuple(name for name, _ in recorded)
 
 
 def _delay_from_frfs(frfs: list[tuple[str, object]], warnings: list[str]) -> int | None:
     """The one whole delay the FRFs record, None when none does (a fractional record is a warning)."""
-    from ..errors import UsageError
+    from ..errors import DataError
     from ..frf_sampling import recorded_delay
 
     recorded = _recorded(frfs, recorded_delay)
@@ -152,7 +152,7 @@ def _delay_from_frfs(frfs: list[tuple[str, object]], warnings: list[str]) -> int
     first, delay = whole[0]
     for name, value in whole[1:]:
         if value != delay:
-            raise UsageError(f"{first} records a computational delay of {delay} sample(s) but {name} records "
+            raise DataError(f"{first} records a computational delay of {delay} sample(s) but {name} records "
                              f"{value} (sampling_delay_samples); give the target's delay with --delay-samples")
     return delay
 
@@ -186,23 +186,26 @@ def target_sampling(fs: float | None, delay_samples: int | None, frfs: Sequence[
     Raises
     ------
     UsageError
-        ``fs`` disagrees with an FRF's recorded rate by more than 0.1 % without ``override``; two FRFs record
-        different rates (or delays) and nothing was given; ``fs`` or ``delay_samples`` out of range.
+        ``fs`` or ``delay_samples`` out of range.
     DataError
-        An FRF's sampling record is not a number.
+        ``fs`` disagrees with an FRF's recorded rate by more than 0.1 % without ``override``; two FRFs record
+        different rates (or delays) and nothing was given; an FRF's sampling record is not a number.
     """
     import math
 
-    from ..errors import UsageError
+    from ..errors import DataError, UsageError
     from ..frf_sampling import band_warning, rates_disagree, recorded_fs
 
     named = _named(frfs)
     warnings: list[str] = []
     recorded = _recorded(named, recorded_fs)
     files: tuple[str, ...] = ()
+    from ..control.discretize import FS_MAX_HZ, FS_MIN_HZ, MAX_DELAY_SAMPLES
+
     if fs is not None:
-        if not (math.isfinite(fs) and fs > 0):
-            raise UsageError(f"{given_by} must be a sample rate > 0 Hz, got {fs:g}")
+        if not (math.isfinite(fs) and FS_MIN_HZ <= fs <= FS_MAX_HZ):
+            raise UsageError(f"{given_by} must be a controller's sample rate in {FS_MIN_HZ:g} .. {FS_MAX_HZ / 1e6:g} "
+                             f"MHz (slower loops cannot act on a drive's mechanics), got {fs:g}")
         fs_hz, fs_source = float(fs), given_source
         for name, value in recorded:
             if not rates_disagree(fs_hz, value):
@@ -210,15 +213,17 @@ def target_sampling(fs: float | None, delay_samples: int | None, frfs: Sequence[
             text = f"{name} records a sample rate of {value:g} Hz (sampling_fs_hz), but {given_by} is {fs_hz:g} Hz"
             if not override:
                 fix = "omit --fs to use the recorded rate, or " if given_source == "option" else ""
-                raise UsageError(f"{text}; {fix}pass --fs-override to proceed at {fs_hz:g} Hz anyway")
+                raise DataError(f"{text}; {fix}pass --fs-override to proceed at {fs_hz:g} Hz anyway")
             warnings.append(f"{text}: proceeding at {fs_hz:g} Hz (--fs-override)")
     elif recorded:
         (fs_hz, files), fs_source = _fs_from_frfs(recorded), "frf"
     else:
         fs_hz, fs_source = float(default_fs), "default"
     if delay_samples is not None:
-        if isinstance(delay_samples, bool) or int(delay_samples) != delay_samples or delay_samples < 0:
-            raise UsageError(f"--delay-samples must be an integer >= 0, got {delay_samples}")
+        if isinstance(delay_samples, bool) or int(delay_samples) != delay_samples or \
+                not 0 <= delay_samples <= MAX_DELAY_SAMPLES:
+            raise UsageError(f"--delay-samples must be an integer in 0 .. {MAX_DELAY_SAMPLES} (a drive's computational "
+                             f"delay), got {delay_samples}")
         delay, delay_source = int(delay_samples), given_source
     else:
         found = _delay_from_frfs(named, warnings)
@@ -262,8 +267,11 @@ def gains_sampling(doc: object, where: str, frfs: Sequence[tuple[object, object]
         v = v.get("value") if isinstance(v, Mapping) else v
         return v if isinstance(v, (int, float)) and not isinstance(v, bool) else None
 
+    from ..control.discretize import FS_MAX_HZ, FS_MIN_HZ, MAX_DELAY_SAMPLES
+
     fs, delay = number("fs_hz"), number("delay_samples")
-    if fs is None or not (math.isfinite(fs) and fs > 0) or delay is None or delay < 0 or int(delay) != delay:
-        return None
+    if fs is None or not (math.isfinite(fs) and FS_MIN_HZ <= fs <= FS_MAX_HZ) or delay is None \
+            or not (math.isfinite(delay) and 0 <= delay <= MAX_DELAY_SAMPLES) or int(delay) != delay:
+        return None  # the document's own checks name the entry
     return target_sampling(float(fs), int(delay), frfs, default_fs=float(fs), override=override,
                            given_by=f"{where}'s sampling.fs_hz", given_source="gains")

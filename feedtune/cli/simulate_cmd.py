@@ -8,7 +8,7 @@ import typer
 
 from ..control.names import controller_name
 from ..machines.registry import machines_of
-from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt
+from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt, option_names
 from .help_text import ENGINES, EXCITATIONS, choice
 from .progress_display import QUIET_OPTION, show_progress
 from .twin_options import twin_from_options
@@ -318,15 +318,20 @@ def cut(
     rt = _runtime(gains)
     experiments = _experiments(machine)
     sc = experiments.SlotCut(flutes, rpm, tool_diameter, cut_start, cut_length, mean_force, tooth_force)
-    tr = point_to_point(
-        cut_start + cut_length + 0.03,
-        v_max=speed,
-        a_max=a_max,
-        j_max=j_max,
-        fs=twin.fs,
-        dwell_before=0.05,
-        dwell_after=0.2,
-    )
+    if not sc.tooth_hz < twin.fs / 2:
+        raise UsageError(f"--flutes {flutes} at --rpm {rpm:g} pass a tooth every {1e3 / sc.tooth_hz:.3g} ms "
+                         f"({sc.tooth_hz:.4g} Hz), above the Nyquist frequency {twin.fs / 2:g} Hz of the twin: the "
+                         "cutting force would alias")
+    with option_names(v_max="--speed", distance="--cut-length"):
+        tr = point_to_point(
+            cut_start + cut_length + 0.03,
+            v_max=speed,
+            a_max=a_max,
+            j_max=j_max,
+            fs=twin.fs,
+            dwell_before=0.05,
+            dwell_after=0.2,
+        )
     res = experiments.run_cut(twin, rt, tr, sc, seed=seed, engine=engine)
     lines = (
         []

@@ -12,7 +12,7 @@ from pathlib import Path
 import typer
 
 from ..control.names import controller_name
-from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt
+from .common import FORCE_OPTION, JSON_OPTION, check_distinct_outputs, fmt, option_names
 from .help_text import ENGINES, FEATURES, SHAPES, TRACKING_TESTS, choice
 from .progress_display import QUIET_OPTION, show_progress
 from .twin_options import twin_from_options
@@ -60,14 +60,17 @@ def _runtime(path: Path | None, kind: str, option: str):
     """The runtime of a gains file of the given kind ("gantry" or "axis"), or None."""
     if path is None:
         return None
-    from ..errors import UsageError
+    from ..errors import DataError
+    from ..io import read_document
     from ..machines import load_runtime
     from ..machines.gantry.runtime import AxisRuntime, GantryRuntime
 
-    rt = load_runtime(path)
+    doc = read_document(path)
+    rt = load_runtime(doc, str(path))
     expected = GantryRuntime if kind == "gantry" else AxisRuntime
     if not isinstance(rt, expected):
-        raise UsageError(f"{option} {path}: expected a gains file of kind {kind!r}, got a {type(rt).__name__}")
+        raise DataError(f"{option} {path}: a gains file of kind {doc.get('kind')!r} ({doc.get('controller')}); this "
+                        f"option needs one of kind {kind!r}")
     return rt
 
 
@@ -414,8 +417,14 @@ def contour(
         if feature not in THESIS_FEATURES:
             raise UsageError(f"--feature must be one of {', '.join(THESIS_FEATURES)}, got {feature!r}")
         lim = THESIS_FEATURES[feature]
-    path = contour_path(shape, lim["size_m"], v_max=lim["v_max"], a_max=lim["a_max"], j_max=lim["j_max"],
-                        fs=twin.fs, start=(x0, 0.0), clockwise=clockwise, dwell_before=0.05, dwell_after=0.2)
+    travel = twin.params.x_max_m - twin.params.x_min_m
+    if not 0 < lim["size_m"] <= travel:
+        from ..errors import UsageError
+
+        raise UsageError(f"--size {lim['size_m']:g} m: a contour must fit the table travel of {travel:g} m")
+    with option_names(distance="--size", waypoints="--size"):
+        path = contour_path(shape, lim["size_m"], v_max=lim["v_max"], a_max=lim["a_max"], j_max=lim["j_max"],
+                            fs=twin.fs, start=(x0, 0.0), clockwise=clockwise, dwell_before=0.05, dwell_after=0.2)
     res = run_contour(twin, g, a, path, seed=seed, engine=engine)
     lines = [] if res.tripped else [
         f"{path.shape} {path.size_m * 1e3:g} mm at {lim['v_max'] * 1e3:g} mm/s with {controller_name(g.controller)}: "

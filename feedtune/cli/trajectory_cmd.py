@@ -68,6 +68,9 @@ def trajectory(
         raise UsageError(f"--out {out}: trajectories are written as .csv logs")
     if waypoints and (dwell_before or dwell_after):
         raise UsageError("--dwell-before/--dwell-after apply to --distance moves; use --dwell with --waypoints")
+    if distance is not None and dwell:
+        raise UsageError("--dwell is the rest between --waypoints moves; use --dwell-before/--dwell-after with "
+                         "--distance")
     tr = build_trajectory(distance, waypoints, v_max, a_max, j_max, s_max, fs, dwell, dwell_before, dwell_after)
     write_log_csv(tr.to_log(), out, force=force)
     result = tr.to_dict()

@@ -29,7 +29,13 @@ def twin_from_options(machine: str, params: list[str] | None, ideal: bool, *, pl
     if machine not in names:
         raise UsageError(f"unknown machine {machine!r} for this command; it runs the {' or '.join(names)} twin "
                          f"('feedtune simulate --help' lists the other machines' experiments)")
-    twin = get_machine(machine).twin(parse_params(params), ideal=ideal)
+    overrides = parse_params(params)
+    try:
+        twin = get_machine(machine).twin(overrides, ideal=ideal)
+    except UsageError as exc:
+        if not overrides:
+            raise
+        raise UsageError(f"--param: {exc}") from None
     ensure_kernels(MACHINE_KERNELS.get(machine, ()))  # a first run compiles them as a step of its own
     progress.step(f"running the {machine} twin")
     return twin

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UsageError
+from ..frf_sampling import MAX_DELAY_SAMPLES
 from ..lti import Zpk
 
 
@@ -149,9 +150,19 @@ def unit_delay(n: int, fs: float) -> Zpk:
     return Zpk([], np.zeros(int(n)), 1.0, 1.0 / fs)
 
 
+FS_MIN_HZ = 100.0
+"""Lowest sample rate of a controller [Hz]: a loop sampled slower cannot act on a drive's mechanics (its first modes
+lie at tens of Hz and more)."""
+FS_MAX_HZ = 10e6
+"""Highest sample rate of a controller [Hz] (the fastest current loops run at a few hundred kHz)."""
+
+
 def check_sampling(fs: float, delay_samples: int) -> None:
-    """UsageError unless ``fs`` [Hz] > 0 and ``delay_samples`` is an integer >= 0."""
-    if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
-        raise UsageError(f"fs must be a sample rate > 0 Hz, got {fs}", parameter="fs")
-    if int(delay_samples) != delay_samples or delay_samples < 0:
-        raise UsageError(f"delay_samples must be an integer >= 0, got {delay_samples}", parameter="delay_samples")
+    """UsageError unless ``fs`` [Hz] lies in :data:`FS_MIN_HZ` .. :data:`FS_MAX_HZ` and ``delay_samples`` is an
+    integer in 0 .. :data:`MAX_DELAY_SAMPLES`."""
+    if not (isinstance(fs, (int, float)) and math.isfinite(fs) and FS_MIN_HZ <= fs <= FS_MAX_HZ):
+        raise UsageError(f"fs must be a controller's sample rate in {FS_MIN_HZ:g} .. {FS_MAX_HZ:g} Hz, got {fs:g}",
+                         parameter="fs")
+    if int(delay_samples) != delay_samples or not 0 <= delay_samples <= MAX_DELAY_SAMPLES:
+        raise UsageError(f"delay_samples must be an integer in 0 .. {MAX_DELAY_SAMPLES} (a drive's computational "
+                         f"delay), got {delay_samples}", parameter="delay_samples")

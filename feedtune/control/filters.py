@@ -250,11 +250,12 @@ class FilterPack:
         object.__setattr__(self, "notches", tuple(self.notches))
         object.__setattr__(self, "leads", tuple(self.leads))
         if self.lpf_hz is not None:
-            object.__setattr__(self, "lpf_hz", _positive(self.lpf_hz, "low-pass frequency [Hz]"))
+            object.__setattr__(self, "lpf_hz", _positive(self.lpf_hz, "low-pass frequency lpf_hz [Hz]",
+                                                         "FilterPack.lpf_hz"))
         if self.lpf_order not in (1, 2):
-            raise UsageError(f"low-pass order must be 1 or 2, got {self.lpf_order!r}")
+            raise UsageError(f"low-pass order lpf_order must be 1 or 2, got {self.lpf_order!r}", parameter="lpf_order")
         if not (math.isfinite(self.lpf_zeta) and self.lpf_zeta > 0):
-            raise UsageError(f"low-pass damping must be > 0, got {self.lpf_zeta!r}")
+            raise UsageError(f"low-pass damping lpf_zeta must be > 0, got {self.lpf_zeta!r}", parameter="lpf_zeta")
 
     def zpk(self) -> Zpk:
         """The combined continuous transfer function (unit gain at 0 Hz); computed once per pack."""

@@ -84,7 +84,13 @@ class FrictionFeedforward:
             raise DataError(f"friction feedforward needs velocities in {' or '.join(VELOCITY_UNITS)}, got "
                             f"{self.friction.velocity_unit}")
         if not (math.isfinite(self.v_band) and self.v_band > 0):
-            raise UsageError(f"friction band must be > 0 {self.velocity_unit}, got {self.v_band!r}")
+            raise UsageError(f"friction band v_band must be > 0 {self.velocity_unit}, got {self.v_band!r}",
+                             parameter="v_band")
+        omega = min(abs(self.friction.omega_pos), abs(self.friction.omega_negative))
+        if self.v_band > omega:
+            raise UsageError(f"friction band v_band={self.v_band:g} {self.velocity_unit} is wider than the Stribeck "
+                             f"velocity {omega:g} {self.velocity_unit}: the feedforward would be a line where the "
+                             "friction has its hump", parameter="v_band")
 
     @property
     def command_unit(self) -> str:

@@ -89,13 +89,19 @@ def torsional_damping(model: GantryModel, beta: float, x: float = 0.0) -> float:
 
 
 
+MAX_SCHEDULE_POINTS = 1001
+"""Most positions of a gain schedule (rows of the tables in the gains file and the C header)."""
+
 
 def default_x_grid(model: GantryModel, x_min: float = -0.3, x_max: float = 0.3, n: int = 13) -> np.ndarray:
     """Schedule grid [m]: ``n`` points over ``[x_min, x_max]`` (UsageError if alpha leaves (0, 1))."""
     if not (math.isfinite(x_min) and math.isfinite(x_max) and x_min < x_max):
-        raise UsageError(f"schedule range must satisfy x_min < x_max [m], got {x_min:g}, {x_max:g}")
-    if int(n) < 2:
-        raise UsageError(f"the schedule needs at least 2 positions, got {n}")
+        raise UsageError(f"schedule range must satisfy x_min < x_max [m], got {x_min:g}, {x_max:g}",
+                         parameter=("x_min", "x_max"))
+    if not 2 <= int(n) <= MAX_SCHEDULE_POINTS:
+        raise UsageError(f"n={n}: the schedule needs 2 .. {MAX_SCHEDULE_POINTS} positions (each is a row of the "
+                         "tables the controller holds; a finer table than 1 mm over a metre gains nothing)",
+                         parameter="default_x_grid.n")
     grid = np.linspace(x_min, x_max, int(n))
     for xx in (x_min, x_max):
         model.alpha(xx)

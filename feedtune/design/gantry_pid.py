@@ -126,7 +126,7 @@ def design_gantry_pid(
     for name, v in (("kp", kp), ("kd", kd), ("ki", ki)):
         pair = tuple(float(g) for g in (v if isinstance(v, (list, tuple)) else (v, v)))
         if len(pair) != 2 or not all(math.isfinite(g) and g >= 0 for g in pair):
-            raise UsageError(f"PID gain {name} must be one or two finite numbers >= 0, got {v!r}")
+            raise UsageError(f"{name} must be one or two finite numbers >= 0 (a PID gain), got {v!r}", parameter=name)
         gains[name] = pair
     law = PidLaw(gains["kp"], gains["kd"], gains["ki"], pack, float(fs), int(delay_samples))
     grid = default_x_grid(model) if x_grid is None else x_grid

@@ -171,15 +171,15 @@ def axis_plant(plant, *, mass: float | None = None, channel: str | None = None,
     if isinstance(plant, (int, float)) and not isinstance(plant, bool):
         return AxisPlant(_positive(plant, "x-axis mass [V/(m/s^2)]"), source="given mass")
     if getattr(plant, "position_unit", "m") != "m":
-        raise UsageError(f"the x-axis plant must be a linear axis in m; this {type(plant).__name__} is in "
-                         f"{plant.position_unit}")
+        raise DataError(f"the x-axis plant must be a linear axis in m; this {type(plant).__name__} is in "
+                        f"{plant.position_unit}")
     unit = _command_unit_of(plant)
     for attr in ("m_x", "mass"):
         if hasattr(plant, attr):
             return AxisPlant(_positive(getattr(plant, attr), f"model {attr} [{unit}/(m/s^2)]"),
                              source=f"{type(plant).__name__}.{attr}", command_unit=unit)
-    raise UsageError(f"cannot use a {type(plant).__name__} as the x-axis plant; give a mass, a gantry or "
-                     "rigid-body model, or a measured FRF")
+    raise DataError(f"cannot use a {type(plant).__name__} as the x-axis plant; give a mass, a gantry or "
+                    "rigid-body model, or a measured FRF")
 
 
 def _command_unit_of(model) -> str:

@@ -188,6 +188,9 @@ def design_mcppc(
     McppcDesign
     """
     check_sampling(fs, delay_samples)
+    if np.isfinite(pole_hz) and pole_hz >= fs / 2:
+        raise UsageError(f"pole_hz={pole_hz:g} Hz must lie below the Nyquist frequency fs/2 = {fs / 2:g} Hz",
+                         parameter="pole_hz")
     filters = filters or FilterPack()
     filters.check_nyquist(fs)
     poles = desired_poles(model, beta, pole_hz, zeta)

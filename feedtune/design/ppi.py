@@ -90,12 +90,26 @@ def acceleration_feedforward(model: BallScrewModel) -> Zpk:
     return Zpk.from_tf([model.total_inertia, model.b1 + model.b2, 0.0], [1.0])
 
 
-def _check_gains(Kpx: float, Kpv: float, Kiv: float) -> None:
+def _check_gains(Kpx: float, Kpv: float, Kiv: float, model: BallScrewModel | None = None,
+                 fs: float | None = None) -> None:
+    """UsageError naming the gain unless the three are finite, >= 0 (Kpv > 0) and, given the model and the sample
+    rate, each puts its corner below the Nyquist frequency ``pi fs`` [rad/s] (the position loop's ``Kpx``, the
+    velocity loop's ``Kpv / (m1 + m2)``, the PI corner ``Kiv / Kpv``): a gain beyond it cannot close a sampled loop."""
     for name, v in (("Kpx", Kpx), ("Kpv", Kpv), ("Kiv", Kiv)):
         if not (np.isfinite(v) and v >= 0):
             raise UsageError(f"{name} must be a finite gain >= 0, got {v}", parameter=name)
     if Kpv <= 0:
         raise UsageError("Kpv must be > 0", parameter="Kpv")
+    if model is None or fs is None:
+        return
+    nyquist = np.pi * fs
+    inertia = model.m1 + model.m2
+    for name, value, corner, what in (("Kpx", Kpx, Kpx, "the position loop's crossover"),
+                                      ("Kpv", Kpv, Kpv / inertia, "the velocity loop's crossover Kpv / (m1 + m2)"),
+                                      ("Kiv", Kiv, Kiv / Kpv, "the PI corner Kiv / Kpv")):
+        if corner >= nyquist:
+            raise UsageError(f"{name}={value:g} puts {what} at {corner:.3g} rad/s, above the Nyquist frequency "
+                             f"pi fs = {nyquist:.3g} rad/s", parameter=name)
 
 
 def design_ppi(
@@ -110,7 +124,7 @@ def design_ppi(
 ) -> PpiDesign:
     """P-PI with the user's gains ``Kpx`` [1/s], ``Kpv`` [V/(rad/s)], ``Kiv`` [V/rad]."""
     check_sampling(fs, delay_samples)
-    _check_gains(Kpx, Kpv, Kiv)
+    _check_gains(Kpx, Kpv, Kiv, model, fs)
     filters = filters or FilterPack()
     filters.check_nyquist(fs)
     return PpiDesign(

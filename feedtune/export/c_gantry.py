@@ -33,6 +33,7 @@ from .c_common import (
     row_array,
     table_array,
 )
+from .c_text import comment_text
 
 PREFILTER = ("prefilter_vel", "prefilter_acc", "prefilter_jerk", "prefilter_snap")
 """Sections of the pre-filter terms (velocity .. snap)."""
@@ -59,7 +60,7 @@ def _state_arrays(flt: dict[str, CFilter], names, opts: COptions) -> list[str]:
 
 def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str:
     """The header of a gantry gains document executed by ``rt`` (a ``GantryRuntime``, which has validated it)."""
-    prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
+    prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, comment_text(rt.command_unit)
     mimo = rt.controller == "mimo"
     fr = rt.friction
     ncol = rt.schedule.shape[1] if rt._prefilter_on else 5
@@ -67,7 +68,7 @@ def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> s
            "feedforward)" if mimo else "independent PIDs on each side with the CoM feedforward")
     if fr is not None:
         law += " and friction feedforward (eq. 2.1 + viscous) split alpha1 : alpha2"
-    out = banner(f"Gantry controller '{rt.controller}': {law}.", doc, opts, [
+    out = banner(f"Gantry controller '{comment_text(rt.controller)}': {law}.", doc, opts, [
         f"fs = {rt.fs:g} Hz, computational delay {rt.delay_samples} sample(s), reference preview "
         f"{rt.preview_samples} sample(s). Positions in m, commands u1, u2 in {unit}.",
         f"Call {prefix}_init() once, then {prefix}_step() every sample with the gantry reference y_r[k + "
@@ -193,7 +194,7 @@ def axis_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str
     is no separate integrator to hold: ``--anti-windup clamp`` is refused for an axis (see :func:`check_axis`).
     """
     check_axis(opts)
-    prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, rt.command_unit
+    prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, comment_text(rt.command_unit)
     pre = rt._prefilter_on
     fr = rt.friction
     out = banner("Loop-shaped x-axis controller (eq. 4.18-4.20) with mass feedforward"

@@ -4,6 +4,9 @@ One entry point for every gains kind (:func:`c_header`): the document is first r
 (:func:`feedtune.machines.load_runtime`), so the header refuses exactly what the runtime refuses, with the same
 one-line error; then the emitter its gains format names (:mod:`feedtune.structures`) renders it. Headers need only
 ``<string.h>`` (and ``<math.h>`` for a friction feedforward) and compile with ``gcc -Wall -Wextra -Werror -std=c99``.
+The document's strings reach the header only as comment-safe text (:mod:`feedtune.export.c_text`): nothing a gains
+file says can become code.
+
 Options (:class:`~feedtune.export.c_common.COptions`): the prefix of the identifiers, an output limit and
 conditional-integration anti-windup, a warning line, and the precision: ``double`` (default) or ``float``, whose
 filters are rewritten in difference form so that a float32 target stays within
@@ -14,6 +17,7 @@ filters are rewritten in difference form so that a float32 target stays within
 from __future__ import annotations
 
 from .c_common import COptions
+from .c_text import comment_safe, comment_text
 
 
 def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max: float | None = None,
@@ -57,7 +61,8 @@ def c_header(doc: dict, *, prefix: str = "ft", where: str = "gains file", u_max:
     from ..machines import load_runtime
     from ..structures import gains_format, resolve
 
-    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup, warning=warning, precision=precision,
+    opts = COptions(prefix=prefix, u_max=u_max, anti_windup=anti_windup,
+                    warning=None if warning is None else comment_text(warning, 1000), precision=precision,
                     scale_out=scale_out, out_unit=out_unit)
-    rt = load_runtime(doc, where)
-    return resolve(gains_format(doc["kind"]).emitter)(doc, rt, opts, where)
+    rt = load_runtime(doc, where)  # validates the document itself
+    return resolve(gains_format(doc["kind"]).emitter)(comment_safe(doc), rt, opts, where)  # text as comment-safe

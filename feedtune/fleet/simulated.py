@@ -251,6 +251,26 @@ class SimulatedFleet:
     files: int
 
 
+FRF_FILE_BYTES = 72_000
+"""Size of one simulated measurement's FRF file [bytes] (72.0 KB measured; the reversal logs come on top)."""
+
+
+def _check_disk(root: Path, n_axes: int, weeks: int) -> None:
+    """UsageError when the fleet's FRF files alone would not fit in the free space of ``root``'s file system: refused
+    before the first file, not after hours of simulation with the disk full."""
+    import shutil
+
+    from ..budget import fmt_bytes
+
+    need = float(n_axes) * float(weeks) * FRF_FILE_BYTES
+    where = next((p for p in (root, *root.absolute().parents) if p.exists()), Path("."))
+    free = shutil.disk_usage(where).free
+    if need > free:
+        raise UsageError(f"{n_axes} axes x {weeks} weeks would write at least {fmt_bytes(need)} into {root}, more "
+                         f"than the {fmt_bytes(free)} free there; simulate fewer axes or weeks",
+                         parameter=("n_axes", "weeks"))
+
+
 def simulate_fleet(folder, n_axes: int = 200, weeks: int = 12, *, drift_share: float = 0.1, seed: int = 1,
                    logs: bool = True, truth: bool = True, force: bool = False) -> SimulatedFleet:
     """Write a simulated fleet into ``folder`` (module docstring): ``fleet.toml``, ``gains/``, ``frf/``, ``logs/``
@@ -286,6 +306,7 @@ def simulate_fleet(folder, n_axes: int = 200, weeks: int = 12, *, drift_share: f
     root = Path(folder)
     if root.exists() and any(root.iterdir()) and not force:
         raise UsageError(f"{root} is not empty; give a new or empty folder, or pass force=True", parameter="force")
+    _check_disk(root, n_axes, weeks)
     for sub in ("gains", "frf", "logs"):
         (root / sub).mkdir(parents=True, exist_ok=True)
     axes = make_axes(n_axes, drift_share, seed)

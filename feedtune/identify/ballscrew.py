@@ -327,7 +327,8 @@ def _collect_series(
         if not found and required:
             available = sorted({ch for frf in frf_list for ch in frf.channels})
             raise DataError(f"channel {name} not found in {', '.join(f.source for f in frf_list)} "
-                            f"(available: {', '.join(available)}); pass channels=[motor-side, table-side]")
+                            f"(available: {', '.join(available)}); pass channels=[motor-side, table-side]",
+                            parameter="fit_ballscrew.channels")
         for frf in found:
             positive = frf.select(lo_hz=float(np.nextafter(0.0, 1.0)))
             if positive.freq_hz.size == 0:
@@ -443,9 +444,10 @@ def _choose_band(series: list[_Series], band_hz, n_params: int) -> tuple[tuple[f
     f_max = max(float(s.freq_hz[-1]) for s in series)
     if band_hz is None:
         if not np.isfinite(f_mode):
-            raise DataError(f"no resonance found in {', '.join(sorted({s.channel for s in series}))} "
+            sources = ", ".join(sorted({s.source for s in series}))
+            raise DataError(f"{sources}: no resonance found in {', '.join(sorted({s.channel for s in series}))} "
                             f"({f_min:g}-{f_max:g} Hz): the data must show the first axial mode, or pass "
-                            "band_hz around it")
+                            "band_hz around it", parameter="band_hz")
         band = _default_band(f_mode, f_next, f_min, f_max)
         _check_point_count(series, band, n_params)
         return band, f_mode
@@ -455,7 +457,7 @@ def _choose_band(series: list[_Series], band_hz, n_params: int) -> tuple[tuple[f
     if not np.isfinite(inside):
         seen = f"the first axial mode found in the data is at {f_mode:.4g} Hz" if np.isfinite(f_mode) \
             else "no resonance was found in the data"
-        raise DataError(f"band_hz {lo:g}-{hi:g} Hz must contain the first axial mode; {seen}")
+        raise DataError(f"band_hz {lo:g}-{hi:g} Hz must contain the first axial mode; {seen}", parameter="band_hz")
     return (lo, hi), inside
 
 

@@ -459,6 +459,9 @@ def _rigid_values(logs: list[Log], position: str, command: str, model, mass, vis
     rigid or joint fit that gave them (None when given)."""
     if model is not None and (mass is not None or viscous is not None):
         raise UsageError("give either model= or mass=/viscous=, not both")
+    if cutoff_hz is not None and (model is not None or mass is not None):
+        raise UsageError("cutoff_hz= sets the low-pass of the rigid-body or joint fit, which a given model= or mass= "
+                         "replaces; give one or the other", parameter="cutoff_hz")
     if isinstance(model, BallScrewModel):
         logs = [_in_screw_rotation(lg, position, model) for lg in logs]
         return logs, model.total_inertia, model.b1 + model.b2, (0.0, 0.0), None

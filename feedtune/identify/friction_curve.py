@@ -780,11 +780,13 @@ class PlateauSettings:
         for name in ("acc_tol", "min_speed"):
             value = getattr(self, name)
             if value is not None and not (np.isfinite(value) and value >= 0):
-                raise UsageError(f"plateau {name} must be >= 0, got {value!r}")
+                raise UsageError(f"plateau {name} must be >= 0, got {value!r}", parameter=f"PlateauSettings.{name}")
         if not (np.isfinite(self.vel_tol) and 0 < self.vel_tol < 1):
-            raise UsageError(f"plateau vel_tol must be in (0, 1), got {self.vel_tol!r}")
+            raise UsageError(f"plateau vel_tol must be in (0, 1), got {self.vel_tol!r}",
+                             parameter="PlateauSettings.vel_tol")
         if not (np.isfinite(self.min_duration) and self.min_duration > 0):
-            raise UsageError(f"plateau min_duration must be > 0 s, got {self.min_duration!r}")
+            raise UsageError(f"plateau min_duration must be > 0 s, got {self.min_duration!r}",
+                             parameter="PlateauSettings.min_duration")
         if not (np.isfinite(self.trim) and 0 <= self.trim < 0.5):
             raise UsageError(f"plateau trim must be in [0, 0.5), got {self.trim!r}")
 
@@ -855,6 +857,10 @@ def find_plateaus(t, velocity, acceleration, force, *, settings: PlateauSettings
                else settings.acc_tol)
     min_speed = (MIN_SPEED_FRACTION * float(np.max(np.abs(v))) if settings.min_speed is None
                  else settings.min_speed)
+    if settings.min_duration > t[-1] - t[0]:
+        raise DataError(f"plateau min_duration={settings.min_duration:g} s is longer than the log "
+                        f"({t[-1] - t[0]:.4g} s): no plateau can last that long",
+                        parameter="PlateauSettings.min_duration")
     n_min = max(2, int(np.ceil(settings.min_duration / dt)))
     window = max(1, n_min // DRIFT_WINDOW_DIVISOR)
     padded = np.pad(v, (window // 2, window - 1 - window // 2), mode="edge")  # centred, edges held

@@ -609,9 +609,9 @@ def fit_gantry(frfs: Sequence[Frf], xs: Sequence[float], *, L: float,
     Raises
     ------
     DataError
-        Fewer than three distinct positions, or any error of :func:`fit_gantry_frf`.
+        Any error of :func:`fit_gantry_frf`.
     UsageError
-        ``frfs`` and ``xs`` of different lengths, bad ``m_x``.
+        ``frfs`` and ``xs`` of different lengths, fewer than three distinct positions, bad ``L`` or ``m_x``.
     """
     frfs = list(frfs)
     try:
@@ -619,12 +619,14 @@ def fit_gantry(frfs: Sequence[Frf], xs: Sequence[float], *, L: float,
     except (TypeError, ValueError):
         raise UsageError(f"table positions xs must be numbers [m], got {xs!r}") from None
     if x.size != len(frfs):
-        raise UsageError(f"got {len(frfs)} FRFs but {x.size} table positions; give one position per FRF")
-    if np.unique(x).size < MIN_FIT_POSITIONS:
-        raise DataError(f"the J(x) fit needs FRFs at >= {MIN_FIT_POSITIONS} distinct table positions, "
-                        f"got {np.unique(x).size}")
+        raise UsageError(f"got {len(frfs)} FRFs but {x.size} table positions; give one position per FRF",
+                         parameter="xs")
+    L = _check_number(L, "L", "m", positive=True)  # the options first, then what they must fit
     if m_x is not None:
         m_x = _check_number(m_x, "m_x", "V/(m/s^2)", positive=True)
+    if np.unique(x).size < MIN_FIT_POSITIONS:
+        raise UsageError(f"the J(x) fit needs FRFs at >= {MIN_FIT_POSITIONS} distinct table positions xs, "
+                         f"got {np.unique(x).size}", parameter="xs")
     sides = _side_masses_per_position(mass_distribution, x)
     fits = tuple(
         fit_gantry_frf(f, x=float(xi), L=L, band_hz=band_hz, mass_distribution=side, bounds=bounds,

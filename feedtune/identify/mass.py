@@ -123,8 +123,8 @@ def fit_mass_distribution(logs: Sequence[Log], xs: Sequence[float], *, u1: str =
     logs = list(logs)
     x = _check_positions(xs, len(logs), "logs")
     if np.unique(x).size < 2:
-        raise DataError("mass distribution needs logs at >= 2 distinct table positions, "
-                        f"got {np.unique(x).size}")
+        raise UsageError("mass distribution needs logs at >= 2 distinct table positions xs, "
+                         f"got {np.unique(x).size}", parameter="xs")
     fits = []
     for log, xi in zip(logs, x, strict=True):
         theta, rms = _command_fit(log, (u1, u2), acc_ref, vel_ref)

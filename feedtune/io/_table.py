@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 import re
 from concurrent.futures import ThreadPoolExecutor
@@ -178,28 +179,53 @@ MAX_HEADER_CHARS = 100_000
 """Longest first row (header or numbers) accepted [characters]."""
 
 
-def read_bytes(path: str | os.PathLike[str]) -> bytes:
-    """Read a whole file; missing files, folders and permission problems are a :class:`DataError`."""
+def check_regular_file(path: str | os.PathLike[str]) -> os.stat_result:
+    """The ``stat`` of ``path`` after checking it is a regular file (a symbolic link to one is): a FIFO or a device
+    would block or never end; missing files, folders and permission problems are a :class:`DataError` too."""
+    import stat
+
     p = Path(path)
     try:
-        return p.read_bytes()
-    except FileNotFoundError:
-        raise DataError(f"{p}: file not found") from None
-    except IsADirectoryError:
-        raise DataError(f"{p} is a folder, not a file") from None
-    except PermissionError:
-        raise DataError(f"{p}: permission denied") from None
+        st = os.stat(p)
     except OSError as exc:
-        raise DataError(f"{p}: cannot read the file ({exc.strerror or exc})") from None
+        raise _read_error(p, exc) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise DataError(f"{p} is a folder, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        from .atomic import kind_of
+
+        raise DataError(f"{p} is {kind_of(st.st_mode)}; feedtune reads regular files")
+    return st
+
+
+def read_bytes(path: str | os.PathLike[str]) -> bytes:
+    """Read a whole file; missing files, folders, FIFOs and devices and permission problems are a
+    :class:`DataError`."""
+    p = Path(path)
+    check_regular_file(p)
+    try:
+        return p.read_bytes()
+    except OSError as exc:
+        raise _read_error(p, exc) from None
+
+
+def _read_error(p: Path, exc: OSError) -> DataError:
+    """The one-line error of a file that cannot be read: not found, a folder, permission, or the system's reason."""
+    if isinstance(exc, FileNotFoundError):
+        return DataError(f"{p}: file not found")
+    if isinstance(exc, IsADirectoryError):
+        return DataError(f"{p} is a folder, not a file")
+    if isinstance(exc, PermissionError):
+        return DataError(f"{p}: permission denied")
+    from .atomic import os_error_text
+
+    return DataError(f"{p}: cannot read the file ({os_error_text(exc)})")
 
 
 def check_readable_file(path: str | os.PathLike[str]) -> Path:
     """Return ``path`` as a Path after checking that it is an existing file (else :class:`DataError`)."""
     p = Path(path)
-    if not p.exists():
-        raise DataError(f"{p}: file not found")
-    if p.is_dir():
-        raise DataError(f"{p} is a folder, not a file")
+    check_regular_file(p)
     if not os.access(p, os.R_OK):
         raise DataError(f"{p}: permission denied")
     return p
@@ -215,7 +241,10 @@ def _is_data_line(line: str) -> bool:
 
 
 def _split_cells(line: str, sep: str) -> list[str]:
-    return [c.strip() for c in next(csv.reader([line], delimiter=sep))]
+    try:
+        return [c.strip() for c in next(csv.reader([line], delimiter=sep))]
+    except csv.Error:  # a stray carriage return, a huge or broken quoted field: the plain split, the parser names it
+        return [c.strip() for c in line.split(sep)]
 
 
 def _is_number(cell: str) -> bool:
@@ -607,6 +636,7 @@ def _read_numbers_fast(path: str | os.PathLike[str], start: int, n_columns: int,
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", pd.errors.DtypeWarning)
+            warnings.simplefilter("ignore", pd.errors.ParserWarning)
             if len(cuts) == 2:
                 parts = [part(0)]
             else:
@@ -725,7 +755,11 @@ def _parse_numbers(body: _Body, text: str | bytes, first: int, columns: list[str
         if col.dtype.kind in "biuf":
             values[:, j] = col.to_numpy(dtype=float)
             continue
-        num = pd.to_numeric(col, errors="coerce")
+        try:
+            num = pd.to_numeric(col, errors="coerce")
+            values[:, j] = num.to_numpy(dtype=float)
+        except OverflowError:  # integers beyond the float range: their text parses to inf, named below
+            num = pd.Series([_float_or_nan(v) for v in col], index=col.index)
         bad = num.isna().to_numpy() & col.notna().to_numpy()
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
@@ -748,9 +782,18 @@ def _parse_numbers(body: _Body, text: str | bytes, first: int, columns: list[str
             lines_left = np.delete(_data_line_numbers(lines.get(), first), np.flatnonzero(empty))
         i, j = (int(v) for v in np.argwhere(~finite)[0])
         line = (lines_left if dropped else _data_line_numbers(lines.get(), first))[i]
-        what = "empty or NaN cell" if np.isnan(values[i, j]) else "infinite value"
+        what = ("empty or NaN cell" if np.isnan(values[i, j]) else
+                "infinite value, or a number beyond the range of a float")
         raise DataError(f"{name}: line {line}, column {columns[j]!r}: {what} (NaN/inf are not accepted)")
     return values, dropped
+
+
+def _float_or_nan(v) -> float:
+    """A cell as a float (decimal text of any length; beyond the float range: inf), NaN when it is not a number."""
+    try:
+        return float(str(v).strip())
+    except ValueError:
+        return math.nan
 
 
 class _LazyLines:
@@ -768,20 +811,31 @@ class _LazyLines:
 
 
 def _read_frame(body: _Body, sep: str, n_columns: int, decimal: str, lines: _LazyLines, first: int, name: str):
+    import warnings
+
     import pandas as pd
 
     enc = None if body.encoding is None else ("latin-1" if body.encoding == "latin-1" else "utf-8")
     try:
-        try:
-            return pd.read_csv(body.handle(), sep=sep, header=None, names=range(n_columns), comment="#",
-                               skip_blank_lines=True, index_col=False, engine="c", decimal=decimal, encoding=enc)
-        except UnicodeDecodeError:  # a Latin-1 character beyond the sample that chose UTF-8
-            return pd.read_csv(body.handle(), sep=sep, header=None, names=range(n_columns), comment="#",
-                               skip_blank_lines=True, index_col=False, engine="c", decimal=decimal, encoding="latin-1")
+        with warnings.catch_warnings():  # a short row: pandas warns, the checks below name it
+            warnings.simplefilter("ignore", pd.errors.ParserWarning)
+            return _read_csv(body, sep, n_columns, decimal, enc)
     except pd.errors.EmptyDataError:
         raise DataError(f"{name}: no data rows below the header") from None
     except (pd.errors.ParserError, ValueError):
         raise DataError(_field_count_message(lines.get(), first, n_columns, sep, name)) from None
+
+
+def _read_csv(body: _Body, sep: str, n_columns: int, decimal: str, enc: str | None):
+    """``pandas.read_csv`` of the body (again as Latin-1 when a character beyond the encoding sample is not UTF-8)."""
+    import pandas as pd
+
+    try:
+        return pd.read_csv(body.handle(), sep=sep, header=None, names=range(n_columns), comment="#",
+                           skip_blank_lines=True, index_col=False, engine="c", decimal=decimal, encoding=enc)
+    except UnicodeDecodeError:  # a Latin-1 character beyond the sample that chose UTF-8
+        return pd.read_csv(body.handle(), sep=sep, header=None, names=range(n_columns), comment="#",
+                           skip_blank_lines=True, index_col=False, engine="c", decimal=decimal, encoding="latin-1")
 
 
 def _field_count_message(lines: list[str], first: int, n_columns: int, sep: str, name: str) -> str:

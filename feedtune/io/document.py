@@ -23,19 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataError
+from ..budget import file_size
+from ..errors import DataError, FeedtuneNote
 from ..quantity import _NONFINITE_STRINGS, is_quantity, quantity, value_of  # noqa: F401 (re-exported)
 from ._table import read_bytes
 from .atomic import atomic_outputs
+from .document_limits import check_size, check_text, check_tree, parse_json_int
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 _SCHEMA_RE = re.compile(r"^(?P<prefix>[A-Za-z0-9_.-]+)/(?P<major>\d+)(?:\.(?P<minor>\d+))?$")
-
-
-
-
-
-
 
 
 def strip_none(d: object) -> object:
@@ -47,9 +43,29 @@ def strip_none(d: object) -> object:
     return d
 
 
+DOCUMENT_KINDS = {"feedtune.model": "a model file, written by feedtune identify",
+                  "feedtune.gains": "a gains file, written by feedtune design or tune",
+                  "feedtune.mass": "a mass document, written by feedtune identify mass",
+                  "feedtune.friction_curve": "a friction curve document, written by feedtune identify friction",
+                  "feedtune.report": "a report's data"}
+"""What each document type is, in words, for messages about a file of the wrong kind."""
+
+
+_NOTED: set = set()
+"""``(file, schema)`` pairs whose newer minor version was noted already (one note per file and run)."""
+
+
+class NewerMinorVersion(FeedtuneNote):
+    """A document of a newer minor version of its schema: read, its entries this feedtune does not know ignored."""
+
+
 def require_schema(doc: Mapping[str, object], schema_prefix: str, where: str,
-                   supported_major: int = 1) -> tuple[int, int]:
+                   supported_major: int = 1, written: str | None = None) -> tuple[int, int]:
     """Check ``doc["schema"]`` is ``"<schema_prefix>/<major>[.<minor>]"`` with a major version we read.
+
+    A newer minor version (``feedtune.model/1.2`` where this feedtune writes ``feedtune.model/1.1``) only adds
+    optional entries: it is read, with a :class:`NewerMinorVersion` note. Another major version, older or newer,
+    is refused; a document of another type says what it is (:data:`DOCUMENT_KINDS`) and what is expected.
 
     Parameters
     ----------
@@ -61,25 +77,40 @@ def require_schema(doc: Mapping[str, object], schema_prefix: str, where: str,
         File name for messages.
     supported_major : int
         The major version this feedtune reads; minor versions only add optional entries.
+    written : str, optional
+        The schema this feedtune writes (``"feedtune.model/1.1"``; default ``<prefix>/<supported_major>``): a newer
+        minor version draws the note.
 
     Returns
     -------
     (major, minor) : tuple of int
     """
+    import warnings
+
     schema = doc.get("schema")
     if not isinstance(schema, str):
         expected = f"{schema_prefix}/{supported_major}"
-        raise DataError(f"{where}: no 'schema' entry; expected schema = \"{expected}\"")
+        raise DataError(f"{where}: no 'schema' entry; expected schema = \"{expected}\" "
+                        f"({DOCUMENT_KINDS.get(schema_prefix, schema_prefix)})")
     m = _SCHEMA_RE.match(schema.strip())
     if not m:
         raise DataError(f"{where}: schema {schema!r} is not of the form '{schema_prefix}/<version>'")
     if m.group("prefix") != schema_prefix:
-        raise DataError(f"{where}: this is a {m.group('prefix')} document; expected {schema_prefix}")
+        found = m.group("prefix")
+        raise DataError(f"{where}: this is {DOCUMENT_KINDS.get(found, 'a ' + found + ' document')} ({found}); "
+                        f"expected {DOCUMENT_KINDS.get(schema_prefix, schema_prefix)} ({schema_prefix})")
     major, minor = int(m.group("major")), int(m.group("minor") or 0)
     if major != supported_major:
         newer = "a newer" if major > supported_major else "an older"
         raise DataError(f"{where}: {schema} comes from {newer} feedtune; this feedtune reads "
                         f"{schema_prefix}/{supported_major}")
+    w = _SCHEMA_RE.match(written or f"{schema_prefix}/{supported_major}")
+    ours = int(w.group("minor") or 0) if w else 0
+    if minor > ours and (where, schema) not in _NOTED:
+        _NOTED.add((where, schema))
+        warnings.warn(NewerMinorVersion(f"{where}: {schema} comes from a newer feedtune (this one writes "
+                                        f"{schema_prefix}/{supported_major}.{ours}); read, its entries this "
+                                        "feedtune does not know are ignored"), stacklevel=2)
     return major, minor
 
 
@@ -282,23 +313,32 @@ def write_document(path: str | os.PathLike[str], doc: Mapping[str, object], *, f
 
 
 def loads_document(text: str, fmt: str, where: str) -> dict:
-    """Parse TOML or JSON text (``fmt`` ``"toml"`` or ``"json"``); syntax errors name the line."""
+    """Parse TOML or JSON text (``fmt`` ``"toml"`` or ``"json"``); syntax errors name the line. The limits of
+    :mod:`feedtune.io.document_limits` (size, values, nesting, numbers) are checked before and after parsing."""
+    check_text(text, fmt, where)
     if fmt == "toml":
         try:
             import tomllib
         except ModuleNotFoundError:  # Python 3.10
             import tomli as tomllib
         try:
-            return tomllib.loads(text)
+            doc = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise DataError(f"{where}: TOML syntax error: {' '.join(str(exc).split())}") from None
+        except (ValueError, RecursionError) as exc:  # what check_text does not foresee: a parser limit
+            raise DataError(f"{where}: not a readable TOML document ({' '.join(str(exc).split())[:120]})") from None
+        check_tree(doc, where)
+        return doc
     try:
-        doc = json.loads(text)
+        doc = json.loads(text, parse_int=parse_json_int)
     except json.JSONDecodeError as exc:
         raise DataError(f"{where}: JSON syntax error at line {exc.lineno}, column {exc.colno}: {exc.msg}") \
             from None
+    except (ValueError, RecursionError) as exc:
+        raise DataError(f"{where}: not a readable JSON document ({' '.join(str(exc).split())[:120]})") from None
     if not isinstance(doc, dict):
         raise DataError(f"{where}: a JSON document must be an object {{...}} at the top level")
+    check_tree(doc, where)
     return _json_restore(doc)
 
 
@@ -318,13 +358,16 @@ def read_document(path: str | os.PathLike[str]) -> dict:
     Raises
     ------
     DataError
-        Missing file, unknown extension, or a syntax error (with its line number).
+        Missing file, unknown extension, a syntax error (with its line number), or a document beyond the limits of
+        :mod:`feedtune.io.document_limits` (size, nesting, numbers).
     """
     p = Path(path)
     ext = p.suffix.lower()
     if ext not in (".toml", ".json"):
         raise DataError(f"{p}: unknown document type {ext or '(no extension)'!r}; expected .toml or .json")
+    check_size(file_size(p), str(p))  # before reading: a 10 GB file is not read to be refused
     raw = read_bytes(p)
+    check_size(len(raw), str(p))
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:

@@ -118,6 +118,11 @@ def _channel_response(channel: str, cols: dict[str, int], table: TextTable) -> n
     mags = has & {"mag", "mag_db"}
     phases = has & {"phase_deg", "phase_rad"}
     if len(mags) == 1 and len(phases) == 1 and has == mags | phases:
+        if "mag" in mags and np.any(d[:, cols["mag"]] < 0):
+            i = int(np.flatnonzero(d[:, cols["mag"]] < 0)[0])
+            raise DataError(f"{name}: line {table.line_number(i)}, column {table.columns[cols['mag']]!r}: a linear "
+                            f"magnitude of {d[i, cols['mag']]:g} (a magnitude is >= 0; in dB map it as "
+                            f"{channel}.mag_db)")
         mag = d[:, cols["mag"]] if "mag" in mags else 10.0 ** (d[:, cols["mag_db"]] / 20.0)
         ph = np.deg2rad(d[:, cols["phase_deg"]]) if "phase_deg" in phases else d[:, cols["phase_rad"]]
         return mag * np.exp(1j * ph)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..budget import ENV_VARIABLE, check_file, check_memory, fmt_bytes, memory_budget
 from ..errors import DataError
 from ..frf import Frf, normalize_quantity
 from ._table import check_readable_file
@@ -124,10 +125,14 @@ def _check_v5_elements(buf: bytes, start: int, end: int, where: str, depth: int 
             if depth:
                 raise DataError(f"{where}: corrupt MAT file (a compressed element inside another)")
             d = zlib.decompressobj()
+            limit = memory_budget()
             try:
-                inner = d.decompress(buf[body:body + nbytes])
+                inner = d.decompress(buf[body:body + nbytes], limit)
             except zlib.error as exc:
                 raise DataError(f"{where}: corrupt compressed MAT variable at byte {off} ({exc})") from None
+            if d.unconsumed_tail:  # a compression bomb, or a variable too large for the memory budget
+                raise DataError(f"{where}: the compressed MAT variable at byte {off} expands to more than the memory "
+                                f"budget of {fmt_bytes(limit)} ({ENV_VARIABLE}); not read")
             if not d.eof or d.unused_data:
                 raise DataError(f"{where}: corrupt compressed MAT variable at byte {off} (the stream does not end "
                                 "where the element does)")
@@ -148,7 +153,9 @@ def _load_v5(path: Path) -> MatContents:
     import scipy.io
     from scipy.io.matlab import MatReadError, MatReadWarning
 
+    check_file(path, 2.0, "reading")
     buf = path.read_bytes()
+    _check_declared_sizes(path)
     if len(buf) >= 128 and buf[126:128] in (b"IM", b"MI") and buf[124:126] in (b"\x00\x01", b"\x01\x00"):
         if buf[126:128] == b"IM":  # little-endian files (everything written today); others go to scipy as they are
             _check_v5_elements(buf, 128, len(buf), str(path))
@@ -261,6 +268,27 @@ def object_advice(mat: MatContents) -> str:
             f"arrays in MATLAB: {how}{extra}")
 
 
+_CLASS_BYTES = {"double": 8, "single": 4, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2, "int32": 4, "uint32": 4,
+                "int64": 8, "uint64": 8, "logical": 1, "char": 2}
+
+
+def _check_declared_sizes(path: Path) -> None:
+    """Refuse, before loading, a v5 file whose variables declare more memory than the budget (their shapes and
+    classes from scipy's ``whosmat``; a compressed variable is small on disk and large in memory)."""
+    import scipy.io
+
+    try:
+        entries = scipy.io.whosmat(str(path))
+    except Exception:  # the loader names what is wrong with the file
+        return
+    total, largest = 0.0, ("", 0.0)
+    for name, shape, cls in entries:
+        n = float(np.prod([float(k) for k in shape])) * _CLASS_BYTES.get(cls, 8) * (2 if cls == "double" else 1)
+        total += n
+        largest = max(largest, (name, n), key=lambda e: e[1])
+    check_memory(total, f"{path}: its variables ({largest[0]!r} the largest)", file=str(path))
+
+
 def _short(exc: BaseException) -> str:
     return " ".join(str(exc).split())[:120] or type(exc).__name__
 
@@ -304,11 +332,15 @@ def _h5_class(obj: object) -> str:
     return cls.decode() if isinstance(cls, bytes) else str(cls)
 
 
-def _h5_dataset(ds: object) -> np.ndarray | str | None:
-    """Decode one v7.3 dataset into MATLAB orientation; None when it is not numeric or char."""
+def _h5_dataset(ds: object, where: str = "") -> np.ndarray | str | None:
+    """Decode one v7.3 dataset into MATLAB orientation; None when it is not numeric or char. Its declared size is
+    checked against the memory budget before it is read (a dataset may declare 2e9 rows in a small file)."""
     cls = _h5_class(ds)
     if ds.attrs.get("MATLAB_empty", 0):
         return None
+    shape = tuple(int(k) for k in (ds.shape or ()))
+    check_memory(float(np.prod([float(k) for k in shape])) * ds.dtype.itemsize * 2,
+                 f"{where}: variable {ds.name.lstrip('/')!r} ({'x'.join(map(str, shape))})", file=where)
     data = ds[()]
     if not isinstance(data, np.ndarray):
         data = np.asarray(data)
@@ -343,7 +375,7 @@ def _load_v73(path: Path) -> MatContents:
                 if key.startswith("#"):
                     continue
                 try:
-                    val = _h5_dataset(obj) if isinstance(obj, h5py.Dataset) else None
+                    val = _h5_dataset(obj, str(path)) if isinstance(obj, h5py.Dataset) else None
                 except (ValueError, TypeError, OverflowError) as exc:
                     raise DataError(f"{path}: variable {key!r} cannot be decoded: {_short(exc)}") from None
                 if getattr(obj, "attrs", {}).get("MATLAB_object_decode") is not None:
@@ -377,7 +409,7 @@ def read_mat_variables(path: str | os.PathLike[str]) -> MatContents:
     p = check_readable_file(path)
     if h5py.is_hdf5(str(p)):
         return _load_v73(p)
-    return _load_v5(p)
+    return _load_v5(p)  # checks the file's size and its variables' declared sizes first
 
 
 # ------------------------------------------------------------------------------------------------ FRF read
@@ -385,8 +417,8 @@ def _frequency(mat: MatContents, freq_var: str | None) -> tuple[str, np.ndarray]
     if freq_var is None:
         found = [n for n in FREQ_NAMES if n in mat.arrays]
         if not found:
-            raise DataError(f"{mat.name}: no frequency variable ({', '.join(FREQ_NAMES)}); pass freq_var. "
-                            f"Numeric variables: {mat.available()}")
+            raise DataError(f"{mat.name}: no frequency variable ({', '.join(FREQ_NAMES)}); pass freq_var=NAME. "
+                            f"Numeric variables: {mat.available()}", parameter="read_frf.freq_var")
         freq_var = found[0]
     f = mat.vector(freq_var, "frequency variable")
     if np.iscomplexobj(f):
@@ -403,7 +435,8 @@ def _default_channels(mat: MatContents, n: int, freq_var: str) -> dict[str, str]
         found[f"{m.group(1)}/{m.group(2)}"] = var
     if not found:
         raise DataError(f"{mat.name}: no channel variables found; name complex vectors OUT_IN (e.g. x1_u) "
-                        f"or pass channels={{'x1/u': 'VAR'}}. Numeric variables: {mat.available()}")
+                        f"or pass channels={{'x1/u': 'VAR'}}. Numeric variables: {mat.available()}",
+                        parameter="read_frf.channels")
     return found
 
 

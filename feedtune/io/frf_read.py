@@ -6,19 +6,26 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
+from ..budget import check_file
 from ..errors import DataError, UsageError
 from ..frf import Frf
+from ._table import check_regular_file
 
 CSV_EXTENSIONS = (".csv", ".txt")
 MAT_EXTENSIONS = (".mat",)
 UFF_EXTENSIONS = (".uff", ".unv", ".uff58")
 XML_EXTENSIONS = (".xml",)
 FRF_EXTENSIONS = CSV_EXTENSIONS + MAT_EXTENSIONS + UFF_EXTENSIONS + XML_EXTENSIONS
+READ_BYTES_PER_BYTE = {"csv": 4.0, "mat": 3.0, "uff": 40.0, "xml": 10.0}
+"""Memory a reader takes per byte of the file, an upper bound measured on large files (CSV: the text and the numbers
+parsed from it, 2.7 bytes measured on a 1-million-line FRF; MAT: the file and its arrays; UFF: pyuff's Python lists,
+about 30; XML: the element tree of an auto-servo-tuning export); checked against the memory budget before the file is
+read (:func:`feedtune.budget.check_file`)."""
 
 
 def frf_format(path: str | os.PathLike[str], *, writing: bool = False) -> str:
     """``"csv"``, ``"mat"``, ``"uff"`` or ``"xml"`` (auto-servo-tuning export, read only) from the extension; other
-    extensions are a :class:`DataError`, ``.xml`` when ``writing`` a :class:`UsageError`."""
+    extensions are a :class:`DataError` (when ``writing``, and ``.xml`` then, a :class:`UsageError`)."""
     ext = Path(path).suffix.lower()
     if writing and ext in XML_EXTENSIONS:
         raise UsageError(f"{path}: feedtune reads auto-servo-tuning XML exports but writes FRFs as .csv, .mat or "
@@ -31,8 +38,9 @@ def frf_format(path: str | os.PathLike[str], *, writing: bool = False) -> str:
         return "uff"
     if ext in XML_EXTENSIONS:
         return "xml"
-    raise DataError(f"{path}: unknown FRF file type {ext or '(no extension)'!r}; "
-                    f"accepted: {', '.join(FRF_EXTENSIONS)}")
+    error = UsageError if writing else DataError  # an output's name is the command line's, an input's the file's
+    accepted = CSV_EXTENSIONS + MAT_EXTENSIONS + UFF_EXTENSIONS if writing else FRF_EXTENSIONS
+    raise error(f"{path}: unknown FRF file type {ext or '(no extension)'!r}; accepted: {', '.join(accepted)}")
 
 
 def read_frf(
@@ -89,22 +97,28 @@ def read_frf(
     csv_only = {"columns": columns, "skip_rows": skip_rows, "auto_channel": auto_channel}
     if fmt == "csv":
         _reject_options(path, "CSV", freq_var=freq_var, channels=channels, coherence=coherence)
+    elif fmt == "mat":
+        _reject_options(path, "MATLAB", **csv_only)
+    elif fmt == "uff":
+        _reject_options(path, "UFF", freq_var=freq_var, coherence=coherence, **csv_only)
+    else:
+        _reject_options(path, "auto-servo-tuning XML", freq_var=freq_var, channels=channels, coherence=coherence,
+                        **csv_only)
+    check_regular_file(path)  # a FIFO or a device would block or never end
+    check_file(path, READ_BYTES_PER_BYTE[fmt], "reading the FRF")
+    if fmt == "csv":
         from .frf_csv import read_frf_csv
 
         frf = read_frf_csv(path, quantity=quantity, columns=columns, skip_rows=skip_rows, auto_channel=auto_channel)
     elif fmt == "mat":
-        _reject_options(path, "MATLAB", **csv_only)
         from .frf_mat import read_frf_mat
 
         frf = read_frf_mat(path, freq_var=freq_var, channels=channels, coherence=coherence, quantity=quantity)
     elif fmt == "uff":
-        _reject_options(path, "UFF", freq_var=freq_var, coherence=coherence, **csv_only)
         from .frf_uff import read_frf_uff
 
         frf = read_frf_uff(path, channels=channels, quantity=quantity)
     else:
-        _reject_options(path, "auto-servo-tuning XML", freq_var=freq_var, channels=channels, coherence=coherence,
-                        **csv_only)
         from .servo_tuning_xml import read_servo_tuning_frf
 
         frf = read_servo_tuning_frf(path, quantity=quantity)
@@ -129,7 +143,9 @@ def scale_channels(frf: Frf, scale: Mapping[str, float]) -> Frf:
     Raises
     ------
     UsageError
-        A channel the FRF does not have, or a factor that is not a finite non-zero number.
+        A factor that is not a finite non-zero number.
+    DataError
+        A channel the FRF does not have.
     """
     import math
     from dataclasses import replace
@@ -145,8 +161,8 @@ def scale_channels(frf: Frf, scale: Mapping[str, float]) -> Frf:
             raise UsageError(f"scale {channel}={factor}: FACTOR must be finite and non-zero",
                              parameter="read_frf.scale")
         if not frf.has(channel):
-            raise UsageError(f"scale {channel}={factor}: {frf.source} has no channel {channel!r}; "
-                             f"channels: {', '.join(frf.channels)}", parameter="read_frf.scale")
+            raise DataError(f"scale {channel}={factor}: {frf.source} has no channel {channel!r}; "
+                            f"channels: {', '.join(frf.channels)}", parameter="read_frf.scale")
         i, j = frf.index(channel)
         response[i, j] *= value
     record = "; ".join(f"{ch}={float(v):g}" for ch, v in scale.items())

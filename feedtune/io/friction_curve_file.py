@@ -202,7 +202,7 @@ def check_friction_curve(doc: Mapping, where: str) -> dict:
     for key, table in (doc.get("std") or {}).items():
         for name, q in (table or {}).items():
             if name in units:
-                value_of(q, units[name], f"{where}: std.{key}.{name}")
+                value_of(q, units[name], f"{where}: std.{key}.{name}", finite=False)
     if "mass" in doc:
         value_of(doc["mass"], f"{c}/({v}^2)", f"{where}: mass")
     points = doc.get("points")

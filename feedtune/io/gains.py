@@ -25,6 +25,7 @@ from ..control.prefilter import correction_sos, gain_vector
 from ..errors import DataError, UsageError
 from ..models.ballscrew import PARAM_NAMES, BallScrewModel, param_units
 from ..models.friction import COULOMB_VISCOUS, FrictionLaw, StribeckFriction
+from .document import require_schema
 
 SCHEMA = "feedtune.gains/1.1"
 """The gains documents' schema: major 1 (readers refuse another major), minor 1 (the ``[certificate]`` with its
@@ -176,11 +177,7 @@ def check_gains_header(doc, where: str) -> None:
     """Schema (version 1) and machine kind of a ball-screw gains document; DataError otherwise."""
     if not isinstance(doc, dict):
         raise DataError(f"{where}: a gains document must be a table/object at the top level")
-    schema = str(doc.get("schema", ""))
-    if not schema.startswith("feedtune.gains/"):
-        raise DataError(f"{where}: not a feedtune gains file (schema {schema!r}, expected {SCHEMA!r})")
-    if schema.split("/", 1)[1].split(".")[0] != "1":
-        raise DataError(f"{where}: gains schema {schema!r} is not supported; this feedtune reads version 1")
+    require_schema(doc, "feedtune.gains", where, written=SCHEMA)
     if doc.get("kind") != "ballscrew":
         raise DataError(f"{where}: gains file is for machine kind {doc.get('kind')!r}, expected 'ballscrew'")
     from .gains_schema import validate_gains

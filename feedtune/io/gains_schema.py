@@ -13,7 +13,7 @@ Resource bounds: :data:`MAX_FS_HZ`, :data:`MAX_DELAY_SAMPLES`, :data:`MAX_PREVIE
 
 :func:`validate_gains` raises :class:`~feedtune.errors.DataError` with one line naming the file and key, the same
 for ``export c``, ``analyze``, ``simulate`` and the runtimes (they all reach a gains document through
-:func:`feedtune.machines.registry.machine_of_gains`).
+:func:`feedtune.machines.gains.gains_format_of`).
 """
 
 from __future__ import annotations

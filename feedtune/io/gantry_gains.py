@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DataError
-from .document import strip_none
+from .document import require_schema, strip_none
 from .gains import SCHEMA, q, read_sampling, value
 
 GANTRY_KIND = "gantry"
@@ -118,11 +118,7 @@ def check_header(doc, where: str, kinds: tuple[str, ...] = (GANTRY_KIND, AXIS_KI
     """Schema version 1 and a machine kind in ``kinds``; returns the kind. DataError otherwise."""
     if not isinstance(doc, dict):
         raise DataError(f"{where}: a gains document must be a table/object at the top level")
-    schema = str(doc.get("schema", ""))
-    if not schema.startswith("feedtune.gains/"):
-        raise DataError(f"{where}: not a feedtune gains file (schema {schema!r}, expected {SCHEMA!r})")
-    if schema.split("/", 1)[1].split(".")[0] != "1":
-        raise DataError(f"{where}: gains schema {schema!r} is not supported; this feedtune reads version 1")
+    require_schema(doc, "feedtune.gains", where, written=SCHEMA)
     kind = doc.get("kind")
     if kind not in kinds:
         raise DataError(f"{where}: gains file is for machine kind {kind!r}, expected {' or '.join(map(repr, kinds))}")

@@ -39,8 +39,10 @@ def gantry_model_from_doc(doc: Mapping, where: str = "gantry model document") ->
     """
     if not isinstance(doc, Mapping):
         raise DataError(f"{where}: a gantry model must be a mapping with schema, kind and params")
-    if doc.get("schema") != MODEL_SCHEMA:
-        raise DataError(f"{where}: schema must be {MODEL_SCHEMA!r}, got {doc.get('schema')!r}")
+    from .document import require_schema
+
+    require_schema(doc, MODEL_SCHEMA.split("/")[0], where, int(MODEL_SCHEMA.split("/")[1].split(".")[0]),
+                   written=MODEL_SCHEMA)
     if doc.get("kind") != MODEL_KIND:
         raise DataError(f"{where}: kind must be {MODEL_KIND!r}, got {doc.get('kind')!r}")
     params = doc.get("params")

@@ -91,8 +91,15 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
     columns: dict[str, np.ndarray] = {}
     units: dict[str, str] = {}
     aliases: dict[str, str] = {}
+    refused: dict[str, str] = {}
+    index = {h: j for j, h in enumerate(table.columns)}
     for j, header in enumerate(table.columns):
         sig, unit = _split_header(header)
+        base, dot, k = header.rpartition(".")
+        if dot and k.isdigit() and base in index:  # the same header twice (made unique by the parser): which one?
+            first = _split_header(base)[0]
+            refused[first] = (f"is the name of two columns, col{index[base]} and col{j} ({base!r}); which one is "
+                              f"{first}?")
         if sig in columns:
             sig = header
         columns[sig] = table.column_vector(j)
@@ -139,7 +146,7 @@ def read_log_csv_raw(source: str | os.PathLike[str] | IO[str], *, skip_rows: int
         raise DataError(f"{name}: no column {spec!r}; columns: {', '.join(columns)}")
 
     return RawLog(name, columns, units, meta, resolve, aliases={k: v for k, v in aliases.items() if k != v},
-                  ticks=ticks)
+                  ticks=ticks, refused=refused)
 
 
 def _stopped_counter(columns: dict[str, np.ndarray]) -> tuple[str, int] | None:

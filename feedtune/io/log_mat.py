@@ -58,10 +58,14 @@ def read_log_mat_raw(path: str | os.PathLike[str]) -> RawLog:
     mat = read_mat_variables(path)
     columns: dict[str, np.ndarray] = {}
     meta: dict[str, object] = {"format": f"mat v{mat.version}"}
+    refused: dict[str, str] = {}
     for var, a in mat.arrays.items():
         if a.size == 1:
             meta[var] = _scalar(a)
-        elif _is_vector(a) and not np.iscomplexobj(a):
+        elif _is_vector(a) and np.iscomplexobj(a):
+            columns[var] = np.zeros(a.size)  # a placeholder: refused where it would become a signal
+            refused[var] = "is complex; a log signal must be real (store its real part or magnitude)"
+        elif _is_vector(a):
             columns[var] = a.reshape(-1).astype(float)
     meta.update({("origin" if k == "source" else k): v for k, v in mat.strings.items()})
     if mat.skipped:
@@ -70,4 +74,4 @@ def read_log_mat_raw(path: str | os.PathLike[str]) -> RawLog:
         if not any(a.size >= 2 and not np.iscomplexobj(a) for a in mat.arrays.values()):
             raise DataError(object_advice(mat))
         meta["matlab_objects"] = ", ".join(f"{v} ({c})" for v, c in mat.objects)
-    return RawLog(mat.name, columns, {}, meta, _resolver(mat))
+    return RawLog(mat.name, columns, {}, meta, _resolver(mat), refused=refused)

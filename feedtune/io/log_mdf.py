@@ -62,17 +62,20 @@ def _numeric_signals(path: str, channels: Sequence[str] | None) -> list:
     _probe(path)
     hook = sys.unraisablehook
     sys.unraisablehook = lambda _: None  # a half-built asammdf object's __del__ prints a traceback on corrupt files
+    failed = None
     try:
         with asammdf.MDF(path) as mdf:
             found = [s for s in mdf.iter_channels(skip_master=True)
                      if s.samples.ndim == 1 and s.samples.dtype.kind in "biuf" and s.samples.size >= 2]
     except DataError:
         raise
-    except Exception as exc:
-        raise DataError(f"{path}: not a readable MDF file ({' '.join(str(exc).split())[:100]})") from None
+    except Exception as exc:  # the message is kept, the exception (whose traceback holds the object) let go
+        failed = f"{path}: not a readable MDF file ({' '.join(str(exc).split())[:100]})"
     finally:
-        gc.collect()
+        gc.collect()  # the half-built object dies here, while its __del__ is silenced
         sys.unraisablehook = hook
+    if failed is not None:
+        raise DataError(failed)
     unique: dict[str, object] = {}
     for s in found:
         unique.setdefault(s.name, s)

@@ -11,11 +11,16 @@ applies the user's options the same way for every format:
 3. ``scale`` ``{NAME: factor}`` multiplies signals (or the time, key ``t`` or the time column's name);
 4. ``units`` ``{NAME: unit}`` sets units.
 
-A time column whose unit nobody states (no unit in the file, no ``scale`` of the time) must give a plausible
-sample rate, between :data:`FS_MIN_HZ` (10 Hz) and :data:`FS_MAX_HZ` (10 MHz); otherwise it is a
-:class:`~feedtune.errors.DataError` naming the file, the column and the fix (:func:`check_time_base`). Integer time
-stamps with a step of 100..10000 look like microseconds (``--scale t=1e-6``), with a step of 1..10 like
-milliseconds (``--scale t=1e-3``).
+A time column must give a plausible sample rate for a servo log, between :data:`FS_MIN_HZ` (100 Hz: slower logs
+cannot resolve the mechanics) and :data:`FS_MAX_HZ` (10 MHz), whether the file states its unit, the user scales it
+or nobody says (then a time in ms read as s, 1000x too slow, is caught); otherwise it is a
+:class:`~feedtune.errors.DataError` naming the file, the column and the fix (:func:`check_time_base`); a uniform
+time base given with ``fs`` is taken as it is. Integer time stamps with a step of 100..10000 look like microseconds
+(``--scale t=1e-6``), with a step of 1..10 like milliseconds (``--scale t=1e-3``).
+
+A log is refused rather than read wrong: a column name given twice (which one is the signal?), a complex signal, a
+vector a little shorter or longer than the time base (a channel cut short) are errors naming the column, unless a
+``mapping`` says which column to use.
 """
 
 from __future__ import annotations
@@ -35,11 +40,17 @@ CSV_EXTENSIONS = (".csv", ".txt")
 MAT_EXTENSIONS = (".mat",)
 MDF_EXTENSIONS = (".mf4", ".mdf")
 LOG_EXTENSIONS = CSV_EXTENSIONS + MAT_EXTENSIONS + MDF_EXTENSIONS
+READ_BYTES_PER_BYTE = {"csv": 2.0, "mat": 3.0, "mdf": 4.0}
+"""Memory a reader takes per byte of the file, an upper bound (CSV: the numbers parsed straight from the file, 1.1
+bytes measured on a 300 MB log; MAT, MDF: the file and its arrays); checked against the memory budget before the file
+is read (:func:`feedtune.budget.check_file`)."""
 TIME_NAMES = ("t", "time")
 TIME_UNIT_FACTORS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "ns": 1e-9}
-#: Plausible sample rates [Hz] of a time base read from a time column; outside them the unit is wrong.
-FS_MIN_HZ = 10.0
+#: Plausible sample rates [Hz] of a servo log's time base; outside them the unit is wrong (or the log is no servo log).
+FS_MIN_HZ = 100.0
 FS_MAX_HZ = 10e6
+#: A vector whose length is within this fraction of the time base's is a channel cut short, not metadata [-].
+NEAR_LENGTH = 0.1
 #: Integer time-stamp steps (inclusive ranges) that look like a unit other than seconds, and the factor to seconds.
 INTEGER_STEP_UNITS = (((100.0, 10000.0), "microseconds", "1e-6"), ((1.0, 10.0), "milliseconds", "1e-3"))
 
@@ -102,6 +113,8 @@ class RawLog:
         Other spellings of column names (``"x2 [m]"``, ``"col3"`` -> ``"x2"``).
     time : ndarray, optional
         A time vector [s] the format carries itself (MDF); then no time column is looked for.
+    refused : dict of str to str
+        Columns that cannot become signals as they are, with the reason (see the attribute).
     """
 
     name: str
@@ -112,13 +125,19 @@ class RawLog:
     time: np.ndarray | None = None
     aliases: dict[str, str] = field(default_factory=dict)
     ticks: TickTimeBase | None = None
+    refused: dict[str, str] = field(default_factory=dict)
+    """Columns that cannot be signals as they are, with the reason (``{"u": "is complex"}``, ``{"e2": "names two
+    columns: 7 (e2 [m]) and 9 (e2 [m])"}``): an error when they would become signals (a ``mapping`` naming another
+    column is the way out)."""
 
     def canonical(self, spec: str) -> str:
         """The column name a spec refers to (``spec`` itself when it is not an alias)."""
         return self.aliases.get(spec, spec)
 
     def get(self, spec: str, what: str = "column") -> np.ndarray:
-        """A column by name (or by the format's ``resolve``); unknown names list what exists."""
+        """A column by name (or by the format's ``resolve``); unknown names list what exists, refused ones say why."""
+        if spec in self.refused:
+            raise DataError(f"{self.name}: {what} {spec!r} {self.refused[spec]}")
         if spec in self.columns:
             return self.columns[spec]
         if self.resolve is not None:
@@ -153,8 +172,8 @@ def _common_length(raw: RawLog, signals: Mapping[str, np.ndarray]) -> int:
 
 
 def _check_fs(fs: float | None) -> None:
-    if fs is not None and not (np.isfinite(fs) and fs > 0):
-        raise UsageError(f"fs must be a sample rate > 0 Hz, got {fs}")
+    if fs is not None and not (np.isfinite(fs) and 0 < fs <= FS_MAX_HZ):
+        raise UsageError(f"fs must be a sample rate in (0, {FS_MAX_HZ:g}] Hz, got {fs}", parameter="fs")
 
 
 def _time_spec(raw: RawLog, mapping: dict[str, str], time: str | None, fs: float | None
@@ -194,26 +213,26 @@ def assemble_log(
     """Apply time base, renaming, scaling and units to a :class:`RawLog` (see module docstring)."""
     _check_fs(fs)
     if time is not None and fs is not None:
-        raise UsageError("give either a time column (time=) or a sample rate (fs=), not both")
+        raise UsageError("give either time= (a time column) or fs= (a sample rate), not both", parameter=("time", "fs"))
     mapping = dict(mapping or {})
     time_spec, t_name = _time_spec(raw, mapping, time, fs)
     mapped = {new: np.asarray(raw.get(col, "column for " + repr(new)), dtype=float).reshape(-1)
               for new, col in mapping.items()}
     sig_units = {new: raw.units.get(raw.canonical(col), "") for new, col in mapping.items()}
-    unstated = False  # a time column without a unit in the file
+    stated = None  # the unit the file gives the time column
     time_base = None  # how a time column in ticks was converted
     if raw.time is not None:
         t = np.asarray(raw.time, dtype=float)
     elif fs is None and time_spec is not None:
         t = np.asarray(raw.get(time_spec, "time column"), dtype=float).reshape(-1)
-        unstated = not raw.units.get(raw.canonical(time_spec), "").strip()
+        stated = raw.units.get(raw.canonical(time_spec), "").strip() or None
         ticks = raw.ticks if raw.ticks is not None and raw.canonical(time_spec) == raw.ticks.column else None
         if ticks is not None and not any(k in (scale or {}) for k in ("t", t_name, ticks.column)):
             if ticks.rate_hz is None:
                 raise DataError(f"{raw.name}: column {ticks.column!r} counts ticks and {ticks.problem()}; give the "
                                 f"seconds per tick with scale={t_name}=S (e.g. 0.000125 for 8 kHz)",
                                 parameter="read_log.scale")
-            t, unstated = t / ticks.rate_hz, False
+            t, stated = t / ticks.rate_hz, f"ticks at {ticks.rate_hz:g} Hz"
             time_base = ticks.record("t")
         else:
             t = t * _time_factor(raw, time_spec)
@@ -231,14 +250,24 @@ def assemble_log(
                             f"the time base has {n}")
         signals[new] = x
     for name, x in raw.columns.items():
-        if name not in used and name not in signals and x.size == n:
+        if name in used or name in signals:
+            continue
+        if x.size == n and name in raw.refused:
+            raise DataError(f"{raw.name}: column {name!r} {raw.refused[name]}; name the columns to use with mapping=",
+                            parameter="read_log.mapping")
+        if x.size == n:
             signals[name] = np.asarray(x, dtype=float)
             sig_units[name] = raw.units.get(name, "")
+        elif n > 10 and abs(x.size - n) <= NEAR_LENGTH * n:
+            raise DataError(f"{raw.name}: column {name!r} has {x.size} samples, the time base has {n}: a channel cut "
+                            "short; give channels of equal length (or name the columns to use with mapping=)",
+                            parameter="read_log.mapping")
     t_read = t
     t = _apply_scale(raw.name, signals, t, t_name, scale)  # a new array when the time was scaled
     for name, unit in (units or {}).items():
         if name not in signals:
-            raise UsageError(f"units: no signal {name!r}; signals: {', '.join(signals) or 'none'}")
+            raise DataError(f"units: no signal {name!r} in {raw.name}; signals: {', '.join(signals) or 'none'}",
+                            parameter="read_log.units")
         sig_units[name] = str(unit)
     meta = dict(raw.meta)
     meta["source"] = raw.name
@@ -249,18 +278,20 @@ def assemble_log(
         bad = int(np.flatnonzero(np.diff(t) <= 0)[0])
         raise DataError(f"{raw.name}: time column {t_name!r} is not strictly increasing at sample {bad + 1}; "
                         "pass fs= to use a uniform time base", parameter="fs")
-    if unstated and t is t_read:  # neither the file nor the user said what unit the time stamps are in
-        check_time_base(raw.name, raw.canonical(time_spec), t_name, t)
+    if fs is None and time_spec is not None:  # a time base read from a column (in the file's unit, or scaled)
+        check_time_base(raw.name, raw.canonical(time_spec), t_name, t,
+                        stated=stated if t is t_read else "the scale given")
     return Log(t, signals, sig_units, meta)
 
 
-def check_time_base(name: str, column: str, t_name: str, t: np.ndarray) -> None:
-    """DataError when time stamps taken as seconds give an implausible sample rate, naming the file, the column
-    and the fix.
+def check_time_base(name: str, column: str, t_name: str, t: np.ndarray, stated: str | None = None) -> None:
+    """DataError when time stamps in seconds give an implausible sample rate, naming the file, the column and the
+    fix.
 
-    Applied to a time column whose unit neither the file (a header unit) nor the user (``scale`` of the time)
-    states: integer stamps with a step of 100..10000 are diagnosed as microseconds, with a step of 1..10 as
-    milliseconds (:data:`INTEGER_STEP_UNITS`); other implausible rates get the general fix.
+    Integer stamps of a column whose unit nobody states, with a step of 100..10000, are diagnosed as microseconds,
+    with a step of 1..10 as milliseconds (:data:`INTEGER_STEP_UNITS`); a column whose unit the file states (or that
+    the user scaled) and other implausible rates get the general fix (a time in ms under a header that says s gives
+    a rate 1000 times too low).
 
     Parameters
     ----------
@@ -271,7 +302,10 @@ def check_time_base(name: str, column: str, t_name: str, t: np.ndarray) -> None:
     t_name : str
         The name the user calls the time by (the ``scale`` key to suggest).
     t : ndarray
-        The time stamps as read, taken as seconds, strictly increasing.
+        The time stamps [s], strictly increasing.
+    stated : str, optional
+        Where the seconds come from: the unit the file gives the column (``"s"``, ``"ms"``), or ``"the scale
+        given"``; None when nobody states it.
 
     Raises
     ------
@@ -285,15 +319,17 @@ def check_time_base(name: str, column: str, t_name: str, t: np.ndarray) -> None:
         return
     where = f"{name}: column {column!r}"
     step = float(np.median(np.diff(t)))
-    if np.all(t == np.round(t)) and step == round(step):
+    if stated is None and np.all(t == np.round(t)) and step == round(step):
         for (lo, hi), unit, factor in INTEGER_STEP_UNITS:
             if lo <= step <= hi:
                 raise DataError(f"{where}: time stamps are integers with a step of {step:g} (fs would be {fs:.3g} "
                                 f"Hz); if they are {unit}, pass scale={t_name}={factor}", parameter="read_log.scale")
     side = f"below {FS_MIN_HZ:g} Hz" if fs < FS_MIN_HZ else f"above {FS_MAX_HZ / 1e6:g} MHz"
-    raise DataError(f"{where}: the time stamps give fs = {fs:.3g} Hz, {side}; check the time unit: convert it to "
-                    f"seconds with scale={t_name}=FACTOR (1e-3 for ms, 1e-6 for us), or give the sample rate "
-                    "with fs=", parameter=("read_log.scale", "fs"))
+    unit = "" if stated is None else (f" (with {stated})" if stated == "the scale given" else
+                                      f" (in {stated}, the unit the file states)")
+    raise DataError(f"{where}: the time stamps{unit} give fs = {fs:.3g} Hz, {side}, implausible for a servo log; "
+                    f"check the time unit: convert it to seconds with scale={t_name}=FACTOR (1e-3 for ms, 1e-6 for "
+                    "us), or give the sample rate with fs=", parameter=("read_log.scale", "fs"))
 
 
 def _apply_scale(name: str, signals: dict[str, np.ndarray], t: np.ndarray, t_name: str,
@@ -309,10 +345,12 @@ def _apply_scale(name: str, signals: dict[str, np.ndarray], t: np.ndarray, t_nam
             signals[key] = signals[key] * k
         elif key in ("t", t_name):
             if k < 0:
-                raise UsageError(f"scale for the time column {key!r} must be > 0, got {factor!r}")
+                raise UsageError(f"scale for the time column {key!r} must be > 0, got {factor!r}",
+                                 parameter="read_log.scale")
             t = t * k
         else:
-            raise UsageError(f"scale: no signal {key!r} in {name}; signals: {', '.join(signals) or 'none'}")
+            raise DataError(f"scale: no signal {key!r} in {name}; signals: {', '.join(signals) or 'none'}",
+                            parameter="read_log.scale")
     return t
 
 
@@ -372,10 +410,15 @@ def read_log(
         Invalid option value.
     """
     fmt = log_format(path)
+    from ..budget import check_file
+    from ._table import check_regular_file
+
+    check_regular_file(path)  # a FIFO or a device would block or never end
+    check_file(path, READ_BYTES_PER_BYTE[fmt], "reading the log")
     if skip_rows and fmt != "csv":
-        raise UsageError(f"{path}: skip_rows applies to CSV files only")
+        raise UsageError(f"{path}: skip_rows applies to CSV files only", parameter="read_log.skip_rows")
     if time is not None and fmt == "mdf":
-        raise UsageError(f"{path}: MDF4 files carry their own time base; time= does not apply")
+        raise UsageError(f"{path}: MDF4 files carry their own time base; time= does not apply", parameter="time")
     if fmt == "csv":
         from .log_csv import read_log_csv_raw
 

@@ -26,13 +26,17 @@ import numpy as np
 
 from ..errors import DataError
 from ..spectrum import PsdSpectrum
-from ._table import parse_table, read_table_data
+from ._table import check_regular_file, parse_table, read_table_data
 
 KLIPPER_COLUMNS = ("freq", "psd_x", "psd_y", "psd_z", "psd_xyz")
 """The first five columns of Klipper's PSD files."""
 KLIPPER_UNIT = "(mm/s^2)^2/Hz"
 """Unit of Klipper's PSDs: the accelerometer's acceleration in mm/s^2."""
 _SHAPER_COLUMN_RE = re.compile(r"^([A-Za-z0-9_]+)\((\d+(?:\.\d*)?)\)$")
+
+READ_BYTES_PER_BYTE = 4.0
+"""Memory reading a PSD file takes per byte of it, an upper bound (its bytes and the table parsed from them, as the
+FRF CSV reader's); checked against the memory budget before the file is read (:func:`feedtune.budget.check_file`)."""
 
 
 def is_klipper_header(cells) -> bool:
@@ -79,6 +83,10 @@ def read_psd_csv(path: str | os.PathLike[str]) -> PsdSpectrum:
     DataError
         Not such a file (the header is named), a column that is not ``TYPE(FREQ)``, malformed numbers.
     """
+    from ..budget import check_file
+
+    check_regular_file(path)  # a FIFO or a device would block or never end
+    check_file(path, READ_BYTES_PER_BYTE, "reading the PSD")
     text, name = read_table_data(path, "CSV")
     table = parse_table(text, name, require_header=True)
     if not is_klipper_header(table.columns):

@@ -56,8 +56,13 @@ def plain_gains(section: Mapping | None) -> dict:
 def gains_format_of(doc: Mapping, where: str) -> GainsFormat:
     """The gains format of a document, by its ``kind``, once the document is valid
     (:func:`feedtune.io.gains_schema.validate_gains`: one-line DataError naming the file and key)."""
+    from ..io.gains import SCHEMA
     from ..io.gains_schema import validate_gains
 
+    if isinstance(doc, Mapping):  # a model or another document is named as such, before its kind is looked at
+        from ..io.document import require_schema
+
+        require_schema(doc, "feedtune.gains", where, written=SCHEMA)
     kind = doc.get("kind") if isinstance(doc, Mapping) else None
     entry = gains_format(kind, where)
     validate_gains(doc, where)

@@ -233,7 +233,7 @@ class StribeckFriction:
 def check_law(law: str) -> str:
     """``law`` if it is one of :data:`LAWS`, else a :class:`UsageError` listing them."""
     if law not in LAWS:
-        raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
+        raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}", parameter="law")
     return law
 
 
@@ -261,7 +261,7 @@ def law_shape(law: str, x) -> np.ndarray:
         return np.exp(-(x**2))
     if law == COULOMB_VISCOUS:
         return np.zeros_like(x)
-    raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
+    raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}", parameter="law")
 
 
 def law_shape_slope(law: str, x) -> np.ndarray:
@@ -275,7 +275,7 @@ def law_shape_slope(law: str, x) -> np.ndarray:
         return -2.0 * x * np.exp(-(x**2))
     if law == COULOMB_VISCOUS:
         return np.zeros_like(x)
-    raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}")
+    raise UsageError(f"friction law must be one of {', '.join(LAWS)}, got {law!r}", parameter="law")
 
 
 def level_shape(dc: float, ds: float) -> str:

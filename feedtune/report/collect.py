@@ -415,7 +415,8 @@ def collect_inputs(paths: Iterable[str | os.PathLike[str]], *, log_kinds: Mappin
     given = [(Path(name), frf) for name, frf in frfs]
     files = expand_paths(paths)
     if not files and not given:
-        raise DataError("no input files: give model, gains, FRF or log files, or a folder holding them")
+        shown = ", ".join(str(p) for p in paths) or "none"
+        raise DataError(f"no input files in {shown}: give model, gains, FRF or log files, or a folder holding them")
     unmatched = set(log_kinds) - {p.name for p, _ in files} - {str(p) for p, _ in files}
     if unmatched:
         raise UsageError(f"log_kinds {sorted(unmatched)[0]}: no such file among the inputs", parameter="log_kinds")

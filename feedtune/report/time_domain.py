@@ -281,7 +281,7 @@ def tracking_error_series(log, options: Mapping | None = None) -> np.ndarray:
         return log[options["error"]]
     if "e2" in log:
         return log["e2"]
-    reference = options.get("reference", "x_ref")
+    reference = options.get("reference") or "x_ref"
     position = log_analysis.pick_position(log, options.get("position"), {reference})
     return log[reference] - log[position]
 

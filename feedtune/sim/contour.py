@@ -288,7 +288,7 @@ def contour_path(shape: str, size_m: float, **kwargs) -> ContourPath:
     """:func:`circle` or :func:`diamond` by name (``shape`` in :data:`SHAPES`)."""
     name = str(shape).strip().lower()
     if name not in SHAPES:
-        raise UsageError(f"contour shape must be one of {', '.join(SHAPES)}, got {shape!r}")
+        raise UsageError(f"contour shape must be one of {', '.join(SHAPES)}, got {shape!r}", parameter="shape")
     return (circle if name == "circle" else diamond)(size_m, **kwargs)
 
 

@@ -22,8 +22,9 @@ def period_samples(fs: float, period_s: float) -> int:
     :data:`MIN_PERIOD_SAMPLES` (or beyond 2^31)."""
     n = period_s * fs
     if not (MIN_PERIOD_SAMPLES <= n <= 2**31):
-        raise UsageError(f"the excitation period {period_s:g} s holds {n:.3g} samples at fs = {fs:g} Hz; give a "
-                         f"period of {MIN_PERIOD_SAMPLES / fs:g} s or more (and at most {2**31 / fs:g} s)")
+        raise UsageError(f"the excitation period period_s={period_s:g} s holds {n:.3g} samples at fs = {fs:g} Hz; "
+                         f"give a period of {MIN_PERIOD_SAMPLES / fs:g} s or more (and at most {2**31 / fs:g} s)",
+                         parameter="period_s")
     return round(n)
 
 

@@ -61,6 +61,8 @@ __all__ = [
 
 MAX_SAMPLES = 10_000_000
 """Largest number of samples a generated trajectory may have."""
+TYPICAL_FS_HZ = 20_000.0
+"""A drive's sample rate [Hz], to tell a trajectory too long from a sample rate too high in messages."""
 
 _DERIVATIVE_NAMES = ("position", "velocity", "acceleration", "jerk", "snap")
 _UNITS = {"position": "m", "velocity": "m/s", "acceleration": "m/s^2", "jerk": "m/s^3", "snap": "m/s^4"}
@@ -517,18 +519,33 @@ class _PiecesBuilder:
         return _Pieces(starts, coefs, tuple(self.moves), self.end_of_motion, self.cursor)
 
 
-def _sample_count(pieces: _Pieces, fs: float) -> int:
-    """Samples needed to cover the whole trajectory, with the last one at or after the end of the motion."""
+def _sample_count(pieces: _Pieces, fs: float, dwells: Mapping[str, float] | None = None,
+                  move: str = "distance", v_max: float = math.nan) -> int:
+    """Samples needed to cover the whole trajectory, with the last one at or after the end of the motion; a
+    UsageError naming what makes it too long (the longest of the ``dwells`` ``{parameter: seconds}`` or the motion,
+    ``move``, at ``v_max``, and ``fs``) when that exceeds :data:`MAX_SAMPLES` or the memory budget."""
+    from ..budget import check_memory
+
     span = max(pieces.total, pieces.end_of_motion)
     estimate = span * fs
     if not math.isfinite(estimate) or estimate + 2 > MAX_SAMPLES:
+        dwells = {k: v for k, v in (dwells or {}).items() if v > 0}
+        moving = span - sum(dwells.values())
+        longest = max(dwells, key=dwells.get) if dwells else None
+        if span * TYPICAL_FS_HZ + 2 <= MAX_SAMPLES:  # a plausible duration: the sample rate is the culprit
+            raise UsageError(f"fs={fs:g} Hz gives a trajectory of {span:g} s more than the {MAX_SAMPLES:,} samples "
+                             f"allowed; servo drives sample at {TYPICAL_FS_HZ / 1e3:g} kHz or so", parameter="fs")
+        why = (f"{longest}={dwells[longest]:g} s" if longest is not None and dwells[longest] >= moving
+               else f"{moving:g} s of motion over {move} at v_max={v_max:g} m/s")
         raise UsageError(
-            f"the trajectory lasts {span:g} s, which at fs={fs:g} Hz needs more than the "
-            f"{MAX_SAMPLES:,} samples allowed; lower fs, raise the limits or shorten the move"
+            f"the trajectory lasts {span:g} s, mostly {why}, which at fs={fs:g} Hz needs more than the "
+            f"{MAX_SAMPLES:,} samples allowed; shorten it or lower fs",
+            parameter=(*dwells, move, "v_max", "fs"),
         )
     n = max(2, math.ceil(estimate) + 1)
     while (n - 1) / fs < pieces.end_of_motion:
         n += 1
+    check_memory(n * 8.0 * 6, f"a trajectory of {span:g} s at fs={fs:g} Hz ({n:,} samples)", parameter="fs")
     return n
 
 
@@ -546,8 +563,9 @@ def _evaluate(pieces: _Pieces, t: np.ndarray) -> tuple[np.ndarray, ...]:
     return pos, vel, acc, jerk, s.copy()
 
 
-def _sample(pieces: _Pieces, fs: float, lims: tuple[float, ...]) -> Trajectory:
-    n = _sample_count(pieces, fs)
+def _sample(pieces: _Pieces, fs: float, lims: tuple[float, ...], dwells: Mapping[str, float] | None = None,
+            move: str = "distance") -> Trajectory:
+    n = _sample_count(pieces, fs, dwells, move, lims[0])
     t = np.arange(n, dtype=float) / fs
     pos, vel, acc, jerk, snap = _evaluate(pieces, t)
     return Trajectory(t, pos, vel, acc, jerk, snap, _limits_dict(lims), fs, pieces.moves)
@@ -620,7 +638,7 @@ def point_to_point(
     builder.dwell(before)
     builder.move(origin + dist, lims)
     builder.dwell(after)
-    return _sample(builder.build(), rate, lims)
+    return _sample(builder.build(), rate, lims, {"dwell_before": before, "dwell_after": after})
 
 
 def multi_segment(
@@ -673,7 +691,7 @@ def multi_segment(
         if k > 0:
             builder.dwell(pause)
         builder.move(target, lims)
-    return _sample(builder.build(), rate, lims)
+    return _sample(builder.build(), rate, lims, {"dwell": pause * (len(points) - 2)}, "waypoints")
 
 
 def _check_waypoints(waypoints: Sequence[float]) -> list[float]:

@@ -12,10 +12,13 @@ from ..errors import UsageError
 
 # ------------------------------------------------------------------------------------------ files
 def check_out_dir(out_dir: str | os.PathLike[str], force: bool) -> Path:
-    """Refuse an existing non-empty output folder without ``force``; the parent must exist."""
+    """Refuse an existing non-empty output folder without ``force``; the parent must exist and take new entries
+    (errors naming ENAMETOOLONG, EACCES, EROFS as :func:`feedtune.io.atomic.ensure_writable`)."""
     from ..errors import DataError
+    from ..io.atomic import check_folder_writable, check_name
 
     d = Path(out_dir)
+    check_name(d)
     if d.exists() and not d.is_dir():
         raise DataError(f"{d} is a file; out_dir must be a folder", parameter="out_dir")
     if d.is_dir() and any(d.iterdir()) and not force:
@@ -23,6 +26,7 @@ def check_out_dir(out_dir: str | os.PathLike[str], force: bool) -> Path:
     parent = d.parent if str(d.parent) else Path(".")
     if not parent.is_dir():
         raise DataError(f"{d}: folder {parent} does not exist")
+    check_folder_writable(d, parent)
     return d
 
 

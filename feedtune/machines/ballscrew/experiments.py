@@ -27,7 +27,7 @@ from ...errors import DataError, UsageError
 from ...log import Log
 from ...sim.excitations import chirp_period, drift_reference, multisine, prbs_period, ropesnap_force
 from ...sim.experiment import ExperimentResult
-from ...sim.params import positive_setting
+from ...sim.params import excitation_settings, positive_setting, release_settings
 from .twin import BallScrewTwin, TwinRun
 
 EXCITATIONS = ("multisine", "chirp", "prbs")
@@ -62,6 +62,9 @@ class ClosedLoopResponse:
 # ------------------------------------------------------------------------------------------ helpers
 def _trip_meta(run: TwinRun) -> dict:
     return {"trip": run.trip_message} if run.tripped else {}
+
+MAX_DRIFT_M_PER_S = 10.0
+"""Fastest table speed of an FRF run with drift [m/s]: feed drives move at most a few m/s."""
 
 
 def _base_signals(twin: BallScrewTwin, run: TwinRun) -> tuple[dict, dict]:
@@ -154,13 +157,11 @@ def measure_frf(
     kind = str(excitation).strip().lower()
     if kind not in EXCITATIONS:
         raise UsageError(f"excitation must be one of {', '.join(EXCITATIONS)}, got {excitation!r}")
-    rms = positive_setting(rms, "excitation rms", "V")
-    f_lo, f_hi, period_s = (positive_setting(f_lo, "f_lo", "Hz"), positive_setting(f_hi, "f_hi", "Hz"),
-                            positive_setting(period_s, "period", "s"))
-    if not f_lo < f_hi < twin.fs / 2:
-        raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
-    if isinstance(periods, bool) or int(periods) != periods or periods < 2:
-        raise UsageError(f"periods must be an integer >= 2 (the first is dropped), got {periods!r}")
+    rms, f_lo, f_hi, period_s, periods = excitation_settings(twin.fs, rms, f_lo, f_hi, period_s, periods,
+                                                             u_max=twin.params.u_max)
+    if not (isinstance(drift_m_per_s, (int, float)) and abs(drift_m_per_s) <= MAX_DRIFT_M_PER_S):
+        raise UsageError(f"drift_m_per_s={drift_m_per_s!r}: a feed drive's table moves at most "
+                         f"{MAX_DRIFT_M_PER_S:g} m/s", parameter="drift_m_per_s")
     rng = np.random.default_rng(seed)
     if kind == "multisine":
         one = multisine(twin.fs, period_s, f_lo, f_hi, rms, rng)
@@ -291,10 +292,8 @@ def run_ropesnap(twin: BallScrewTwin, runtime, *, force: float = 0.5, t_release:
     """
     from ...analysis.metrics import ropesnap_metrics
 
-    force = positive_setting(force, "rope force", "V")
-    t_release = positive_setting(t_release, "t_release", "s")
-    after_s = positive_setting(after_s, "time after the release", "s")
-    record_before_s = positive_setting(record_before_s, "time recorded before the release", "s")
+    force, t_release, after_s, record_before_s = release_settings(twin.fs, force, t_release, after_s,
+                                                                  record_before_s, hold_limit=twin.params.u_max)
     if t_release < 0.1 + record_before_s:
         raise UsageError(f"t_release must leave the 0.1 s preload ramp and {record_before_s:g} s of record before "
                          f"it, i.e. be >= {0.1 + record_before_s:g} s, got {t_release:g}")

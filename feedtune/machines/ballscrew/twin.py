@@ -39,6 +39,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
+from ...budget import TWIN_SAMPLE_BYTES, check_memory
 from ...errors import DataError, UsageError
 from ...lti import zoh
 from ...models.ballscrew import THESIS_TABLE_3_1, BallScrewModel
@@ -650,6 +651,7 @@ class BallScrewTwin:
         n = x_ref.size if n_samples is None else int(n_samples)
         if not 2 <= n <= x_ref.size:
             raise UsageError(f"n_samples must be between 2 and len(x_ref) = {x_ref.size}, got {n_samples!r}")
+        check_memory(n * TWIN_SAMPLE_BYTES, f"a twin run of {n / self.fs:g} s at {self.fs:g} Hz ({n:,} samples)")
         d2 = np.zeros(n) if d2 is None else sample_vector(d2, "d2", n)
         r = np.zeros(n) if excitation is None else sample_vector(excitation, "excitation", n)
         lead = runtime.preview_samples

@@ -33,7 +33,7 @@ from ...identify.frf_estimate import estimate_frf_2x2
 from ...log import Log
 from ...sim.excitations import multisine, ropesnap_force
 from ...sim.experiment import ExperimentResult
-from ...sim.params import positive_setting
+from ...sim.params import excitation_settings, release_settings
 from .twin import GantryRun, GantryTwin
 
 ROPE_FORCE_N = 57.0
@@ -271,12 +271,18 @@ def _machine_signals(run: GantryRun) -> tuple[dict, dict]:
 
 
 def _position(twin: GantryTwin, x, name: str = "table position x") -> float:
+    parameter = name.split()[-1]
     if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-        raise UsageError(f"{name} must be a finite number [m], got {x!r}")
+        raise UsageError(f"{name} must be a finite number [m], got {x!r}", parameter=parameter)
     p = twin.params
     if not p.x_min_m <= x <= p.x_max_m:
-        raise UsageError(f"{name} = {x:g} m is outside the table travel {p.x_min_m:g} .. {p.x_max_m:g} m")
+        raise UsageError(f"{name} = {x:g} m is outside the table travel {p.x_min_m:g} .. {p.x_max_m:g} m",
+                         parameter=parameter)
     return float(x)
+
+
+MAX_CYCLES = 1000
+"""Most back-and-forth cycles of a mass run (one takes about a second; the fit needs one)."""
 
 
 
@@ -301,14 +307,7 @@ def measure_gantry_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_
     """
 
     x = _position(twin, x)
-    rms = positive_setting(rms, "excitation rms", "V")
-    f_lo, f_hi, period_s = (positive_setting(f_lo, "f_lo", "Hz"), positive_setting(f_hi, "f_hi", "Hz"),
-                            positive_setting(period_s, "period", "s"))
-    if not f_lo < f_hi < twin.fs / 2:
-        raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
-    if isinstance(periods, bool) or int(periods) != periods or periods < 2:
-        raise UsageError(f"periods must be an integer >= 2 (the first of each block is dropped), got {periods!r}")
-    periods = int(periods)
+    rms, f_lo, f_hi, period_s, periods = excitation_settings(twin.fs, rms, f_lo, f_hi, period_s, periods, blocks=2)
     gantry, axis = _controllers(twin, controller, axis)
     one = multisine(twin.fs, period_s, f_lo, f_hi, rms, np.random.default_rng(seed))
     block = np.tile(one, periods)
@@ -362,14 +361,7 @@ def measure_axis_frf(twin: GantryTwin, x: float = 0.0, *, rms: float = 0.5, f_lo
     from ...identify.frf_estimate import estimate_frf
 
     x = _position(twin, x)
-    rms = positive_setting(rms, "excitation rms", "V")
-    f_lo, f_hi, period_s = (positive_setting(f_lo, "f_lo", "Hz"), positive_setting(f_hi, "f_hi", "Hz"),
-                            positive_setting(period_s, "period", "s"))
-    if not f_lo < f_hi < twin.fs / 2:
-        raise UsageError(f"the excited band needs f_lo < f_hi < fs/2 = {twin.fs / 2:g} Hz, got {f_lo:g}..{f_hi:g}")
-    if isinstance(periods, bool) or int(periods) != periods or periods < 2:
-        raise UsageError(f"periods must be an integer >= 2 (the first is dropped), got {periods!r}")
-    periods = int(periods)
+    rms, f_lo, f_hi, period_s, periods = excitation_settings(twin.fs, rms, f_lo, f_hi, period_s, periods)
     gantry, axis = _controllers(twin, controller, axis)
     one = multisine(twin.fs, period_s, f_lo, f_hi, rms, np.random.default_rng(seed))
     rx = np.tile(one, periods)
@@ -404,8 +396,8 @@ def back_and_forth(start: float, *, distance: float, v_max: float, a_max: float,
     """Trajectory ``start -> start + distance -> start`` repeated ``cycles`` times, ``dwell`` [s] at each end."""
     from ...sim.trajectory import multi_segment
 
-    if isinstance(cycles, bool) or int(cycles) != cycles or cycles < 1:
-        raise UsageError(f"cycles must be an integer >= 1, got {cycles!r}")
+    if isinstance(cycles, bool) or int(cycles) != cycles or not 1 <= cycles <= MAX_CYCLES:
+        raise UsageError(f"cycles must be an integer in 1 .. {MAX_CYCLES}, got {cycles!r}", parameter="cycles")
     points = [start] + [start + distance, start] * int(cycles)
     points = [start, *points, start]  # dwell at rest before the first and after the last move
     return multi_segment(points, v_max=v_max, a_max=a_max, j_max=j_max, fs=fs, dwell=dwell)
@@ -525,13 +517,10 @@ def run_gantry_ropesnap(twin: GantryTwin, gantry, axis=None, *, force_n: float =
     from ...analysis.metrics import ropesnap_metrics
 
     x = _position(twin, x)
-    force_n = positive_setting(force_n, "rope force", "N")
-    t_release = positive_setting(t_release, "t_release", "s")
-    after_s = positive_setting(after_s, "time after the release", "s")
-    record_before_s = positive_setting(record_before_s, "time recorded before the release", "s")
-    if t_release < 0.1 + record_before_s:
-        raise UsageError(f"t_release must leave the 0.1 s preload ramp and {record_before_s:g} s of record before "
-                         f"it, i.e. be >= {0.1 + record_before_s:g} s, got {t_release:g}")
+    u_max = getattr(twin.params, "u_max", None)
+    force_n, t_release, after_s, record_before_s = release_settings(
+        twin.fs, force_n, t_release, after_s, record_before_s, unit="N", force_parameter="force_n",
+        hold_limit=None if not u_max else 2 * u_max / twin.params.rope_v_per_n)
     force_v = force_n * twin.params.rope_v_per_n
     gantry, axis = _controllers(twin, gantry, axis)
     f = ropesnap_force(twin.fs, t_release + after_s, force_v, t_release)
@@ -562,7 +551,8 @@ def tracking_trajectory(name_or_move, fs: float, *, dwell_before: float = 0.05, 
 
     if isinstance(name_or_move, str):
         if name_or_move not in THESIS_TRACKING:
-            raise UsageError(f"tracking test must be one of {', '.join(THESIS_TRACKING)}, got {name_or_move!r}")
+            raise UsageError(f"tracking test must be one of {', '.join(THESIS_TRACKING)}, got {name_or_move!r}",
+                             parameter="test")
         mv = THESIS_TRACKING[name_or_move]
     else:
         mv = dict(name_or_move)

@@ -62,6 +62,7 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from ...budget import TWIN_SAMPLE_BYTES, check_memory
 from ...errors import DataError, UsageError
 from ...lti import zoh
 from ...models.gantry import PARAM_NAMES as MODEL_PARAMS
@@ -959,6 +960,7 @@ class GantryTwin:
         n = y_ref.size if n_samples is None else int(n_samples)
         if not 2 <= n <= y_ref.size:
             raise UsageError(f"n_samples must be between 2 and len(y_ref) = {y_ref.size}, got {n_samples!r}")
+        check_memory(n * TWIN_SAMPLE_BYTES, f"a twin run of {n / self.fs:g} s at {self.fs:g} Hz ({n:,} samples)")
         x_ref = np.full(y_ref.size, float(x_ref)) if np.ndim(x_ref) == 0 else sample_vector(x_ref, "x_ref", y_ref.size)
         if not np.all((x_ref >= self.params.x_min_m) & (x_ref <= self.params.x_max_m)):
             raise UsageError(f"x_ref leaves the table travel {self.params.x_min_m:g} .. {self.params.x_max_m:g} m")

@@ -1,0 +1,139 @@
+"""Checks every command gets before its own code runs (:func:`install`): its number options finite, its output
+files writable.
+
+* **Numbers.** A ``nan``, ``inf`` or ``1e400`` given to any option that takes a number (one value or several) is a
+  usage error naming the option, whatever the option means: no feedtune option takes a non-finite value.
+* **Options that need another** (:data:`REQUIRES`: ``--friction-band`` without ``--friction``) are usage errors.
+* **Outputs.** Every output option (``--out``, ``--frf-out``, ``--curve-out``; a ``FILE``, or a ``DIR`` or
+  ``FOLDER`` for the demo's and a simulated fleet's folder) is checked before the work starts (:func:`check_outputs`):
+  an existing file without ``--force``, a missing or read-only folder, a name too long for the file system, and with
+  ``--force`` a device or FIFO, are refused at once, not after a two-minute search. A ``.toml`` document is written
+  with its ``.json`` twin: both are checked. Outputs a command derives from others (``simulate frf``'s
+  ``OUT_frf.csv``) are checked by the command with :func:`check_outputs`. The writers check again when they publish
+  (atomically and exclusively, :mod:`feedtune.io.atomic`), so a file another process creates meanwhile is not
+  replaced either.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+OUTPUT_PARAMETERS = ("out", "frf_out", "curve_out")
+"""Parameter names of output options (their metavar says ``FILE`` or ``DIR``)."""
+
+REQUIRES = {"friction_band": "friction"}
+"""Options that mean something only with another: ``{parameter: the parameter it needs}``."""
+
+DOCUMENT_COMMANDS = ("identify ", "design ", "tune", "prefilter")
+"""Commands whose ``--out`` (and ``--curve-out``) is a document: ``.toml`` (with its ``.json`` twin) or ``.json``."""
+
+
+def document_outputs(path: str | os.PathLike[str]) -> list[Path]:
+    """The files writing a document to ``path`` creates: ``x.toml`` and its JSON twin ``x.json``, else ``path``."""
+    p = Path(path)
+    return [p, p.with_suffix(".json")] if p.suffix.lower() == ".toml" else [p]
+
+
+def check_outputs(force: bool, *paths: str | os.PathLike[str] | None, folder: bool = False) -> None:
+    """Refuse, before any work, outputs that cannot be written (see the module docstring); None entries are skipped.
+
+    Parameters
+    ----------
+    force : bool
+        ``--force``: existing regular files may be replaced.
+    *paths : path-like or None
+        The output files (a ``.toml`` with its ``.json`` twin) or, with ``folder``, output folders.
+    folder : bool
+        The paths are folders written whole (:func:`feedtune.workflows.files.check_out_dir`).
+    """
+    from ..io.atomic import ensure_writable
+
+    for path in paths:
+        if path is None:
+            continue
+        if folder:
+            from ..workflows.files import check_out_dir
+
+            check_out_dir(path, force)
+            continue
+        for p in document_outputs(path):
+            ensure_writable(p, force)
+
+
+def _labels(callback) -> dict[str, tuple[str, str | None]]:
+    """``{parameter: (option name, metavar)}`` of a command's typer options."""
+    import typer.models
+
+    out = {}
+    for p in inspect.signature(callback).parameters.values():
+        info = p.default
+        if isinstance(info, typer.models.ParameterInfo):
+            decls = [d for d in (getattr(info, "param_decls", None) or ()) if str(d).startswith("--")]
+            out[p.name] = (decls[0] if decls else "--" + p.name.replace("_", "-"), getattr(info, "metavar", None))
+    return out
+
+
+def _numbers(value) -> Iterable[float]:
+    if isinstance(value, bool):
+        return ()
+    if isinstance(value, float):
+        return (value,)
+    if isinstance(value, (list, tuple)):
+        return tuple(v for v in value if isinstance(v, float))
+    return ()
+
+
+def check_numbers(kwargs: dict, labels: dict[str, tuple[str, str | None]]) -> None:
+    """UsageError naming the first option whose number is NaN or infinite (``1e400`` parses to inf)."""
+    from ..errors import UsageError
+
+    for name, value in kwargs.items():
+        for v in _numbers(value):
+            if not math.isfinite(v):
+                option = labels.get(name, ("--" + name.replace("_", "-"), None))[0]
+                raise UsageError(f"{option} expects a finite number, got {v!r}")
+
+
+def guarded(callback, path: str = ""):
+    """``callback`` (the command ``path``) with the checks of the module docstring run first."""
+    if getattr(callback, "_feedtune_guarded", False):
+        return callback
+    labels = _labels(callback)
+    documents = path.startswith(DOCUMENT_COMMANDS)
+
+    def option(name: str) -> str:
+        return labels.get(name, ("--" + name.replace("_", "-"), None))[0]
+
+    @functools.wraps(callback)
+    def command(*args, **kwargs):
+        from ..errors import UsageError
+
+        check_numbers(kwargs, labels)
+        for name, needed in REQUIRES.items():
+            if kwargs.get(name) is not None and name in labels and kwargs.get(needed) is None:
+                raise UsageError(f"{option(name)} needs {option(needed)}")
+        force = bool(kwargs.get("force", False))
+        for name in OUTPUT_PARAMETERS:
+            value = kwargs.get(name)
+            if isinstance(value, (str, os.PathLike)):
+                if documents and Path(value).suffix.lower() not in (".toml", ".json"):
+                    raise UsageError(f"{option(name)} {value}: documents are written as .toml (with a .json twin) "
+                                     "or .json")
+                check_outputs(force, value, folder=labels.get(name, ("", None))[1] in ("DIR", "FOLDER"))
+        return callback(*args, **kwargs)
+
+    command._feedtune_guarded = True
+    return command
+
+
+def install(app) -> None:
+    """Put :func:`guarded` around every command of the Typer app ``app`` and its sub-apps (idempotent)."""
+    from .help_text import iter_commands
+
+    for path, info in iter_commands(app):
+        info.callback = guarded(info.callback, path)
