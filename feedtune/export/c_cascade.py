@@ -16,12 +16,13 @@ from __future__ import annotations
 import math
 
 from .c_common import CFilter, COptions, banner, filter_step_function, filter_type, limit_lines, output_line
+from .c_text import comment_text
 
 
 def cascade_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str:
     """The header of a cascade gains document executed by ``rt`` (a ``CascadeRuntime``)."""
     prefix, P, R, num = opts.prefix, opts.P, opts.real, opts.num
-    unit, pos = rt.command_unit, rt.position_unit
+    unit, pos = comment_text(rt.command_unit), comment_text(rt.position_unit)  # the file's text, comment-safe
     out_unit = opts.output_unit(unit)
     load = rt.load_encoder
     tn = "no integral action" if math.isinf(rt.tn_s) else f"Tn = {rt.tn_s * 1e3:.6g} ms"
