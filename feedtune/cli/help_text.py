@@ -48,6 +48,10 @@ MACHINES = ("ballscrew", "gantry")
 """``demo MACHINE``: the registered machines (:func:`feedtune.machines.machine_names`)."""
 LPF_ORDERS = ("1", "2")
 """``--lpf-order``: first or second order."""
+SHAPER_TYPES = ("zv", "mzv", "zvd", "ei", "2hump_ei", "3hump_ei")
+"""``--shaper``: :data:`feedtune.control.shapers.SHAPER_TYPES`."""
+SHAPER_AXES = ("x", "y", "z")
+"""``design shaper --axis``: :data:`feedtune.io.shaper_file.AXES`."""
 
 
 def choice(values: Sequence[str], metavar: str | None = None) -> dict:
@@ -100,6 +104,11 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "design gantry": (_GANTRY_MODEL, _GANTRY_MIMO),
     "design pid": (_GANTRY_MODEL, _GANTRY_MIMO,
                    "feedtune design pid gantry.toml --match mimo.toml --out pid.toml"),
+    "design shaper": (_BS_MODEL, f"feedtune design ppi model.toml \\\n    {_BS_FILTERS} \\\n"
+                                 "    --frf examples/ballscrew_frf.csv --out ppi.toml",
+                      "feedtune design shaper ppi.toml --frf examples/ballscrew_frf_m70.csv \\\n"
+                      "    --frf examples/ballscrew_frf_m100.csv \\\n"
+                      "    --frf examples/ballscrew_frf_m130.csv --out ppi_shaped.toml"),
     "tune": (_BS_MODEL, "feedtune tune mcppc model.toml --frf examples/ballscrew_frf_m70.csv \\\n"
                         "    --frf examples/ballscrew_frf_m100.csv \\\n"
                         "    --frf examples/ballscrew_frf_m130.csv --out mcppc_family.toml"),

@@ -17,7 +17,9 @@ from . import (
     demo_cmd,
     design_cmd,
     design_gantry_cmd,
+    design_shaper_cmd,
     export_cmd,
+    export_targets_cmd,
     fleet_cmd,
     frf_cmd,
     help_text,
@@ -69,6 +71,10 @@ identify_cmd.app.command("resonances")(identify_resonances_cmd.resonances)
 design_cmd.app.command("loopshape")(design_gantry_cmd.loopshape)
 design_cmd.app.command("gantry")(design_gantry_cmd.gantry)
 design_cmd.app.command("pid")(design_gantry_cmd.pid)
+design_cmd.app.command("shaper")(design_shaper_cmd.shaper)
+export_cmd.app.command("klipper")(export_targets_cmd.klipper)
+export_cmd.app.command("marlin")(export_targets_cmd.marlin)
+export_cmd.app.command("linuxcnc")(export_targets_cmd.linuxcnc)
 simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
 
 app.add_typer(identify_cmd.app, name="identify")
