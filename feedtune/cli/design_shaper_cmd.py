@@ -268,7 +268,7 @@ def _from_gains(gains: Path, frf, kinds, max_vibration: float, accel: float, twi
 
         overrides = parse_params(param)
         cands = shaper_candidates(design.choice)
-        f_mode = design.modes[0].freq_hz
+        f_mode = design.model_mode.freq_hz
         tables = {}
         for label, model in (("twin", False), ("model", True)):
             rows = compare_on_twin(doc, where, cands, f_mode, move=twin_move, model=model, overrides=overrides, x=x,
@@ -276,7 +276,8 @@ def _from_gains(gains: Path, frf, kinds, max_vibration: float, accel: float, twi
             tables[label] = [r.to_dict() for r in rows]
             if not as_json:
                 title = ("on the twin" if label == "twin" else "on the twin of the file's design model (identified "
-                         "model alone)")
+                         "model alone" + ("" if design.model_mode.source == "model" else
+                                          f"; it has no mode near {f_mode:.1f} Hz, found on the FRFs only") + ")")
                 _print_twin(rows, f"{title}: ringing at {f_mode:.1f} Hz after the move (band-passed RMS of the "
                                   "load), added delay, largest error against the commanded and the shaped "
                                   "reference:")

@@ -57,6 +57,11 @@ class ShaperDesign:
     source: str
 
     @property
+    def model_mode(self) -> TrackingMode:
+        """The shaped mode as found on the design model (the first one when the model case has none)."""
+        return next((m for m in self.modes if m.source == "model"), self.modes[0])
+
+    @property
     def shaper(self):
         """The chosen :class:`~feedtune.control.shapers.InputShaper`."""
         return self.choice.chosen.shaper
