@@ -49,7 +49,7 @@ def _move(text: str | None):
     from ..workflows.shaper_twin import Move
 
     if text is None:
-        return Move()
+        return None  # the gains kind's default (workflows.shaper_twin.default_move)
     try:
         d, v, a, j = (float(p) for p in text.split(","))
     except ValueError:
@@ -123,7 +123,8 @@ def shaper(
                                                     "twin of the file's model; print ringing, delay, errors."),
     move: str = typer.Option(None, "--move", metavar="D,V,A,J",
                              help="The --twin move: distance [m], v, a, jerk limits [m/s, m/s^2, m/s^3] (default "
-                                  "0.002,0.05,2,1e6: its jerk excites the mode)."),
+                                  "0.002,0.05,20,1e6 for a ball screw or axis: its 2.5 ms of acceleration excite the "
+                                  "mode; 0.004,0.05,2,1e6 for a gantry, within its drives' 10 V)."),
     x: float = typer.Option(0.0, "--x", metavar="M", help="Table position of a gantry's --twin move [m]."),
     param: list[str] = typer.Option(None, "--param", "-p", metavar="NAME=VALUE",
                                     help="Twin parameter of --twin (repeatable), as feedtune simulate."),
@@ -170,6 +171,8 @@ def shaper(
     if fs is not None and mode is None:
         raise UsageError("--fs goes with --mode (a gains file carries its own sample rate)")
     twin_move = _move(move) if twin else None
+    if move is not None and not twin:
+        raise UsageError("--move goes with --twin")
     if out is not None:
         ensure_writable(out, force)
     result: dict = {}
@@ -191,8 +194,8 @@ def shaper(
             warn(f"no shaper type keeps every mode within {100 * max_vibration:g} % residual vibration; the least "
                  "vibration was chosen")
     else:
-        new_doc = _from_gains(gains, frf, shaper_types, max_vibration, accel, twin_move, x, param, result, as_json,
-                              (frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit))
+        new_doc = _from_gains(gains, frf, shaper_types, max_vibration, accel, twin, twin_move, x, param, result,
+                              as_json, (frf_map, frf_skip_rows, frf_scale, frf_channel, frf_input_unit))
     if out is not None:
         write_document(out, new_doc, force=force)
         result["out"] = str(out)
@@ -235,8 +238,8 @@ def _from_psd(psd: Path, column: str, kinds, axis: str, result: dict, as_json: b
                                                "vibrations": best.vibrations, "smoothing_m": best.smoothing_m})
 
 
-def _from_gains(gains: Path, frf, kinds, max_vibration: float, accel: float, twin_move, x: float, param, result: dict,
-                as_json: bool, frf_args) -> dict:
+def _from_gains(gains: Path, frf, kinds, max_vibration: float, accel: float, twin: bool, twin_move, x: float,
+                param, result: dict, as_json: bool, frf_args) -> dict:
     """The shaper of a gains file's modes (and the twin comparison); the gains document with its ``[shaper]``."""
     from ..io import read_document
     from ..io.shaper_file import with_shaper
@@ -263,9 +266,10 @@ def _from_gains(gains: Path, frf, kinds, max_vibration: float, accel: float, twi
     if not design.choice.meets_target:
         warn(f"{where}: no shaper type keeps every mode within {100 * max_vibration:g} % residual vibration; the "
              "least vibration was chosen")
-    if twin_move is not None:
-        from ..workflows.shaper_twin import compare_on_twin, shaper_candidates
+    if twin:
+        from ..workflows.shaper_twin import compare_on_twin, default_move, shaper_candidates
 
+        twin_move = twin_move or default_move(doc.get("kind"))
         overrides = parse_params(param)
         cands = shaper_candidates(design.choice)
         f_mode = design.model_mode.freq_hz
