@@ -121,6 +121,14 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "analyze ropesnap": ("feedtune analyze ropesnap examples/ballscrew_ropesnap.csv",),
     "export c": (_BS_MODEL, _BS_MCPPC,
                  "feedtune export c mcppc.toml --u-max 10 --anti-windup clamp --out mcppc.h"),
+    "export klipper": ("feedtune design shaper \\\n    --psd examples/vendor/klipper_calibration_data_x.csv \\\n"
+                       "    --out x_shaper.toml",
+                       "feedtune export klipper x_shaper.toml --out input_shaper.cfg"),
+    "export marlin": ("feedtune design shaper --mode 52.6,0.1 --shaper zv --out x_shaper.toml",
+                      "feedtune export marlin x_shaper.toml --out shaper.gcode"),
+    "export linuxcnc": (_BS_MODEL, _BS_MCPPC,
+                        "feedtune export linuxcnc mcppc.toml --u-max 10 --name ft_x \\\n"
+                        "    --out ft_x.c"),
     "report": (_BS_MODEL, "feedtune report model.toml examples/ballscrew_frf.csv \\\n"
                           "    examples/ballscrew_track.csv examples/ballscrew_ropesnap.csv \\\n"
                           "    --out report.html"),
