@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from c_compile import compile_c, compiler
+from c_compile import DRIVERS, compiler, run_header
 from cli_run import run
 from hal_stub import write_stub
 
@@ -37,29 +37,7 @@ from feedtune.models.gantry import THESIS_GANTRY
 KLIPPER = "klipper_voron24_resonances"
 CALIBRATION = "calibration_data_x_20230306_225431.csv"
 
-BALLSCREW_MAIN = r"""
-#include <stdio.h>
-#include "gains.h"
-int main(void) {
-    ft_state s; ft_init(&s);
-    double r, x1, x2;
-    while (scanf("%lf %lf %lf", &r, &x1, &x2) == 3) printf("%.17g\n", ft_step(&s, r, x1, x2));
-    return 0;
-}
-"""
-GANTRY_MAIN = r"""
-#include <stdio.h>
-#include "gains.h"
-int main(void) {
-    ft_state s; ft_init(&s);
-    double r, y1, y2, x, u[2];
-    while (scanf("%lf %lf %lf %lf", &r, &y1, &y2, &x) == 4) {
-        ft_step(&s, r, y1, y2, x, u);
-        printf("%.17g %.17g\n", u[0], u[1]);
-    }
-    return 0;
-}
-"""
+BALLSCREW_MAIN, GANTRY_MAIN = DRIVERS["ballscrew"], DRIVERS["gantry"]
 
 
 def _cc() -> str:
@@ -92,20 +70,11 @@ def _run(exe: Path, rows: np.ndarray, args: list[str] = ()) -> str:
     return subprocess.run([str(exe), *args], input=text, capture_output=True, text=True, check=True).stdout
 
 
-def _build(cc: str, folder: Path, header: str, main: str) -> Path:
-    folder.mkdir(exist_ok=True)
-    (folder / "gains.h").write_text(header)
-    (folder / "main.c").write_text(main)
-    compile_c(cc, folder / "main.c", folder / "run")
-    return folder / "run"
-
-
 # ------------------------------------------------------------------------------------------ C header vs runtime
 def test_the_ball_screw_header_with_a_shaper_runs_the_runtimes_law(tmp_path):
     doc = ppi_with_shaper()
-    exe = _build(_cc(), tmp_path, c_header(doc), BALLSCREW_MAIN)
     r, x1, x2 = _signals(3000, 20000.0)
-    u_c = np.array(_run(exe, np.column_stack([r, x1, x2])).split(), float)
+    u_c = run_header(_cc(), tmp_path, c_header(doc), BALLSCREW_MAIN, np.column_stack([r, x1, x2]))[:, 0]
     rt = GainsRuntime.from_document(doc)
     u_py = np.array([rt.step(a, b, c) for a, b, c in zip(r, x1, x2, strict=True)])
     np.testing.assert_allclose(u_c, u_py, rtol=0, atol=1e-12 * np.abs(u_py).max())
@@ -116,10 +85,9 @@ def test_the_ball_screw_header_with_a_shaper_runs_the_runtimes_law(tmp_path):
 
 def test_the_gantry_header_with_a_shaper_runs_the_runtimes_law(tmp_path):
     doc = gantry_with_shaper()
-    exe = _build(_cc(), tmp_path, c_header(doc), GANTRY_MAIN)
     y, y1, y2 = _signals(2000, 15000.0, seed=6)
     x = np.linspace(-0.3, 0.3, y.size)
-    u_c = np.array(_run(exe, np.column_stack([y, y1, y2, x])).split(), float).reshape(-1, 2)
+    u_c = run_header(_cc(), tmp_path, c_header(doc), GANTRY_MAIN, np.column_stack([y, y1, y2, x]))
     rt = GantryRuntime.from_document(doc)
     u_py = np.array([rt.step(*row) for row in zip(y, y1, y2, x, strict=True)])
     np.testing.assert_allclose(u_c, u_py, rtol=0, atol=1e-12 * np.abs(u_py).max())
@@ -171,8 +139,7 @@ def test_the_linuxcnc_component_steps_as_ft_step_sample_by_sample(tmp_path, kind
     assert lines[0] == "function ft_test.0.update"
     got = np.array([line.split() for line in lines[1:]], float)
     assert np.all(got[:, -1] == 0)  # no rate fault at the design's period
-    direct = _build(cc, tmp_path / "direct", c_header(doc), main)
-    want = np.array(_run(direct, _relative(rows, relative)).split(), float).reshape(len(rows), -1)
+    want = run_header(cc, tmp_path / "direct", c_header(doc), main, _relative(rows, relative))
     assert np.array_equal(got[:, :-1], want)  # bit for bit
     assert np.abs(want).max() > 0.1  # volts: the law acts
 
