@@ -5,11 +5,10 @@ closed forms say; failed designs and bad options are refused."""
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
-from c_compile import compile_c
+from c_compile import DRIVERS, run_header
 from test_cli import run
 
 from feedtune.control.filters import FilterPack, LeadStage, Notch
@@ -62,49 +61,11 @@ PID_FRICTION = gantry_gains_document(design_gantry_pid(THESIS_GANTRY, kp=(4e3, 3
                                                                                     v_band=2e-4))
 BALLSCREW = gains_document(design_mcppc(THESIS_TABLE_3_1, filters=FilterPack([Notch(420.0, 0.55, 0.7)], 2000.0)))
 
-GANTRY_MAIN = r"""
-#include <stdio.h>
-#include "gains.h"
-int main(void) {
-    ft_state s; ft_init(&s);
-    double r, y1, y2, x, u[2];
-    while (scanf("%lf %lf %lf %lf", &r, &y1, &y2, &x) == 4) {
-        ft_step(&s, r, y1, y2, x, u);
-        printf("%.17g %.17g\n", u[0], u[1]);
-    }
-    return 0;
-}
-"""
-AXIS_MAIN = r"""
-#include <stdio.h>
-#include "gains.h"
-int main(void) {
-    ft_state s; ft_init(&s);
-    double r, x;
-    while (scanf("%lf %lf", &r, &x) == 2) printf("%.17g\n", ft_step(&s, r, x));
-    return 0;
-}
-"""
-BALLSCREW_MAIN = r"""
-#include <stdio.h>
-#include "gains.h"
-int main(void) {
-    ft_state s; ft_init(&s);
-    double r, x1, x2;
-    while (scanf("%lf %lf %lf", &r, &x1, &x2) == 3) printf("%.17g\n", ft_step(&s, r, x1, x2));
-    return 0;
-}
-"""
+GANTRY_MAIN, AXIS_MAIN, BALLSCREW_MAIN = DRIVERS["gantry"], DRIVERS["axis"], DRIVERS["ballscrew"]
 
 
 def _run_c(tmp_path, header: str, main_c: str, inputs: np.ndarray) -> np.ndarray:
-    (tmp_path / "gains.h").write_text(header)
-    (tmp_path / "main.c").write_text(main_c)
-    exe = tmp_path / "prog"
-    compile_c(GCC, tmp_path / "main.c", exe, opt="-O2")
-    text = "\n".join(" ".join(repr(float(v)) for v in row) for row in inputs) + "\n"
-    res = subprocess.run([str(exe)], input=text, check=True, capture_output=True, text=True)
-    return np.array([[float(v) for v in line.split()] for line in res.stdout.splitlines()])
+    return run_header(GCC, tmp_path, header, main_c, inputs, opt="-O2")
 
 
 def _gantry_inputs(n=3000, seed=4):

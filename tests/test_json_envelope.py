@@ -71,6 +71,7 @@ def work(tmp_path_factory) -> Path:
             ["log", "convert", "examples/ballscrew_track.csv", "--keep", "u", "--out", "u.csv"],
             ["fleet", "simulate", "fleet", "--axes", "2", "--weeks", "3", "--drift-share", "0"],
             ["fleet", "run", "fleet/fleet.toml", "--history", "history.parquet", "--jobs", "1"],
+            ["design", "shaper", "--mode", "52.6,0.1", "--shaper", "zv", "--out", "x_shaper.toml"],
         ):
             _main(args)
     from feedtune.io import read_log, write_log_csv
@@ -130,6 +131,13 @@ CASES = {  # id: (kind, arguments); each runs in well under 5 s
     "prefilter": ("prefilter", ["prefilter", "examples/ballscrew_track.csv", "--gains", "mcppc.toml",
                                 "--out", "mcppc_pf.toml", "--force"]),
     "export c": ("export.c", ["export", "c", "mcppc.toml", "--out", "mcppc.h", "--force"]),
+    "export klipper": ("export.klipper", ["export", "klipper", "x_shaper.toml"]),
+    "export marlin": ("export.marlin", ["export", "marlin", "x_shaper.toml", "--out", "x.gcode", "--force"]),
+    "export linuxcnc": ("export.linuxcnc", ["export", "linuxcnc", "mcppc.toml", "--out", "ft.c", "--force"]),
+    "design shaper psd": ("design.shaper", ["design", "shaper", "--psd",
+                                            "examples/vendor/klipper_calibration_data_x.csv"]),
+    "design shaper modes": ("design.shaper", ["design", "shaper", "--mode", "98.8,0.045", "--mode", "137,0.068",
+                                              "--fs", "20000"]),
     "report": ("report", ["report", "model.toml", "mcppc.toml", "examples/ballscrew_frf.csv", "--out",
                           "report.html", "--force"]),
     "trajectory": ("trajectory", ["trajectory", "--distance", "0.005", "--v-max", "0.1", "--a-max", "5",

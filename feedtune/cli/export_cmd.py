@@ -50,6 +50,38 @@ def scale_factor_option(text: str | None) -> float | None:
     return value
 
 
+def checked_for_export(doc: dict, gains_file: Path, sources, policy, allow_unstable: bool, as_json: bool,
+                       command: str):
+    """``(verdict, warning)``: the gains file's verdict (certified anew on ``sources``, by its certificate, or on its
+    model), printed; DesignError when it fails and not ``allow_unstable``; ``warning`` is the line the exported file
+    carries (None for a certified pass)."""
+    from ..errors import DesignError
+    from ..machines.certificate import UNCERTIFIED_HINT, gains_verdict
+    from .envelope import warn
+
+    verdict = gains_verdict(doc, str(gains_file), sources, policy)
+    for note in verdict.notes:
+        if note == verdict.stored.problem():
+            warn(note)
+        elif not as_json:
+            typer.echo(f"note: {note}")
+    hint = "" if verdict.certified else f"; to certify it: {UNCERTIFIED_HINT.format(command=command)}"
+    basis = verdict.basis_text()
+    warning = None
+    if not verdict.ok:
+        msg = "; ".join(verdict.certificate.violations(OPTION_NAMES))
+        if not allow_unstable:
+            raise DesignError(f"{gains_file}: {msg} ({basis}); not exported (use --allow-unstable to export it "
+                              f"anyway{hint})")
+        warning = f"this design fails the limits check ({policy.describe()}; {basis}): {msg}"
+        warn(f"{msg} (exported because of --allow-unstable)")
+    elif not verdict.certified:
+        warning = (f"this design is not certified on a measured FRF: it passes the limits ({policy.describe()}) on "
+                   "its design model alone")
+        warn(f"{gains_file}: exported on the design model's check alone, not certified on a measured FRF{hint}")
+    return verdict, warning
+
+
 @app.command("c")
 def export_c(
     gains_file: Path = typer.Argument(
@@ -116,13 +148,10 @@ def export_c(
     for its gains (its figures judged under the limits asked for), else on the design model alone (then the header
     and a warning say it is not certified). A design that fails is not exported unless --allow-unstable."""
     show_progress(quiet)
-    from ..errors import DesignError
     from ..export.c_header import c_header
     from ..io import atomic_write_text, read_document
     from ..io.atomic import ensure_writable
-    from ..machines.certificate import UNCERTIFIED_HINT, gains_verdict
     from .delivery import read_sources
-    from .envelope import warn
     from .frf_options import FrfReadOptions
 
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
@@ -135,26 +164,7 @@ def export_c(
     c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup,
              precision=precision, **scaling)  # options, document
     sources = read_sources(list(frf or []), quantity, frf_options)
-    verdict = gains_verdict(doc, str(gains_file), sources, policy)
-    for note in verdict.notes:
-        if note == verdict.stored.problem():
-            warn(note)
-        elif not as_json:
-            typer.echo(f"note: {note}")
-    hint = "" if verdict.certified else f"; to certify it: {UNCERTIFIED_HINT.format(command='export c')}"
-    basis = verdict.basis_text()
-    warning = None
-    if not verdict.ok:
-        msg = "; ".join(verdict.certificate.violations(OPTION_NAMES))
-        if not allow_unstable:
-            raise DesignError(f"{gains_file}: {msg} ({basis}); not exported (use --allow-unstable to export it "
-                              f"anyway{hint})")
-        warning = f"this design fails the limits check ({policy.describe()}; {basis}): {msg}"
-        warn(f"{msg} (exported because of --allow-unstable)")
-    elif not verdict.certified:
-        warning = (f"this design is not certified on a measured FRF: it passes the limits ({policy.describe()}) on "
-                   "its design model alone")
-        warn(f"{gains_file}: exported on the design model's check alone, not certified on a measured FRF{hint}")
+    verdict, warning = checked_for_export(doc, gains_file, sources, policy, allow_unstable, as_json, "export c")
     text = c_header(doc, prefix=prefix, where=str(gains_file), u_max=u_max, anti_windup=anti_windup, warning=warning,
                     precision=precision, **scaling)
     atomic_write_text(target, text, force=force)
@@ -166,5 +176,5 @@ def export_c(
               **scaling,
               "check": verdict.certificate.check_dict(OPTION_NAMES), "verdict": verdict.to_dict(OPTION_NAMES)})
     else:
-        typer.echo(f"verdict on {basis}: {'passes' if verdict.ok else 'FAILS'} ({policy.describe()})")
+        typer.echo(f"verdict on {verdict.basis_text()}: {'passes' if verdict.ok else 'FAILS'} ({policy.describe()})")
         typer.echo(f"wrote {target}")

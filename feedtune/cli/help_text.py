@@ -46,6 +46,10 @@ FILTER_CHOICES = ("own", "identical")
 """``--filters``: :data:`feedtune.tune.pid.FILTER_CHOICES`."""
 LPF_ORDERS = ("1", "2")
 """``--lpf-order``: first or second order."""
+SHAPER_TYPES = ("zv", "mzv", "zvd", "ei", "2hump_ei", "3hump_ei")
+"""``--shaper``: :data:`feedtune.control.shapers.SHAPER_TYPES`."""
+SHAPER_AXES = ("x", "y", "z")
+"""``design shaper --axis``: :data:`feedtune.io.shaper_file.AXES`."""
 
 
 def choice(values: Sequence[str], metavar: str | None = None) -> dict:
@@ -100,6 +104,11 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
                        "    --drive-tuning examples/vendor/auto_servo_tuning.xml --out drive.toml",),
     "design pid": (_GANTRY_MODEL, _GANTRY_MIMO,
                    "feedtune design pid gantry.toml --match mimo.toml --out pid.toml"),
+    "design shaper": (_BS_MODEL, f"feedtune design ppi model.toml \\\n    {_BS_FILTERS} \\\n"
+                                 "    --frf examples/ballscrew_frf.csv --out ppi.toml",
+                      "feedtune design shaper ppi.toml --frf examples/ballscrew_frf_m70.csv \\\n"
+                      "    --frf examples/ballscrew_frf_m100.csv \\\n"
+                      "    --frf examples/ballscrew_frf_m130.csv --out ppi_shaped.toml"),
     "tune": (_BS_MODEL, "feedtune tune mcppc model.toml --frf examples/ballscrew_frf_m70.csv \\\n"
                         "    --frf examples/ballscrew_frf_m100.csv \\\n"
                         "    --frf examples/ballscrew_frf_m130.csv --out mcppc_family.toml"),
@@ -112,6 +121,14 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "analyze ropesnap": ("feedtune analyze ropesnap examples/ballscrew_ropesnap.csv",),
     "export c": (_BS_MODEL, _BS_MCPPC,
                  "feedtune export c mcppc.toml --u-max 10 --anti-windup clamp --out mcppc.h"),
+    "export klipper": ("feedtune design shaper \\\n    --psd examples/vendor/klipper_calibration_data_x.csv \\\n"
+                       "    --out x_shaper.toml",
+                       "feedtune export klipper x_shaper.toml --out input_shaper.cfg"),
+    "export marlin": ("feedtune design shaper --mode 52.6,0.1 --shaper zv --out x_shaper.toml",
+                      "feedtune export marlin x_shaper.toml --out shaper.gcode"),
+    "export linuxcnc": (_BS_MODEL, _BS_MCPPC,
+                        "feedtune export linuxcnc mcppc.toml --u-max 10 --name ft_x \\\n"
+                        "    --out ft_x.c"),
     "report": (_BS_MODEL, "feedtune report model.toml examples/ballscrew_frf.csv \\\n"
                           "    examples/ballscrew_track.csv examples/ballscrew_ropesnap.csv \\\n"
                           "    --out report.html"),

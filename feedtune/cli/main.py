@@ -20,8 +20,10 @@ from . import (
     design_cmd,
     design_gantry_cmd,
     design_loopshape_cmd,
+    design_shaper_cmd,
     explore_cmd,
     export_cmd,
+    export_targets_cmd,
     fleet_cmd,
     frf_cmd,
     guard,
@@ -77,6 +79,10 @@ design_cmd.app.command("loopshape")(design_loopshape_cmd.loopshape)
 design_cmd.app.command("gantry")(design_gantry_cmd.gantry)
 design_cmd.app.command("pid")(design_gantry_cmd.pid)
 design_cmd.app.command("cascade")(cascade_cmd.design)
+design_cmd.app.command("shaper")(design_shaper_cmd.shaper)
+export_cmd.app.command("klipper")(export_targets_cmd.klipper)
+export_cmd.app.command("marlin")(export_targets_cmd.marlin)
+export_cmd.app.command("linuxcnc")(export_targets_cmd.linuxcnc)
 simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
 
 app.add_typer(identify_cmd.app, name="identify")

@@ -41,6 +41,16 @@ path at a corner, Klipper's figure: with the shaper's time shift ``t_s = sum A_i
 90 deg corner taken at the square-corner velocity ``v_sc`` and a 180 deg reversal. It is linear in ``a``, so the
 largest acceleration that keeps it at a target (:meth:`InputShaper.max_accel`, Klipper's 0.12 mm at ``v_sc`` = 5 mm/s)
 is exact here, where Klipper bisects.
+
+**Sampled** (:meth:`InputShaper.sampled`, :class:`SampledShaper`): a target that runs at ``fs`` applies the shaper to
+its position reference as a sparse FIR filter, ``x_s[k] = sum_j w_j x[k - d_j]``. An impulse at ``T_i = (n_i +
+phi_i) / fs`` (``0 <= phi_i < 1``) is split between the samples either side by linear interpolation, ``(1 - phi_i)
+A_i`` at ``n_i`` and ``phi_i A_i`` at ``n_i + 1``: exact for a reference that is linear between samples, and its
+delay error grows as ``(w T)^2 phi (1 - phi) / 2`` (2e-4 at 120 Hz and 20 kHz). The residual vibration of the sampled
+taps is the formula above with their amplitudes and times (:meth:`SampledShaper.vibration`), which is what the choice
+(:mod:`feedtune.design.shaper_choice`) evaluates when the target's rate is known. :class:`ShaperFilter` runs the taps
+one sample at a time over a ring buffer, as the C header does (the sum in tap order in both), and
+:meth:`SampledShaper.apply` runs a whole signal with the same operations.
 """
 
 from __future__ import annotations
@@ -183,6 +193,18 @@ class InputShaper:
         """
         return float(max_accel(self.amplitudes[None], self.times_s[None], target, scv)[0])
 
+    def sampled(self, fs: float) -> SampledShaper:
+        """The shaper as a target sampling at ``fs`` [Hz] runs it (module docstring: linear interpolation).
+
+        Examples
+        --------
+        >>> s = InputShaper.design("zv", 40.0, 0.0).sampled(1000.0)
+        >>> s.delays.tolist(), s.weights.tolist()
+        ([0, 12, 13], [0.5, 0.25, 0.25])
+        """
+        delays, weights = sampled_impulses(self.amplitudes, self.times_s, fs)
+        return SampledShaper(delays, weights, float(fs))
+
     def to_dict(self) -> dict:
         """``kind``, ``freq_hz`` [Hz], ``damping`` [-], ``amplitudes`` [-], ``times_s`` [s], ``duration_s`` [s]."""
         return {"kind": self.kind, "freq_hz": self.freq_hz, "damping": self.damping,
@@ -243,3 +265,154 @@ def max_accel(amplitudes: np.ndarray, times_s: np.ndarray, target: float = TARGE
         corner = np.where(c1 > 0, (target - c0) / c1, np.inf)
         reversal = np.where(d1 > 0, target / d1, np.inf)
     return np.maximum(0.0, np.minimum(corner, reversal))
+
+
+# ------------------------------------------------------------------------------------------ sampled shapers
+PHASE_SNAP = 1e-9
+"""A fractional sample position ``phi`` within this of 0 or 1 is taken as the sample itself [-] (the rounding of
+``T fs``)."""
+
+
+def _check_rate(fs: float) -> float:
+    if isinstance(fs, bool) or not isinstance(fs, (int, float, np.floating)) or not (math.isfinite(fs) and fs > 0):
+        raise UsageError(f"sample rate must be a finite number > 0 Hz, got {fs!r}", parameter="fs")
+    return float(fs)
+
+
+def sampled_table(amplitudes: np.ndarray, times_s: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sample positions [samples] and weights [-] of shapers (rows of ``amplitudes`` and ``times_s`` [s]) sampled at
+    ``fs`` [Hz] by linear interpolation (module docstring): shape (shapers, 2 impulses), columns ``n_i, n_i + 1`` per
+    impulse, so the last column holds the latest sample. Weights may be zero."""
+    fs = _check_rate(fs)
+    pos = np.asarray(times_s, dtype=float) * fs
+    n = np.floor(pos)
+    phi = pos - n
+    up = phi > 1.0 - PHASE_SNAP
+    n = np.where(up, n + 1.0, n)
+    phi = np.where(up | (phi < PHASE_SNAP), 0.0, phi)
+    a = np.asarray(amplitudes, dtype=float)
+    delays = np.stack([n, n + 1.0], axis=-1).reshape(*n.shape[:-1], -1)
+    weights = np.stack([a * (1.0 - phi), a * phi], axis=-1).reshape(*a.shape[:-1], -1)
+    return delays, weights
+
+
+def sampled_impulses(amplitudes, times_s, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(delays [samples], weights [-])`` of one shaper sampled at ``fs`` [Hz] (:func:`sampled_table`), taps on the
+    same sample merged and zero taps dropped, in increasing delay."""
+    d, w = sampled_table(np.asarray(amplitudes, float)[None], np.asarray(times_s, float)[None], fs)
+    delays = np.unique(d[0]).astype(np.int64)
+    weights = np.array([w[0][d[0] == k].sum() for k in delays])
+    keep = weights != 0.0
+    return delays[keep], weights[keep]
+
+
+@dataclass(frozen=True)
+class SampledShaper:
+    """An input shaper as a target at ``fs`` runs it: ``x_s[k] = sum_j weights[j] x[k - delays[j]]`` (module
+    docstring).
+
+    Parameters
+    ----------
+    delays : ndarray of int
+        Tap delays [samples], strictly increasing, the first >= 0.
+    weights : ndarray
+        Tap weights [-], summing to 1 (the shaper keeps a position at rest where it is).
+    fs : float
+        Sample rate [Hz].
+    """
+
+    delays: np.ndarray
+    weights: np.ndarray
+    fs: float
+
+    def __post_init__(self) -> None:
+        d = np.asarray(self.delays)
+        w = np.asarray(self.weights, dtype=float)
+        if d.ndim != 1 or d.size == 0 or d.size != w.size:
+            raise UsageError("shaper taps: delays and weights must be two equally long non-empty lists",
+                             parameter="taps")
+        if not np.all(np.isfinite(d)) or np.any(d != np.round(d)) or d[0] < 0 or np.any(np.diff(d) <= 0):
+            raise UsageError("shaper taps: delays must be whole samples >= 0, strictly increasing", parameter="taps")
+        if not np.all(np.isfinite(w)) or abs(w.sum() - 1.0) > 1e-9:
+            raise UsageError(f"shaper taps: weights must be finite and sum to 1, got sum {w.sum()!r}",
+                             parameter="taps")
+        object.__setattr__(self, "delays", d.astype(np.int64))
+        object.__setattr__(self, "weights", w)
+        object.__setattr__(self, "fs", _check_rate(self.fs))
+
+    @property
+    def length(self) -> int:
+        """Samples of history the filter keeps: the largest delay plus one."""
+        return int(self.delays[-1]) + 1
+
+    @property
+    def duration_s(self) -> float:
+        """Time from the first to the last tap [s]: what a move's end is delayed by."""
+        return float(self.delays[-1] - self.delays[0]) / self.fs
+
+    @property
+    def time_shift_s(self) -> float:
+        """Weighted mean delay [s]: the lag of a shaped ramp."""
+        return float(self.weights @ self.delays) / self.fs
+
+    def vibration(self, freq_hz, damping: float) -> np.ndarray:
+        """Residual vibration [-] of modes at ``freq_hz`` [Hz] with ``damping`` [-] after these taps (module
+        docstring)."""
+        f = np.asarray(freq_hz, dtype=float)
+        v = residual_vibration(self.weights[None], self.delays[None] / self.fs, f.reshape(-1), damping)[0]
+        return v.reshape(f.shape)
+
+    def response(self, freq_hz) -> np.ndarray:
+        """Frequency response ``sum_j w_j exp(-j w d_j / fs)`` [-] on a grid [Hz]."""
+        f = np.asarray(freq_hz, dtype=float)
+        return np.exp(-2j * np.pi * f[..., None] * self.delays / self.fs) @ self.weights
+
+    def apply(self, x) -> np.ndarray:
+        """The shaped signal of ``x`` from rest (zero history), as :class:`ShaperFilter` computes it sample by
+        sample [unit of ``x``]."""
+        x = np.asarray(x, dtype=float)
+        y = np.zeros(x.shape)
+        for d, w in zip(self.delays.tolist(), self.weights.tolist(), strict=True):
+            if d == 0:
+                y += w * x
+            elif d < x.size:
+                y[d:] += w * x[:-d]
+        return y
+
+    def to_dict(self) -> dict:
+        """``delays`` [samples], ``weights`` [-], ``fs`` [Hz], ``duration_s`` [s], ``time_shift_s`` [s]."""
+        return {"delays": self.delays.tolist(), "weights": self.weights.tolist(), "fs": self.fs,
+                "duration_s": self.duration_s, "time_shift_s": self.time_shift_s}
+
+
+class ShaperFilter:
+    """A :class:`SampledShaper` run one sample at a time over a ring buffer (what the C header does).
+
+    Parameters
+    ----------
+    taps : SampledShaper
+    """
+
+    __slots__ = ("_buf", "_pairs", "_pos", "taps")
+
+    def __init__(self, taps: SampledShaper) -> None:
+        self.taps = taps
+        self._buf = [0.0] * taps.length
+        self._pairs = list(zip(taps.delays.tolist(), taps.weights.tolist(), strict=True))
+        self._pos = 0
+
+    def reset(self) -> None:
+        """Zero the history (the reference was at 0 before)."""
+        self._buf = [0.0] * self.taps.length
+        self._pos = 0
+
+    def step(self, x: float) -> float:
+        """Store ``x`` and return the shaped sample [unit of ``x``]."""
+        buf, n = self._buf, len(self._buf)
+        buf[self._pos] = x
+        y = 0.0
+        for d, w in self._pairs:
+            j = self._pos - d
+            y += w * buf[j + n if j < 0 else j]
+        self._pos = self._pos + 1 if self._pos + 1 < n else 0
+        return y

@@ -32,6 +32,7 @@ from .c_common import (
     output_line,
     precision_lines,
 )
+from .c_shaper import shaper_c
 from .c_text import comment_text
 
 PREFILTER_KEY = "PF"
@@ -63,6 +64,7 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
         if any(len(r) != 6 for r in sos):
             raise DataError(f"{where}: {P}_{key}_SOS has a section without 6 coefficients")
     friction = _friction(doc, where)
+    shaper = shaper_c(runtime, opts, where)
     pre = PREFILTER_KEY in filters
     flt = {key: CFilter(opts, f"{P}_{key}", sos, key != "FP", where, array=f"{P}_{key}_SOS")  # FP: of a command
            for key, sos in filters.items()}
@@ -100,6 +102,7 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
     for f in flt.values():
         out += f.arrays()
     out += friction_constants(friction, opts)
+    out += shaper.constants if shaper else []
     if opts.single:  # the pre-filtered reference in two parts, x_r_preview + pf (docstring)
         ref, corr, vel = "x_r_preview", ("pf" if pre else None), ("((x_r_preview - s->xp_prev) + (pf - s->pf_prev))"
                                                                   if pre else "(x_r_preview - s->xp_prev)")
@@ -114,6 +117,7 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
         uff = flt["FF"].call("ff", ref)
     out += [
         "typedef struct {",
+        *(shaper.state if shaper else []),
         *[f"    {R} {f.state(k.lower())};" for k, f in flt.items()],
         f"    {R} e1_prev, e2_prev, ie2, xp_prev, " + ("pf_prev, " if opts.single and pre else "") + "u_prev;",
         "    int started;",
@@ -123,9 +127,11 @@ def ballscrew_header(doc: dict, runtime, opts: COptions, where: str = "gains fil
         "",
         *filter_step_function(opts),
         *friction_function(friction, opts),
+        *(shaper.function if shaper else []),
         f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [rad]; x1, x2 = measured positions at k [rad];",
         f"   returns u [{opts.output_unit(unit)}] */",
         f"static inline {R} {prefix}_step({prefix}_state *s, {R} x_r_preview, {R} x1, {R} x2) {{",
+        *([shaper.call("x_r_preview")] if shaper else []),
         *reference,
         f"    {R} x1r = {flt['ROT'].call('rot', ref, corr)};",
         f"    {R} x2r = {flt['TAB'].call('tab', ref, corr)};",

@@ -33,6 +33,7 @@ from .c_common import (
     row_array,
     table_array,
 )
+from .c_shaper import shaper_c
 from .c_text import comment_text
 
 PREFILTER = ("prefilter_vel", "prefilter_acc", "prefilter_jerk", "prefilter_snap")
@@ -63,6 +64,7 @@ def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> s
     prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, comment_text(rt.command_unit)
     mimo = rt.controller == "mimo"
     fr = rt.friction
+    shaper = shaper_c(rt, opts, rt.source)
     ncol = rt.schedule.shape[1] if rt._prefilter_on else 5
     law = ("MIMO law of section 4.4.2 (lead on the CoM error, damping of the yaw error, integral action, CoM "
            "feedforward)" if mimo else "independent PIDs on each side with the CoM feedforward")
@@ -89,6 +91,7 @@ def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> s
                        "schedule rows: alpha1, alpha2 [-], m11, m12, m22 [" + unit + "/(m/s^2)]"
                        + (", k_vel..k_snap side 1 then side 2 [s..s^4]" if ncol > 5 else ""), R)
     out += ["", *friction_constants(fr, opts)] if fr is not None else []
+    out += shaper.constants if shaper else []
     names = ["H", "POS", "ACC"] + (["LEAD"] if mimo else []) + (["PV", "PA", "PJ", "PS"] if ncol > 5 else [])
     keys = {"H": "filter_pack", "POS": "position", "ACC": "acceleration", "LEAD": "lead", "PV": PREFILTER[0],
             "PA": PREFILTER[1], "PJ": PREFILTER[2], "PS": PREFILTER[3]}
@@ -101,6 +104,7 @@ def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> s
     ra1, c1, ra2, c2 = ("r", "rc1", "r", "rc2") if opts.single else ("ra1", None, "ra2", None)
     out += [
         "typedef struct {",
+        *(shaper.state if shaper else []),
         *[f"    {R} {flt[n].state(n.lower() + '1')}, {flt[n].state(n.lower() + '2')};" for n in twice],
         *_state_arrays(flt, [n for n in names if n not in twice], opts),
         f"    {R} e1_prev, e2_prev, ie1, ie2, u1_prev, u2_prev;",
@@ -113,6 +117,7 @@ def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> s
         "",
         *filter_step_function(opts),
         *friction_function(fr, opts),
+        *(shaper.function if shaper else []),
         "/* the schedule row at table position x [m]: linear interpolation, clamped at the ends */",
         f"static inline void {prefix}_schedule({R} x, {R} *row) {{",
         "    int i = 0;",
@@ -130,6 +135,7 @@ def gantry_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> s
         f"   writes u[0], u[1] [{opts.output_unit(unit)}] */",
         f"static inline void {prefix}_step({prefix}_state *s, {R} y_r_preview, {R} y1, {R} y2, {R} x, "
         f"{R} *u) {{",
+        *([shaper.call("y_r_preview")] if shaper else []),
         f"    {R} sr[{P}_NCOL];",
         f"    {prefix}_schedule(x, sr);",
         "    float r = y_r_preview, rc1 = 0.0f, rc2 = 0.0f;  /* the references of the sides: r + rc1, r + rc2 */"
@@ -197,6 +203,7 @@ def axis_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str
     prefix, P, R, num, unit = opts.prefix, opts.P, opts.real, opts.num, comment_text(rt.command_unit)
     pre = rt._prefilter_on
     fr = rt.friction
+    shaper = shaper_c(rt, opts, rt.source)
     out = banner("Loop-shaped x-axis controller (eq. 4.18-4.20) with mass feedforward"
                  + (", friction feedforward (eq. 2.1 + viscous)" if fr is not None else "")
                  + " and trajectory pre-filter.",
@@ -212,6 +219,7 @@ def axis_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str
                 for i, (t, k) in enumerate(zip(("vel", "acc", "jerk", "snap"), rt.prefilter_gains, strict=True))]
     out.append("")
     out += friction_constants(fr, opts)
+    out += shaper.constants if shaper else []
     names = ["C", "POS", "ACC"] + (["PV", "PA", "PJ", "PS"] if pre else [])
     keys = {"C": "controller", "POS": "position", "ACC": "acceleration", "PV": PREFILTER[0], "PA": PREFILTER[1],
             "PJ": PREFILTER[2], "PS": PREFILTER[3]}
@@ -223,6 +231,7 @@ def axis_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str
     ra, corr, lhs = ("r", "rc", "rc = ") if opts.single else ("ra", None, "ra = r + ")
     out += [
         "typedef struct {",
+        *(shaper.state if shaper else []),
         *_state_arrays(flt, names, opts),
         f"    {R} u_prev;",
         *([f"    {R} r_prev;  /* previous x_r_preview [m]: the friction's reference velocity */",
@@ -233,9 +242,11 @@ def axis_header(doc: dict, rt, opts: COptions, where: str = "gains file") -> str
         "",
         *filter_step_function(opts),
         *friction_function(fr, opts),
+        *(shaper.function if shaper else []),
         f"/* x_r_preview = x_r[k + {P}_PREVIEW_SAMPLES] [m]; x = encoder at k [m]; returns u_x "
         f"[{opts.output_unit(unit)}] */",
         f"static inline {R} {prefix}_step({prefix}_state *s, {R} x_r_preview, {R} x) {{",
+        *([shaper.call("x_r_preview")] if shaper else []),
         "    float r = x_r_preview, rc = 0.0f;  /* the pre-filtered reference r + rc */" if opts.single
         else "    double r = x_r_preview, ra = r;",
     ]

@@ -30,11 +30,11 @@ import numpy as np
 from ..errors import DataError
 
 UNCERTIFIED_SECTIONS = ("schema", "created_by", "law", "analysis", "certificate", "prefilter",
-                        "friction_feedforward")
+                        "friction_feedforward", "shaper")
 """Sections outside the gains digest: the schema string, the writer's version, the law's execution text (rewritten
-when an optional section is added), information-only figures, the certificate itself, and the trajectory pre-filter
-and friction feedforward (they act on the reference, outside the feedback loop the certificate judges: adding them
-with ``feedtune prefilter`` or ``--friction`` keeps a certificate valid)."""
+when an optional section is added), information-only figures, the certificate itself, and the trajectory pre-filter,
+friction feedforward and input shaper (they act on the reference, outside the feedback loop the certificate judges:
+adding them with ``feedtune prefilter``, ``--friction`` or ``feedtune design shaper`` keeps a certificate valid)."""
 
 CERTIFICATE_FORMAT = "feedtune.certificate/1"
 """The ``format`` of a ``[certificate]`` section with digests (older ones, written by ``tune`` before them, have

@@ -2,11 +2,12 @@
 
 :class:`GainsRuntime` reads nothing but the gains document (``feedtune design ... --out gains.toml``): the
 five gains, the sample rate, the preview, and the second-order sections of the filter pack and of the
-three reference paths, and the optional trajectory pre-filter (``[prefilter]``) and friction feedforward
-(``[friction_feedforward]``). It never rebuilds the law from the stored model, so running it proves that the
-export is complete. :meth:`GainsRuntime.step` executes the law of ``docs/gains.md`` once per sample::
+three reference paths, and the optional input shaper (``[shaper]``), trajectory pre-filter (``[prefilter]``) and
+friction feedforward (``[friction_feedforward]``). It never rebuilds the law from the stored model, so running it
+proves that the export is complete. :meth:`GainsRuntime.step` executes the law of ``docs/gains.md`` once per sample::
 
-    xp = x_r[k+P] + prefilter(x_r[k+P])          (xp = x_r[k+P] without a [prefilter])
+    xs = shaper(x_r[k+P])                        (the shaper's taps; xs = x_r[k+P] without a [shaper])
+    xp = xs + prefilter(xs)                      (xp = xs without a [prefilter])
     x1r = rotary(xp); x2r = table(xp); uff = feedforward(xp)
     v_r = (xp - xp_prev) fs (0 on the first sample); uff += friction(v_r)   (with a [friction_feedforward])
     e1 = x1r - x1[k]; e2 = x2r - x2[k]            (on the first sample e1_prev = e1, e2_prev = e2)
@@ -37,9 +38,11 @@ import numpy as np
 from ...control.ballscrew_law import GAIN_NAMES as GAIN_ORDER
 from ...control.ballscrew_law import gain_units
 from ...control.friction import FrictionFeedforward, reference_velocity
+from ...control.shapers import SampledShaper, ShaperFilter
 from ...control.sos import SosCascade
 from ...errors import DataError
 from ...io.gains import check_gains_header, friction_from_section, read_sampling, read_sos, value
+from ...io.shaper_file import read_shaper_taps
 from ...sim.engine import sample_vector
 from .law import compiled_feedback, new_state
 
@@ -111,11 +114,16 @@ class GainsRuntime:
     prefilter_info : dict or None
         ``{"gains": {K_vel [s] .. K_snap [s^4]}, "lpf_hz": Hz}`` of the ``[prefilter]`` (information; the
         runtime executes ``sos["prefilter"]``, the sections of ``F(z) - 1``).
+    shaper : SampledShaper or None
+        The input shaper's taps (``[shaper]``), applied to the previewed reference first.
     """
 
     def __init__(self, gains: dict, sos: dict, fs: float, delay_samples: int, preview_samples: int,
                  controller: str = "", command_unit: str = "V", source: str = "gains document",
-                 friction: FrictionFeedforward | None = None, prefilter_info: dict | None = None) -> None:
+                 friction: FrictionFeedforward | None = None, prefilter_info: dict | None = None,
+                 shaper: SampledShaper | None = None) -> None:
+        self.shaper = shaper
+        self._shaper = None if shaper is None else ShaperFilter(shaper)
         self.gains = {k: float(gains[k]) for k in GAIN_ORDER}
         self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
         self.friction = friction
@@ -170,7 +178,8 @@ class GainsRuntime:
         friction = None
         if doc.get("friction_feedforward") is not None:
             friction = friction_from_section(doc["friction_feedforward"], unit, where)
-        return cls(gains, sos, fs, delay, preview, str(doc.get("controller", "")), unit, where, friction, info)
+        return cls(gains, sos, fs, delay, preview, str(doc.get("controller", "")), unit, where, friction, info,
+                   read_shaper_taps(doc, where))
 
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> GainsRuntime:
@@ -184,6 +193,8 @@ class GainsRuntime:
         """Zero every filter state and the integrator; the next sample is the first."""
         for f in self._filters.values():
             f.reset()
+        if self._shaper is not None:
+            self._shaper.reset()
         self._st[:] = 0.0
         self._xp_prev = 0.0
         self._started = False
@@ -204,7 +215,7 @@ class GainsRuntime:
             Command ``u`` [V], to be applied ``delay_samples`` later.
         """
         f = self._filters
-        xp = x_ref_preview
+        xp = x_ref_preview if self._shaper is None else self._shaper.step(x_ref_preview)
         if "prefilter" in f:
             xp = xp + f["prefilter"].step(xp)
         x1r = f["rotary"].step(xp)
@@ -220,13 +231,15 @@ class GainsRuntime:
 
     # ------------------------------------------------------------------ vectorised helpers
     def previewed(self, x_ref) -> np.ndarray:
-        """The sequence ``x_r[k + P]`` fed to :meth:`step`, holding the last value past the end [rad]."""
+        """The sequence ``x_r[k + P]`` fed to :meth:`step` (holding the last value past the end), shaped by the
+        ``[shaper]`` from rest when the file has one: ``xs`` of the module docstring [rad]."""
         x = sample_vector(x_ref, "x_ref", min_size=1)
         P = self.preview_samples
-        return x if P == 0 else np.r_[x[P:], np.full(min(P, x.size), x[-1])]
+        p = x if P == 0 else np.r_[x[P:], np.full(min(P, x.size), x[-1])]
+        return p if self.shaper is None else self.shaper.apply(p)
 
     def prefiltered(self, x_ref) -> np.ndarray:
-        """The reference the paths run on: ``xp = x_r[k+P] + prefilter(x_r[k+P])`` per sample [rad].
+        """The reference the paths run on: ``xp = xs + prefilter(xs)`` per sample [rad].
 
         Without a ``[prefilter]`` this is :meth:`previewed`.
         """
@@ -308,6 +321,7 @@ class GainsRuntime:
             "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
             "prefilter": pre,
             "friction_feedforward": None if self.friction is None else self.friction.to_dict(),
+            "shaper": None if self.shaper is None else self.shaper.to_dict(),
             "units": {**gain_units(self.command_unit), "fs_hz": "Hz", "command": self.command_unit},
         }
 

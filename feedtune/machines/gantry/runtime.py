@@ -6,7 +6,7 @@ lead, active damping and actuator-level integral of thesis eq. 4.30; or ``"pid"`
 document: sampling, gains, second-order sections and the x-position schedule. The execution order is the
 one of ``docs/gantry_gains.md`` (also stored in the file as ``law.execution``)::
 
-    r = y_r[k+P]                                   previewed reference [m]
+    r = shaper(y_r[k+P])                           previewed reference [m], shaped when the file has a [shaper]
     d_n = prefilter_n(r)                           s^n G_lpf^(n+1), n = vel, acc, jerk, snap (eq. 4.20/4.32)
     s = schedule(x[k])                             alpha1, alpha2, M(x), pre-filter gains (eq. 4.33)
     ra_i = r + sum_n k_n_i d_n                     per-side pre-filtered reference, P samples ahead
@@ -43,9 +43,11 @@ import os
 
 import numpy as np
 
+from ...control.shapers import ShaperFilter
 from ...control.sos import sos_filter
 from ...errors import DataError, UsageError
 from ...io.gains import read_sampling, read_sos, value
+from ...io.shaper_file import read_shaper_taps
 from ...sim.engine import sample_vector
 from .law import GP_NCOL, AxisLawData, GantryLawData, compiled_laws, schedule_row
 
@@ -62,6 +64,30 @@ def _sos(doc: dict, sec_name: str, key: str, where: str) -> np.ndarray:
 def _previewed(x: np.ndarray, preview: int) -> np.ndarray:
     """``x[k + P]`` for every ``k``, holding the last value past the end."""
     return x if preview == 0 else np.r_[x[preview:], np.full(min(preview, x.size), x[-1])]
+
+
+class _Shaped:
+    """The optional input shaper of a gantry or axis runtime (``[shaper]``): :meth:`shape` for whole references,
+    ``_shape_step`` per sample (identity without one)."""
+
+    shaper = None
+    _shaper_filter = None
+
+    def _set_shaper(self, shaper) -> None:
+        self.shaper = shaper
+        self._shaper_filter = None if shaper is None else ShaperFilter(shaper)
+
+    def shape(self, r) -> np.ndarray:
+        """The ``[shaper]`` applied from rest to a reference sequence [m] (``r`` itself without one)."""
+        r = np.asarray(r, float)
+        return r if self.shaper is None else self.shaper.apply(r)
+
+    def _shape_step(self, r: float) -> float:
+        return r if self._shaper_filter is None else self._shaper_filter.step(r)
+
+    def _reset_shaper(self) -> None:
+        if self._shaper_filter is not None:
+            self._shaper_filter.reset()
 
 
 def _check_target(fs_file: float, fs: float, where: str) -> None:
@@ -103,7 +129,7 @@ def _check_split(schedule: np.ndarray, source: str) -> None:
 
 
 # ------------------------------------------------------------------------------------------ gantry
-class GantryRuntime:
+class GantryRuntime(_Shaped):
     """Executes a gantry gains document (``kind = "gantry"``, ``controller`` ``"mimo"`` or ``"pid"``).
 
     Create it with :meth:`from_document` or :meth:`from_file`; call :meth:`reset` before a run and
@@ -136,11 +162,14 @@ class GantryRuntime:
     friction : FrictionFeedforward or None
         Friction feedforward of the gantry's travel (``[friction_feedforward]``) [command unit, m/s], split
         ``alpha1 : alpha2`` between the drives.
+    shaper : SampledShaper or None
+        The input shaper's taps (``[shaper]``), applied to the previewed reference first.
     """
 
     def __init__(self, *, controller: str, gains: dict, sos: dict, schedule_x, schedule, fs: float,
                  delay_samples: int, preview_samples: int, command_unit: str = "V",
-                 source: str = "gains document", friction=None) -> None:
+                 source: str = "gains document", friction=None, shaper=None) -> None:
+        self._set_shaper(shaper)
         self.controller = controller
         self.gains = {k: float(v) for k, v in gains.items()}
         self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
@@ -202,7 +231,7 @@ class GantryRuntime:
         x, table = read_schedule(doc, where)
         return cls(controller=str(controller), gains=gains, sos=sos, schedule_x=x, schedule=table, fs=fs,
                    delay_samples=delay, preview_samples=preview, command_unit=unit, source=where,
-                   friction=axis_friction(doc, where))
+                   friction=axis_friction(doc, where), shaper=read_shaper_taps(doc, where))
 
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> GantryRuntime:
@@ -215,6 +244,7 @@ class GantryRuntime:
     def reset(self) -> None:
         """Zero every filter state and integrator; the next sample is the first."""
         self.law.reset()
+        self._reset_shaper()
 
     def schedule_at(self, x: float) -> tuple:
         """The schedule row at table position ``x`` [m] (linear interpolation, clamped at the ends), as the law
@@ -247,13 +277,15 @@ class GantryRuntime:
             Commands ``u1, u2`` [V], to be applied ``delay_samples`` later.
         """
         out = self._out
-        self._step(*self._args, float(y_ref_preview), float(y1), float(y2), _finite_position(float(x)), out)
+        r = self._shape_step(float(y_ref_preview))
+        self._step(*self._args, r, float(y1), float(y2), _finite_position(float(x)), out)
         return float(out[0]), float(out[1])
 
     # ------------------------------------------------------------------ vectorised
     def previewed(self, y_ref) -> np.ndarray:
-        """The sequence ``y_r[k + P]`` fed to :meth:`step`, holding the last value past the end [m]."""
-        return _previewed(sample_vector(y_ref, "y_ref", min_size=1), self.preview_samples)
+        """The sequence ``y_r[k + P]`` fed to :meth:`step` (holding the last value past the end), shaped by the
+        ``[shaper]`` from rest when the file has one: ``r`` of the module docstring [m]."""
+        return self.shape(_previewed(sample_vector(y_ref, "y_ref", min_size=1), self.preview_samples))
 
     def schedule_table(self, x) -> np.ndarray:
         """Schedule rows for a sequence of positions [m], shape ``(n, 13)`` (vectorised :meth:`schedule_at`)."""
@@ -338,12 +370,13 @@ class GantryRuntime:
             "schedule_rows": int(self.schedule_x.size),
             "prefilter_active": self._prefilter_on,
             "friction_feedforward": None if self.friction is None else self.friction.to_dict(),
+            "shaper": None if self.shaper is None else self.shaper.to_dict(),
             "units": {**units, "fs_hz": "Hz", "schedule_x_m": "m", "command": self.command_unit},
         }
 
 
 # -------------------------------------------------------------------------------------------- axis
-class AxisRuntime:
+class AxisRuntime(_Shaped):
     """Executes a loop-shaped axis gains document (``kind = "axis"``, thesis eq. 4.18-4.20).
 
     Attributes
@@ -359,11 +392,14 @@ class AxisRuntime:
         ``prefilter_vel`` .. ``prefilter_snap``.
     friction : FrictionFeedforward or None
         Friction feedforward (``[friction_feedforward]``) [command unit, m/s].
+    shaper : SampledShaper or None
+        The input shaper's taps (``[shaper]``), applied to the previewed reference first.
     """
 
     def __init__(self, *, sos: dict, mass: float, prefilter_gains, fs: float, delay_samples: int,
                  preview_samples: int, controller: str = "loopshape", command_unit: str = "V",
-                 source: str = "gains document", friction=None) -> None:
+                 source: str = "gains document", friction=None, shaper=None) -> None:
+        self._set_shaper(shaper)
         self.sos = {k: np.asarray(v, float) for k, v in sos.items()}
         self.mass = float(mass)
         self.prefilter_gains = tuple(float(v) for v in prefilter_gains)
@@ -409,7 +445,7 @@ class AxisRuntime:
                  for t in PREFILTER_TERMS]
         return cls(sos=sos, mass=mass, prefilter_gains=gains, fs=fs, delay_samples=delay, preview_samples=preview,
                    controller=str(doc.get("controller", "loopshape")), command_unit=unit, source=where,
-                   friction=axis_friction(doc, where))
+                   friction=axis_friction(doc, where), shaper=read_shaper_taps(doc, where))
 
     @classmethod
     def from_file(cls, path: str | os.PathLike[str]) -> AxisRuntime:
@@ -421,15 +457,17 @@ class AxisRuntime:
     def reset(self) -> None:
         """Zero every filter state; the next sample is the first."""
         self.law.reset()
+        self._reset_shaper()
 
     def step(self, x_ref_preview: float, x: float) -> float:
         """One sample: reference ``x_r[k + preview_samples]`` [m] and encoder ``x[k]`` [m] -> ``u_x`` [V]
         (:func:`feedtune.machines.gantry.law.axis_law_step`)."""
-        return float(self._step(*self._args, float(x_ref_preview), float(x)))
+        return float(self._step(*self._args, self._shape_step(float(x_ref_preview)), float(x)))
 
     def previewed(self, x_ref) -> np.ndarray:
-        """The sequence ``x_r[k + P]`` fed to :meth:`step`, holding the last value past the end [m]."""
-        return _previewed(sample_vector(x_ref, "x_ref", min_size=1), self.preview_samples)
+        """The sequence ``x_r[k + P]`` fed to :meth:`step` (holding the last value past the end), shaped by the
+        ``[shaper]`` from rest when the file has one [m]."""
+        return self.shape(_previewed(sample_vector(x_ref, "x_ref", min_size=1), self.preview_samples))
 
     def replay(self, x_ref, x) -> np.ndarray:
         """Commands [V] for a recorded reference ``x_r[k]`` and encoder ``x[k]`` [m], without a per-sample loop."""
@@ -471,6 +509,7 @@ class AxisRuntime:
             "preview_samples": self.preview_samples,
             "sections": {k: int(v.shape[0]) for k, v in self.sos.items()},
             "friction_feedforward": None if self.friction is None else self.friction.to_dict(),
+            "shaper": None if self.shaper is None else self.shaper.to_dict(),
             "units": {"mass": f"{self.command_unit}/(m/s^2)", "k_vel": "s", "k_acc": "s^2", "k_jerk": "s^3",
                       "k_snap": "s^4", "fs_hz": "Hz", "command": self.command_unit},
         }

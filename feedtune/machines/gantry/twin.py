@@ -1054,8 +1054,10 @@ class GantryTwin:
                   tb.cptr, tb.ccol, tb.cval, tb.vptr, tb.vcol, tb.vtab, tb.vdif]
         if choose_engine(engine) == "numba" and _compiled_laws(gantry, axis):
             loop = _compiled_loop()
-            yr = np.ascontiguousarray(y_full - y0)
-            xr = np.ascontiguousarray(x_full - x0)
+            # the compiled loop calls the laws, not the runtimes' step: their [shaper] is applied here, from rest
+            # (as step applies it: the references are 0 before the previews start, lead >= pg, pa)
+            yr = np.ascontiguousarray(gantry.shape(y_full - y0))
+            xr = np.ascontiguousarray(axis.shape(x_full - x0))
             k, status = loop(total, pg, pa, y0, x0, yr, xr, *arrays, *gantry.law.args(), gantry.law.out,
                              *axis.law.args())
             return int(k), int(status), arrays[8].reshape(total, N_REC)
