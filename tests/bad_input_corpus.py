@@ -534,6 +534,11 @@ def hand_cases() -> list[Case]:
         "identify mass",
     ):
         add(_c(command, "", 2, "missing", "parser"))
+    for command, culprit in (("design cascade", "MODEL|FRF"), ("design shaper", "--psd"), ("explore", "GAINS"),
+                             ("export klipper", "SHAPER"), ("export marlin", "SHAPER"), ("export linuxcnc", "GAINS")):
+        add(_c(command, "", 2, culprit, "parser"))
+    add(_c("warmup", "--jobs 2", 2, "--jobs", "parser"))
+    add(_c("explore", f"{BS_GAINS} --frf {BS_FRF} -o page.txt", 2, "--out", "output"))
     add(_c("nope", "", 2, "nope", "parser"))
     add(_c("simulate", "nope", 2, "nope", "parser"))
     add(_c("design ppc", f"{BS_MODEL} extra", 2, "extra", "parser"))

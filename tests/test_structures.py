@@ -84,6 +84,20 @@ def test_per_kind_tables_are_the_registrys():
     assert TITLES == {c.command: c.title for c in st.CONTROLLERS}
 
 
+def test_feature_tables_name_only_registered_kinds():
+    """Tables of a feature that some kinds have (LinuxCNC pins, a shaper's twin move, the kernels a machine's twin
+    compiles) name only registered kinds; a kind without an entry is refused by name where the feature is asked for."""
+    from feedtune.export.linuxcnc import PINS
+    from feedtune.machines.registry import machine_names
+    from feedtune.workflows.shaper_twin import DEFAULT_MOVES, MOVERS, PREFILTER_SECTION
+    from feedtune.workflows.warmup import MACHINE_KERNELS
+
+    gains = {g.kind for g in st.GAINS}
+    for table in (PINS, DEFAULT_MOVES, MOVERS, PREFILTER_SECTION):
+        assert set(table) <= gains, set(table) - gains
+    assert set(MACHINE_KERNELS) <= set(machine_names())
+
+
 # ------------------------------------------------------------------------------------------ decisions by kind
 def _owned() -> dict[str, set[str]]:
     """``{module path (file or folder/) under feedtune/: the kind names it may use}``: each structure's and each
@@ -166,8 +180,10 @@ def decisions_by_kind() -> list[str]:
     return found
 
 
-HELD = {"io/gains_schema.py", "io/model_schema.py"}
-"""Modules whose per-kind tables :func:`test_per_kind_tables_are_the_registrys` holds to the registry."""
+HELD = {"io/gains_schema.py", "io/model_schema.py", "export/linuxcnc.py", "workflows/shaper_twin.py",
+        "workflows/warmup.py"}
+"""Modules whose per-kind tables :func:`test_per_kind_tables_are_the_registrys` and
+:func:`test_feature_tables_name_only_registered_kinds` hold to the registry."""
 
 
 def test_decisions_by_kind_live_in_the_registry():

@@ -156,8 +156,8 @@ def frf(
     frf_path = frf_out or out.with_name(out.stem + "_frf.csv")
     _check_csv(frf_path, "--frf-out")
     check_distinct_outputs(("--out", out), ("--frf-out", frf_path))
-    twin = twin_from_options(machine, param, ideal)
     ctrl = _runtime(gains) if gains is not None else None
+    twin = twin_from_options(machine, param, ideal)
     res = _experiments(machine).measure_frf(
         twin,
         excitation=excitation,
@@ -215,8 +215,8 @@ def track(
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
-    twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
+    twin = twin_from_options(machine, param, ideal)
     tr = _trajectory(
         trajectory_file, distance, waypoints, v_max, a_max, j_max, s_max, twin.fs, dwell_before, dwell_after
     )
@@ -258,8 +258,8 @@ def ropesnap(
     from ..workflows.files import experiment_texts
 
     _check_csv(out)
-    twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
+    twin = twin_from_options(machine, param, ideal)
     res = _experiments(machine).run_ropesnap(twin, rt, force=force_v, t_release=t_release, after_s=after, seed=seed,
                                              engine=engine)
     lines = []
@@ -314,8 +314,8 @@ def cut(
     ):
         if not v > 0:
             raise UsageError(f"{name} must be > 0, got {v:g}")
-    twin = twin_from_options(machine, param, ideal)
     rt = _runtime(gains)
+    twin = twin_from_options(machine, param, ideal)
     experiments = _experiments(machine)
     sc = experiments.SlotCut(flutes, rpm, tool_diameter, cut_start, cut_length, mean_force, tooth_force)
     if not sc.tooth_hz < twin.fs / 2:

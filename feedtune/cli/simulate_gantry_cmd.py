@@ -162,8 +162,8 @@ def frf(
         _check_csv(frf_out, "--frf-out")
     check_distinct_outputs(("--out", out), ("--frf-out", frf_out))
     xs = _positions(x)
-    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     several = len(xs) > 1
     results, texts, lines = [], {}, []
     for xi in xs:
@@ -215,8 +215,8 @@ def axis_frf(
     if frf_out is not None:
         _check_csv(frf_out, "--frf-out")
     check_distinct_outputs(("--out", out), ("--frf-out", frf_out))
-    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     res = measure_axis_frf(twin, x, rms=rms, f_lo=f_lo, f_hi=f_hi, period_s=period, periods=periods, controller=g,
                            axis=a, remove_delay=not keep_delay, seed=seed, engine=engine)
     texts = {str(out): _log_text(res)}
@@ -261,8 +261,8 @@ def mass(
 
     _check_csv(out)
     xs = _positions(x)
-    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     move = {"distance": distance, "v_max": v_max, "a_max": a_max, "j_max": j_max}
     several = len(xs) > 1
     results, texts, lines = [], {}, []
@@ -308,8 +308,8 @@ def ropesnap(
     from ..machines.gantry.experiments import run_gantry_ropesnap
 
     _check_csv(out)
-    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     res = run_gantry_ropesnap(twin, g, a, force_n=force_n, x=x, t_release=t_release, after_s=after, seed=seed,
                               engine=engine)
     lines = []
@@ -355,8 +355,8 @@ def track(
     from ..machines.gantry.experiments import run_gantry_tracking, tracking_trajectory
 
     _check_csv(out)
-    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     move = test if test is not None else {"distance": distance, "v_max": v_max, "a_max": a_max, "j_max": j_max,
                                           "s_max": s_max}
     tr = tracking_trajectory(move, twin.fs, dwell_before=dwell_before, dwell_after=dwell_after)
@@ -408,8 +408,8 @@ def contour(
     from ..sim.contour import THESIS_FEATURES, contour_path
 
     _check_csv(out)
-    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     g, a = _runtime(gains, "gantry", "--gains"), _runtime(axis_gains, "axis", "--axis-gains")
+    twin = twin_from_options("gantry", param, ideal, plant="gantry")
     lim = {"size_m": size, "v_max": v_max, "a_max": a_max, "j_max": j_max}
     if feature is not None:
         from ..errors import UsageError

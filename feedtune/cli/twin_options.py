@@ -1,5 +1,5 @@
-"""Building a twin from ``--machine``, ``--param NAME=VALUE`` and ``--ideal`` (every simulate command), its kernels
-compiled first when they are not built yet (:func:`feedtune.workflows.warmup.ensure_kernels`)."""
+"""Building a twin from ``--machine``, ``--param NAME=VALUE`` and ``--ideal`` (every simulate command); its kernels
+compile on first use (``feedtune warmup`` compiles them ahead: :func:`feedtune.workflows.warmup.ensure_kernels`)."""
 
 from __future__ import annotations
 
@@ -20,10 +20,8 @@ def parse_params(items: list[str] | None) -> dict[str, str]:
 def twin_from_options(machine: str, params: list[str] | None, ideal: bool, *, plant: str = "two_mass"):
     """The registered machine's twin; UsageError when the command group does not simulate ``machine`` (it runs the
     twins of the plant structure ``plant``)."""
-    from .. import progress
     from ..errors import UsageError
     from ..machines import get_machine, machines_of
-    from ..workflows.warmup import MACHINE_KERNELS, ensure_kernels
 
     names = machines_of(plant)
     if machine not in names:
@@ -36,6 +34,6 @@ def twin_from_options(machine: str, params: list[str] | None, ideal: bool, *, pl
         if not overrides:
             raise
         raise UsageError(f"--param: {exc}") from None
-    ensure_kernels(MACHINE_KERNELS.get(machine, ()))  # a first run compiles them as a step of its own
-    progress.step(f"running the {machine} twin")
+    # nothing printed and nothing compiled here: the command's checks that need the twin (--x within its travel, an
+    # output derived from --out) come first; its kernels compile on first use (`feedtune warmup` does it ahead)
     return twin

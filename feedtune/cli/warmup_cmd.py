@@ -17,7 +17,8 @@ def warmup(
 
     Run it after pip install, or in a container's build: the twins' closed loops, the gains files' laws, the CSV
     writer and the Kalman filter are compiled on the machine's cores and kept in the kernel cache. Without it, the
-    commands that run a twin do this first, as the step 'compiling kernels (first run only)'."""
+    demos do this first, as the step 'compiling kernels (first run only)', and the other commands compile a kernel
+    the first time they use it."""
     show_progress(quiet)
     from ..workflows.warmup import compile_kernels, kernels_ready, stamp_path
 

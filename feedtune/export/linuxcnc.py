@@ -107,7 +107,7 @@ def hal_component(doc: dict, *, name: str = "feedtune", where: str = "gains file
     header_options.pop("precision", None)
     prefix = "ft"
     header = c_header(doc, prefix=prefix, where=where, warning=warning, **header_options)
-    pins = PINS[doc["kind"]]
+    pins = _pins_of(doc, where)
     P = prefix.upper()
     members = [f"    hal_float_t *{m};" for m in [m for _, m, _ in pins.inputs] + [m for _, m in pins.outputs]]
     n_in = len(pins.inputs)
@@ -218,9 +218,17 @@ def hal_component(doc: dict, *, name: str = "feedtune", where: str = "gains file
     return "\n".join(lines)
 
 
+def _pins_of(doc: dict, where: str) -> KindPins:
+    """The pins of a gains document's kind; UsageError naming the kinds a component exists for."""
+    kind = doc.get("kind")
+    if kind not in PINS:
+        raise UsageError(f"{where}: a LinuxCNC component exists for gains kinds {', '.join(PINS)}, not {kind!r}")
+    return PINS[kind]
+
+
 def pin_list(doc: dict, name: str = "feedtune") -> list[tuple[str, str, str]]:
     """``(pin, direction, what)`` of instance 0 of the component of a gains document (for the summary and docs)."""
-    pins = PINS[doc["kind"]]
+    pins = _pins_of(doc, "gains document")
     out = [(f"{name}.0.enable", "in bit", "runs the law")]
     out += [(f"{name}.0.{p}", "in float", "relative to the origin" if rel else "absolute")
             for p, _, rel in pins.inputs]
