@@ -176,7 +176,7 @@ def test_rack_pinion_sequence_and_report(real_data_dir, tmp_path, capsys, monkey
     steps = [
         ["log", "convert", root / "a3MR.csv", "--skip-rows", "3", "--time", "Time", "--map",
          "n=Servo motor speed", "--unit", "n=rpm", "--keep", "n", "--out", "amp.csv"],
-        ["log", "convert", root / "a3NI.csv", "--skip-rows", "2", "--time", "Channel name", "--map", "f=Force",
+        ["log", "convert", root / "a3NI.csv", "--skip-rows", "2", "--time", "col0", "--map", "f=Force",
          "--keep", "f", "--out", "daq.csv"],
         ["log", "merge", "daq.csv", "amp.csv", "--shift", "f=0.004", "--offset", "f=mean:10", "--scale", "f=-200",
          "--unit", "f=N", "--scale", "n=-3.3333333e-4", "--unit", "n=m/s", "--integrate", "x=n", "--out",

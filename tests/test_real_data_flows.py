@@ -88,7 +88,7 @@ def test_rack_and_pinion_merged_from_two_instruments_and_one_way_friction(real_d
     amp, daq, rack = tmp_path / "amp.csv", tmp_path / "daq.csv", tmp_path / "rack.csv"
     run_json(["log", "convert", d / "a3MR.csv", "--skip-rows", "3", "--time", "Time", "--map", "n=Servo motor speed",
               "--unit", "n=rpm", "--keep", "n", "--out", amp], capsys, monkeypatch)
-    info = run_json(["log", "convert", d / "a3NI.csv", "--skip-rows", "2", "--time", "Channel name", "--map",
+    info = run_json(["log", "convert", d / "a3NI.csv", "--skip-rows", "2", "--time", "col0", "--map",
                      "f=Force", "--keep", "f", "--out", daq], capsys, monkeypatch)
     assert info["fs_hz"] == pytest.approx(2000.0, rel=1e-6)  # README: dt = 0.5 ms
     merged = run_json(["log", "merge", daq, amp, "--shift", "f=0.004", "--offset", "f=mean:10", "--scale", "f=-200",
