@@ -57,12 +57,13 @@ def _esc(text: str) -> str:
     return html.escape(str(text), quote=True)
 
 
-_HYPHENATED = re.compile(r"\b[A-Za-z]+(?:-[A-Za-z]+)+\b")
+_HYPHENATED = re.compile(r"(?<![\w.])[A-Za-z0-9.]+(?:-[A-Za-z0-9.]+)+(?![\w])")
 
 
 def _breakable(text: str) -> str:
     """Escaped text that may break after ``_`` (and after ``/`` in a path without spaces): long file names wrap
-    inside narrow columns. A hyphenated word (``pre-filter``, ``MC-PPC``) is kept on one line, as the PDF keeps it."""
+    inside narrow columns. A hyphenated word or range (``pre-filter``, ``MC-PPC``, ``4.17-4.18``) is kept on one
+    line, as the PDF keeps it."""
     out = _esc(text).replace("_", "_<wbr>")
     out = out.replace("/", "/<wbr>") if " " not in text else out
     return _HYPHENATED.sub(lambda m: f'<span class="w">{m.group(0)}</span>', out)
