@@ -236,11 +236,7 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
     if n >= 3:
         d2 = np.abs(db[:, :-2] - 2 * db[:, 1:-1] + db[:, 2:])
         d2 = np.pad(d2, ((0, 0), (1, 1)), mode="edge")
-        from scipy.ndimage import median_filter
-
-        # row by row: scipy's one-dimensional running median is ~8x faster than the 2-D filter of size (1, w)
-        med = np.vstack([median_filter(row, size=2 * half_window + 1, mode="nearest") for row in d2])
-        out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
+        out = _d2_sigma(d2, half_window, "nearest")
     if coherence is not None:
         out = np.maximum(out, _by_blocks(_coherence_floor_db, np.asarray(coherence, float).reshape(-1, n)))
     return out
@@ -263,9 +259,17 @@ def phase_scatter(response: np.ndarray, half_window: int = 10) -> np.ndarray:
     ph = np.angle(h)
     d2 = np.abs(np.angle(np.exp(1j * (ph[:, :-2] - 2 * ph[:, 1:-1] + ph[:, 2:]))))
     d2 = np.pad(d2, ((0, 0), (1, 1)), mode="reflect")
+    return _d2_sigma(d2, half_window, "mirror")
+
+
+def _d2_sigma(d2: np.ndarray, half_window: int, mode: str) -> np.ndarray:
+    """1-sigma scatter per line from ``|d2|`` (rows x lines, second differences): the running median over
+    ``2 half_window + 1`` lines divided by ``0.6745 sqrt(6)`` (white scatter of ``sigma`` gives ``var d2 = 6 sigma^2``),
+    the largest over rows."""
     from scipy.ndimage import median_filter
 
-    med = np.vstack([median_filter(row, size=2 * half_window + 1, mode="mirror") for row in d2])
+    # row by row: scipy's one-dimensional running median is ~8x faster than the 2-D filter of size (1, w)
+    med = np.vstack([median_filter(row, size=2 * half_window + 1, mode=mode) for row in d2])
     return np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
 
 

@@ -120,16 +120,14 @@ def ballscrew(
 def _check_model_out(out: Path | None, force: bool) -> None:
     """Fail before any work when a model file cannot be written (wrong suffix, exists without --force)."""
     from ..errors import UsageError
-    from ..io import ensure_writable
+    from ..io.document import ensure_document_writable
 
     if out is None:
         return
     suffix = out.suffix.lower()
     if suffix not in (".toml", ".json"):
         raise UsageError(f"--out {out}: model files are written as .toml (with a .json twin) or .json")
-    ensure_writable(out, force)
-    if suffix == ".toml":
-        ensure_writable(out.with_suffix(".json"), force)
+    ensure_document_writable(out, force)  # with the .json twin of a .toml
 
 
 def _std_text(value: float, std: float | None, unit: str) -> str:
@@ -429,7 +427,7 @@ CURVE_METHODS = {"steady-state": "steady-state: mean command on constant-velocit
 def _check_curve_out(curve_out: Path | None, out: Path | None, force: bool, joint: bool) -> None:
     """Fail before any work when ``--curve-out`` cannot be written or has no fit with points to hold."""
     from ..errors import UsageError
-    from ..io import ensure_writable
+    from ..io.document import ensure_document_writable
 
     if curve_out is None:
         return
@@ -443,9 +441,7 @@ def _check_curve_out(curve_out: Path | None, out: Path | None, force: bool, join
     targets = {curve_out.resolve()} | ({curve_out.with_suffix(".json").resolve()} if suffix == ".toml" else set())
     if out is not None and targets & {out.resolve(), out.with_suffix(".json").resolve()}:
         raise UsageError(f"--curve-out {curve_out} and --out {out} name the same file")
-    ensure_writable(curve_out, force)
-    if suffix == ".toml":
-        ensure_writable(curve_out.with_suffix(".json"), force)
+    ensure_document_writable(curve_out, force)  # with the .json twin of a .toml
 
 
 def _write_friction_curve(curve_out: Path, law_fit, points, *, method: str, points_what: str, log_file,
