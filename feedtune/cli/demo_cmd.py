@@ -81,9 +81,10 @@ def demo(
     policy = limits_from_options(limits, ms_max, pm_min, gm_min, dm_min, gm_low_min)
     goal = objective_options(objective, compliance_max, (plant(entry.plant),), machine)
     check_out_dir(out, force)
+    from ..sim.engine import choose_engine
     from ..workflows.warmup import MACHINE_KERNELS, ensure_kernels
 
-    if engine != "python":  # a first run compiles them as a step of its own, on every core
+    if choose_engine(engine) == "numba":  # a first run compiles them as a step of its own, on every core
         ensure_kernels(MACHINE_KERNELS.get(machine, ()))
     result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw, objective=goal)
     from .. import progress

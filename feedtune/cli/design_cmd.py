@@ -79,6 +79,21 @@ def _load_friction(path: Path | None):
     return model
 
 
+def _ballscrew_friction(path: Path | None, band: float | None, model, model_file: Path):
+    """The friction model of ``--friction`` (None without), its units and ``--friction-band`` checked against the
+    ball-screw model before any design work (the gains file repeats the check with the law's own viscous term)."""
+    from ..control.friction import friction_feedforward
+    from ..errors import UsageError
+
+    if band is not None and path is None:
+        raise UsageError("--friction-band needs --friction")
+    friction = _load_friction(path)
+    if friction is not None:
+        friction_feedforward(friction, command_unit=model.input_unit, lead_m_per_rad=model.lead_m_per_rad,
+                             v_band=band, where=str(path), command_where=str(model_file))
+    return friction
+
+
 def _check_out(out: Path | None, force: bool) -> None:
     """Refuse an existing ``--out`` (without ``--force``) before any design work."""
     if out is not None:
@@ -90,15 +105,15 @@ def _check_out(out: Path | None, force: bool) -> None:
 def _finish(design, *, frf_path, frf, limits, out, force, allow_unstable, as_json, friction=None,
             friction_band=None, sampling=None):
     """Deliver the design (:func:`feedtune.workflows.deliver.deliver`: gains document, its check on the FRF or the
-    model, the certificate in the file when on an FRF), write it unless it fails, print the result (``sampling``:
-    the :class:`~feedtune.cli.sampling_options.TargetSampling` recorded in the ``--json`` result)."""
+    model, the certificate in the file when on an FRF), write it unless it fails, print the result (``friction``:
+    the friction model read by :func:`_load_friction`, ``sampling``: the
+    :class:`~feedtune.cli.sampling_options.TargetSampling` recorded in the ``--json`` result)."""
     from ..machines.certificate import FrfSource
     from ..workflows.deliver import deliver
     from .delivery import finish_design
 
-    friction_model = _load_friction(friction)
     sources = [] if frf is None else [FrfSource.from_file(frf_path, frf)]
-    delivery = deliver(design, sources, limits, friction=friction_model, friction_band=friction_band,
+    delivery = deliver(design, sources, limits, friction=friction, friction_band=friction_band,
                        where="the design")
     result = {**delivery.result, "design": design.design_dict(), **({} if sampling is None else sampling.to_json())}
     if design.kind != "ppi":
@@ -175,6 +190,7 @@ def ppc(
     model = _load_model(model_file)
     filters = _filters(notch, lpf)
     _check_out(out, force)
+    friction_model = _ballscrew_friction(friction, friction_band, model, model_file)  # named before any work
     measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
     rate.report(as_json, "design ppc")
@@ -187,7 +203,7 @@ def ppc(
                               zeta=0.7 if zeta is None else zeta, filters=filters, fs=fs,
                               delay_samples=delay_samples)
     _finish(design, frf_path=frf, frf=measured, limits=policy, out=out, force=force, allow_unstable=allow_unstable,
-            as_json=as_json, friction=friction, friction_band=friction_band, sampling=rate)
+            as_json=as_json, friction=friction_model, friction_band=friction_band, sampling=rate)
 
 
 @app.command("ppi")
@@ -251,6 +267,7 @@ def ppi(
     given = [g is not None for g in (kpx, kpv, kiv)]
     if any(given) and not all(given):
         raise UsageError("give all of --kpx, --kpv and --kiv, or none of them to tune them under the limits")
+    friction_model = _ballscrew_friction(friction, friction_band, model, model_file)  # named before any work
     measured = read_optional_frf(frf, quantity, options=frf_options)
     rate = target_sampling(fs, delay_samples, [(frf, measured)], default_fs=DEFAULT_FS, override=fs_override)
     rate.report(as_json, "design ppi")
@@ -267,7 +284,7 @@ def ppi(
             frf=measured,
         )
     _finish(design, frf_path=frf, frf=measured, limits=policy, out=out, force=force, allow_unstable=allow_unstable,
-            as_json=as_json, friction=friction, friction_band=friction_band, sampling=rate)
+            as_json=as_json, friction=friction_model, friction_band=friction_band, sampling=rate)
 
 
 # ------------------------------------------------------------------------------------------ tune mcppc|ppi

@@ -561,7 +561,7 @@ def friction(
     jointly with the mass (or from the Kalman-filter disturbance with --model/--mass), or with --steady-state from
     constant-velocity plateaus."""
     show_progress(quiet)
-    from ..errors import DataError
+    from ..errors import DataError, UsageError
     from ..identify.friction import OneDirectionError, fit_joint_friction, identify_friction
     from ..identify.friction_curve import PlateauSettings, identify_friction_curve
     from ..io import save_model
@@ -578,6 +578,8 @@ def friction(
     _check_curve_out(curve_out, out, force, steady_state or (model_file is None and mass is None and not rigid_first))
     model = _friction_model_source(model_file)
     logs = [read_log_with_options(p, map_, fs, time, scale, unit, skip_rows) for p in log_files]
+    if min_speed is not None and not min_speed >= 0 and position in logs[0]:  # before any fit
+        raise UsageError(f"--min-speed must be >= 0 {logs[0].unit(position)}/s, got {min_speed:g}")
     log_file = log_files[0] if len(log_files) == 1 else f"{len(log_files)} logs ({log_files[0]}, ...)"
     if steady_state:
         given = {"acc_tol": plateau_acc_tol, "vel_tol": plateau_vel_tol, "min_duration": plateau_min_duration,
