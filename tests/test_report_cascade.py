@@ -17,7 +17,7 @@ from io import BytesIO
 
 import numpy as np
 import pytest
-from report_checks import MIN_PIXELS, axes_mask, colour_pixels
+from report_checks import BROWSER, MIN_PIXELS, axes_mask, colour_pixels
 from scipy.optimize import brentq
 from test_report import assert_same_numbers, lookup
 from typer.testing import CliRunner
@@ -117,7 +117,7 @@ def test_cascade_report_numbers_are_analyze_json(report, axis):
     cert = [b for b in section.blocks if isinstance(b, Table) and b.title.startswith("Certificate of")]
     assert len(cert) == 2
     for t in cert:
-        assert [(r[0].text, r[1].text) for r in t.rows] == [("model", "speed loop L_v"), ("model", "position loop L_p")]
+        assert [(r[0].text, r[1].text) for r in t.rows] == [("model", "speed"), ("model", "position")]
         assert all(r[-2].text.startswith(("Ms ", "PM ", "GM ")) and r[-1].text == "ok" for r in t.rows)
     # the headline per design: verdict, guaranteed bandwidth and the binding limit of analyze's verdict
     head = next(b for b in report.section("summary").blocks if isinstance(b, Table))
@@ -190,11 +190,17 @@ def test_drive_tuning_and_feedtune_tuning_on_the_vendor_frf_in_one_report(exampl
         assert got["frfs"] == [xml.name] and got["verdict"]["basis"] == "frfs"
     cert = [b for b in rep.section("design-cascade").blocks if isinstance(b, Table) and b.title.startswith("Certif")]
     assert [[(r[0].text, r[1].text) for r in t.rows] for t in cert] == [[
-        (xml.name, "speed loop L_v"), (xml.name, "position loop L_p"), ("model", "speed loop L_v"),
-        ("model", "position loop L_p")]] * 2
+        (xml.name, "speed"), (xml.name, "position"), ("model", "speed"), ("model", "position")]] * 2
     res = cli("report", *gains, xml, "--out", tmp_path / "rep.html")
     assert res.exit_code == 0, res.output
     assert f"report with {len(rep.figures())} figures" in res.output and len(rep.figures()) >= 9
+    if BROWSER is not None:  # as a reader sees it: every table fits at 1280 px, no cell overflows, no page scroll
+        from test_report_browser import DESKTOP, probe
+
+        seen = probe(tmp_path / "rep.html", DESKTOP, tmp_path)
+        assert len(seen["imgs"]) == len(rep.figures()) and seen["cells"] == []
+        assert seen["page_scroll_width"] <= seen["vw"]
+        assert all(t["box_scroll_width"] <= t["box_client_width"] + 1 for t in seen["tables"]), seen["tables"]
 
 
 @pytest.mark.slow
@@ -216,3 +222,29 @@ def test_one_channel_certificate_says_what_it_assumes_once(real_data_dir, tmp_pa
     rep = build_report([tmp_path / "given.toml", frf], render=False)
     verdict = next(b.text for b in rep.section("design-cascade").blocks if type(b).__name__ == "Verdict")
     assert verdict.count("x1/u above 250 Hz") == 1, verdict
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("which, unit", [("HSM150", "N*m"), ("ODrive", "V")])
+def test_real_rigid_axis_report_in_its_units(which, unit, real_data_dir, tmp_path, capsys, monkeypatch):
+    """docs/cascade.md "Real rigid axes end to end" then ``feedtune report GAINS MODEL``: both loops drawn (it drew
+    the identification alone), the gains in the data's units, the headline the certificate's."""
+    from cli_run import run
+    from test_tune_cascade import _hsm_model, _odrive_model
+
+    model = (_hsm_model if which == "HSM150" else _odrive_model)(real_data_dir, tmp_path, capsys, monkeypatch)
+    gains = tmp_path / "gains.toml"
+    code, _, err = run(["tune", "cascade", model, "--out", gains], capsys, monkeypatch)
+    assert code == 0, err
+    code, out, err = run(["report", gains, model, "--out", tmp_path / "rep.html"], capsys, monkeypatch)
+    assert code == 0, err
+    rep = build_report([gains, model], render=False)
+    assert set(LOOP_FIGURES) <= {f.name for f in rep.figures()} and f"report with {len(rep.figures())} figures" in out
+    section = rep.section("design-cascade")
+    shown = {c.unit for b in section.blocks if isinstance(b, Table) for row in b.rows for c in row
+             if isinstance(c, Cell)}
+    assert {f"{unit}/(rad/s)", f"{unit}/(rad/s^2)", "1/s"} <= shown
+    worst = analyze_json(gains)["verdict"]["certificate"]["worst"]
+    head = next(b for b in rep.section("summary").blocks if isinstance(b, Table))
+    assert head.rows[0][1].text == "PASS"
+    assert head.rows[0][2].value == pytest.approx(worst["first_crossover_hz"], rel=1e-12)

@@ -47,7 +47,9 @@ from .trust import BANDWIDTH_DEFINITION, bandwidth_entry, limit_text, mask_note,
 MODEL = "model"
 """The name of the model among the sources a design is analysed on (the certificate's name for it)."""
 LOOP_TITLES = {"": "speed loop L_v", POSITION: "position loop L_p"}
-"""The loops by the prefix of their case names (:data:`feedtune.analysis.cascade.LOOPS`)."""
+"""The loops by the prefix of their case names (:data:`feedtune.analysis.cascade.LOOPS`), in the figures."""
+LOOP_NAMES = {"": "speed", POSITION: "position"}
+"""The loops in the tables' ``loop`` column."""
 CASCADE_CASE_TITLES = {**CASE_TITLES, **{POSITION + k: f"position loop, {v}" for k, v in CASE_TITLES.items()}}
 """Case titles of both loops (the speed loop's are the usual ones)."""
 FRF_STYLES = ("-", "-.", ":", (0, (5, 1, 1, 1, 1, 1)))
@@ -226,7 +228,7 @@ def _cases_table(designs: list[CascadeReportDesign]) -> Table:
             if m is None:
                 continue
             loop = POSITION if case.startswith(POSITION) else ""
-            rows.append([text_cell(d.label), text_cell(LOOP_TITLES[loop]),
+            rows.append([text_cell(d.label), text_cell(LOOP_NAMES[loop]),
                          text_cell(CASE_TITLES[case.removeprefix(loop)]),
                          *_figure_cells(["design", d.name, "analysis", case], m),
                          Cell(m["crossovers_hz"], "Hz", key=["design", d.name, "analysis", case, "crossovers_hz"])])
@@ -252,7 +254,7 @@ def _certificate_table(d: CascadeReportDesign, limits: ReportLimits) -> Table:
             scored = [i for i in items if i.slack is not None]
             active = min(scored, key=lambda i: i.slack) if scored else None
             failed = [i for i in items if not i.ok]
-            rows.append([text_cell(s.name), text_cell(LOOP_TITLES[loop]),
+            rows.append([text_cell(s.name), text_cell(LOOP_NAMES[loop]),
                          *_figure_cells(["design", d.name, "on", s.name, case], m),
                          text_cell(limit_text(None if active is None else active.to_dict())),
                          text_cell("ok" if not failed else "FAILS: " + ", ".join(i.name for i in failed))])
