@@ -120,7 +120,9 @@ class GainsFormat:
     emitter : Ref
         ``emitter(doc, runtime, options, where) -> str``: its C header (export).
     report : Ref, optional
-        The report module that draws its designs; without one the report lists its files only.
+        ``report(inputs, names, limits, data, warnings, colors) -> (subsections, designs)``: the report's subsections
+        of its gains files and their analysed designs (report; :func:`feedtune.report.design.design_section` calls each
+        once, in this registry's order); without one the report lists its files only.
     loop : str
         What the analysis' crossovers are of, when not of the position loop (``CoM`` for a gantry).
     legend : str
@@ -233,7 +235,7 @@ GAINS: tuple[GainsFormat, ...] = (
         "ballscrew", "two-mass MC-PPC or P-PI", "feedtune.io.gains:gains_document",
         "feedtune.machines.ballscrew.runtime:GainsRuntime",
         "feedtune.machines.ballscrew.gains_analysis:analyze_document", "feedtune.export.c_ballscrew:ballscrew_header",
-        report="feedtune.report.design:build_designs",
+        report="feedtune.report.design:ballscrew_subsections",
         modules=("control/ballscrew_law.py", "machines/ballscrew/law.py")),
     GainsFormat(
         "gantry", "gantry MIMO or PID", "feedtune.io.gantry_gains:gantry_gains_document",
@@ -253,6 +255,7 @@ GAINS: tuple[GainsFormat, ...] = (
         "cascade", "drive speed/position cascade", "feedtune.io.cascade_gains:cascade_gains_document",
         "feedtune.machines.cascade.runtime:CascadeRuntime",
         "feedtune.machines.cascade.gains_analysis:analyze_document", "feedtune.export.c_cascade:cascade_header",
+        report="feedtune.report.cascade_design:cascade_subsections",
         modules=("control/cascade.py", "machines/cascade/law.py", "machines/cascade/twin.py",
                  "models/cascade_plant.py", "analysis/cascade.py")),
 )

@@ -111,3 +111,20 @@ def test_fitted_band_is_the_top_octave():
     f = np.logspace(0, 3, 301)
     sel = fitted_band(f, 1000.0)
     assert f[sel][0] >= 500.0 - 1e-9 and f[sel][-1] == 1000.0
+
+
+def test_a_channel_held_twice_is_continued_once_and_said_once():
+    """A cascade on a one-channel FRF holds the motor channel twice (``[x1/u, xp/u]`` with the position loop on the
+    motor encoder): continued as the channel alone, and what it assumes above the band said once (issue 24)."""
+    f = np.logspace(0, np.log10(300), 100)
+    one = two_mass(THESIS_TABLE_3_1, f)[:1] * current_loop(f)
+
+    def model(fr):
+        return two_mass(THESIS_TABLE_3_1, fr)[:1]
+
+    alone = continue_plant(f, one, model, 8000.0, channels=("x1/u",))
+    twice = continue_plant(f, np.vstack([one, one]), lambda fr: np.vstack([model(fr), model(fr)]), 8000.0,
+                           channels=("x1/u", "x1/u"))
+    assert np.array_equal(twice[0], alone[0]) and np.array_equal(twice[1], np.vstack([alone[1], alone[1]]))
+    assert len(alone[3].assumptions()) == 1 and twice[3].assumptions() == alone[3].assumptions()
+    assert [c["channel"] for c in twice[3].to_dict()["channels"]] == ["x1/u"]

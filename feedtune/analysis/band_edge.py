@@ -72,17 +72,25 @@ class BandEdge:
         starts = [t.noise_from_hz for t in self.trust if t.noise_from_hz is not None]
         return float(min(starts)) if starts else None
 
+    def _distinct(self) -> list[tuple]:
+        """``(name, trust, rolloff)`` of each channel once: a plant layout may hold one measured channel twice (a
+        cascade's ``[x1/u, xp/u]`` with the position loop on the motor encoder), the same lines and the same fit."""
+        seen: dict = {}
+        for name, t, r in zip(self.channels, self.trust, self.rolloffs, strict=True):
+            seen.setdefault(name, (name, t, r))
+        return list(seen.values())
+
     def assumptions(self) -> list[str]:
         """One line per channel that rests on its continuation somewhere below the case's top: where and on what."""
         out = []
-        for name, t, r in zip(self.channels, self.trust, self.rolloffs, strict=True):
+        for name, t, r in self._distinct():
             lo = t.noise_from_hz if t.noise_from_hz is not None else self.last_line_hz
             if (t.noise_from_hz is None and self.extended_to_hz is None) or r.structure == "none":
                 continue
             where = (f"from {t.noise_from_hz:.4g} Hz (where its lines turn to noise)" if t.noise_from_hz is not None
                      else f"above {lo:.4g} Hz (the FRF's last line)")
             out.append(f"{name} {where}: {r.describe()}")
-        for name, t in zip(self.channels, self.trust, strict=True):
+        for name, t, _ in self._distinct():
             if t.noise_below_hz is not None:
                 out.append(f"{name} up to {t.noise_below_hz:.4g} Hz (where its lines are noise): the model, scaled to "
                            f"its lines at {t.band_bottom_hz:.4g} Hz")
@@ -93,8 +101,7 @@ class BandEdge:
         return {"valid_to_hz": self.valid_to_hz, "valid_from_hz": self.valid_from_hz,
                 "noise_from_hz": self.noise_from_hz, "last_line_hz": self.last_line_hz,
                 "extended_to_hz": self.extended_to_hz,
-                "channels": [{"channel": n, **t.to_dict(), "rolloff": r.to_dict()}
-                             for n, t, r in zip(self.channels, self.trust, self.rolloffs, strict=True)],
+                "channels": [{"channel": n, **t.to_dict(), "rolloff": r.to_dict()} for n, t, r in self._distinct()],
                 "assumes": self.assumptions()}
 
 
@@ -110,6 +117,16 @@ def continuation_grid(last_hz: float, fs: float, features=None) -> np.ndarray:
         g = np.union1d(g, feature_points(features, last_hz, top))
     g[-1] = top
     return g[g > last_hz]
+
+
+def _same_channel(k: int, names: tuple, h: np.ndarray, coh: np.ndarray | None, models: list,
+                  m_ext: np.ndarray | None) -> int | None:
+    """An earlier row of the plant that is row ``k`` again (the same name, lines, coherence and model), or None."""
+    for j in range(k):
+        if (names[j] == names[k] and np.array_equal(h[j], h[k]) and (coh is None or np.array_equal(coh[j], coh[k]))
+                and np.array_equal(models[j], models[k]) and (m_ext is None or np.array_equal(m_ext[j], m_ext[k]))):
+            return j
+    return None
 
 
 def continue_plant(lines_hz: np.ndarray, response: np.ndarray, model_plant, fs: float, *,
@@ -166,10 +183,19 @@ def continue_plant(lines_hz: np.ndarray, response: np.ndarray, model_plant, fs: 
         coh_out[:, :f.size] = coh2
     m_ext = np.asarray(model_plant(f_ext), complex).reshape(-1, f_ext.size) if f_ext.size else None
     rolloffs: list[Rolloff] = []
+    models: list[np.ndarray] = []
     for k, (eps, n_ok) in enumerate(zip(errors, cut, strict=True)):
         band = np.flatnonzero(fitted_band(f[:n_ok], float(f[n_ok - 1])))
         need = np.r_[band, np.arange(n_ok, f.size)]  # the model where it is fitted to and where it replaces lines
         m_need = np.asarray(model_plant(f[need]), complex).reshape(-1, need.size)[k]
+        models.append(m_need)
+        twin = _same_channel(k, names, h2, coh2, models, m_ext)
+        if twin is not None:  # one channel held twice in the layout (a cascade's x1/u as x1 and xp): fitted once
+            out[k] = out[twin]
+            if coh_out is not None:
+                coh_out[k] = coh_out[twin]
+            rolloffs.append(rolloffs[twin])
+            continue
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = h2[k, band] / m_need[:band.size]
         r = fit_rolloff(f[band], ratio, eps[band])

@@ -16,7 +16,7 @@ from functools import partial
 
 import numpy as np
 
-from ..structures import gains_formats
+from ..structures import gains_formats, resolve
 from .certificate import certificate_blocks
 from .collect import FrfInput, GainsInput, Inputs
 from .content import Cell, FigureBlock, Paragraph, Section, Table, Verdict, text_cell
@@ -138,8 +138,10 @@ def store_bandwidth(store: dict, d, limits: ReportLimits) -> None:
 
 def verdict_paragraph(d, limits: ReportLimits, assumes: bool = True) -> Verdict:
     """The pass/fail line of a design; with ``assumes``, what its checked case assumes above the measured band
-    (``assumes`` of ``feedtune analyze --json``: the design section says it, the summary points there)."""
-    text = verdict_line(d.label, d.name, d.result["check"], CASE_TITLES, limits.policy.describe(),
+    (``assumes`` of ``feedtune analyze --json``: the design section says it, the summary points there). The cases are
+    named by the design's ``case_titles`` when it has them (a cascade's position loop), else :data:`CASE_TITLES`."""
+    text = verdict_line(d.label, d.name, d.result["check"], getattr(d, "case_titles", CASE_TITLES),
+                        limits.policy.describe(),
                         (d.result.get("verdict") or {}).get("basis_text"))
     assumes = (d.result["analysis"].get(d.main_case) or {}).get("assumes") or [] if assumes else []
     if assumes:
@@ -435,8 +437,8 @@ def _unanalysed_section(gains: list[GainsInput], names: Mapping) -> Section | No
     rows = [[text_cell(names[g.path]), text_cell(g.kind), text_cell(controller_label(g.controller))] for g in gains]
     return Section("design-other", "Gains for other machines",
                    [Table("Gains files not analysed", ["file", "machine", "controller"], rows),
-                    Paragraph("feedtune analyses gains files for ball-screw drives, gantries and x axes; these "
-                              "machine kinds are listed only.")])
+                    Paragraph("These gains kinds have no report module in this feedtune; their files are listed "
+                              "only.")])
 
 
 def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
@@ -462,61 +464,76 @@ def build_designs(inputs: Inputs, names: Mapping, colors: Colors,
     return designs, (names[fi.path] if fi is not None else None)
 
 
-def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: dict, warnings: list[str],
-                   colors: Colors) -> tuple[Section | None, list[BallScrewDesign]]:
-    """The design section (None without gains files) and the analysed designs (ball screw, gantry, axis).
+def ballscrew_subsections(inputs: Inputs, names: Mapping, limits: ReportLimits, data: dict, warnings: list[str],
+                          colors: Colors) -> tuple[list[Section], list[BallScrewDesign]]:
+    """The ball-screw design subsection (none without ball-screw gains files) and the analysed designs (the report
+    hook of the ``ballscrew`` gains format, :attr:`feedtune.structures.GainsFormat.report`).
 
     Fills ``data["design"][file] = {kind, gains, closed_loop_poles, analysis, frf}`` (the first four equal
     ``feedtune analyze FILE [--frf F] --json``) and appends stability/margin warnings.
     """
-    from .gantry_design import machine_subsections
-
     designs, frf_name = build_designs(inputs, names, colors, limits)
-    machines, machine_designs = machine_subsections(inputs, names, limits, data, warnings, colors)
+    if not designs:
+        return [], []
+    store = data.setdefault("design", {})
+    blocks: list = []
+    where = f"the measured FRF {frf_name}" if frf_name else "the design model only (no measured FRF given)"
+    blocks.append(Paragraph(f"Each gains file is analysed as stored (no redesign) against {where}; the "
+                            "numbers equal feedtune analyze GAINS" + (f" --frf {frf_name}" if frf_name else "")
+                            + " --json."))
+    for d in designs:
+        store[d.name] = {**d.result, "frf": frf_name}
+        store_bandwidth(store, d, limits)
+        doc = next(g.doc for g in inputs.gains if names[g.path] == d.name)
+        blocks.append(parameter_table(f"Gains of {d.label} ({d.name})", d.result["gains"],
+                                      ["design", d.name, "gains"], units=_gain_units(doc)))
+        para = _filters_paragraph(d, doc)
+        if para is not None:
+            blocks.append(para)
+        if d.prefilter is not None:
+            store[d.name]["prefilter"] = {"gains": d.prefilter[0], "lpf_hz": d.prefilter[1]}
+            blocks.append(parameter_table(
+                f"Trajectory pre-filter of {d.label} (eq. 3.17-3.20, G = low-pass at {d.prefilter[1]:g} Hz)",
+                d.prefilter[0], ["design", d.name, "prefilter", "gains"],
+                units={"K_vel": "s", "K_acc": "s^2", "K_jerk": "s^3", "K_snap": "s^4"}))
+        warnings.extend(design_warnings(d, limits))
+        blocks.append(verdict_paragraph(d, limits))
+    blocks.append(tuning_table([(d.label, next(g.doc for g in inputs.gains if names[g.path] == d.name)
+                                  .get("design")) for d in designs]))
+    blocks += [b for b in (objective_block(d.name, d.label, next(g.doc for g in inputs.gains
+                                                                  if names[g.path] == d.name).get("design"))
+                           for d in designs) if b is not None]
+    blocks.append(_margins_table(designs, limits))
+    blocks.extend(_poles_table(d) for d in designs)
+    leaders = feedback_groups(designs)
+    blocks += [_pole_map(leaders), _loop(leaders, limits), _nyquist(leaders, limits),
+               _sensitivity(leaders, limits), _disturbance(leaders), _tracking(designs, limits)]
+    blocks += [_controller(d) for d in leaders]
+    frfs = [(names[fi.path], fi.frf) for fi in inputs.frfs if fi.frf.has("x1/u") and fi.frf.has("x2/u")]
+    blocks += certificate_blocks(designs, frfs, {names[g.path]: g.doc for g in inputs.gains}, limits, store)
+    return [Section("design-ballscrew", "Ball-screw controllers", blocks)], designs
+
+
+def design_section(inputs: Inputs, names: Mapping, limits: ReportLimits, data: dict, warnings: list[str],
+                   colors: Colors) -> tuple[Section | None, list]:
+    """The design section (None without gains files) and the analysed designs of every gains format.
+
+    Each gains format's report hook (:attr:`feedtune.structures.GainsFormat.report`, ``hook(inputs, names, limits,
+    data, warnings, colors) -> (subsections, designs)``) draws the files of its kind, in the registry's order, and
+    fills ``data["design"][file]`` (``feedtune analyze FILE --json`` and what the report adds); gains files of a
+    format without one are listed.
+    """
+    subs: list[Section] = []
+    designs: list = []
+    for ref in dict.fromkeys(f.report for f in gains_formats() if f.report):
+        found, analysed = resolve(ref)(inputs, names, limits, data, warnings, colors)
+        subs += found
+        designs += analysed
     drawn = {f.kind for f in gains_formats() if f.report}  # the formats whose report module draws them
     other = _unanalysed_section([g for g in inputs.gains if g.kind not in drawn], names)
-    if not designs and not machines and other is None:
+    if not subs and other is None:
         return None, []
-    store = data.setdefault("design", {})
-    subs: list[Section] = []
-    if designs:
-        blocks: list = []
-        where = f"the measured FRF {frf_name}" if frf_name else "the design model only (no measured FRF given)"
-        blocks.append(Paragraph(f"Each gains file is analysed as stored (no redesign) against {where}; the "
-                                "numbers equal feedtune analyze GAINS" + (f" --frf {frf_name}" if frf_name else "")
-                                + " --json."))
-        for d in designs:
-            store[d.name] = {**d.result, "frf": frf_name}
-            store_bandwidth(store, d, limits)
-            doc = next(g.doc for g in inputs.gains if names[g.path] == d.name)
-            blocks.append(parameter_table(f"Gains of {d.label} ({d.name})", d.result["gains"],
-                                          ["design", d.name, "gains"], units=_gain_units(doc)))
-            para = _filters_paragraph(d, doc)
-            if para is not None:
-                blocks.append(para)
-            if d.prefilter is not None:
-                store[d.name]["prefilter"] = {"gains": d.prefilter[0], "lpf_hz": d.prefilter[1]}
-                blocks.append(parameter_table(
-                    f"Trajectory pre-filter of {d.label} (eq. 3.17-3.20, G = low-pass at {d.prefilter[1]:g} Hz)",
-                    d.prefilter[0], ["design", d.name, "prefilter", "gains"],
-                    units={"K_vel": "s", "K_acc": "s^2", "K_jerk": "s^3", "K_snap": "s^4"}))
-            warnings.extend(design_warnings(d, limits))
-            blocks.append(verdict_paragraph(d, limits))
-        blocks.append(tuning_table([(d.label, next(g.doc for g in inputs.gains if names[g.path] == d.name)
-                                      .get("design")) for d in designs]))
-        blocks += [b for b in (objective_block(d.name, d.label, next(g.doc for g in inputs.gains
-                                                                      if names[g.path] == d.name).get("design"))
-                               for d in designs) if b is not None]
-        blocks.append(_margins_table(designs, limits))
-        blocks.extend(_poles_table(d) for d in designs)
-        leaders = feedback_groups(designs)
-        blocks += [_pole_map(leaders), _loop(leaders, limits), _nyquist(leaders, limits),
-                   _sensitivity(leaders, limits), _disturbance(leaders), _tracking(designs, limits)]
-        blocks += [_controller(d) for d in leaders]
-        frfs = [(names[fi.path], fi.frf) for fi in inputs.frfs if fi.frf.has("x1/u") and fi.frf.has("x2/u")]
-        blocks += certificate_blocks(designs, frfs, {names[g.path]: g.doc for g in inputs.gains}, limits, store)
-        subs.append(Section("design-ballscrew", "Ball-screw controllers", blocks))
-    subs += machines
+    data.setdefault("design", {})
     if other is not None:
         subs.append(other)
-    return Section("design", "Design", [], subs), [*designs, *machine_designs]
+    return Section("design", "Design", [], subs), designs

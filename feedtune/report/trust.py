@@ -143,6 +143,7 @@ def verdict_line(label: str, name: str, check: Mapping, case_titles: Mapping[str
     stable = [i for i in items if i["name"] == "stable"]
     n_stable = sum(1 for i in stable if i["ok"])
     case = check.get("checked_case")
+    frfs = {i.get("frf") for i in items if i["name"] != "stable"}
     figures = []
     for i in items:
         if i["name"] not in ITEM_TEXT or i["value"] is None:
@@ -150,6 +151,11 @@ def verdict_line(label: str, name: str, check: Mapping, case_titles: Mapping[str
         what, unit, _ = ITEM_TEXT[i["name"]]
         value = abs(i["value"]) if i["name"] == "gm_db" else i["value"]
         where = f" at {i['freq_hz']:.4g} Hz" if i.get("freq_hz") is not None else ""
+        # a figure of another loop's checked case (a cascade's position loop) or of one of several FRFs says so
+        if i.get("case") and i["case"] != case:
+            where += f" ({case_titles.get(i['case'], i['case'])})"
+        if len(frfs) > 1 and i.get("frf"):
+            where += f" on {i['frf']}"
         figures.append(f"{what} {value:.3g}{unit}{where}{'' if i['ok'] else ' (FAILS)'}")
     verdict = "PASS" if check.get("ok") else "FAIL"
     text = f"{label}{'' if name in label else f' ({name})'}: {verdict} under {policy_text}"
