@@ -1937,6 +1937,12 @@ def later_command_cases() -> list[Case]:
            [("p.ini", text("[JOINT_0]\nP = 1\nD = 0.1\n"))]))
     add(_c("import drive", "linuxcnc-pid p.ini -o b.toml --command-unit A --machine-unit mm", 1, "no two real roots",
            "schema", [("p.ini", text("[JOINT_0]\nP = 1\nI = 100\nD = 0.1\n"))]))
+    add(_c("import drive", "ax8000 a.xml -o b.toml", 1, "a.xml", "schema",
+           [("a.xml", text('<!DOCTYPE x [<!ENTITY a "b">]><InitCmds/>'))]))
+    add(_c("import drive", "ax8000 a.xml -o b.toml", 1, "0x3140:01", "schema",
+           [("a.xml", text("<InitCmds><InitCmd><Index>#x3140</Index><SubIndex>1</SubIndex><Data>00</Data>"
+                           "</InitCmd></InitCmds>"))]))
+    add(_c("import drive", "ax8000 a.xml -o b.toml", 1, "a.xml", "schema", [("a.xml", text("<InitCmds>"))]))
     add(_c("import drive", f"sinamics {ct} -o exists.toml", 2, "exists.toml", "output",
            [("exists.toml", text("keep\n"))]))
     # the fleet

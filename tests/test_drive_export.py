@@ -176,14 +176,16 @@ def test_odrive_gains_in_turns_run_the_same_torque_as_the_cascade(hsm):
     assert cascade_from_document(import_drive(json_done.written.text, "odrive"))[0] == back
 
 
-def _two_mass_doc(notch: bool):
-    """A motor (1.1e-4 kg m^2) on a load (2e-4 kg m^2) through a 389 Hz, lightly damped coupling, in N m and rad."""
+def _two_mass_doc(notch: bool, pll: bool = True):
+    """A motor (1.1e-4 kg m^2) on a load (2e-4 kg m^2) through a 389 Hz, lightly damped coupling, in N m and rad,
+    under a cascade at 8 kHz whose notch at the mode it needs (with ODrive's encoder PLL as a PT2 at 4000 rad/s, or a
+    faster speed loop without)."""
     mech = BallScrewModel(m1=1.1e-4, m2=2e-4, b1=1e-4, b2=0.0, k=425.0, c=2e-4, input_unit="N*m", lead_given=False)
     f0 = mech.modes()[0].freq_hz
     assert f0 == pytest.approx(389.5, abs=0.1)
     filters = (SecondOrderFilter(f0, 0.02, f0, 0.5),) if notch else ()
-    d = deliver(design_cascade(mech, kp=0.02, tn_s=0.01, kv=20.0, fs=8000.0, position_ratio=1,
-                               filters=(*filters, Pt2Filter(4000 / (2 * math.pi), 1.0))))
+    d = deliver(design_cascade(mech, kp=0.02 if pll else 0.12, tn_s=0.01, kv=20.0, fs=8000.0, position_ratio=1,
+                               filters=(*filters, Pt2Filter(4000 / (2 * math.pi), 1.0)) if pll else filters))
     return d
 
 
@@ -238,6 +240,34 @@ def test_linuxcnc_pid_refuses_a_law_that_its_servo_rate_cannot_run(hsm):
     doc = deliver(tune_cascade(hsm, fs=8000.0, filter_choice="identical", filters=())).document
     with pytest.raises(DesignError, match=r"linuxcnc-pid: the law the drive runs \(speed loop at 1000 Hz"):
         export_drive(doc, "linuxcnc-pid")
+
+
+# ------------------------------------------------------------------------------------------ AX8000
+def test_ax8000_startup_list_holds_the_real32_objects_and_recertifies_unchanged(hsm):
+    import struct
+    import xml.etree.ElementTree as ET
+
+    from feedtune.tune.cascade import tune_cascade
+
+    doc = deliver(tune_cascade(hsm, fs=8000.0, filter_choice="identical", filters=())).document
+    law = cascade_from_document(doc)[0]
+    done = export_drive(doc, "ax8000")
+    _assert_figures(done)
+    objects = {}
+    for cmd in ET.fromstring(done.written.text.encode()).iter("InitCmd"):  # index, subindex, REAL32 little endian
+        key = (int(cmd.findtext("Index")[2:], 16), int(cmd.findtext("SubIndex")))
+        objects[key] = struct.unpack("<f", bytes.fromhex(cmd.findtext("Data")))[0]
+        assert cmd.findtext("Transition") == "PS"
+    # Beckhoff's units: 0x3140:01 N m/(rad/s), 0x3140:02 s, 0x30C0:01 1/s
+    assert objects == {(0x3140, 1): pytest.approx(law.kp, rel=1e-7), (0x3140, 2): pytest.approx(law.tn_s, rel=1e-7),
+                       (0x30C0, 1): pytest.approx(law.kv, rel=1e-7)}
+    back = cascade_from_document(import_drive(done.written.text, "ax8000"))[0]
+    assert (back.kp, back.tn_s, back.kv) == (objects[(0x3140, 1)], objects[(0x3140, 2)], objects[(0x30C0, 1)])
+    assert (back.fs, back.fp) == (law.fs, law.fp)
+    with_notch, without = _two_mass_doc(True, pll=False), _two_mass_doc(False, pll=False)
+    assert with_notch.ok and not without.ok
+    with pytest.raises(DesignError, match=r"ax8000: without notch 389.5 Hz"):
+        export_drive(with_notch.document, "ax8000")
 
 
 # ------------------------------------------------------------------------------------------ units and the CLI

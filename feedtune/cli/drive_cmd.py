@@ -12,8 +12,9 @@ from .help_text import choice
 from .limits_options import LIMITS_OPTION, OPTION_NAMES, limits_from_options
 from .progress_display import QUIET_OPTION, show_progress
 
-TARGET_NAMES = ("sinamics", "odrive", "linuxcnc-pid")
-EXTENSIONS = {"sinamics": ".sinamics.txt", "odrive": ".odrive.py", "linuxcnc-pid": ".pid.ini"}
+TARGET_NAMES = ("sinamics", "odrive", "linuxcnc-pid", "ax8000")
+EXTENSIONS = {"sinamics": ".sinamics.txt", "odrive": ".odrive.py", "linuxcnc-pid": ".pid.ini",
+              "ax8000": ".ax8000.xml"}
 """The default file beside GAINS per target (ODrive with --odrive-json: .odrive.json)."""
 
 import_app = typer.Typer(rich_markup_mode="rich", help="Read drives' parameter files into gains files.",
@@ -22,14 +23,14 @@ import_app = typer.Typer(rich_markup_mode="rich", help="Read drives' parameter f
 TARGET_ARGUMENT = typer.Argument(..., **choice(TARGET_NAMES), help="The drive or controller.")
 TORQUE_CONSTANT_OPTION = typer.Option(None, "--torque-constant", metavar="NM_PER_A",
                                       help="Motor torque constant Kt [N*m/A]: gains in A into the drive's torque "
-                                           "parameters (SINAMICS, ODrive).")
+                                           "parameters (SINAMICS, ODrive, AX8000).")
 LEAD_OPTION = typer.Option(None, "--lead", metavar="M",
                            help="Lead [m per motor revolution]: gains per m (and N) into the motor's rad (and N*m).")
 FS_OPTION = typer.Option(None, "--fs", metavar="HZ",
                          help="The target's speed-loop rate [Hz] (default: ODrive 8000, LinuxCNC's servo thread "
-                              "1000, SINAMICS the file's).")
+                              "1000, SINAMICS and AX8000 the file's).")
 POSITION_FS_OPTION = typer.Option(None, "--position-fs", metavar="HZ",
-                                  help="SINAMICS: the NC's position control rate [Hz] (default: the file's).")
+                                  help="SINAMICS, AX8000: the position loop's rate [Hz] (default: the file's).")
 MACHINE_UNIT_OPTION = typer.Option(None, "--machine-unit", **choice(("mm", "m", "inch", "deg", "rad", "turn")),
                                    help="LinuxCNC: the joint's machine unit (default mm for gains per m, deg per "
                                         "rad).")
@@ -57,7 +58,8 @@ def export_drive(
                                    help="Measured FRF to certify both laws on (repeatable; default: the file's "
                                         "model)."),
     out: Path = typer.Option(None, "--out", "-o", metavar="FILE",
-                             help="File to write (default: beside GAINS, GAINS.sinamics.txt, .odrive.py, .pid.ini)."),
+                             help="File to write (default: beside GAINS, GAINS.sinamics.txt, .odrive.py, .pid.ini, "
+                                  ".ax8000.xml)."),
     torque_constant: float = TORQUE_CONSTANT_OPTION,
     lead: float = LEAD_OPTION,
     fs: float = FS_OPTION,
@@ -80,7 +82,8 @@ def export_drive(
     """Write a drive's parameter set, re-certified as the drive runs it.
 
     Write the cascade gains file as TARGET's parameters (SINAMICS S120 p1460/p1462/p1656-p1676 and MD32200; ODrive
-    0.5.x controller.config; LinuxCNC pid [JOINT_n] P, I, D, FF0-FF2), every conversion in a comment; read the text
+    0.5.x controller.config; LinuxCNC pid [JOINT_n] P, I, D, FF0-FF2; AX8000 CoE startup list 0x3140:01/02,
+    0x30C0:01), every conversion in a comment; read the text
     back into the law the target runs (its rates, its rounding, without what it cannot express), certify that law on
     the same FRFs and print max |dL|, dMs and the change of the first crossover against the file's law. Refused
     (exit 1, nothing written) when the target's law fails the limits."""
@@ -137,8 +140,8 @@ def import_drive(
     """Read a drive's parameter file into a cascade gains file.
 
     Read TARGET's parameter file (SINAMICS parameter list, ODrive odrivetool lines or backup-config JSON, LinuxCNC
-    INI) into the cascade gains file of the law the drive runs, so that the drive's tuning is analysed (feedtune
-    analyze GAINS --frf FRF) and compared with feedtune's on the same FRF."""
+    INI, AX8000 CoE startup list) into the cascade gains file of the law the drive runs, so that the drive's tuning
+    is analysed (feedtune analyze GAINS --frf FRF) and compared with feedtune's on the same FRF."""
     show_progress(quiet)
     _check_target(target)
     from ..export.drives import import_drive as run_import
