@@ -1943,6 +1943,12 @@ def later_command_cases() -> list[Case]:
            [("a.xml", text("<InitCmds><InitCmd><Index>#x3140</Index><SubIndex>1</SubIndex><Data>00</Data>"
                            "</InitCmd></InitCmds>"))]))
     add(_c("import drive", "ax8000 a.xml -o b.toml", 1, "a.xml", "schema", [("a.xml", text("<InitCmds>"))]))
+    add(_c("export drive", f"yaskawa {cg} -o y.txt --torque-constant 1", 2, "--inertia"))
+    add(_c("export drive", f"yaskawa {cg} -o y.txt --torque-constant 1 --inertia 0", 2, "--inertia"))
+    add(_c("import drive", "yaskawa y.txt -o b.toml", 1, "--inertia", "schema",
+           [("y.txt", text("Pn100 = 40\nPn101 = 2000\nPn102 = 40\n"))]))
+    add(_c("import drive", "yaskawa y.txt -o b.toml --inertia 1e-4 --fs 8000 --position-fs 1000", 1, "Pn101",
+           "schema", [("y.txt", text("Pn100 = 40\nPn101 = 2.5\nPn102 = 40\n"))]))
     add(_c("import drive", f"sinamics {ct} -o exists.toml", 2, "exists.toml", "output",
            [("exists.toml", text("keep\n"))]))
     # the fleet

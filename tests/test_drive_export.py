@@ -270,6 +270,34 @@ def test_ax8000_startup_list_holds_the_real32_objects_and_recertifies_unchanged(
         export_drive(with_notch.document, "ax8000")
 
 
+# ------------------------------------------------------------------------------------------ Yaskawa
+def test_yaskawa_speed_gain_in_hz_needs_the_inertia_and_its_integer_steps_recertify(hsm):
+    from feedtune.control.drive_tuning import Pt1Filter
+
+    doc = _doc(hsm, kp=0.1, tn_s=0.0123456, kv=123.4, fs=8000.0, position_ratio=8, filters=(Pt1Filter(0.00012),))
+    law = cascade_from_document(doc)[0]
+    with pytest.raises(UsageError, match="--inertia"):
+        export_drive(doc, "yaskawa")
+    j = hsm.mass  # the motor-side inertia the drive assumes: J_M (1 + Pn103/100) [kg m^2]
+    done = export_drive(doc, "yaskawa", DriveOptions(inertia=j))
+    _assert_figures(done)
+    v = _values(done.written.text, ";")
+    # Sigma-II user's manual: Kv (1 + 1/(Ti s)) with Kv [Hz] the speed loop gain at the inertia J (torque per speed
+    # error 2 pi Kv J), Ti in 0.01 ms, the position loop gain in 1/s, the torque reference filter in 0.01 ms
+    assert v["Pn100"] == round(law.kp / (2 * math.pi * j)) and v["Pn101"] == round(law.tn_s / 1e-5)
+    assert v["Pn102"] == round(law.kv) and v["Pn401"] == 12
+    back = cascade_from_document(import_drive(done.written.text, "yaskawa"))[0]
+    assert back.kp == pytest.approx(2 * math.pi * v["Pn100"] * j, rel=1e-12)
+    assert back.tn_s == pytest.approx(v["Pn101"] * 1e-5, rel=1e-12) and back.kv == v["Pn102"]
+    assert back.filters[0].time_constant_s == pytest.approx(v["Pn401"] * 1e-5, rel=1e-12)
+    # a filter time off the 10 us grid: the rounded PT1 is what the certificate judges (2.9 % off its corner)
+    off = export_drive(_doc(hsm, kp=0.1, tn_s=0.0123456, kv=123.4, fs=8000.0, position_ratio=8,
+                            filters=(Pt1Filter(0.000123456),)), "yaskawa", DriveOptions(inertia=j))
+    f = 4000.0  # the PT1's ratio at the speed loop's Nyquist frequency, continuous: a lower bound of the change
+    bound = 20 * math.log10(abs((1 + 2j * math.pi * f * 0.000123456) / (1 + 2j * math.pi * f * 0.00012)))
+    assert off.worst()["max_dl_db"] > bound > 0.1
+
+
 # ------------------------------------------------------------------------------------------ units and the CLI
 def test_units_the_drive_cannot_take_are_refused_in_one_line(hsm, examples_dir, tmp_path, capsys, monkeypatch):
     import json

@@ -12,9 +12,9 @@ from .help_text import choice
 from .limits_options import LIMITS_OPTION, OPTION_NAMES, limits_from_options
 from .progress_display import QUIET_OPTION, show_progress
 
-TARGET_NAMES = ("sinamics", "odrive", "linuxcnc-pid", "ax8000")
+TARGET_NAMES = ("sinamics", "odrive", "linuxcnc-pid", "ax8000", "yaskawa")
 EXTENSIONS = {"sinamics": ".sinamics.txt", "odrive": ".odrive.py", "linuxcnc-pid": ".pid.ini",
-              "ax8000": ".ax8000.xml"}
+              "ax8000": ".ax8000.xml", "yaskawa": ".yaskawa.txt"}
 """The default file beside GAINS per target (ODrive with --odrive-json: .odrive.json)."""
 
 import_app = typer.Typer(rich_markup_mode="rich", help="Read drives' parameter files into gains files.",
@@ -31,17 +31,20 @@ FS_OPTION = typer.Option(None, "--fs", metavar="HZ",
                               "1000, SINAMICS and AX8000 the file's).")
 POSITION_FS_OPTION = typer.Option(None, "--position-fs", metavar="HZ",
                                   help="SINAMICS, AX8000: the position loop's rate [Hz] (default: the file's).")
+INERTIA_OPTION = typer.Option(None, "--inertia", metavar="KG_M2",
+                              help="Yaskawa: the motor-side inertia J_M (1 + Pn103/100) [kg*m^2] the speed loop gain "
+                                   "in Hz refers to.")
 MACHINE_UNIT_OPTION = typer.Option(None, "--machine-unit", **choice(("mm", "m", "inch", "deg", "rad", "turn")),
                                    help="LinuxCNC: the joint's machine unit (default mm for gains per m, deg per "
                                         "rad).")
 
 
 def _options(torque_constant, lead, fs, position_fs, u_max=None, machine_unit=None, command_unit=None,
-             axis="AX1", encoder_bandwidth=None):
+             axis="AX1", encoder_bandwidth=None, inertia=None):
     from ..export.drives import DriveOptions
 
     return DriveOptions(torque_constant, lead, fs, position_fs, u_max, machine_unit, command_unit, axis,
-                        encoder_bandwidth)
+                        encoder_bandwidth, inertia)
 
 
 def _check_target(target: str) -> None:
@@ -59,7 +62,7 @@ def export_drive(
                                         "model)."),
     out: Path = typer.Option(None, "--out", "-o", metavar="FILE",
                              help="File to write (default: beside GAINS, GAINS.sinamics.txt, .odrive.py, .pid.ini, "
-                                  ".ax8000.xml)."),
+                                  ".ax8000.xml, .yaskawa.txt)."),
     torque_constant: float = TORQUE_CONSTANT_OPTION,
     lead: float = LEAD_OPTION,
     fs: float = FS_OPTION,
@@ -67,6 +70,7 @@ def export_drive(
     u_max: float = typer.Option(None, "--u-max", metavar="U",
                                 help="LinuxCNC: MAX_OUTPUT, the output limit in the command unit (default 0: none)."),
     machine_unit: str = MACHINE_UNIT_OPTION,
+    inertia: float = INERTIA_OPTION,
     axis: str = typer.Option("AX1", "--axis", metavar="NAME", help="SINAMICS: the NC axis of MD32200."),
     encoder_bandwidth: float = typer.Option(None, "--encoder-bandwidth", metavar="RAD_S",
                                             help="ODrive: encoder.config.bandwidth [rad/s] (default: the law's PT2 "
@@ -83,7 +87,7 @@ def export_drive(
 
     Write the cascade gains file as TARGET's parameters (SINAMICS S120 p1460/p1462/p1656-p1676 and MD32200; ODrive
     0.5.x controller.config; LinuxCNC pid [JOINT_n] P, I, D, FF0-FF2; AX8000 CoE startup list 0x3140:01/02,
-    0x30C0:01), every conversion in a comment; read the text
+    0x30C0:01; Yaskawa Sigma-II Pn100-Pn102, Pn401), every conversion in a comment; read the text
     back into the law the target runs (its rates, its rounding, without what it cannot express), certify that law on
     the same FRFs and print max |dL|, dMs and the change of the first crossover against the file's law. Refused
     (exit 1, nothing written) when the target's law fails the limits."""
@@ -94,7 +98,8 @@ def export_drive(
     from ..io.atomic import ensure_writable
     from .delivery import read_sources
 
-    options = _options(torque_constant, lead, fs, position_fs, u_max, machine_unit, None, axis, encoder_bandwidth)
+    options = _options(torque_constant, lead, fs, position_fs, u_max, machine_unit, None, axis, encoder_bandwidth,
+                       inertia)
     policy = limits_from_options(limits, None, None, None, None, None)
     ext = ".odrive.json" if odrive_json and target == "odrive" else EXTENSIONS[target]
     dest = out or gains_file.with_name(gains_file.stem + ext)
@@ -133,6 +138,7 @@ def import_drive(
     fs: float = FS_OPTION,
     position_fs: float = POSITION_FS_OPTION,
     machine_unit: str = MACHINE_UNIT_OPTION,
+    inertia: float = INERTIA_OPTION,
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
     quiet: bool = QUIET_OPTION,
@@ -140,8 +146,9 @@ def import_drive(
     """Read a drive's parameter file into a cascade gains file.
 
     Read TARGET's parameter file (SINAMICS parameter list, ODrive odrivetool lines or backup-config JSON, LinuxCNC
-    INI, AX8000 CoE startup list) into the cascade gains file of the law the drive runs, so that the drive's tuning
-    is analysed (feedtune analyze GAINS --frf FRF) and compared with feedtune's on the same FRF."""
+    INI, AX8000 CoE startup list, Yaskawa parameter list) into the cascade gains file of the law the drive runs, so
+    that the drive's tuning is analysed (feedtune analyze GAINS --frf FRF) and compared with feedtune's on the same
+    FRF."""
     show_progress(quiet)
     _check_target(target)
     from ..export.drives import import_drive as run_import
@@ -149,7 +156,7 @@ def import_drive(
     from ..io._table import read_text
     from ..io.document import ensure_document_writable
 
-    options = _options(torque_constant, lead, fs, position_fs, None, machine_unit, command_unit)
+    options = _options(torque_constant, lead, fs, position_fs, None, machine_unit, command_unit, inertia=inertia)
     dest = out or file.with_suffix(".toml")
     ensure_document_writable(dest, force)
     text, _ = read_text(file, "drive parameter")

@@ -1,7 +1,7 @@
 """Drive parameter sets of a cascade gains file, re-certified as exported, and read back (docs/drive_export.md).
 
 :func:`export_drive` writes the target's parameter file (:mod:`.sinamics`, :mod:`.odrive`, :mod:`.linuxcnc_pid`,
-:mod:`.ax8000`),
+:mod:`.ax8000`, :mod:`.yaskawa`),
 reads the written text back into the law the target runs (its rates, its rounding, without what it cannot express),
 certifies that law on the same FRFs as the file's own (:func:`feedtune.machines.certificate.certify`, the analysis
 ``feedtune analyze`` runs) and compares the two: max ``|dL|`` [dB, deg] of both loops up to the target's Nyquist
@@ -18,12 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import DataError, DesignError, UsageError
-from . import ax8000, linuxcnc_pid, odrive, sinamics
+from . import ax8000, linuxcnc_pid, odrive, sinamics, yaskawa
 from .common import DriveOptions, DriveText, TargetLaw, from_motor_frame
 
-TARGETS = {sinamics.NAME: sinamics, odrive.NAME: odrive, linuxcnc_pid.NAME: linuxcnc_pid, ax8000.NAME: ax8000}
+TARGETS = {sinamics.NAME: sinamics, odrive.NAME: odrive, linuxcnc_pid.NAME: linuxcnc_pid, ax8000.NAME: ax8000,
+           yaskawa.NAME: yaskawa}
 """The drive targets by name."""
-MOTOR_FRAME = (sinamics.NAME, odrive.NAME, ax8000.NAME)
+MOTOR_FRAME = (sinamics.NAME, odrive.NAME, ax8000.NAME, yaskawa.NAME)
 """Targets whose parameters are in the motor frame (rad, N m)."""
 
 

@@ -45,7 +45,9 @@ class DriveOptions:
     axis : str
         The axis' name in a SINUMERIK's machine data (``AX1``).
     encoder_bandwidth : float or None
-        ODrive's ``encoder.config.bandwidth`` [rad/s] (default: chosen from the loops' crossovers).
+        ODrive's ``encoder.config.bandwidth`` [rad/s] (default: the law's PT2 with D = 1, else the firmware's).
+    inertia : float or None
+        The motor-side inertia [kg m^2] a drive's speed gain in Hz refers to (Yaskawa: ``J_M (1 + Pn103/100)``).
     """
 
     torque_constant: float | None = None
@@ -57,9 +59,10 @@ class DriveOptions:
     command_unit: str | None = None
     axis: str = "AX1"
     encoder_bandwidth: float | None = None
+    inertia: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("torque_constant", "lead_m", "fs_hz", "position_fs_hz", "u_max", "encoder_bandwidth"):
+        for name in ("torque_constant", "lead_m", "fs_hz", "position_fs_hz", "u_max", "encoder_bandwidth", "inertia"):
             v = getattr(self, name)
             if v is not None and not (math.isfinite(float(v)) and float(v) > 0):
                 raise UsageError(f"{name} must be a finite number > 0, got {v!r}", parameter=name)
