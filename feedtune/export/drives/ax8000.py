@@ -18,12 +18,11 @@ assumes its default.
 from __future__ import annotations
 
 import math
-import re
 import struct
 
 from ...control.cascade import CascadeLaw, describe_filter
 from ...errors import DataError, UsageError
-from .common import DriveOptions, DriveText, TargetLaw, float32, rates, to_motor_frame
+from .common import DriveOptions, DriveText, TargetLaw, cycle_lines, float32, rates, read_cycles, to_motor_frame
 
 NAME = "ax8000"
 TITLE = "Beckhoff AX8000 (CoE startup list)"
@@ -31,7 +30,7 @@ OBJECTS = {(0x3140, 1): "Velocity control proportional gain", (0x3140, 2): "Velo
            (0x30C0, 1): "Position control proportional gain"}
 MAX_TN_S = 5.0
 """``0x3140:02``'s largest value [s]."""
-_REQUIRES = re.compile(r"requires:\s*(velocity loop cycle|position loop cycle)\s*=\s*([0-9.eE+-]+)\s*us")
+CYCLES = ("velocity loop cycle", "position loop cycle")
 
 
 def _hex(value: float) -> str:
@@ -55,8 +54,7 @@ def write(law: CascadeLaw, options: DriveOptions, source: str = "") -> DriveText
             ((0x30C0, 1), m.kv, "[1/s] = Kv")]
     head = [f"<!-- {TITLE}: written by feedtune from {source or 'a cascade gains file'} -->",
             *(f"<!-- conversion: {t} -->" for t in frame),
-            f"<!-- requires: velocity loop cycle = {1e6 / fs:.9g} us (the rate this law is certified at) -->",
-            f"<!-- requires: position loop cycle = {1e6 * ratio / fs:.9g} us -->",
+            *cycle_lines(fs, ratio, CYCLES, "<!--", " -->"),
             *(f"<!-- not written: {d} -->" for d in dropped)]
     body = ["<InitCmds>"]
     params = {}
@@ -111,20 +109,12 @@ def read(text: str, where: str, options: DriveOptions, base: CascadeLaw | None =
     for key, name in OBJECTS.items():
         if key not in values:
             raise DataError(f"{where}: 0x{key[0]:04X}:{key[1]:02X} ({name}) is missing")
-    cycles = {m.group(1): float(m.group(2)) * 1e-6 for m in _REQUIRES.finditer(text)}
-    fs = options.fs_hz or (1 / cycles["velocity loop cycle"] if "velocity loop cycle" in cycles else None)
-    fp = options.position_fs_hz or (1 / cycles["position loop cycle"] if "position loop cycle" in cycles else None)
-    if fs is None or fp is None:
-        raise DataError(f"{where}: the loop cycles are not stated; give them with --fs and --position-fs [Hz]")
-    ratio = fs / fp
-    if abs(ratio - round(ratio)) > 1e-6 * ratio or round(ratio) < 1:
-        raise DataError(f"{where}: the velocity loop cycle {1e6 / fs:g} us does not divide the position loop cycle "
-                        f"{1e6 / fp:g} us")
+    fs, ratio = read_cycles(text, where, options, CYCLES)
     kp, tn, kv = values[(0x3140, 1)], values[(0x3140, 2)], values[(0x30C0, 1)]
     if kp <= 0:
         raise DataError(f"{where}: 0x3140:01 = 0: no velocity controller gain")
     b = base
-    law = CascadeLaw(kp, math.inf if tn == 0 else tn, (), kv, fs, round(ratio), b.delay_samples if b else 1,
+    law = CascadeLaw(kp, math.inf if tn == 0 else tn, (), kv, fs, ratio, b.delay_samples if b else 1,
                      b.kv_ff if b else 1.0, b.inertia_ff if b else 0.0, "motor", "N*m", "rad")
     return TargetLaw(law)
 

@@ -15,6 +15,7 @@ revolution]; a command in V maps to no torque and is refused.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -196,6 +197,32 @@ def rates(law, options: DriveOptions, fs_default: float | None, ratio_fixed: int
     return fs, round(n)
 
 
+def cycle_lines(fs: float, ratio: int, names: tuple[str, str], comment: str, end: str = "") -> list[str]:
+    """The ``requires:`` comment lines that state the speed and the position loop's cycle [us] a target's file was
+    certified at (``names``: what the vendor calls them), read back by :func:`read_cycles`."""
+    return [f"{comment} requires: {names[0]} = {1e6 / fs:.17g} us (the rate this law is certified at){end}",
+            f"{comment} requires: {names[1]} = {1e6 * ratio / fs:.17g} us{end}"]
+
+
+def read_cycles(text: str, where: str, options: DriveOptions, names: tuple[str, str]) -> tuple[float, int]:
+    """``(fs, N)`` from ``--fs``/``--position-fs``, else from the ``requires:`` lines of :func:`cycle_lines` (DataError
+    when neither states them, or when the speed cycle does not divide the position cycle)."""
+    from ...errors import DataError
+
+    stated = {m.group(1): float(m.group(2)) for m in
+              re.finditer(rf"requires:\s*({re.escape(names[0])}|{re.escape(names[1])})\s*=\s*([0-9.eE+-]+)\s*us",
+                          text)}
+    fs = options.fs_hz or (1e6 / stated[names[0]] if stated.get(names[0]) else None)
+    fp = options.position_fs_hz or (1e6 / stated[names[1]] if stated.get(names[1]) else None)
+    if fs is None or fp is None:
+        raise DataError(f"{where}: the {names[0]} and {names[1]} are not stated; give them with --fs and --position-fs "
+                        "[Hz]")
+    ratio = fs / fp
+    if abs(ratio - round(ratio)) > 1e-6 * ratio or round(ratio) < 1:
+        raise DataError(f"{where}: the {names[0]} {1e6 / fs:g} us does not divide the {names[1]} {1e6 / fp:g} us")
+    return fs, round(ratio)
+
+
 def parse_assignments(text: str, where: str, comment: str, sep: str = "=") -> dict[str, str]:
     """``{name: value text}`` of ``name = value`` lines (after stripping ``comment`` to the end of line; blank lines
     and section headers ``[...]`` skipped); a line of another form: DataError naming it."""
@@ -230,5 +257,5 @@ def number(values: dict[str, str], key: str, where: str, default: float | None =
     return v
 
 
-__all__ = ["COMMAND_TORQUE", "POSITION_ROTARY", "DriveOptions", "DriveText", "TargetLaw", "f32_text", "float32",
-           "from_motor_frame", "number", "parse_assignments", "rates", "to_motor_frame"]
+__all__ = ["COMMAND_TORQUE", "POSITION_ROTARY", "DriveOptions", "DriveText", "TargetLaw", "cycle_lines", "f32_text",
+           "float32", "from_motor_frame", "number", "parse_assignments", "rates", "read_cycles", "to_motor_frame"]

@@ -20,12 +20,22 @@ as ``; requires:`` lines (not as parameters: both are set by the drive's and the
 from __future__ import annotations
 
 import math
-import re
 
 from ...control.cascade import CascadeLaw, describe_filter
 from ...control.drive_tuning import Pt1Filter, Pt2Filter, SecondOrderFilter
 from ...errors import DataError
-from .common import DriveOptions, DriveText, TargetLaw, f32_text, float32, number, rates, to_motor_frame
+from .common import (
+    DriveOptions,
+    DriveText,
+    TargetLaw,
+    cycle_lines,
+    f32_text,
+    float32,
+    number,
+    rates,
+    read_cycles,
+    to_motor_frame,
+)
 
 NAME = "sinamics"
 TITLE = "SINAMICS S120 servo + SINUMERIK MD32200"
@@ -34,7 +44,9 @@ KV_PER_1000_MIN = 1000.0 / 60.0
 """1/s per 1000/min: Kv [1/s] = Kv [1000/min] x 1000/60."""
 FILTER_BASE = 1657
 """Filter 1's type parameter; filter i's five parameters start at p(1657 + 5 (i - 1))."""
-_REQUIRES = re.compile(r";\s*requires:\s*(speed controller cycle|position control cycle)\s*=\s*([0-9.eE+-]+)\s*us")
+CYCLES = ("speed controller cycle", "position control cycle")
+"""The cycles a file states: the speed controller's (``p0115[1]``) and the NC's position control cycle
+(``$MN_SYSCLOCK_CYCLE_TIME x $MN_POSCTRL_SYSCLOCK_TIME_RATIO``)."""
 
 
 def _filter_lines(i: int, f) -> tuple[list[tuple[str, str, str]], int]:
@@ -89,8 +101,8 @@ def write(law: CascadeLaw, options: DriveOptions, source: str = "") -> DriveText
             "; law: speed PI Kp (1 + 1/(s Tn)) then the current setpoint filters; NC position gain Kv on the speed "
             "setpoint",
             *(f"; conversion: {t}" for t in frame),
-            f"; requires: speed controller cycle = {1e6 / fs:.9g} us (p0115[1]; the rate this law is certified at)",
-            f"; requires: position control cycle = {1e6 * ratio / fs:.9g} us (NC: $MN_SYSCLOCK_CYCLE_TIME x "
+            *cycle_lines(fs, ratio, CYCLES, ";"),
+            "; (the speed controller cycle is p0115[1]; the position control cycle the NC's $MN_SYSCLOCK_CYCLE_TIME x "
             "$MN_POSCTRL_SYSCLOCK_TIME_RATIO)",
             *(f"; not written: {d}" for d in dropped)]
     if m.kv_ff != 1.0 or m.inertia_ff:
@@ -107,18 +119,7 @@ def read(text: str, where: str, options: DriveOptions, base: CascadeLaw | None =
     from .common import parse_assignments
 
     values = parse_assignments(text, where, ";")
-    cycles = {m.group(1): float(m.group(2)) * 1e-6 for m in _REQUIRES.finditer(text)}
-    fs = options.fs_hz or (1.0 / cycles["speed controller cycle"] if "speed controller cycle" in cycles else None)
-    if fs is None:
-        raise DataError(f"{where}: no speed controller cycle stated; give the drive's with --fs [Hz] (1 / p0115[1])")
-    fp = options.position_fs_hz or (1.0 / cycles["position control cycle"] if "position control cycle" in cycles
-                                    else None)
-    if fp is None:
-        raise DataError(f"{where}: no position control cycle stated; give the NC's with --position-fs [Hz]")
-    ratio = fs / fp
-    if abs(ratio - round(ratio)) > 1e-6 * ratio or round(ratio) < 1:
-        raise DataError(f"{where}: the speed controller cycle {1e6 / fs:g} us does not divide the position control "
-                        f"cycle {1e6 / fp:g} us")
+    fs, ratio = read_cycles(text, where, options, CYCLES)
     kp = float32(number(values, "p1460[0]", where))
     tn_ms = float32(number(values, "p1462[0]", where))
     mask = int(number(values, "p1656[0]", where, 0.0))
@@ -140,7 +141,7 @@ def read(text: str, where: str, options: DriveOptions, base: CascadeLaw | None =
     axis_kv = [k for k in values if k.startswith("$MA_POSCTRL_GAIN[0")]
     kv = number(values, axis_kv[0], where) * KV_PER_1000_MIN if axis_kv else 0.0
     b = base or CascadeLaw(1.0, math.inf)
-    law = CascadeLaw(kp, math.inf if tn_ms == 0 else tn_ms * 1e-3, tuple(filters), kv, fs, round(ratio),
+    law = CascadeLaw(kp, math.inf if tn_ms == 0 else tn_ms * 1e-3, tuple(filters), kv, fs, ratio,
                      b.delay_samples, b.kv_ff if base else 1.0, b.inertia_ff if base else 0.0, b.position_encoder,
                      "N*m", "rad")
     return TargetLaw(law)

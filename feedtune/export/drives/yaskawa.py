@@ -25,14 +25,15 @@ import re
 from ...control.cascade import CascadeLaw, describe_filter
 from ...control.drive_tuning import Pt1Filter
 from ...errors import DataError, UsageError
-from .common import DriveOptions, DriveText, TargetLaw, number, rates, to_motor_frame
+from .common import DriveOptions, DriveText, TargetLaw, cycle_lines, number, rates, read_cycles, to_motor_frame
 
 NAME = "yaskawa"
 TITLE = "Yaskawa Sigma-II SERVOPACK"
 STEP_TI_S = 1e-5
 """``Pn101`` and ``Pn401``'s unit [s] (0.01 ms)."""
 RANGES = {"Pn100": (1, 2000), "Pn101": (15, 51200), "Pn102": (1, 2000), "Pn401": (0, 65535)}
-_REQUIRES = re.compile(r";\s*requires:\s*(speed loop cycle|position loop cycle|inertia J)\s*=\s*([0-9.eE+-]+)")
+CYCLES = ("speed loop cycle", "position loop cycle")
+_INERTIA = re.compile(r";\s*requires:\s*inertia J\s*=\s*([0-9.eE+-]+)")
 
 
 def _inertia(options: DriveOptions) -> float:
@@ -80,8 +81,7 @@ def write(law: CascadeLaw, options: DriveOptions, source: str = "") -> DriveText
             "= Pn102 (position error)",
             *(f"; conversion: {t}" for t in frame),
             f"; requires: inertia J = {j:.17g} kg*m^2 (set Pn103 so that J_M (1 + Pn103/100) = J)",
-            f"; requires: speed loop cycle = {1e6 / fs:.9g} us (the rate this law is certified at)",
-            f"; requires: position loop cycle = {1e6 * ratio / fs:.9g} us",
+            *cycle_lines(fs, ratio, CYCLES, ";"),
             *(f"; not written: {d}" for d in dropped)]
     body = [f"{n} = {v}".ljust(14) + f"; {c}" for n, v, c in rows]
     return DriveText("\n".join(head + body) + "\n", tuple(dropped), {n: float(v) for n, v, _ in rows})
@@ -92,19 +92,12 @@ def read(text: str, where: str, options: DriveOptions, base: CascadeLaw | None =
     from .common import parse_assignments
 
     values = parse_assignments(text, where, ";")
-    stated = {m.group(1): float(m.group(2)) for m in _REQUIRES.finditer(text)}
-    j = options.inertia or stated.get("inertia J")
+    stated = _INERTIA.search(text)
+    j = options.inertia or (float(stated.group(1)) if stated else None)
     if j is None:
         raise DataError(f"{where}: the inertia the speed loop gain refers to is not stated; give it with --inertia "
                         "[kg*m^2]")
-    fs = options.fs_hz or (1e6 / stated["speed loop cycle"] if "speed loop cycle" in stated else None)
-    fp = options.position_fs_hz or (1e6 / stated["position loop cycle"] if "position loop cycle" in stated else None)
-    if fs is None or fp is None:
-        raise DataError(f"{where}: the loop cycles are not stated; give them with --fs and --position-fs [Hz]")
-    ratio = fs / fp
-    if abs(ratio - round(ratio)) > 1e-6 * ratio or round(ratio) < 1:
-        raise DataError(f"{where}: the speed loop cycle {1e6 / fs:g} us does not divide the position loop cycle "
-                        f"{1e6 / fp:g} us")
+    fs, ratio = read_cycles(text, where, options, CYCLES)
     p = {}
     for name in RANGES:
         v = number(values, name, where, 0.0 if name == "Pn401" else None)
@@ -114,7 +107,7 @@ def read(text: str, where: str, options: DriveOptions, base: CascadeLaw | None =
         p[name] = v
     filters = (Pt1Filter(p["Pn401"] * STEP_TI_S),) if p["Pn401"] else ()
     b = base
-    law = CascadeLaw(2 * math.pi * p["Pn100"] * j, p["Pn101"] * STEP_TI_S, filters, p["Pn102"], fs, round(ratio),
+    law = CascadeLaw(2 * math.pi * p["Pn100"] * j, p["Pn101"] * STEP_TI_S, filters, p["Pn102"], fs, ratio,
                      b.delay_samples if b else 1, b.kv_ff if b else 1.0, b.inertia_ff if b else 0.0, "motor", "N*m",
                      "rad")
     return TargetLaw(law)
