@@ -108,6 +108,11 @@ def export_drive(
     sources = read_sources(list(frf or []))
     done = run_export(doc, target, options, sources, policy, where=str(gains_file), as_json=odrive_json)
     atomic_write_text(dest, done.written.text, force=force)
+    if not done.certificate.on_frfs:
+        from .envelope import warn
+
+        warn(f"{gains_file}: the law {target} runs is checked on the file's model alone, not certified on a measured "
+             "FRF; pass --frf to certify it")
     if as_json:
         from .envelope import emit
 
@@ -117,7 +122,9 @@ def export_drive(
         typer.echo(f"not expressed by {target}: {line}")
     for line in done.notes:
         typer.echo(f"note: {line}")
-    typer.echo(f"the law {target} runs, certified ({policy.describe()}): passes")
+    on = ("the file's model alone (not certified on a measured FRF: give --frf)" if not done.certificate.on_frfs
+          else ", ".join(c.name for c in done.certificate_target.frfs))
+    typer.echo(f"the law {target} runs, checked on {on} ({policy.describe()}): passes")
     for c in done.changes:
         typer.echo("  " + c.line())
     typer.echo(f"wrote {dest}")

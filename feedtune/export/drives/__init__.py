@@ -228,8 +228,9 @@ def export_drive(doc: Mapping, name: str, options: DriveOptions | None = None, f
     Raises
     ------
     DesignError
-        The target's law fails the limits (the line names what the target dropped and the failed limit), or ODrive's
-        encoder PLL lags more than it may at a crossover.
+        The target's law fails the limits (the line names what the target dropped and the first failed limit), or
+        ODrive's encoder PLL differs from the PT2 the rebuilt law holds in its place by more than 1 deg at a
+        crossover.
     """
     from ...io.cascade_gains import cascade_document
     from ...machines.certificate import certify
@@ -258,8 +259,7 @@ def export_drive(doc: Mapping, name: str, options: DriveOptions | None = None, f
             case_t = ct.analysis.cases.get(prefix + ct.checked_case.removeprefix("position_"))
             if case is not None and case_t is not None:
                 changes.append(loop_change(loop, c.name, case, case_t))
-    out = DriveExport(name, written, tdoc, cert, tcert, tuple(changes), tuple(notes))
-    if not out.ok:
+    if not tcert.ok:
         viol = tcert.violations()
         missing = ", ".join(d.partition(":")[0] for d in written.dropped)
         raise DesignError(f"{name}: {'without ' + missing + ', ' if missing else ''}the law the drive runs (speed "
@@ -275,8 +275,7 @@ def export_drive(doc: Mapping, name: str, options: DriveOptions | None = None, f
                               f"the certified law holds in its place by {err:.3g} deg at a crossover (more than "
                               f"{odrive.MAX_PLL_ERROR_DEG:g} deg): lower the loops' crossovers or raise "
                               "--encoder-bandwidth; nothing written", parameter="encoder_bandwidth")
-        out = DriveExport(name, written, tdoc, cert, tcert, tuple(changes), tuple(notes))
-    return out
+    return DriveExport(name, written, tdoc, cert, tcert, tuple(changes), tuple(notes))
 
 
 def _first(cert, prefix: str) -> float | None:
@@ -289,10 +288,9 @@ def _first(cert, prefix: str) -> float | None:
 # ------------------------------------------------------------------------------------------ import
 def import_drive(text: str, name: str, options: DriveOptions | None = None, *, where: str = "drive file",
                  plant=None) -> dict:
-    """A cascade gains document of target ``name``'s file ``text`` (motor frame for SINAMICS and ODrive unless
-    ``options`` give the torque constant / lead and ``options.command_unit``; LinuxCNC: the output unit per the
-    machine unit's rad or m), with ``plant`` as its ``[model]`` when given."""
-    from ...control.cascade import CascadeLaw
+    """A cascade gains document of target ``name``'s file ``text``: in the motor frame (rad, N m) for the targets that
+    take torques unless ``options`` give ``command_unit`` (A with the torque constant) or the lead (positions in m);
+    LinuxCNC's in the pid's output unit per rad or m; with ``plant`` as its ``[model]`` when given."""
     from ...io.cascade_gains import cascade_document
 
     options = options or DriveOptions()
@@ -303,7 +301,6 @@ def import_drive(text: str, name: str, options: DriveOptions | None = None, *, w
         law = from_motor_frame(law, options.command_unit, "rad" if options.lead_m is None else "m", options, name)
     elif name in MOTOR_FRAME and options.lead_m is not None:
         law = from_motor_frame(law, "N*m", "m", options, name)
-    assert isinstance(law, CascadeLaw)
     if plant is not None and (plant.command_unit != law.command_unit or plant.position_unit != law.position_unit):
         raise UsageError(f"the model is in {plant.position_unit} per {plant.command_unit}, the drive's law in "
                          f"{law.position_unit} per {law.command_unit}", parameter="model")
