@@ -257,7 +257,7 @@ GAINS: tuple[GainsFormat, ...] = (
         "feedtune.machines.cascade.gains_analysis:analyze_document", "feedtune.export.c_cascade:cascade_header",
         report="feedtune.report.cascade_design:cascade_subsections",
         modules=("control/cascade.py", "machines/cascade/law.py", "machines/cascade/twin.py",
-                 "models/cascade_plant.py", "analysis/cascade.py")),
+                 "models/cascade_plant.py", "analysis/cascade.py", "export/drives/")),
 )
 """Every gains format."""
 

@@ -337,6 +337,16 @@ def build_fixtures(fx: Path) -> Path:
     write_document(
         fx / "a_gains.toml", axis_gains_document(design_loopshape(0.6977, crossover_hz=100, pm_deg=35)), force=True
     )
+    from feedtune.design.cascade import design_cascade
+    from feedtune.export.drives import DriveOptions, export_drive
+    from feedtune.io.cascade_gains import cascade_gains_document
+    from feedtune.models.rigid import RigidBodyModel
+
+    cascade = cascade_gains_document(design_cascade(RigidBodyModel(2e-3, 1e-3, command_unit="A",
+                                                                   position_unit="rad"), kp=0.5, tn_s=0.02, kv=30.0))
+    write_document(fx / "c_gains.toml", cascade, force=True)
+    written = export_drive(cascade, "sinamics", DriveOptions(torque_constant=1.0)).written
+    (fx / "c.sinamics.txt").write_text(written.text)
     rng = np.random.default_rng(0)
     t = np.arange(5000) / 5000.0
     u = rng.standard_normal(t.size)
@@ -402,6 +412,8 @@ BASES: dict[str, str] = {
     "analyze track": TRACK,
     "analyze ropesnap": RS,
     "export c": f"{BS_GAINS} -o g.h",
+    "export drive": f"sinamics {FX}/c_gains.toml -o d.txt --torque-constant 1",
+    "import drive": f"sinamics {FX}/c.sinamics.txt -o b.toml",
     "simulate frf": "-o s.csv",
     "simulate track": f"-g {BS_GAINS} --distance 0.05 -o s.csv",
     "simulate ropesnap": f"-g {BS_GAINS} -o s.csv",
@@ -1898,6 +1910,47 @@ def later_command_cases() -> list[Case]:
            [("exists.csv", text("keep\n"))]))
     add(_c("log resample", f"{REV} --fs 1000 -o nodir/r.csv", 1, "nodir", "output"))
     add(_c("log resample", "big.csv --fs 1000 -o r.csv", 1, "big.csv", "budget", [("big.csv", sparse(20 << 30))]))
+    # drive parameter sets
+    cg, ct = f"{FX}/c_gains.toml", f"{FX}/c.sinamics.txt"
+    for command in ("export drive", "import drive"):
+        add(_c(command, "", 2, "missing", "parser"))
+        add(_c(command, f"robot {cg if command == 'export drive' else ct}", 2, "robot", "parser"))
+    add(_c("export drive", f"sinamics {BS_GAINS} -o d.txt", 1, "bs_gains.toml", "wrong kind"))
+    add(_c("export drive", f"sinamics {cg} -o d.txt", 2, "--torque-constant"))
+    add(_c("export drive", f"sinamics {cg} -o d.txt --torque-constant -1", 2, "--torque-constant"))
+    add(_c("export drive", f"sinamics {cg} -o d.txt --torque-constant 1 --position-fs 3000", 2, "--position-fs"))
+    add(_c("export drive", f"linuxcnc-pid {cg} -o d.ini --machine-unit mm", 2, "--machine-unit"))
+    add(_c("export drive", f"sinamics {cg} -o exists.txt --torque-constant 1", 2, "exists.txt", "output",
+           [("exists.txt", text("keep\n"))]))
+    add(_c("export drive", f"sinamics {FX}/nosuch.toml -o d.txt", 1, "nosuch.toml", "name"))
+    add(_c("import drive", f"sinamics {FX}/nosuch.txt -o b.toml", 1, "nosuch.txt", "name"))
+    add(_c("import drive", "p.txt -o b.toml", 2, "missing", "parser"))
+    add(_c("import drive", "sinamics p.txt -o b.toml", 1, "p.txt", "schema", [("p.txt", text("p1460[0] 0.5\n"))]))
+    add(_c("import drive", "sinamics p.txt -o b.toml", 1, "p1462", "schema",
+           [("p.txt", text("; requires: speed controller cycle = 125 us\n; requires: position control cycle = 1000 us\n"
+                           "p1460[0] = 0.5\n"))]))
+    add(_c("import drive", "sinamics p.txt -o b.toml", 1, "p1460", "non-finite",
+           [("p.txt", text("; requires: speed controller cycle = 125 us\n; requires: position control cycle = 1000 us\n"
+                           "p1460[0] = nan\np1462[0] = 10\n"))]))
+    add(_c("import drive", "odrive o.json -o b.toml", 1, "o.json", "schema", [("o.json", text("{\"axis0\": \n"))]))
+    add(_c("import drive", "linuxcnc-pid p.ini -o b.toml", 1, "--command-unit", "schema",
+           [("p.ini", text("[JOINT_0]\nP = 1\nD = 0.1\n"))]))
+    add(_c("import drive", "linuxcnc-pid p.ini -o b.toml --command-unit A --machine-unit mm", 1, "no two real roots",
+           "schema", [("p.ini", text("[JOINT_0]\nP = 1\nI = 100\nD = 0.1\n"))]))
+    add(_c("import drive", "ax8000 a.xml -o b.toml", 1, "a.xml", "schema",
+           [("a.xml", text('<!DOCTYPE x [<!ENTITY a "b">]><InitCmds/>'))]))
+    add(_c("import drive", "ax8000 a.xml -o b.toml", 1, "0x3140:01", "schema",
+           [("a.xml", text("<InitCmds><InitCmd><Index>#x3140</Index><SubIndex>1</SubIndex><Data>00</Data>"
+                           "</InitCmd></InitCmds>"))]))
+    add(_c("import drive", "ax8000 a.xml -o b.toml", 1, "a.xml", "schema", [("a.xml", text("<InitCmds>"))]))
+    add(_c("export drive", f"yaskawa {cg} -o y.txt --torque-constant 1", 2, "--inertia"))
+    add(_c("export drive", f"yaskawa {cg} -o y.txt --torque-constant 1 --inertia 0", 2, "--inertia"))
+    add(_c("import drive", "yaskawa y.txt -o b.toml", 1, "--inertia", "schema",
+           [("y.txt", text("Pn100 = 40\nPn101 = 2000\nPn102 = 40\n"))]))
+    add(_c("import drive", "yaskawa y.txt -o b.toml --inertia 1e-4 --fs 8000 --position-fs 1000", 1, "Pn101",
+           "schema", [("y.txt", text("Pn100 = 40\nPn101 = 2.5\nPn102 = 40\n"))]))
+    add(_c("import drive", f"sinamics {ct} -o exists.toml", 2, "exists.toml", "output",
+           [("exists.toml", text("keep\n"))]))
     # the fleet
     add(_c("fleet simulate", "", 2, "missing", "parser"))
     add(_c("fleet simulate", "fl --axes 0", 2, "--axes"))

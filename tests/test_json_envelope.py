@@ -72,6 +72,9 @@ def work(tmp_path_factory) -> Path:
             ["fleet", "simulate", "fleet", "--axes", "2", "--weeks", "3", "--drift-share", "0"],
             ["fleet", "run", "fleet/fleet.toml", "--history", "history.parquet", "--jobs", "1"],
             ["design", "shaper", "--mode", "52.6,0.1", "--shaper", "zv", "--out", "x_shaper.toml"],
+            ["design", "cascade", "examples/vendor/auto_servo_tuning.xml", "--drive-tuning",
+             "examples/vendor/auto_servo_tuning.xml", "--kv", "50", "--out", "cascade.toml"],
+            ["export", "drive", "sinamics", "cascade.toml", "--torque-constant", "1.2", "--out", "cascade.txt"],
         ):
             _main(args)
     from feedtune.io import read_log, write_log_csv
@@ -133,6 +136,10 @@ CASES = {  # id: (kind, arguments); each runs in well under 5 s
     "export c": ("export.c", ["export", "c", "mcppc.toml", "--out", "mcppc.h", "--force"]),
     "export klipper": ("export.klipper", ["export", "klipper", "x_shaper.toml"]),
     "export marlin": ("export.marlin", ["export", "marlin", "x_shaper.toml", "--out", "x.gcode", "--force"]),
+    "export drive": ("export.drive", ["export", "drive", "sinamics", "cascade.toml", "--torque-constant", "1.2",
+                                      "--frf", "examples/vendor/auto_servo_tuning.xml", "--out", "s.txt", "--force"]),
+    "import drive": ("import.drive", ["import", "drive", "sinamics", "cascade.txt", "--command-unit", "A",
+                                      "--torque-constant", "1.2", "--out", "back.toml", "--force"]),
     "export linuxcnc": ("export.linuxcnc", ["export", "linuxcnc", "mcppc.toml", "--out", "ft.c", "--force"]),
     "design shaper psd": ("design.shaper", ["design", "shaper", "--psd",
                                             "examples/vendor/klipper_calibration_data_x.csv"]),

@@ -66,6 +66,8 @@ def choice(values: Sequence[str], metavar: str | None = None) -> dict:
 
 # ------------------------------------------------------------------------------------------ examples
 _BS_MODEL = "feedtune identify ballscrew examples/ballscrew_frf.csv --out model.toml"
+_DRIVE_CASCADE = ("feedtune design cascade examples/vendor/auto_servo_tuning.xml \\\n"
+                  "    --drive-tuning examples/vendor/auto_servo_tuning.xml --out drive.toml")
 _BS_FILTERS = "--notch 420,0.55,0.7 --notch 1080,0.05,0.7 --lpf 2000"
 _BS_MCPPC = (f"feedtune design ppc model.toml \\\n    {_BS_FILTERS} \\\n"
              "    --frf examples/ballscrew_frf.csv --out mcppc.toml")
@@ -100,8 +102,7 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
                               "    --frf examples/ballscrew_frf.csv --out ppi.toml"),
     "design loopshape": (_GANTRY_MODEL, _AXIS),
     "design gantry": (_GANTRY_MODEL, _GANTRY_MIMO),
-    "design cascade": ("feedtune design cascade examples/vendor/auto_servo_tuning.xml \\\n"
-                       "    --drive-tuning examples/vendor/auto_servo_tuning.xml --out drive.toml",),
+    "design cascade": (_DRIVE_CASCADE,),
     "design pid": (_GANTRY_MODEL, _GANTRY_MIMO,
                    "feedtune design pid gantry.toml --match mimo.toml --out pid.toml"),
     "design shaper": (_BS_MODEL, f"feedtune design ppi model.toml \\\n    {_BS_FILTERS} \\\n"
@@ -126,6 +127,14 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
                        "feedtune export klipper x_shaper.toml --out input_shaper.cfg"),
     "export marlin": ("feedtune design shaper --mode 52.6,0.1 --shaper zv --out x_shaper.toml",
                       "feedtune export marlin x_shaper.toml --out shaper.gcode"),
+    "export drive": (_DRIVE_CASCADE,
+                     "feedtune export drive sinamics drive.toml --torque-constant 1.2 \\\n"
+                     "    --frf examples/vendor/auto_servo_tuning.xml --out drive.txt"),
+    "import drive": (_DRIVE_CASCADE,
+                     "feedtune export drive sinamics drive.toml --torque-constant 1.2 \\\n"
+                     "    --out drive.txt",
+                     "feedtune import drive sinamics drive.txt --command-unit A \\\n"
+                     "    --torque-constant 1.2 --out drive_back.toml"),
     "export linuxcnc": (_BS_MODEL, _BS_MCPPC,
                         "feedtune export linuxcnc mcppc.toml --u-max 10 --name ft_x \\\n"
                         "    --out ft_x.c"),

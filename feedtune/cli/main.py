@@ -21,6 +21,7 @@ from . import (
     design_gantry_cmd,
     design_loopshape_cmd,
     design_shaper_cmd,
+    drive_cmd,
     explore_cmd,
     export_cmd,
     export_targets_cmd,
@@ -83,6 +84,7 @@ design_cmd.app.command("shaper")(design_shaper_cmd.shaper)
 export_cmd.app.command("klipper")(export_targets_cmd.klipper)
 export_cmd.app.command("marlin")(export_targets_cmd.marlin)
 export_cmd.app.command("linuxcnc")(export_targets_cmd.linuxcnc)
+export_cmd.app.command("drive")(drive_cmd.export_drive)
 simulate_cmd.app.add_typer(simulate_gantry_cmd.app, name="gantry")
 
 app.add_typer(identify_cmd.app, name="identify")
@@ -92,6 +94,7 @@ app.command("tune")(tune_cmd.tune)
 app.command("prefilter")(prefilter_cmd.prefilter)
 app.add_typer(analyze_cmd.app, name="analyze")
 app.add_typer(export_cmd.app, name="export")
+app.add_typer(drive_cmd.import_app, name="import")
 app.command("report")(report_cmd.report)
 app.command("explore")(explore_cmd.explore)
 app.add_typer(simulate_cmd.app, name="simulate")

@@ -95,14 +95,18 @@ def cascade_gains_document(design) -> dict:
     """The gains document of a :class:`~feedtune.design.cascade.CascadeDesign` (its law, plant model and design
     record). Without a certificate: :func:`feedtune.workflows.deliver.deliver` certifies it and adds the
     ``[certificate]``."""
-    law: CascadeLaw = design.law
+    return cascade_document(design.law, design.plant, design.design_dict())
+
+
+def cascade_document(law: CascadeLaw, plant: CascadePlant | None, design: Mapping | None = None) -> dict:
+    """The gains document of a cascade law, its plant model (None: no ``[model]``) and a design record (``[design]``:
+    where the law comes from, e.g. a drive's parameter file read back)."""
     units = law.gain_units()
     gains = {"Kp": q(law.kp, units["Kp"]), "Kv": q(law.kv, units["Kv"]), "kv_ff": q(law.kv_ff, "-"),
              "J_ff": q(law.inertia_ff, units["J_ff"])}
     if not math.isinf(law.tn_s):
         gains["Tn"] = q(law.tn_s, "s")
     sos = law.filter_sos()
-    plant = design.plant
     return strip_none({
         "schema": SCHEMA,
         "kind": CASCADE_KIND,
@@ -125,7 +129,7 @@ def cascade_gains_document(design) -> dict:
         "model": None if plant is None else {"mechanics": _mechanics_doc(plant),
                                              "current_loop_hz": None if plant.current_loop_hz is None
                                              else q(plant.current_loop_hz, "Hz")},
-        "design": design.design_dict(),
+        "design": None if design is None else dict(design),
     })
 
 
@@ -193,4 +197,4 @@ def cascade_from_document(doc: Mapping, where: str = "gains file") -> tuple[Casc
     return law, plant, mine
 
 
-__all__ = ["CASCADE_KIND", "LAW_TEXT", "cascade_from_document", "cascade_gains_document"]
+__all__ = ["CASCADE_KIND", "LAW_TEXT", "cascade_document", "cascade_from_document", "cascade_gains_document"]
