@@ -177,9 +177,6 @@ def test_every_figure_is_shown_inside_the_page_and_no_table_overflows(demo_repor
 
 
 @needs_poppler
-@pytest.mark.xfail(strict=False, reason="passes alone and with its own file on 2 workers (46 of 46, 2026-11-28), "
-                   "failed twice inside the whole slow set on 2 workers ('bandwidth' read outside the cell of "
-                   "'tracking bandwidth'): an ordering effect not yet found; kept running, not yet a gate")
 def test_pdf_tables_never_split_a_number_or_a_word(demo):
     pages = pdf_words(demo.pdf)
     assert len(demo.cells) > 500

@@ -86,6 +86,21 @@ def test_wide_tables_shrink_or_turn_and_never_split_a_token():
     assert not lay.landscape and lay.pt == TABLE_PT
 
 
+def test_text_widths_do_not_depend_on_what_was_drawn_before():
+    """Widths come from a font object of their own: matplotlib's shared one takes the size of the last text drawn,
+    and measured on it a column's width depended on the figures drawn before (once: 'bandwidth' set outside the cell
+    of 'tracking bandwidth' inside the whole slow set only). DejaVu Sans' 'c' advances 1126 of its 2048 units."""
+    from matplotlib.font_manager import FontProperties, findfont, get_font
+
+    from feedtune.report import textfit
+
+    before = text_width("tracking bandwidth", 6.3)
+    get_font(findfont(FontProperties(family=["DejaVu Sans"]))).set_size(8, 100)  # what drawing a figure does
+    textfit._advance.cache_clear()
+    assert text_width("tracking bandwidth", 6.3) == before
+    assert text_width("c", 100.0) == pytest.approx(1126 / 2048 * 100, rel=1e-6)
+
+
 def test_the_rebuild_rule_catches_a_split_number():
     assert not _rebuilt(["0.0268", "8"], "0.02688")
     assert not _rebuilt(["dampin", "g [-]"], "damping [-]")

@@ -30,9 +30,12 @@ _LIST_BREAK = re.compile(r"(?<=, )")
 
 @lru_cache(maxsize=2)
 def _font(bold: bool):
-    from matplotlib.font_manager import FontProperties, findfont, get_font
+    """A private FT2Font of DejaVu Sans at :data:`REFERENCE_PT`: not matplotlib's shared ``get_font`` object, whose
+    size every text drawn since sets anew (measured on it, widths depended on what had been drawn before)."""
+    from matplotlib.font_manager import FontProperties, findfont
+    from matplotlib.ft2font import FT2Font
 
-    font = get_font(findfont(FontProperties(family=["DejaVu Sans"], weight="bold" if bold else "normal")))
+    font = FT2Font(findfont(FontProperties(family=["DejaVu Sans"], weight="bold" if bold else "normal")))
     font.set_size(REFERENCE_PT, 72)
     return font
 
