@@ -48,16 +48,19 @@ def timed(args: list[str], env: dict[str, str], cwd: str | None = None) -> tuple
     return wall, usage.ru_utime + usage.ru_stime
 
 
-def first_run(machine: str) -> dict[str, float]:
-    """Wall times [s]: ``cold``, ``warm`` (best of two), ``warmup`` and ``after_warmup`` (module docstring)."""
-    out = {}
+def first_run(machine: str, warmup: bool = True) -> dict[str, float]:
+    """Wall times [s]: ``cold``, ``warm`` (best of two), ``warmup`` and ``after_warmup`` (module docstring; the last
+    two without ``warmup``: nan), and the CPU times [s] ``cold_cpu`` and ``warm_cpu`` (the warm run's of the best)."""
+    out = {"warmup": float("nan"), "after_warmup": float("nan")}
     with tempfile.TemporaryDirectory() as tmp:
         demo = _command(machine, Path(tmp) / "demo")
         env = user_env(XDG_CACHE_HOME=str(Path(tmp) / "cache_a"))
         env.pop("NUMBA_CACHE_DIR", None)
         timed([sys.executable, "-m", "feedtune", "--version"], env)  # bytecode
-        out["cold"] = timed(demo, env)[0]
-        out["warm"] = min(timed(demo, env)[0] for _ in range(2))
+        out["cold"], out["cold_cpu"] = timed(demo, env)
+        out["warm"], out["warm_cpu"] = min(timed(demo, env) for _ in range(2))
+        if not warmup:
+            return out
         env_b = {**env, "XDG_CACHE_HOME": str(Path(tmp) / "cache_b")}
         out["warmup"] = timed([sys.executable, "-m", "feedtune", "warmup"], env_b)[0]
         out["after_warmup"] = timed(demo, env_b)[0]
@@ -85,12 +88,14 @@ def main() -> None:
     parser.add_argument("--machine", choices=("ballscrew", "gantry"), action="append", help="only this demo")
     parser.add_argument("--skip-tune", action="store_true", help="only the demos")
     parser.add_argument("--skip-demos", action="store_true", help="only the tuners")
+    parser.add_argument("--skip-warmup", action="store_true", help="the demos cold and warm only (no warmup run)")
     args = parser.parse_args()
     if not args.skip_demos:
         for machine in args.machine or ["ballscrew", "gantry"]:
-            t = first_run(machine)
+            t = first_run(machine, warmup=not args.skip_warmup)
             print(f"demo {machine}: cold {t['cold']:.1f} s, warm {t['warm']:.1f} s: ratio {t['cold'] / t['warm']:.2f}"
-                  f" (target <= {RATIO_TARGET}); feedtune warmup {t['warmup']:.1f} s, then the first run "
+                  f" (target <= {RATIO_TARGET}); CPU cold {t['cold_cpu']:.1f} s, warm {t['warm_cpu']:.1f} s: ratio "
+                  f"{t['cold_cpu'] / t['warm_cpu']:.2f}; feedtune warmup {t['warmup']:.1f} s, then the first run "
                   f"{t['after_warmup']:.1f} s: ratio {t['after_warmup'] / t['warm']:.2f}")
     if not args.skip_tune:
         cpu = tuners()
