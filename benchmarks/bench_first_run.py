@@ -1,7 +1,7 @@
 """Benchmark: a new user's first run against the next ones (issue 27: first-run wall time within 1.3x of the warm
 run for both demos), and ``tune ppi`` against ``tune mcppc`` on the three example FRFs (within 2x, CPU).
 
-Run by hand: ``python benchmarks/bench_first_run.py [--machine ballscrew|gantry] [--skip-tune]``.
+Run by hand: ``python benchmarks/bench_first_run.py [--machine ballscrew|gantry] [--skip-tune] [--skip-warmup]``.
 
 * Per demo, the command a user runs (``python -m feedtune demo [gantry] --out DIR --force``) in fresh processes with
   a fresh kernel cache (``XDG_CACHE_HOME`` a new empty folder, so numba finds nothing compiled):
@@ -11,7 +11,10 @@ Run by hand: ``python benchmarks/bench_first_run.py [--machine ballscrew|gantry]
     the first demo run.
 
   The ratios cold / warm and first-after-warm-up / warm are the figures; the wall time of ``feedtune warmup`` is
-  printed too. Bytecode is written by a first, unmeasured ``--version`` run (an installed package has its bytecode).
+  printed too, and the CPU time of the cold and warm runs (every worker included): on a machine shared with other
+  work the wall ratio follows the CPU ratio, since no core is left idle for the compile to fill.
+  ``--skip-warmup`` measures cold and warm only. Bytecode is written by a first, unmeasured ``--version`` run (an
+  installed package has its bytecode).
 * The two tuners as commands on the example model and the three example FRFs (``--filters own`` and ``identical``),
   CPU time of the child processes (``os.wait4``: every worker included), one run each, interleaved.
 """

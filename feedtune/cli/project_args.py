@@ -216,7 +216,9 @@ def project_values(project, section: str, command) -> dict:
 def expand(tokens: list[str], root) -> tuple[list[str], Path | None]:
     """The command line ``tokens`` (after ``feedtune``) with a project's arguments filled in (module docstring), and
     the project file used (None: the tokens as given, ``--project`` aside)."""
-    from ..errors import UsageError
+    import typer
+
+    from ..errors import DataError, UsageError
     from ..io.project_file import PROJECT_FILE, find_project, read_project
 
     path, command, rest = _leaf(root, list(tokens))
@@ -244,7 +246,7 @@ def expand(tokens: list[str], root) -> tuple[list[str], Path | None]:
             return list(tokens), None
     project = read_project(file)
     filled: list[str] = []
-    arguments: list[str] = []
+    arguments: list[tuple] = []
     for name, (key, value) in project_values(project, section, command).items():
         param = next(p for p in command.params if p.name == name)
         if getattr(param, "param_type_name", "") == "argument":
@@ -258,16 +260,12 @@ def expand(tokens: list[str], root) -> tuple[list[str], Path | None]:
             if getattr(p, "param_type_name", "") == "argument":
                 hit = next((a for a in arguments if a[0] == p.name), None)
                 if hit is None and p.required:
-                    from ..errors import DataError
-
                     raise DataError(f"{file}: [{section}] {_key(p)} is missing (the command's {p.metavar or p.name}"
                                     + ("; or [axis] " + " or ".join(AXIS_FILLS[section][p.name])
                                        if p.name in AXIS_FILLS[section] else "") + ")")
                 if hit is not None:
                     ordered += _values(project, hit[1], p, hit[2])
     out = [*path, *ordered, *filled, *rest]
-    import typer
-
     typer.echo(f"feedtune: project {_shown(file)}: {command_text(out)}", err=True)
     return out, file
 

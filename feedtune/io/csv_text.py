@@ -78,7 +78,7 @@ def csv_row_chunks(columns: Sequence[np.ndarray], chunk_rows: int | None = None)
     chunk_rows = chunk_rows or CSV_CHUNK_ROWS
     min_cells = COMPILED_MIN_CELLS_LOADED if "numba" in sys.modules else COMPILED_MIN_CELLS
     if n * k >= min_cells and all(c.dtype == np.float64 and c.ndim == 1 for c in cols) \
-            and not _kernel_pending() and _row_kernel() is not None:
+            and _row_kernel() is not None:
         yield from _compiled_chunks(cols, chunk_rows)
         return
     row = ",".join(["%s"] * k) + "\n"
@@ -181,16 +181,12 @@ _PENDING: list = []
 
 
 def set_kernel_pending(future) -> None:
-    """While ``future`` (a :class:`concurrent.futures.Future`: the kernel compiling into the cache in another
-    process, :func:`feedtune.workflows.warmup.ensure_kernels`) is not done, format every table by ``%`` formatting
-    instead of compiling the kernel here too; None: the kernel as usual. The text is the same either way."""
+    """The kernel is compiling into the kernel cache in another process (``future``, a
+    :class:`concurrent.futures.Future`; :func:`feedtune.workflows.warmup.ensure_kernels`): its first use here waits
+    for it and loads it from the cache instead of compiling it a second time. None: nothing to wait for."""
     _PENDING.clear()
     if future is not None:
         _PENDING.append(future)
-
-
-def _kernel_pending() -> bool:
-    return bool(_PENDING) and not _PENDING[0].done()
 
 
 def _row_kernel():
@@ -203,6 +199,10 @@ def _row_kernel():
             _KERNEL.append(None)
             return None
         _KERNEL.append(numba.njit(cache=True, nogil=True)(_format_rows))
+    if _PENDING:
+        from concurrent.futures import wait
+
+        wait([_PENDING.pop()])  # compiled elsewhere into the cache: loaded from it at the first call
     return _KERNEL[0]
 
 

@@ -133,10 +133,10 @@ MACHINE_KERNELS = {
 
 BACKGROUND_KERNELS = ("CSV writer", "gantry twin (gains files)")
 """Kernels a first run need not wait for before it starts (:func:`ensure_kernels` with ``background``): they
-compile in a worker process beside the run's own work. The CSV writer formats its tables by ``%`` formatting until
-its kernel is in the cache (:func:`feedtune.io.csv_text.set_kernel_pending`); the gantry twin's loop with gains-file
-runtimes, first run after the measurements and the tuning, waits for its kernel there
-(:func:`feedtune.machines.gantry.twin.set_kernel_pending`)."""
+compile in a worker process beside the run's own work, and their first use waits for them there and loads them from
+the cache (:func:`feedtune.io.csv_text.set_kernel_pending`: the CSV writer, first used once the FRF is measured;
+:func:`feedtune.machines.gantry.twin.set_kernel_pending`: the gantry twin's loop with gains-file runtimes, first
+run after the measurements and the tuning)."""
 
 
 def _hook(name: str) -> Callable | None:
@@ -264,8 +264,8 @@ def ensure_kernels(names=None, processes: int | None = None, *, background: bool
     step named for something else.
 
     With ``background``, the kernels of :data:`BACKGROUND_KERNELS` among them compile in a worker process while
-    the caller goes on (their users fall back to their uncompiled path until they are in the cache), and a lone
-    kernel left to wait for compiles in this process (no worker to start, nothing to load from the cache after);
+    the caller goes on (their first use waits for them and loads them from the cache), and a lone kernel left to
+    wait for compiles in this process (no worker to start, nothing to load from the cache after);
     the caller must :meth:`Background.wait` for the returned handle at its end. Returns ``{kernel: seconds}`` of the
     kernels waited for (None when none was missing), or with ``background`` the :class:`Background` handle (None
     when nothing compiles behind)."""
@@ -309,7 +309,7 @@ def _write_stamp(seconds: dict[str, float]) -> None:
 
 class Background:
     """Kernels compiling in worker processes while this one goes on (:func:`ensure_kernels` with ``background``):
-    until each is done, its users take their uncompiled path (:data:`BACKGROUND_KERNELS`)."""
+    their first use waits for them (:data:`BACKGROUND_KERNELS`)."""
 
     def __init__(self, pool, futures: dict) -> None:
         self._pool, self._futures = pool, futures
@@ -330,8 +330,7 @@ class Background:
         return cls(pool, futures)
 
     def wait(self) -> dict[str, float]:
-        """Wait for every kernel (at the caller's end), stamp them and give their users the compiled path back;
-        ``{kernel: seconds}`` each took."""
+        """Wait for every kernel (at the caller's end) and stamp them; ``{kernel: seconds}`` each took."""
         try:
             seconds = {k: f.result() for k, f in self._futures.items()}
         finally:
