@@ -51,6 +51,16 @@ def timed(args: list[str], env: dict[str, str], cwd: str | None = None) -> tuple
     return wall, usage.ru_utime + usage.ru_stime
 
 
+def first_runs(machine: str, repeat: int) -> dict[str, float]:
+    """:func:`first_run` without the warm-up ``repeat`` times, each in a fresh cache folder (cold, then warm, runs
+    interleaved): the medians of ``cold``, ``warm``, ``cold_cpu``, ``warm_cpu`` [s] (one run on a machine shared
+    with other work can be off by half)."""
+    import statistics
+
+    runs = [first_run(machine, warmup=False) for _ in range(repeat)]
+    return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
 def first_run(machine: str, warmup: bool = True) -> dict[str, float]:
     """Wall times [s]: ``cold``, ``warm`` (best of two), ``warmup`` and ``after_warmup`` (module docstring; the last
     two without ``warmup``: nan), and the CPU times [s] ``cold_cpu`` and ``warm_cpu`` (the warm run's of the best)."""
@@ -92,10 +102,13 @@ def main() -> None:
     parser.add_argument("--skip-tune", action="store_true", help="only the demos")
     parser.add_argument("--skip-demos", action="store_true", help="only the tuners")
     parser.add_argument("--skip-warmup", action="store_true", help="the demos cold and warm only (no warmup run)")
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="with --skip-warmup: N cold/warm pairs, each in a fresh cache folder; their medians")
     args = parser.parse_args()
     if not args.skip_demos:
         for machine in args.machine or ["ballscrew", "gantry"]:
-            t = first_run(machine, warmup=not args.skip_warmup)
+            t = (first_runs(machine, args.repeat) if args.skip_warmup and args.repeat > 1
+                 else first_run(machine, warmup=not args.skip_warmup))
             print(f"demo {machine}: cold {t['cold']:.1f} s, warm {t['warm']:.1f} s: ratio {t['cold'] / t['warm']:.2f}"
                   f" (target <= {RATIO_TARGET}); CPU cold {t['cold_cpu']:.1f} s, warm {t['warm_cpu']:.1f} s: ratio "
                   f"{t['cold_cpu'] / t['warm_cpu']:.2f}; feedtune warmup {t['warmup']:.1f} s, then the first run "

@@ -132,7 +132,7 @@ def _input_files(kwargs: dict, names: tuple[str, ...]) -> list[str]:
 def run_record(inputs: list[str]):
     """How to make the record of the running command (:func:`feedtune.io.provenance.command_record`): its command
     line and project file as :func:`feedtune.cli.main.run` left them in the root context (``obj``), else
-    ``sys.argv``."""
+    ``sys.argv`` (or, under another program's runner, the command's path)."""
     import sys
 
     from .envelope import _context
@@ -141,7 +141,12 @@ def run_record(inputs: list[str]):
     ctx = _context()
     obj = ctx.find_root().obj if ctx is not None else None
     obj = obj if isinstance(obj, dict) else {}
-    command = obj.get("command") or command_text(sys.argv[1:])
+    if obj.get("command"):
+        command = obj["command"]
+    elif ctx is not None and ctx.find_root().info_name != "feedtune":  # run by another program (a test's runner)
+        command = ctx.command_path
+    else:
+        command = command_text(sys.argv[1:])
 
     def make() -> dict:
         from ..io.provenance import command_record
