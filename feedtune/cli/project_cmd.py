@@ -14,6 +14,7 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION
 from .help_text import LIMITS_PROFILES, choice
+from .progress_display import QUIET_OPTION, show_progress
 
 app = typer.Typer(rich_markup_mode="rich", no_args_is_help=True,
                   help="Project files: an axis' files and the options of its commands (feedtune.toml).")
@@ -75,6 +76,7 @@ def init(
         help="Project file to write (default feedtune.toml here; a folder: its feedtune.toml)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
+    quiet: bool = QUIET_OPTION,
 ) -> None:
     """Write a project file (feedtune.toml) for tune, analyze and report.
 
@@ -83,6 +85,7 @@ def init(
     In the project's folder, 'feedtune tune', 'feedtune analyze' and 'feedtune report' then run without arguments
     (elsewhere: --project PATH), each with the options the file gives and those typed (typed ones win). Paths are
     written relative to the project file."""
+    show_progress(quiet)
     from ..errors import UsageError
     from ..io.project_file import PROJECT_FILE, Project, project_document, relative_to, write_project
     from .envelope import _context
