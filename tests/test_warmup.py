@@ -65,7 +65,7 @@ rng = np.random.default_rng(1)
 columns = [rng.standard_normal(20000) * 10.0 ** rng.integers(-12, 12, 20000) for _ in range(3)]
 import numba  # loaded, as in a demo: a table of 60000 cells takes the compiled kernel
 handle = ensure_kernels(["CSV writer"], background=True)
-pending = bool(csv_text._PENDING) and not csv_text._PENDING[0].done()
+pending = csv_text._PENDING.pending()
 text = csv_text.csv_rows(columns)  # waits for the worker, then loads its kernel from the cache
 seconds = handle.wait()
 print(json.dumps({"pending": pending, "repr": text.splitlines()[5] == ",".join(repr(float(c[5])) for c in columns),

@@ -14,6 +14,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .._kernel_cache import PendingKernel
+
 CSV_CHUNK_ROWS = 65536
 """Rows formatted per chunk by :func:`csv_rows` and :func:`csv_row_chunks` (bounds the temporary memory)."""
 
@@ -175,18 +177,10 @@ def _pow10_table() -> tuple[np.ndarray, np.ndarray]:
 
 _KERNEL: list = []
 
-_PENDING: list = []
-"""``[future]`` of the kernel's compile in another process (a first run's background compile:
-:func:`set_kernel_pending`)."""
+_PENDING = PendingKernel()
+"""The kernel compiling in another process (a first run's background compile), waited for at its first use."""
 
-
-def set_kernel_pending(future) -> None:
-    """The kernel is compiling into the kernel cache in another process (``future``, a
-    :class:`concurrent.futures.Future`; :func:`feedtune.workflows.warmup.ensure_kernels`): its first use here waits
-    for it and loads it from the cache instead of compiling it a second time. None: nothing to wait for."""
-    _PENDING.clear()
-    if future is not None:
-        _PENDING.append(future)
+set_kernel_pending = _PENDING.set
 
 
 def _row_kernel():
@@ -199,10 +193,7 @@ def _row_kernel():
             _KERNEL.append(None)
             return None
         _KERNEL.append(numba.njit(cache=True, nogil=True)(_format_rows))
-    if _PENDING:
-        from concurrent.futures import wait
-
-        wait([_PENDING.pop()])  # compiled elsewhere into the cache: loaded from it at the first call
+    _PENDING.wait()  # compiled elsewhere into the cache: loaded from it at the first call
     return _KERNEL[0]
 
 

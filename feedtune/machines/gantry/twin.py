@@ -62,6 +62,7 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from ..._kernel_cache import PendingKernel
 from ...budget import TWIN_SAMPLE_BYTES, check_memory
 from ...errors import DataError, UsageError
 from ...lti import zoh
@@ -1211,18 +1212,11 @@ def _compiled_holding_loop():
 
 _LOOP: list = []
 
-_PENDING: list = []
-"""``[future]`` of :func:`_closed_loop`'s compile in another process (a first run's background compile:
-:func:`set_kernel_pending`)."""
+_PENDING = PendingKernel()
+""":func:`_closed_loop` compiling in another process (a first run's background compile), waited for at its first
+use (:func:`feedtune.workflows.warmup.ensure_kernels`)."""
 
-
-def set_kernel_pending(future) -> None:
-    """The loop with gains-file runtimes is compiling into the kernel cache in another process (``future``, a
-    :class:`concurrent.futures.Future`; :func:`feedtune.workflows.warmup.ensure_kernels`): its first use here waits
-    for it and loads it from the cache instead of compiling it a second time. None: nothing to wait for."""
-    _PENDING.clear()
-    if future is not None:
-        _PENDING.append(future)
+set_kernel_pending = _PENDING.set
 
 
 def _compiled_loop():
@@ -1240,10 +1234,7 @@ def _compiled_loop():
         _g, _a = compiled_laws()
         _m, _s = compiled_inline(_measure), compiled_inline(_step)
         _LOOP.append(numba.njit(cache=True, nogil=True, _nrt=False)(_closed_loop))
-    if _PENDING:
-        from concurrent.futures import wait
-
-        wait([_PENDING.pop()])  # compiled elsewhere into the cache: loaded from it at the first call
+    _PENDING.wait()  # compiled elsewhere into the cache: loaded from it at the first call
     return _LOOP[0]
 
 
