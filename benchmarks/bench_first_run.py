@@ -1,7 +1,7 @@
 """Benchmark: a new user's first run against the next ones (issue 27: first-run wall time within 1.3x of the warm
 run for both demos), and ``tune ppi`` against ``tune mcppc`` on the three example FRFs (within 2x, CPU).
 
-Run by hand: ``python benchmarks/bench_first_run.py [--machine ballscrew|gantry] [--skip-tune]``.
+Run by hand: ``python benchmarks/bench_first_run.py [--machine ballscrew|gantry] [--skip-tune] [--skip-warmup]``.
 
 * Per demo, the command a user runs (``python -m feedtune demo [gantry] --out DIR --force``) in fresh processes with
   a fresh kernel cache (``XDG_CACHE_HOME`` a new empty folder, so numba finds nothing compiled):
@@ -11,7 +11,10 @@ Run by hand: ``python benchmarks/bench_first_run.py [--machine ballscrew|gantry]
     the first demo run.
 
   The ratios cold / warm and first-after-warm-up / warm are the figures; the wall time of ``feedtune warmup`` is
-  printed too. Bytecode is written by a first, unmeasured ``--version`` run (an installed package has its bytecode).
+  printed too, and the CPU time of the cold and warm runs (every worker included): on a machine shared with other
+  work the wall ratio follows the CPU ratio, since no core is left idle for the compile to fill.
+  ``--skip-warmup`` measures cold and warm only. Bytecode is written by a first, unmeasured ``--version`` run (an
+  installed package has its bytecode).
 * The two tuners as commands on the example model and the three example FRFs (``--filters own`` and ``identical``),
   CPU time of the child processes (``os.wait4``: every worker included), one run each, interleaved.
 """
@@ -48,16 +51,29 @@ def timed(args: list[str], env: dict[str, str], cwd: str | None = None) -> tuple
     return wall, usage.ru_utime + usage.ru_stime
 
 
-def first_run(machine: str) -> dict[str, float]:
-    """Wall times [s]: ``cold``, ``warm`` (best of two), ``warmup`` and ``after_warmup`` (module docstring)."""
-    out = {}
+def first_runs(machine: str, repeat: int) -> dict[str, float]:
+    """:func:`first_run` without the warm-up ``repeat`` times, each in a fresh cache folder (cold, then warm, runs
+    interleaved): the medians of ``cold``, ``warm``, ``cold_cpu``, ``warm_cpu`` [s] (one run on a machine shared
+    with other work can be off by half)."""
+    import statistics
+
+    runs = [first_run(machine, warmup=False) for _ in range(repeat)]
+    return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
+def first_run(machine: str, warmup: bool = True) -> dict[str, float]:
+    """Wall times [s]: ``cold``, ``warm`` (best of two), ``warmup`` and ``after_warmup`` (module docstring; the last
+    two without ``warmup``: nan), and the CPU times [s] ``cold_cpu`` and ``warm_cpu`` (the warm run's of the best)."""
+    out = {"warmup": float("nan"), "after_warmup": float("nan")}
     with tempfile.TemporaryDirectory() as tmp:
         demo = _command(machine, Path(tmp) / "demo")
         env = user_env(XDG_CACHE_HOME=str(Path(tmp) / "cache_a"))
         env.pop("NUMBA_CACHE_DIR", None)
         timed([sys.executable, "-m", "feedtune", "--version"], env)  # bytecode
-        out["cold"] = timed(demo, env)[0]
-        out["warm"] = min(timed(demo, env)[0] for _ in range(2))
+        out["cold"], out["cold_cpu"] = timed(demo, env)
+        out["warm"], out["warm_cpu"] = min(timed(demo, env) for _ in range(2))
+        if not warmup:
+            return out
         env_b = {**env, "XDG_CACHE_HOME": str(Path(tmp) / "cache_b")}
         out["warmup"] = timed([sys.executable, "-m", "feedtune", "warmup"], env_b)[0]
         out["after_warmup"] = timed(demo, env_b)[0]
@@ -85,12 +101,17 @@ def main() -> None:
     parser.add_argument("--machine", choices=("ballscrew", "gantry"), action="append", help="only this demo")
     parser.add_argument("--skip-tune", action="store_true", help="only the demos")
     parser.add_argument("--skip-demos", action="store_true", help="only the tuners")
+    parser.add_argument("--skip-warmup", action="store_true", help="the demos cold and warm only (no warmup run)")
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="with --skip-warmup: N cold/warm pairs, each in a fresh cache folder; their medians")
     args = parser.parse_args()
     if not args.skip_demos:
         for machine in args.machine or ["ballscrew", "gantry"]:
-            t = first_run(machine)
+            t = (first_runs(machine, args.repeat) if args.skip_warmup and args.repeat > 1
+                 else first_run(machine, warmup=not args.skip_warmup))
             print(f"demo {machine}: cold {t['cold']:.1f} s, warm {t['warm']:.1f} s: ratio {t['cold'] / t['warm']:.2f}"
-                  f" (target <= {RATIO_TARGET}); feedtune warmup {t['warmup']:.1f} s, then the first run "
+                  f" (target <= {RATIO_TARGET}); CPU cold {t['cold_cpu']:.1f} s, warm {t['warm_cpu']:.1f} s: ratio "
+                  f"{t['cold_cpu'] / t['warm_cpu']:.2f}; feedtune warmup {t['warmup']:.1f} s, then the first run "
                   f"{t['after_warmup']:.1f} s: ratio {t['after_warmup'] / t['warm']:.2f}")
     if not args.skip_tune:
         cpu = tuners()

@@ -52,6 +52,8 @@ feedtune simulate gantry ropesnap --gains mimo.toml --axis-gains axis.toml --out
 # report and demo
 feedtune report model.toml mcppc.toml ppi.toml friction.toml examples/ballscrew_frf.csv \
     examples/ballscrew_track.csv examples/ballscrew_ropesnap.csv --out report.html
+feedtune project init --model model.toml --frf examples/ballscrew_frf_m70.csv --gains gains.toml \
+    --structure mcppc --set tune.lpf=800
 feedtune demo --out demo_out
 
 set +x

@@ -155,3 +155,29 @@ def install() -> None:
 def uninstall() -> None:
     """Remove the import hook of :func:`install`."""
     _sys.meta_path[:] = [f for f in _sys.meta_path if not isinstance(f, _BeforeNumba)]
+
+
+class PendingKernel:
+    """A kernel compiling into the kernel cache in another process (a first run's background compile:
+    :func:`feedtune.workflows.warmup.ensure_kernels`): the code that uses it calls :meth:`wait` before its first call,
+    which then loads it from the cache instead of compiling it a second time."""
+
+    def __init__(self) -> None:
+        self._future = None
+
+    def set(self, future) -> None:
+        """``future`` (a :class:`concurrent.futures.Future`) ends when the kernel is in the cache; None: nothing to
+        wait for."""
+        self._future = future
+
+    def pending(self) -> bool:
+        """Whether the other process is still compiling it."""
+        return self._future is not None and not self._future.done()
+
+    def wait(self) -> None:
+        """Wait for the other process (once; at once when nothing compiles elsewhere)."""
+        future, self._future = self._future, None
+        if future is not None:
+            from concurrent.futures import wait
+
+            wait([future])

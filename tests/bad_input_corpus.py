@@ -433,6 +433,7 @@ BASES: dict[str, str] = {
     "fleet simulate": "fl --axes 2 --weeks 2",
     "fleet run": f"{MANIFEST} --history h.parquet",
     "fleet report": f"{MANIFEST} --history h.parquet -o f.html",
+    "project init": f"--model {BS_MODEL} -o p.toml",
 }
 """A valid command line of every command, into which the generated cases put one bad option value."""
 
@@ -1978,6 +1979,42 @@ def later_command_cases() -> list[Case]:
     add(_c("fleet report", f"{MANIFEST} --history h.parquet -o f.xyz", 2, "f.xyz", "output"))
     add(_c("fleet report", "m.toml --history h.parquet -o f.html", 1, "m.toml", "nesting",
            [("m.toml", nested_toml_tables(5000))]))
+    cases += project_cases()
+    return cases
+
+
+def project_cases() -> list[Case]:
+    """The project file (feedtune.toml): ``project init``, and ``tune``/``analyze``/``report`` given one with
+    ``--project`` (a bad project file is a data error naming the file and the key; a bad ``--project`` usage)."""
+    cases: list[Case] = []
+    add = cases.append
+    head = 'schema = "feedtune.project/1"\n'
+    add(_c("project init", f"--model {FX}/nosuch.toml", 2, "nosuch.toml", "name"))
+    add(_c("project init", f"--model {BS_MODEL} --set tune.lfp=1", 2, "tune.lfp", "name"))
+    add(_c("project init", "--set bogus", 2, "--set"))
+    add(_c("project init", "--set tune.force=true", 2, "tune.force"))
+    add(_c("project init", f"--model {BS_MODEL} --limits nosuch", 2, "--limits", "parser"))
+    add(_c("project init", f"--model {BS_MODEL} -o p.txt", 2, "p.txt", "output"))
+    add(_c("project init", f"--model {BS_MODEL} -o exists.toml", 2, "exists.toml", "output",
+           [("exists.toml", text("keep\n"))]))
+    add(_c("project init", f"--model {BS_MODEL} -o nodir/p.toml", 1, "nodir", "output"))
+    add(_c("tune", "--project nosuch.toml", 2, "nosuch.toml", "name"))
+    add(_c("tune", "--project", 2, "--project", "parser"))
+    add(_c("tune", "--project p.toml", 1, "tune.lfp", "schema", [("p.toml", text(head + "[tune]\nlfp = 1\n"))]))
+    add(_c("tune", "--project p.toml", 1, "tune.lpf", "schema",
+           [("p.toml", text(head + "[tune]\nlpf = [1, 2]\n"))]))
+    add(_c("tune", "--project p.toml", 1, "structure", "schema", [("p.toml", text(head))]))
+    add(_c("analyze gains", "--project p.toml", 1, "axis.frf", "schema",
+           [("p.toml", text(head + '[axis]\nfrf = "a.csv"\n'))]))
+    add(_c("analyze gains", "--project p.toml", 1, "axis.frf[0]", "name",
+           [("p.toml", text(head + '[axis]\nfrf = ["nosuch.csv"]\n'))]))
+    add(_c("report", "--project p.toml", 1, "p.toml", "parser", [("p.toml", text(head + "[report\n"))]))
+    add(_c("report", "--project p.toml", 1, "p.toml", "wrong kind",
+           [("p.toml", text('schema = "feedtune.model/1"\n'))]))
+    add(_c("report", "--project p.toml", 1, "p.toml", "nesting", [("p.toml", nested_toml_tables(5000))]))
+    add(_c("report", "--project p.toml", 1, "limits.ms_max", "big number",
+           [("p.toml", text(head + "[limits]\nms_max = 1e400\n"))]))
+    add(_c("analyze track", f"{FX}/x.csv --project p.toml", 2, "--project"))
     return cases
 
 

@@ -173,6 +173,9 @@ CASES = {  # id: (kind, arguments); each runs in well under 5 s
     "fleet run": ("fleet.run", ["fleet", "run", "fleet/fleet.toml", "--history", "history.parquet", "--jobs", "1"]),
     "fleet report": ("fleet.report", ["fleet", "report", "fleet/fleet.toml", "--history", "history.parquet", "--jobs",
                                       "1", "--out", "fleet.html", "--force"]),
+    "project init": ("project.init", ["project", "init", "--model", "model.toml", "--frf",
+                                      "examples/ballscrew_frf_m70.csv", "--gains", "g.toml", "--structure", "mcppc",
+                                      "--out", "project.toml", "--force"]),
 }
 SLOW_CASES = {  # more than 5 s each (the gantry rope snap: compiling its closed loop)
     "warmup": ("warmup", ["warmup"]),

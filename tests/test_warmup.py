@@ -54,3 +54,32 @@ def test_unknown_kernel_is_a_usage_error():
 
     with pytest.raises(UsageError, match="unknown kernels"):
         compile_kernels(["no such kernel"])
+
+
+BACKGROUND_SCRIPT = """
+import json
+import numpy as np
+from feedtune.io import csv_text
+from feedtune.workflows.warmup import ensure_kernels, kernels_ready
+rng = np.random.default_rng(1)
+columns = [rng.standard_normal(20000) * 10.0 ** rng.integers(-12, 12, 20000) for _ in range(3)]
+import numba  # loaded, as in a demo: a table of 60000 cells takes the compiled kernel
+handle = ensure_kernels(["CSV writer"], background=True)
+pending = csv_text._PENDING.pending()
+text = csv_text.csv_rows(columns)  # waits for the worker, then loads its kernel from the cache
+seconds = handle.wait()
+print(json.dumps({"pending": pending, "repr": text.splitlines()[5] == ",".join(repr(float(c[5])) for c in columns),
+                  "rows": len(text.splitlines()), "ready": kernels_ready(["CSV writer"]), "seconds": seconds,
+                  "signatures": len(csv_text._row_kernel().signatures)}))
+"""
+
+
+@pytest.mark.slow  # the CSV writer's compile in a worker: ~2-4 s
+def test_a_background_kernel_compiles_in_a_worker_and_its_first_use_loads_it_from_the_cache(tmp_path):
+    out = _run(tmp_path, BACKGROUND_SCRIPT, NUMBA_DEBUG_CACHE="1")
+    assert out["pending"] is True  # the worker compiles it while this process goes on
+    assert out["repr"] and out["rows"] == 20000  # Python's repr of every number
+    assert out["ready"] is True and set(out["seconds"]) == {"CSV writer"} and out["signatures"] == 1
+    # this process did not compile the kernel a second time: it loaded the worker's from the cache
+    assert "[cache] data loaded from" in out["output"], out["output"][-2000:]
+    assert out["output"].count("[cache] data saved to") == 1  # the worker's save only

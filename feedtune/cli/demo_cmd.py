@@ -84,15 +84,24 @@ def demo(
     from ..sim.engine import choose_engine
     from ..workflows.warmup import MACHINE_KERNELS, ensure_kernels
 
-    if choose_engine(engine) == "numba":  # a first run compiles them as a step of its own, on every core
-        ensure_kernels(MACHINE_KERNELS.get(machine, ()))
-    result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw, objective=goal)
+    behind = None
+    if choose_engine(engine) == "numba":  # a first run compiles them as a step of its own (the CSV writer behind)
+        behind = ensure_kernels(MACHINE_KERNELS.get(machine, ()), background=True)
     from .. import progress
 
-    with staged_folder(out, force) as stage:  # the folder appears whole, the report in it, or not at all
-        progress.step("writing the files")
-        staged = write_texts(result.texts, force=True, out_dir=stage)
-        write_demo_report(stage, True, machine, policy)
+    try:
+        result = run_machine_demo(machine, seed=seed, engine=engine, limits=policy, keep_raw=keep_raw,
+                                  objective=goal)
+        with staged_folder(out, force) as stage:  # the folder appears whole, the report in it, or not at all
+            progress.step("writing the files")
+            staged = write_texts(result.texts, force=True, out_dir=stage)
+            write_demo_report(stage, True, machine, policy)
+    except BaseException:
+        if behind is not None:
+            behind.cancel()
+        raise
+    if behind is not None:
+        behind.wait()
     progress.done()
     written = [out / p.name for p in staged]
     report_path = out / REPORT_NAME

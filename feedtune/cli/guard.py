@@ -12,6 +12,9 @@ files writable.
   ``OUT_frf.csv``) are checked by the command with :func:`check_outputs`. The writers check again when they publish
   (atomically and exclusively, :mod:`feedtune.io.atomic`), so a file another process creates meanwhile is not
   replaced either.
+* **Provenance.** While the command runs, the documents it writes record its command line (as run: a project file's
+  arguments filled in), the project file and the SHA-256 of every input file (its ``Path`` arguments and options
+  other than outputs) in ``created_by`` (:mod:`feedtune.io.provenance`; :func:`run_record`).
 """
 
 from __future__ import annotations
@@ -99,12 +102,67 @@ def check_numbers(kwargs: dict, labels: dict[str, tuple[str, str | None]]) -> No
                 raise UsageError(f"{option} expects a finite number, got {v!r}")
 
 
+def _input_parameters(callback) -> tuple[str, ...]:
+    """The names of a command's parameters that take input paths (annotated ``Path`` or ``list[Path]``; outputs
+    aside)."""
+    out = []
+    for p in inspect.signature(callback).parameters.values():
+        if "Path" in str(p.annotation) and p.name not in OUTPUT_PARAMETERS and not p.name.endswith("_out"):
+            out.append(p.name)
+    return tuple(out)
+
+
+def _input_files(kwargs: dict, names: tuple[str, ...]) -> list[str]:
+    """The input paths of a command's keyword arguments; an FRF of pieces (``a.csv:x1/u+b.csv:x2/u``) gives its
+    files."""
+    out = []
+    for name in names:
+        value = kwargs.get(name)
+        for v in value if isinstance(value, (list, tuple)) else [value]:
+            if v is None:
+                continue
+            text = str(v)
+            if not os.path.lexists(text) and ("+" in text or ":" in text):
+                out += [piece.partition(":")[0] for piece in text.split("+")]
+            else:
+                out.append(text)
+    return out
+
+
+def run_record(inputs: list[str]):
+    """How to make the record of the running command (:func:`feedtune.io.provenance.command_record`): its command
+    line and project file as :func:`feedtune.cli.main.run` left them in the root context (``obj``), else
+    ``sys.argv`` (or, under another program's runner, the command's path)."""
+    import sys
+
+    from .envelope import _context
+    from .project_args import command_text
+
+    ctx = _context()
+    obj = ctx.find_root().obj if ctx is not None else None
+    obj = obj if isinstance(obj, dict) else {}
+    if obj.get("command"):
+        command = obj["command"]
+    elif ctx is not None and ctx.find_root().info_name != "feedtune":  # run by another program (a test's runner)
+        command = ctx.command_path
+    else:
+        command = command_text(sys.argv[1:])
+
+    def make() -> dict:
+        from ..io.provenance import command_record
+
+        return command_record(command, inputs, project=obj.get("project"))
+
+    return make
+
+
 def guarded(callback, path: str = ""):
     """``callback`` (the command ``path``) with the checks of the module docstring run first."""
     if getattr(callback, "_feedtune_guarded", False):
         return callback
     labels = _labels(callback)
     documents = path.startswith(DOCUMENT_COMMANDS)
+    inputs = _input_parameters(callback)
 
     def option(name: str) -> str:
         return labels.get(name, ("--" + name.replace("_", "-"), None))[0]
@@ -125,7 +183,10 @@ def guarded(callback, path: str = ""):
                     raise UsageError(f"{option(name)} {value}: documents are written as .toml (with a .json twin) "
                                      "or .json")
                 check_outputs(force, value, folder=labels.get(name, ("", None))[1] in ("DIR", "FOLDER"))
-        return callback(*args, **kwargs)
+        from ..io.provenance import recording
+
+        with recording(run_record(_input_files(kwargs, inputs))):
+            return callback(*args, **kwargs)
 
     command._feedtune_guarded = True
     return command

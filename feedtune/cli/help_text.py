@@ -119,6 +119,10 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "analyze gains": (_BS_MODEL, _BS_MCPPC,
                       "feedtune analyze mcppc.toml --frf examples/ballscrew_frf.csv --check"),
     "analyze track": ("feedtune analyze track examples/ballscrew_track.csv",),
+    "project init": (_BS_MODEL, "feedtune project init --model model.toml \\\n"
+                                "    --frf examples/ballscrew_frf_m70.csv \\\n"
+                                "    --frf examples/ballscrew_frf_m100.csv --gains gains.toml \\\n"
+                                "    --structure mcppc --set tune.lpf=800"),
     "analyze ropesnap": ("feedtune analyze ropesnap examples/ballscrew_ropesnap.csv",),
     "export c": (_BS_MODEL, _BS_MCPPC,
                  "feedtune export c mcppc.toml --u-max 10 --anti-windup clamp --out mcppc.h"),

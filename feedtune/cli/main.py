@@ -34,6 +34,7 @@ from . import (
     identify_resonances_cmd,
     log_cmd,
     prefilter_cmd,
+    project_cmd,
     report_cmd,
     simulate_cmd,
     simulate_gantry_cmd,
@@ -103,6 +104,7 @@ app.command("demo")(demo_cmd.demo)
 app.command("warmup")(warmup_cmd.warmup)
 app.add_typer(log_cmd.app, name="log")
 app.add_typer(fleet_cmd.app, name="fleet")
+app.add_typer(project_cmd.app, name="project")
 help_text.prepare_help(app)
 guard.install(app)  # finite numbers, writable outputs: checked before any command's own code
 
@@ -180,6 +182,7 @@ def run() -> None:
 
     args = _invocation()
     try:
+        args = _with_project(args)
         with _cli_warnings():
             code = _command()(standalone_mode=False, **args)
     except FeedtuneError as exc:
@@ -220,6 +223,20 @@ def run() -> None:
         _quiet_stdout()
         sys.exit(141)
     sys.exit(code if isinstance(code, int) else 0)
+
+
+def _with_project(invocation: dict) -> dict:
+    """The run's keyword arguments with a project file's arguments filled in (:func:`feedtune.cli.project_args.
+    expand`) and, for the documents the command writes, the command line as run and the project file (the root
+    context's ``obj``: :func:`feedtune.cli.guard.run_record`)."""
+    from .project_args import command_text, expand
+
+    given = invocation.get("args", sys.argv[1:])
+    args, project = expand(list(given), _command())
+    out = {**invocation, "obj": {"command": command_text(args), "project": project}}
+    if args != list(given):
+        out["args"] = args
+    return out
 
 
 _COMMANDS: list = []

@@ -14,6 +14,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .._kernel_cache import PendingKernel
+
 CSV_CHUNK_ROWS = 65536
 """Rows formatted per chunk by :func:`csv_rows` and :func:`csv_row_chunks` (bounds the temporary memory)."""
 
@@ -175,6 +177,11 @@ def _pow10_table() -> tuple[np.ndarray, np.ndarray]:
 
 _KERNEL: list = []
 
+_PENDING = PendingKernel()
+"""The kernel compiling in another process (a first run's background compile), waited for at its first use."""
+
+set_kernel_pending = _PENDING.set
+
 
 def _row_kernel():
     """The compiled row formatter of :func:`format_float_rows` (compiled once, cached on disk); None without
@@ -186,6 +193,7 @@ def _row_kernel():
             _KERNEL.append(None)
             return None
         _KERNEL.append(numba.njit(cache=True, nogil=True)(_format_rows))
+    _PENDING.wait()  # compiled elsewhere into the cache: loaded from it at the first call
     return _KERNEL[0]
 
 

@@ -47,7 +47,8 @@ DOCUMENT_KINDS = {"feedtune.model": "a model file, written by feedtune identify"
                   "feedtune.gains": "a gains file, written by feedtune design or tune",
                   "feedtune.mass": "a mass document, written by feedtune identify mass",
                   "feedtune.friction_curve": "a friction curve document, written by feedtune identify friction",
-                  "feedtune.report": "a report's data"}
+                  "feedtune.report": "a report's data",
+                  "feedtune.project": "a project file (feedtune.toml), written by feedtune project init"}
 """What each document type is, in words, for messages about a file of the wrong kind."""
 
 
@@ -284,7 +285,8 @@ def write_document(path: str | os.PathLike[str], doc: Mapping[str, object], *, f
     path : path-like
         ``.toml`` (writes TOML and, with ``json_twin``, the ``.json`` beside it) or ``.json`` (JSON only).
     doc : mapping
-        The document (plain values, quantity dicts, nested dicts and lists).
+        The document (plain values, quantity dicts, nested dicts and lists). Written by a command, it carries the
+        command's record in ``created_by`` (:func:`feedtune.io.provenance.stamped`).
     force : bool
         Replace existing files (both destinations are checked before anything is written).
     json_twin : bool
@@ -295,8 +297,11 @@ def write_document(path: str | os.PathLike[str], doc: Mapping[str, object], *, f
     list of Path
         The files written.
     """
+    from .provenance import stamped
+
     p = Path(path)
     ext = p.suffix.lower()
+    doc = stamped(doc)  # a command's record in created_by (io/provenance.py)
     if ext == ".json":
         texts = {p: dumps_json(doc)}
     elif ext == ".toml":

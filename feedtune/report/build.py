@@ -111,14 +111,15 @@ def build_report(paths: Iterable[str | os.PathLike[str]], *, title: str | None =
     UsageError
         A bad ``log_kinds`` entry.
     """
-    from .. import __version__, progress
+    from .. import progress
+    from ..io.provenance import created_by
 
     limits = limits or ReportLimits()
     progress.step("report: reading the inputs")
     inputs = collect_inputs(paths, log_kinds=log_kinds, strict=strict, log_reader=log_reader, frfs=frfs)
     progress.step("report: building the sections")
     sections, data, warnings = _sections(inputs, limits, strict)
-    data = plain({"schema": REPORT_SCHEMA, "created_by": f"feedtune {__version__}", "title": title or DEFAULT_TITLE,
+    data = plain({"schema": REPORT_SCHEMA, "created_by": created_by(), "title": title or DEFAULT_TITLE,
                   "inputs": inputs.to_dict(), **data, "warnings": warnings})
     report = Report(title or DEFAULT_TITLE, sections, data, warnings)
     if not render:

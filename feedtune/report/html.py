@@ -145,6 +145,17 @@ def _toc(sections: list[Section]) -> str:
     return f"<nav><ol>{''.join(items)}</ol></nav>"
 
 
+def _made_by(data: dict) -> str:
+    """The command that made the report and its project file, one line (nothing for a report built by the
+    library): the inputs' digests are in the report data's ``created_by``."""
+    made = data.get("created_by")
+    if not isinstance(made, dict) or not made.get("command"):
+        return ""
+    project = f" (project {_esc(made['project'])})" if made.get("project") else ""
+    return (f'<p class="meta">Made by <code>{_esc(made["command"])}</code>{project}; the SHA-256 of every input '
+            "file is in the report data (created_by).</p>")
+
+
 def data_script(data: dict) -> str:
     """The ``<script type="application/json">`` element holding the report data (``<`` escaped)."""
     text = json.dumps(data, allow_nan=False, ensure_ascii=False, separators=(",", ":")).replace("<", "\\u003c")
@@ -277,7 +288,7 @@ def render_html(report: Report, *, created: str | None = None, pngs: dict[str, b
         f"<style>{CSS}</style></head><body>",
         f"<header><h1>{_esc(report.title)}</h1>",
         f'<p class="meta">feedtune {_esc(__version__)} report, {_esc(when)}, built from {n_files} input files. '
-        "SI units; tracking and displacement errors in µm.</p></header>",
+        "SI units; tracking and displacement errors in µm.</p>" + _made_by(report.data) + "</header>",
         _toc(report.sections),
         body,
         data_script(report.data),

@@ -105,6 +105,18 @@ KERNELS: dict[str, tuple[Callable[[], None], float]] = {
 """``{name: (compile function, CPU seconds to compile it)}``, the costliest first (the seconds measured on a 2-core
 machine of 2026; they only estimate the step's duration)."""
 
+MODULES: dict[str, tuple[str, ...]] = {
+    "gantry twin (gains files)": ("feedtune.machines.gantry.twin", "feedtune.machines", "feedtune.design.gantry_mimo",
+                                  "feedtune.design.loopshape", "feedtune.workflows.deliver"),
+    "gantry twin (holding controllers)": ("feedtune.machines.gantry.twin", "feedtune.machines.gantry.experiments"),
+    "ball-screw twin": ("feedtune.machines.ballscrew.twin", "feedtune.machines.ballscrew.experiments"),
+    "CSV writer": ("numba", "feedtune.io.csv_text"),
+    "Kalman filter": ("numba", "feedtune.identify.kalman"),
+}
+"""The modules each kernel's compile imports (numba and the libraries under them): :func:`compile_kernels` imports
+them before it forks its workers, so that the workers inherit them instead of importing them each (the command that
+compiles the kernels goes on to use them: nothing is imported twice)."""
+
 
 def stamp_path() -> Path:
     """The stamp in the kernel cache folder in use (``NUMBA_CACHE_DIR``, prepared when numba is first imported)."""
@@ -118,6 +130,27 @@ MACHINE_KERNELS = {
     "gantry": ("gantry twin (gains files)", "gantry twin (holding controllers)", "CSV writer"),
 }
 """The kernels a machine's twin runs (its closed loops, and the CSV writer of its logs)."""
+
+BACKGROUND_KERNELS = ("CSV writer", "gantry twin (gains files)")
+"""Kernels a first run need not wait for before it starts (:func:`ensure_kernels` with ``background``): they
+compile in a worker process beside the run's own work, and their first use waits for them there and loads them from
+the cache (:func:`feedtune.io.csv_text.set_kernel_pending`: the CSV writer, first used once the FRF is measured;
+:func:`feedtune.machines.gantry.twin.set_kernel_pending`: the gantry twin's loop with gains-file runtimes, first
+run after the measurements and the tuning)."""
+
+
+def _hook(name: str) -> Callable | None:
+    """How the users of a background kernel learn of its compile (a function taking its future, or None when it
+    is done): :data:`BACKGROUND_KERNELS`."""
+    if name == "CSV writer":
+        from ..io.csv_text import set_kernel_pending
+
+        return set_kernel_pending
+    if name == "gantry twin (gains files)":
+        from ..machines.gantry.twin import set_kernel_pending as gantry_pending
+
+        return gantry_pending
+    return None
 
 
 def _stamp() -> dict:
@@ -169,14 +202,17 @@ def compile_kernels(names=None, processes: int | None = None) -> dict[str, float
     label = f"compiling kernels (first run only, ~{estimate_s(names, processes):.0f} s)"
     with progress.task(label, total=len(names)) as advance:
         seconds = _compile_in_workers(names, processes, advance)
-    stamp = stamp_path()
-    doc = _stamp()
-    doc["kernels"] = {**doc.get("kernels", {}), **{k: round(v, 3) for k, v in seconds.items()}}
-    doc["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
-    tmp = stamp.with_name(f"{stamp.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(doc, indent=1))
-    os.replace(tmp, stamp)
+    _write_stamp(seconds)
     return seconds
+
+
+def _preload(names) -> None:
+    """Import the modules of the kernels ``names`` (:data:`MODULES`) here, before the workers are forked: they
+    inherit them instead of importing them each."""
+    import importlib
+
+    for module in dict.fromkeys(m for k in names for m in MODULES.get(k, ())):
+        importlib.import_module(module)
 
 
 def _compile_one(name: str) -> float:
@@ -199,6 +235,8 @@ def _compile_in_workers(names: list[str], processes: int | None, advance) -> dic
 
     n = max(1, min(usable_cores() if processes is None else processes, len(names)))
     methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods:
+        _preload(names)
     context = multiprocessing.get_context("fork" if "fork" in methods else None)
     seconds = {}
     pool = ProcessPoolExecutor(n, mp_context=context, initializer=_worker_signals)
@@ -220,9 +258,90 @@ def _worker_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
-def ensure_kernels(names=None, processes: int | None = None) -> dict[str, float] | None:
+def ensure_kernels(names=None, processes: int | None = None, *, background: bool = False):
     """:func:`compile_kernels` of those of ``names`` (default: all) not built yet (None when none is missing): what a
     command that runs a twin calls first, so that the compile is its own step, on every core, and never hidden in a
-    step named for something else."""
+    step named for something else.
+
+    With ``background``, the kernels of :data:`BACKGROUND_KERNELS` among them compile in a worker process while
+    the caller goes on (their first use waits for them and loads them from the cache), and a lone kernel left to
+    wait for compiles in this process (no worker to start, nothing to load from the cache after);
+    the caller must :meth:`Background.wait` for the returned handle at its end. Returns ``{kernel: seconds}`` of the
+    kernels waited for (None when none was missing), or with ``background`` the :class:`Background` handle (None
+    when nothing compiles behind)."""
     missing = [k for k in (KERNELS if names is None else names) if not kernels_ready([k])]
-    return compile_kernels(missing, processes) if missing else None
+    if not background:
+        return compile_kernels(missing, processes) if missing else None
+    behind = [k for k in missing if k in BACKGROUND_KERNELS and _hook(k) is not None]
+    now = [k for k in missing if k not in behind]
+    handle = Background.start(behind) if behind else None
+    if len(now) == 1:
+        _compile_here(now[0])
+    elif now:
+        compile_kernels(now, processes)
+    return handle
+
+
+def _compile_here(name: str) -> float:
+    """Compile one kernel in this process, as the step ``compiling kernels``, and stamp it; its wall time [s]."""
+    from .. import progress
+
+    t0 = time.perf_counter()
+    with progress.task(f"compiling kernels (first run only, ~{KERNELS[name][1] / 2:.0f} s)", total=1) as advance:
+        with progress.reporting(None):
+            KERNELS[name][0]()
+        advance()
+    seconds = time.perf_counter() - t0
+    _write_stamp({name: seconds})
+    return seconds
+
+
+def _write_stamp(seconds: dict[str, float]) -> None:
+    """Add ``{kernel: seconds}`` to the stamp in the cache folder (atomically replaced)."""
+    stamp = stamp_path()
+    doc = _stamp()
+    doc["kernels"] = {**doc.get("kernels", {}), **{k: round(v, 3) for k, v in seconds.items()}}
+    doc["created"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+    tmp = stamp.with_name(f"{stamp.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(doc, indent=1))
+    os.replace(tmp, stamp)
+
+
+class Background:
+    """Kernels compiling in worker processes while this one goes on (:func:`ensure_kernels` with ``background``):
+    their first use waits for them (:data:`BACKGROUND_KERNELS`)."""
+
+    def __init__(self, pool, futures: dict) -> None:
+        self._pool, self._futures = pool, futures
+
+    @classmethod
+    def start(cls, names: list[str]) -> Background:
+        """Start compiling ``names`` in one worker process each (forked: the modules are inherited)."""
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        methods = multiprocessing.get_all_start_methods()
+        context = multiprocessing.get_context("fork" if "fork" in methods else None)
+        _preload(names)
+        pool = ProcessPoolExecutor(len(names), mp_context=context, initializer=_worker_signals)
+        futures = {k: pool.submit(_compile_one, k) for k in names}
+        for k, f in futures.items():
+            _hook(k)(f)
+        return cls(pool, futures)
+
+    def wait(self) -> dict[str, float]:
+        """Wait for every kernel (at the caller's end) and stamp them; ``{kernel: seconds}`` each took."""
+        try:
+            seconds = {k: f.result() for k, f in self._futures.items()}
+        finally:
+            for k in self._futures:
+                _hook(k)(None)
+            self._pool.shutdown(wait=True, cancel_futures=True)
+        _write_stamp(seconds)
+        return seconds
+
+    def cancel(self) -> None:
+        """Stop waiting (the caller failed or was interrupted): the workers are not waited for."""
+        for k in self._futures:
+            _hook(k)(None)
+        self._pool.shutdown(wait=False, cancel_futures=True)

@@ -62,6 +62,7 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from ..._kernel_cache import PendingKernel
 from ...budget import TWIN_SAMPLE_BYTES, check_memory
 from ...errors import DataError, UsageError
 from ...lti import zoh
@@ -1211,6 +1212,12 @@ def _compiled_holding_loop():
 
 _LOOP: list = []
 
+_PENDING = PendingKernel()
+""":func:`_closed_loop` compiling in another process (a first run's background compile), waited for at its first
+use (:func:`feedtune.workflows.warmup.ensure_kernels`)."""
+
+set_kernel_pending = _PENDING.set
+
 
 def _compiled_loop():
     """:func:`_closed_loop` compiled by numba (once per process, cached on disk) with its callees inlined (the
@@ -1227,6 +1234,7 @@ def _compiled_loop():
         _g, _a = compiled_laws()
         _m, _s = compiled_inline(_measure), compiled_inline(_step)
         _LOOP.append(numba.njit(cache=True, nogil=True, _nrt=False)(_closed_loop))
+    _PENDING.wait()  # compiled elsewhere into the cache: loaded from it at the first call
     return _LOOP[0]
 
 
