@@ -132,12 +132,8 @@ def loop_change(loop: str, frf: str, case, case_target) -> LoopChange:
     db = float(np.max(np.abs(20 * np.log10(np.abs(r))))) if r.size else math.nan
     deg = float(np.max(np.abs(np.degrees(np.angle(r))))) if r.size else math.nan
     m, mt = case.metrics, case_target.metrics
-    return LoopChange(loop, frf, float(top), db, deg, float(m.ms), float(mt.ms), _first_crossover(m),
-                      _first_crossover(mt))
-
-
-def _first_crossover(metrics) -> float | None:
-    return float(metrics.crossovers_hz[0]) if metrics.crossovers_hz else None
+    return LoopChange(loop, frf, float(top), db, deg, float(m.ms), float(mt.ms), m.first_crossover_hz,
+                      mt.first_crossover_hz)
 
 
 # ------------------------------------------------------------------------------------------ export
@@ -282,7 +278,7 @@ def _first(cert, prefix: str) -> float | None:
     """The first crossover [Hz] of a loop (``prefix``: its case names') in the first FRF's checked case."""
     c = cert.frfs[0]
     case = c.analysis.cases.get(prefix + c.checked_case.removeprefix("position_"))
-    return None if case is None else _first_crossover(case.metrics)
+    return None if case is None else case.metrics.first_crossover_hz
 
 
 # ------------------------------------------------------------------------------------------ import
