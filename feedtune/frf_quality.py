@@ -11,7 +11,8 @@ and bounds the magnitude only from above, so no crossing, margin or peak may be 
 the larger of
 
 * its scatter: the line-to-line roughness of ``20 log10 |G|`` (:func:`noise_db`
-  without coherence: the running median of the second difference over 21 lines / (0.6745 sqrt 6)), converted to a
+  without coherence: the running median over 21 lines of each line's distance from the cubic in log frequency through
+  its two neighbours on either side, scaled to a second difference's, / (0.6745 sqrt 6)), converted to a
   relative error ``10^(sigma_dB / 20) - 1``, or that of its phase in rad (:func:`phase_scatter`), whichever is larger;
 * when the FRF records how many spectra it averaged (``segments`` of an H1 estimate, ``periods_total`` minus
   ``transient_periods`` of a periodic one) and its coherence ``gamma^2``: the random error of an averaged H1
@@ -221,25 +222,86 @@ def noise_start(freq_hz: np.ndarray, rel_error: np.ndarray) -> float | None:
 
 # ------------------------------------------------------------------------------------------ scatter
 def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | None = None,
-             half_window: int = 10) -> np.ndarray:
+             half_window: int = 10, averages: float | None = None) -> np.ndarray:
     """Measurement scatter of a measured response [dB, 1 sigma] per line (largest over leading axes).
 
-    From the line-to-line roughness: the running median of ``|d2|``, the second difference of ``20 log10 |H|`` over
-    ``2 half_window + 1`` lines, divided by ``0.6745 sqrt(6)`` (white scatter of ``sigma`` gives ``var d2 = 6
-    sigma^2``; the median ignores the few lines of a resonance). With a coherence ``gamma^2``, at least
-    ``20 log10(1 + sqrt((1 - gamma^2) / (2 gamma^2)))`` (one-average H1 error, Bendat and Piersol).
+    From the line-to-line roughness: the running median over ``2 half_window + 1`` lines of how far each line's
+    ``20 log10 |H|`` lies from the cubic in log frequency through its two neighbours on either side
+    (:func:`line_residuals`: a mass line, a spring or a resonance wider than a few lines reads no scatter, on any
+    spacing of lines), scaled so that white scatter of ``sigma`` reads ``sigma`` (the median ignores the few lines of
+    a resonance narrower than that). With a coherence ``gamma^2``, at least
+    ``20 log10(1 + sqrt((1 - gamma^2) / (2 n gamma^2)))``, the H1 error of ``n`` averages (Bendat and Piersol, *Random
+    Data*, eq. 9.90; ``n = averages``, one when not recorded).
     """
-    h = np.asarray(response, complex).reshape(-1, np.asarray(freq_hz).size)
+    f = np.asarray(freq_hz, float)
+    h = np.asarray(response, complex).reshape(-1, f.size)
     db = _by_blocks(_db_rows, h)
     n = db.shape[-1]
     out = np.zeros(n)
-    if n >= 3:
-        d2 = np.abs(db[:, :-2] - 2 * db[:, 1:-1] + db[:, 2:])
-        d2 = np.pad(d2, ((0, 0), (1, 1)), mode="edge")
+    k, mid = ROUGHNESS_STENCIL, ROUGHNESS_STENCIL // 2
+    if n >= k:
+        x = line_axis(f)
+        d2 = np.empty_like(db)  # the roughness of every line, the first and last mid lines repeating their neighbour's
+        for a in range(0, n - k + 1, RESIDUAL_CHUNK):  # in chunks: its temporaries stay small on long FRFs
+            b = min(a + RESIDUAL_CHUNK, n - k + 1)
+            d2[:, a + mid:b + mid] = line_residuals([db[:, a + j:b + j] for j in range(k)],
+                                                    [x[a + j:b + j] for j in range(k)])
+        d2[:, :mid] = d2[:, mid:mid + 1]
+        d2[:, n - mid:] = d2[:, n - mid - 1:n - mid]
+        del db
         out = _d2_sigma(d2, half_window, "nearest")
     if coherence is not None:
-        out = np.maximum(out, _by_blocks(_coherence_floor_db, np.asarray(coherence, float).reshape(-1, n)))
+        g = np.asarray(coherence, float).reshape(-1, n)
+        out = np.maximum(out, _by_blocks(lambda rows: _coherence_floor_db(rows, averages), g))
     return out
+
+
+def line_axis(freq_hz: np.ndarray) -> np.ndarray:
+    """The axis the roughness is read on: ``log(freq_hz)`` when every line is above 0 Hz, else the line index."""
+    f = np.asarray(freq_hz, float)
+    return np.log(f) if f.size and f.min() > 0 else np.arange(f.size, dtype=float)
+
+
+ROUGHNESS_STENCIL = 5
+"""Lines each roughness value reads: the middle one against the cubic through the two on either side [-]."""
+RESIDUAL_CHUNK = 4096
+"""Lines per chunk of :func:`noise_db`'s roughness (bounds its temporaries) [-]."""
+
+
+def line_residuals(ys, xs) -> np.ndarray:
+    """Roughness of the middle of :data:`ROUGHNESS_STENCIL` consecutive lines [dB], as a second difference's ``|d2|``.
+
+    The middle value's distance from the cubic (in :func:`line_axis`) through the other four: a response that is a
+    polynomial of up to third degree in log frequency over five lines (a mass line, a spring, a resonance wider than a
+    few lines) reads no roughness, on any spacing of lines; scaled so that white scatter of ``sigma`` reads like the
+    second difference of an even spacing (variance ``6 sigma^2``).
+
+    Parameters
+    ----------
+    ys : sequence of 5 ndarray, each shape (rows, m)
+        The dB values of the five lines of every stencil.
+    xs : sequence of 5 ndarray, each shape (m,)
+        Their positions on the axis.
+    """
+    mid = ROUGHNESS_STENCIL // 2
+    others = [k for k in range(ROUGHNESS_STENCIL) if k != mid]
+    x0 = np.asarray(xs[mid], float)
+    r = np.array(ys[mid], float, copy=True)
+    term = np.empty_like(r)
+    sum_w2 = np.ones(x0.shape)
+    for j in others:  # one Lagrange weight at a time, in place (this runs on every line of every FRF)
+        w = np.ones(x0.shape)
+        for k in others:
+            if k != j:
+                w *= (x0 - xs[k]) / (xs[j] - xs[k])
+        np.multiply(w, ys[j], out=term)
+        r -= term
+        w *= w
+        sum_w2 += w
+    np.abs(r, out=r)
+    np.divide(6.0, sum_w2, out=sum_w2)
+    r *= np.sqrt(sum_w2, out=sum_w2)
+    return r
 
 
 def phase_scatter(response: np.ndarray, half_window: int = 10) -> np.ndarray:
@@ -289,8 +351,10 @@ def _db_rows(h: np.ndarray) -> np.ndarray:
         return 20 * np.log10(np.maximum(np.abs(h), 1e-300))
 
 
-def _coherence_floor_db(g: np.ndarray) -> np.ndarray:
-    """The one-average H1 error floor [dB] per line from the coherence rows ``g`` (largest over rows)."""
+def _coherence_floor_db(g: np.ndarray, averages: float | None = None) -> np.ndarray:
+    """The H1 error floor [dB] per line of ``averages`` averages (one when None) from the coherence rows ``g``
+    (largest over rows)."""
+    n = float(averages) if averages else 1.0
     with np.errstate(divide="ignore", invalid="ignore"):
-        c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * np.clip(g, 1e-6, 1))))
+        c = 20 * np.log10(1 + np.sqrt(np.clip(1 - g, 0, 1) / (2 * n * np.clip(g, 1e-6, 1))))
     return np.max(np.where(np.isfinite(c), c, 0.0), axis=0)

@@ -128,3 +128,30 @@ def test_a_channel_held_twice_is_continued_once_and_said_once():
     assert np.array_equal(twice[0], alone[0]) and np.array_equal(twice[1], np.vstack([alone[1], alone[1]]))
     assert len(alone[3].assumptions()) == 1 and twice[3].assumptions() == alone[3].assumptions()
     assert [c["channel"] for c in twice[3].to_dict()["channels"]] == ["x1/u"]
+
+
+def test_roughness_reads_the_scatter_of_the_lines_not_the_curvature_of_the_plant():
+    """noise_db on a linear 2 Hz grid: a noise-free mass line at 2-6 Hz (whose second difference read 3 dB of
+    "scatter") and a 2 % mode read nothing; complex white scatter of known size reads that size (closed form:
+    20 log10(1 + e / sqrt 2) for a relative error e, half of it in magnitude); the coherence floor of n averages is
+    the H1 error of Bendat and Piersol eq. 9.90."""
+    import numpy as np
+
+    from feedtune.analysis.resolution import LineNoise
+    from feedtune.frf_quality import noise_db
+
+    f = np.arange(2.0, 1002.0, 2.0)
+    s, wn = 2j * np.pi * f, 2 * np.pi * 300.0
+    g = 1 / (0.7 * s * s) * wn * wn / (s * s + 2 * 0.02 * wn * s + wn * wn)
+    assert noise_db(f, g[None]).max() < 0.01
+    assert noise_db(f, g[None])[:3].max() < 1e-3
+    e = 0.02
+    rng = np.random.default_rng(3)
+    noisy = g * (1 + e * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size)) / np.sqrt(2))
+    assert np.median(noise_db(f, noisy[None])) == pytest.approx(20 * np.log10(1 + e / np.sqrt(2)), rel=0.15)
+    coh = np.full(f.size, 0.99)
+    n = 3.0
+    floor = 20 * np.log10(1 + np.sqrt(0.01 / (2 * n * 0.99)))
+    assert np.asarray(LineNoise(f, g[None], coh[None], averages=n)) == pytest.approx(floor, rel=1e-12)
+    assert np.asarray(LineNoise(f, g[None], coh[None])) == pytest.approx(  # one average when not recorded
+        20 * np.log10(1 + np.sqrt(0.01 / (2 * 0.99))), rel=1e-12)

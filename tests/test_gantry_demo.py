@@ -153,8 +153,10 @@ def test_the_x_axis_certificate_holds_on_the_noise_free_twin(demo, tmp_path):
     """The x axis' certified first crossover and GM hold on the twin's own noise-free x-axis response to the Nyquist
     frequency (exact ZOH and delay: GantryTwin.axis_frequency_response), with the gains file's controller sections
     (not the analysis): the first crossover never past the plant's (1 % allowance), the GM within 0.25 dB of the
-    claim and of the limit. Once: GM 6.006 dB claimed where its merged cluster held 5.65 dB (plant 5.85 dB); and a
-    crossing pair the plant has, 0.15 % under |L| = 1 at 175-179 Hz, merged away (200.4 Hz claimed)."""
+    claim, and at or above the limit it is reported as meeting (once 6.018 dB claimed and met on the lines, 5.987 dB
+    on the plant, before the lines' uncertainty counted). Once: GM 6.006 dB claimed where its merged cluster held
+    5.65 dB (plant 5.85 dB); and a crossing pair the plant has, 0.15 % under |L| = 1 at 175-179 Hz, merged away
+    (200.4 Hz claimed)."""
     import numpy as np
     from plant_loop import first_crossover, worst_margins
     from scipy.signal import sosfreqz
@@ -173,4 +175,6 @@ def test_the_x_axis_certificate_holds_on_the_noise_free_twin(demo, tmp_path):
     claim = doc["certificate"]["worst"]
     limit = doc["certificate"]["limits"]["gm_min_db"]
     assert claim["first_crossover_hz"] <= 1.01 * first_crossover(f, L)
-    assert plant["gm_db"] == pytest.approx(claim["gm_db"], abs=0.25) and plant["gm_db"] >= limit - 0.25
+    assert plant["gm_db"] == pytest.approx(claim["gm_db"], abs=0.25)
+    # a GM reported as meeting the limit meets it on the plant: the lines prove it only beyond their uncertainty
+    assert claim["ok"] and plant["gm_db"] >= limit

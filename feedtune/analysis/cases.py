@@ -307,7 +307,7 @@ def measured_cases(lines_hz: np.ndarray, response: np.ndarray, fs: float, delay_
     f, plant_values, coh, edge = continue_plant(lines_hz, response, model_plant, fs, coherence=coherence,
                                                 averages=averages, features=features, channels=channels)
     plant = interpolate_frf(f, plant_values)
-    noise = LineNoise(f, plant_values, coh)
+    noise = LineNoise(f, plant_values, coh, averages=averages)
     none = np.empty((0, 2))
 
     def zoh_delay(fr):

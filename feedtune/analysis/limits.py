@@ -35,6 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import UsageError
+from .margins import PROOF_SIGMAS
 
 LIKE_GM_MIN = type("LikeGmMin", (), {"__repr__": lambda self: "LIKE_GM_MIN"})()
 """Default of :attr:`Limits.gm_low_min_db`: the same limit as ``gm_min_db``."""
@@ -61,6 +62,10 @@ class LimitItem:
         Analysis case it was read from.
     freq_hz : float or None
         Where the value occurs [Hz].
+    uncertainty : float
+        How far the value may lie from the plant's by the FRF's line scatter there (:data:`PROOF_SIGMAS` 1-sigma
+        scatters; same unit as the value; 0 for a figure that rests on no measured line): the limit is met only
+        when the value meets it by more than this.
     """
 
     name: str
@@ -69,20 +74,22 @@ class LimitItem:
     ok: bool
     case: str
     freq_hz: float | None = None
+    uncertainty: float = 0.0
 
     @property
     def slack(self) -> float | None:
-        """How far the value is inside the limit, relative to the limit [-] (negative: violated)."""
+        """How far the value is inside the limit beyond its uncertainty, relative to the limit [-] (negative:
+        violated or not proven)."""
         if self.value is None or self.limit is None or self.limit == 0:
             return None
         if self.name in ("ms", "band_top"):
-            return (self.limit - self.value) / self.limit
-        return (abs(self.value) - self.limit) / self.limit
+            return (self.limit - self.value - self.uncertainty) / self.limit
+        return (abs(self.value) - self.uncertainty - self.limit) / self.limit
 
     def to_dict(self) -> dict:
         """JSON-ready dict."""
         return {"name": self.name, "value": self.value, "limit": self.limit, "ok": self.ok, "case": self.case,
-                "freq_hz": self.freq_hz, "slack": self.slack}
+                "freq_hz": self.freq_hz, "uncertainty": self.uncertainty, "slack": self.slack}
 
 
 @dataclass(frozen=True)
@@ -166,14 +173,11 @@ class Limits:
             pm = metrics.phase_margin_deg
             f = _freq_of(metrics.phase_margins, "pm_deg", pm)
             items.append(LimitItem("pm_deg", pm, self.pm_min_deg, pm is None or abs(pm) >= self.pm_min_deg, case, f))
-        up, down = split_gain_margins(metrics.gain_margins)
-        if self.gm_min_db is not None:
-            gm, f = up or (None, None)
-            items.append(LimitItem("gm_db", gm, self.gm_min_db, gm is None or gm >= self.gm_min_db, case, f))
-        if self.gm_low_min_db is not None:
-            gm, f = down or (None, None)
-            items.append(LimitItem("gm_low_db", gm, self.gm_low_min_db, gm is None or gm >= self.gm_low_min_db, case,
-                                   f))
+        up, down = proven_gain_margins(metrics.gain_margins)
+        for name, limit, found in (("gm_db", self.gm_min_db, up), ("gm_low_db", self.gm_low_min_db, down)):
+            if limit is not None:
+                gm, f, u = found or (None, None, 0.0)
+                items.append(LimitItem(name, gm, limit, gm is None or gm - u >= limit, case, f, u))
         if self.disk_margin_min is not None:
             dm = metrics.disk_margin
             items.append(LimitItem("disk_margin", dm, self.disk_margin_min, dm >= self.disk_margin_min, case,
@@ -227,6 +231,24 @@ def split_gain_margins(gain_margins) -> tuple[tuple[float, float] | None, tuple[
     up = [(float(e["gm_db"]), float(e["freq_hz"])) for e in gain_margins or [] if e["gm_db"] >= 0]
     down = [(-float(e["gm_db"]), float(e["freq_hz"])) for e in gain_margins or [] if e["gm_db"] <= 0]
     return (min(up) if up else None), (min(down) if down else None)
+
+
+def proven_gain_margins(gain_margins) -> tuple[tuple[float, float, float] | None,
+                                                tuple[float, float, float] | None]:
+    """The gain-increase and gain-reduction margins of ``[{"freq_hz", "gm_db"[, "sigma_db"]}]`` that come closest to
+    their limits once their line uncertainty (:data:`PROOF_SIGMAS` ``sigma_db``) is taken off.
+
+    Returns
+    -------
+    (increase, reduction) : each ``(margin_db, freq_hz, uncertainty_db)`` or None
+        As :func:`split_gain_margins`, the margin whose ``margin - uncertainty`` is smallest.
+    """
+    def worst(sign: float):
+        found = [(sign * float(e["gm_db"]), float(e["freq_hz"]), PROOF_SIGMAS * float(e.get("sigma_db") or 0.0))
+                 for e in gain_margins or [] if sign * e["gm_db"] >= 0]
+        return min(found, key=lambda m: (m[0] - m[2], m[0])) if found else None
+
+    return worst(1.0), worst(-1.0)
 
 
 def describing_function_saturation(a) -> np.ndarray:
@@ -348,6 +370,11 @@ def _violation(i: LimitItem, limit: str = "the limit") -> str:
         return f"peak sensitivity Ms = {i.value:.3g}{where} exceeds {limit} {i.limit:g} ({i.case} case)"
     if i.name == "pm_deg":
         return f"phase margin {i.value:.3g} deg{where} is below {limit} {i.limit:g} deg ({i.case} case)"
+    if i.name in ("gm_db", "gm_low_db") and i.value >= i.limit:
+        what = "gain margin" if i.name == "gm_db" else "gain-reduction margin"
+        return (f"{what} {i.value:.4g} dB{where} meets {limit} {i.limit:g} dB by less than its line uncertainty "
+                f"{i.uncertainty:.2g} dB ({PROOF_SIGMAS:g} sigma of the FRF's scatter there; {i.case} case): the "
+                "lines do not prove it")
     if i.name == "gm_db":
         return f"gain margin {i.value:.3g} dB{where} is below {limit} {i.limit:g} dB ({i.case} case)"
     if i.name == "gm_low_db":

@@ -61,6 +61,7 @@ from .margins import (
     interp_complex,
     keep_and_join,
     level_bands,
+    line_scatter_at,
     merge_chatter,
     near_misses,
     phase_crossovers,
@@ -164,6 +165,11 @@ class LoopMetrics:
         For a measured loop, :meth:`~feedtune.analysis.band_edge.BandEdge.to_dict`: up to where its lines prove the
         figures (``valid_to_hz``; ``band_top_hz`` is that line) and how the plant is continued above it and where a
         channel turns to noise (``assumes``).
+    gain_margin_sigmas_db : list of float
+        For a measured loop, the 1-sigma scatter [dB] of each gain margin: the lines' ``|L|`` scatter at its phase
+        crossover (:func:`~feedtune.analysis.margins.line_scatter_at`; 0 where the figure rests on the model or the
+        roll-off); empty for a known loop. A limit counts as met only beyond
+        :data:`~feedtune.analysis.margins.PROOF_SIGMAS` of them (:meth:`feedtune.analysis.limits.Limits.check`).
     """
 
     crossovers_hz: list
@@ -194,6 +200,7 @@ class LoopMetrics:
     possible_crossovers: list = field(default_factory=list)
     possible_phase_crossovers: list = field(default_factory=list)
     band_edge: dict | None = None
+    gain_margin_sigmas_db: list = field(default_factory=list)
 
     @property
     def assumes(self) -> list[str]:
@@ -219,9 +226,9 @@ class LoopMetrics:
 
     @property
     def gain_margins(self) -> list[dict]:
-        """``[{"freq_hz", "gm_db"}]`` at every phase crossover."""
-        return [{"freq_hz": float(f), "gm_db": float(g)}
-                for f, g in zip(self.phase_crossovers_hz, self.gain_margins_db, strict=True)]
+        """``[{"freq_hz", "gm_db"}]`` at every phase crossover, with ``sigma_db`` (its 1-sigma line scatter) for a
+        measured loop."""
+        return gain_margin_entries(self.phase_crossovers_hz, self.gain_margins_db, self.gain_margin_sigmas_db)
 
     @property
     def disk_gain_margin_db(self) -> float:
@@ -595,6 +602,16 @@ def loop_margins(freq_hz: np.ndarray, L: np.ndarray, fn: Callable[[np.ndarray], 
                                              "phase crossovers", "deg", lines=lines)
         merged += merged_180
     return Margins([float(x) for x in wc], list(pm), [float(x) for x in w180], list(gm), merged)
+
+
+def gain_margin_entries(freqs_hz, margins_db, sigmas_db) -> list[dict]:
+    """``[{"freq_hz", "gm_db"}]`` of the phase crossovers ``freqs_hz`` [Hz] and their margins [dB], each with its
+    1-sigma line scatter ``sigma_db`` [dB] when ``sigmas_db`` holds one per margin (a measured loop)."""
+    out = [{"freq_hz": float(f), "gm_db": float(g)} for f, g in zip(freqs_hz, margins_db, strict=True)]
+    if sigmas_db:
+        for e, sigma in zip(out, sigmas_db, strict=True):
+            e["sigma_db"] = float(sigma)
+    return out
 
 
 def scatter_of(L: np.ndarray, noise: np.ndarray | None) -> np.ndarray | None:
@@ -1147,6 +1164,7 @@ def _loop_analysis(c: LoopCase):
         possible_x,
         possible_180,
         None if c.band_edge is None else c.band_edge.to_dict(),
+        [] if noise is None else line_scatter_at(f0, noise.lines, w180, float(f0[i_top])),
     )
 
 

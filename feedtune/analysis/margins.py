@@ -27,6 +27,9 @@ CHATTER_REL = 0.03
 """Crossings closer than this relative frequency [-] form a cluster that may be measurement chatter."""
 CHATTER_SIGMAS = 2.0
 """A cluster is merged when ``|L|`` stays within this many noise sigmas of 0 dB between its crossings [-]."""
+PROOF_SIGMAS = CHATTER_SIGMAS
+"""A margin measured on an FRF's lines meets its limit only when it does so by this many of its 1-sigma line
+scatters (:func:`line_scatter_at`); within them the lines neither prove nor disprove it [-]."""
 
 
 def crossings(freq_hz: np.ndarray, y: np.ndarray, level: float = 0.0, fn: Fn = None) -> np.ndarray:
@@ -396,3 +399,26 @@ def interp_complex(freq_hz: np.ndarray, h: np.ndarray, f0: np.ndarray) -> np.nda
     mag = np.interp(np.log(f0), lf, np.log(np.maximum(np.abs(h), 1e-300)))
     ph = np.interp(np.log(f0), lf, np.unwrap(np.angle(h)))
     return np.exp(mag + 1j * ph)
+
+
+def line_scatter_at(lines_hz: np.ndarray, scatter_of: Callable[[np.ndarray], np.ndarray], at_hz, top_hz: float
+                    ) -> list[float]:
+    """The 1-sigma scatter [dB] of a measured response at the frequencies ``at_hz`` [Hz]: linear in log frequency
+    between the two lines around each (``scatter_of(indices)`` of the lines ``lines_hz``, increasing); 0 below the
+    first line and above ``top_hz`` (the last line the FRF proves), where the figures rest on the model or the
+    fitted roll-off and not on the lines (the assumption is stated by the band edge, not quantified here)."""
+    f0 = np.asarray(lines_hz, float)
+    at = np.asarray(at_hz, float).ravel()
+    out = np.zeros(at.size)
+    inside = (at >= f0[0]) & (at <= min(float(top_hz), float(f0[-1])))
+    if inside.any():
+        x = at[inside]
+        j = np.clip(np.searchsorted(f0, x, "right") - 1, 0, max(f0.size - 2, 0))
+        k = np.minimum(j + 1, f0.size - 1)
+        idx = np.unique(np.r_[j, k])
+        sig = np.zeros(f0.size)
+        sig[idx] = np.asarray(scatter_of(idx), float)
+        lf = np.log(f0)
+        t = np.where(k > j, (np.log(x) - lf[j]) / np.where(k > j, lf[k] - lf[j], 1.0), 0.0)
+        out[inside] = sig[j] + t * (sig[k] - sig[j])
+    return [float(v) for v in out]

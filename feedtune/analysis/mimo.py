@@ -38,6 +38,7 @@ from .loop import (
     band_top_index,
     check_low_end,
     contour_warnings,
+    gain_margin_entries,
     line_resolution_warnings,
     loop_margins,
     low_frequency_slope,
@@ -50,7 +51,16 @@ from .loop import (
     with_possible,
     worst,
 )
-from .margins import NEGLIGIBLE_LOOP, crossings, disk_margins, level_bands, merge_chatter, peak, prune_bands
+from .margins import (
+    NEGLIGIBLE_LOOP,
+    crossings,
+    disk_margins,
+    level_bands,
+    line_scatter_at,
+    merge_chatter,
+    peak,
+    prune_bands,
+)
 from .resolution import (
     INTERPOLATION,
     MAX_ROUNDS,
@@ -281,6 +291,9 @@ class MimoMetrics:
     possible_crossovers, possible_phase_crossovers : list of dict
         Where the CoM loop comes within the FRF's scatter of a crossing the lines cannot rule out (see
         :class:`~feedtune.analysis.loop.LoopMetrics`); listed among the crossings too.
+    gain_margin_sigmas_db : list of float
+        For a measured loop, the 1-sigma line scatter [dB] of each gain margin (as
+        :attr:`feedtune.analysis.loop.LoopMetrics.gain_margin_sigmas_db`).
     """
 
     crossovers_hz: list
@@ -307,6 +320,7 @@ class MimoMetrics:
     possible_crossovers: list = field(default_factory=list)
     possible_phase_crossovers: list = field(default_factory=list)
     band_edge: dict | None = None
+    gain_margin_sigmas_db: list = field(default_factory=list)
 
     @property
     def assumes(self) -> list[str]:
@@ -346,9 +360,8 @@ class MimoMetrics:
 
     @property
     def gain_margins(self) -> list[dict]:
-        """``[{"freq_hz", "gm_db"}]`` of the CoM loop."""
-        return [{"freq_hz": float(f), "gm_db": float(g)}
-                for f, g in zip(self.phase_crossovers_hz, self.gain_margins_db, strict=True)]
+        """``[{"freq_hz", "gm_db"}]`` of the CoM loop, with ``sigma_db`` (1-sigma line scatter) when measured."""
+        return gain_margin_entries(self.phase_crossovers_hz, self.gain_margins_db, self.gain_margin_sigmas_db)
 
     def to_dict(self) -> dict:
         """JSON-ready figures (keys carry units; ``ms`` and ``sigma_max_s`` are the same number)."""
@@ -741,4 +754,6 @@ def analyze_mimo(freq_hz, L: np.ndarray | None = None, *, evaluate=None, feature
                        float(dm_f), mg.merged, int(fc.size), INTERPOLATION if measured else None,
                        float(f0[i_top]) if measured else None,
                        float(_sigma_max(L_lines[:, :, i_top:i_top + 1])[0]) if measured else None, possible_x,
-                       possible_180, None if band_edge is None else band_edge.to_dict())
+                       possible_180, None if band_edge is None else band_edge.to_dict(),
+                       [] if noise is None else line_scatter_at(f0, np.asarray(noise_db, float).__getitem__,
+                                                                mg.phase_crossovers_hz, float(f0[i_top])))

@@ -31,7 +31,15 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..errors import DataError
-from ..frf_quality import NOISE_BLOCK, _coherence_floor_db, _db_rows, noise_db
+from ..frf_quality import (
+    NOISE_BLOCK,
+    ROUGHNESS_STENCIL,
+    _coherence_floor_db,
+    _db_rows,
+    line_axis,
+    line_residuals,
+    noise_db,
+)
 
 WINDING_STEP_DEG = 20.0
 """Largest change of the angle of ``1 + l`` between neighbouring frequencies [deg]."""
@@ -491,11 +499,14 @@ class LineNoise:
         Coherence of the channels (same shape as ``response``).
     half_window : int
         Half width of the running median [lines].
+    averages : float, optional
+        Averages of the estimate (:func:`~feedtune.frf_quality.averages_of`) for the coherence's error floor.
     """
 
     def __init__(self, freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | None = None,
-                 half_window: int = 10) -> None:
+                 half_window: int = 10, averages: float | None = None) -> None:
         self.freq_hz = np.asarray(freq_hz, float)
+        self.averages = None if not averages else float(averages)
         self._h = np.asarray(response, complex).reshape(-1, self.freq_hz.size)
         self._coherence = None if coherence is None else np.asarray(coherence, float).reshape(-1, self.freq_hz.size)
         self._half = int(half_window)
@@ -520,9 +531,16 @@ class LineNoise:
     def full(self) -> np.ndarray:
         """The scatter [dB] on every line (:func:`noise_db`), computed once."""
         if self._full is None:
-            self._full = noise_db(self.freq_hz, self._h, self._coherence, self._half)
+            self._full = noise_db(self.freq_hz, self._h, self._coherence, self._half, self.averages)
             self._full.setflags(write=False)
         return self._full
+
+    def line_axis(self) -> np.ndarray:
+        """The axis the roughness is read on (:func:`~feedtune.frf_quality.line_axis`; computed once)."""
+        ax = self.__dict__.get("_line_axis")
+        if ax is None:
+            ax = self.__dict__["_line_axis"] = line_axis(self.freq_hz)
+        return ax
 
     def log_freq(self) -> np.ndarray:
         """``log(freq_hz)`` of the lines (computed once; read only)."""
@@ -551,27 +569,33 @@ class LineNoise:
             return _blocks(self._db, n, lambda a, b: _db_rows(h[:, a:b]), lines, block=NOISE_BLOCK)[0]
 
         out = np.zeros(idx.shape)
-        if n >= 3:
-            # second differences d2[q] of the dB magnitude at the interior lines q + 1, padded with the edge values
-            # (index p of the padded row is d2[clip(p - 1, 0, n - 3)]); median over the window, clamped at the ends
+        k = ROUGHNESS_STENCIL
+        if n >= k:
+            # the roughness d2[q] (line_residuals) of the dB magnitude at the lines q + k // 2, padded with the edge
+            # values (index p of the padded row is d2[clip(p - k // 2, 0, n - k)]); median over the window, clamped at
+            # the ends
             win = np.minimum(np.maximum(idx[..., None] + np.arange(-hw, hw + 1), 0), n - 1)
-            q = np.minimum(np.maximum(win - 1, 0), n - 3)
+            q = np.minimum(np.maximum(win - k // 2, 0), n - k)
             q_lo, q_hi = int(q.min()), int(q.max())
-            if q_hi - q_lo < 4 * q.size:  # the windows cover one stretch of lines: its second differences
-                db = db_at(np.arange(q_lo, q_hi + 3))
-                d2 = np.abs(db[:, :-2] - 2 * db[:, 1:-1] + db[:, 2:])  # rows x (q_lo .. q_hi)
+            axis = self.line_axis()
+            if q_hi - q_lo < 4 * q.size:  # the windows cover one stretch of lines: its roughness
+                db = db_at(np.arange(q_lo, q_hi + k))
+                x = axis[q_lo:q_hi + k]
+                m = q_hi - q_lo + 1
+                d2 = line_residuals([db[:, j:j + m] for j in range(k)], [x[j:j + m] for j in range(k)])
                 vals = d2[:, q - q_lo]
             else:
                 need = np.unique(q)
-                lines = np.unique(np.r_[need, need + 1, need + 2])
+                lines = np.unique((need[:, None] + np.arange(k)).ravel())
                 db = db_at(lines)
                 pos = np.searchsorted(lines, need)
-                d2 = np.abs(db[:, pos] - 2 * db[:, pos + 1] + db[:, pos + 2])  # rows x need
+                d2 = line_residuals([db[:, pos + j] for j in range(k)], [axis[need + j] for j in range(k)])
                 vals = d2[:, np.searchsorted(need, q)]  # rows x idx... x window
             med = np.partition(vals, hw, axis=-1)[..., hw]  # the median of the 2 hw + 1 values (numpy.median's)
             out = np.max(med, axis=0) / (0.6745 * np.sqrt(6.0))
         if self._coherence is not None:
             g = self._coherence
-            floor = _blocks(self._coherence_db, n, lambda a, b: _coherence_floor_db(g[:, a:b]), idx, block=NOISE_BLOCK)
+            floor = _blocks(self._coherence_db, n, lambda a, b: _coherence_floor_db(g[:, a:b], self.averages), idx,
+                            block=NOISE_BLOCK)
             out = np.maximum(out, floor[0])
         return out

@@ -73,7 +73,8 @@ from ..analysis.ballscrew import analyze_case
 from ..analysis.cases import CHECKED_WITH_FRF, CHECKED_WITHOUT_FRF, PlantCase
 from ..analysis.check import check_design, resolve_limits
 from ..analysis.limits import Limits
-from ..analysis.loop import count_integrators, model_extension, nyquist_winding
+from ..analysis.loop import band_top_index, count_integrators, model_extension, nyquist_winding
+from ..analysis.margins import PROOF_SIGMAS, line_scatter_at
 from ..analysis.resolution import ResolutionError, feature_points, lightly_damped
 from ..control.discretize import check_sampling, matched
 from ..control.filters import FilterPack
@@ -174,6 +175,11 @@ class Surrogate:
             I = 1.0 / D
         self.freq_hz = f
         self._A, self._B, self._D, self._I = H * g[0], H * g[1], D, I
+        self._gm_guard_db = np.zeros(f.size)  # what a gain margin must exceed its limit by (the analysis' rule)
+        if pc.noise_db is not None:
+            lines = getattr(pc.noise_db, "lines", None) or np.asarray(pc.noise_db, float).__getitem__
+            top = float(f0[band_top_index(f0, pc.band_edge)])
+            self._gm_guard_db = PROOF_SIGMAS * np.asarray(line_scatter_at(f0, lines, f, top))
         self.limits = limits
         self.kpv_box = (float(kpv_box[0]), float(kpv_box[1]))
         self.evaluations = 0
@@ -206,8 +212,10 @@ class Surrogate:
             k180 = np.exp(li[j] + t * (li[j + 1] - li[j]))
             out.append(np.c_[k180, k180])
             if lim.gm_min_db is not None or lim.gm_low_min_db is not None:  # gain-increase | gain-reduction margin
-                up = 10 ** ((lim.gm_min_db or 0.0) / 20)
-                down = 10 ** ((lim.gm_low_min_db or 0.0) / 20)
+                g0 = self._gm_guard_db[j]
+                guard = g0 + t * (self._gm_guard_db[j + 1] - g0)
+                up = 10 ** (((lim.gm_min_db or 0.0) + guard) / 20)
+                down = 10 ** (((lim.gm_low_min_db or 0.0) + guard) / 20)
                 out.append(np.c_[k180 / up, k180 * down])
         iv = np.vstack(out)
         return iv[np.all(np.isfinite(iv), axis=1)]
