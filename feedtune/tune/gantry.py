@@ -257,8 +257,12 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
                             gain=_ki, objective=obj, accept=accept, admissible=cheap)
     searched = list(shapes)
     if best is not None and not fixed_ki and len(integral_lags) > 1:  # the integral gain at the best shape
-        lags = [{**best.shape, "integral_lag_deg": float(v)} for v in integral_lags
-                if float(v) != best.shape["integral_lag_deg"]]
+        # ... at every shape that ties with it (equal figures: the same limit binds, e.g. a gain margin no damping
+        # increase moves; the lag may set them apart: 40e6 at three damping increases, 42e6 to 73e6 at another lag)
+        tied = [c.shape for c in record.found
+                if c.design is not None and _ki(c) == _ki(best) and c.objective == best.objective]
+        lags = [{**shape, "integral_lag_deg": float(v)} for shape in tied or [best.shape] for v in integral_lags
+                if float(v) != shape["integral_lag_deg"]]
         searched += lags
         other = highest_feasible(check, lags, *crossover_range_hz, record, bound_name="crossover_hz",
                                  gain=_ki, objective=obj, accept=accept, admissible=cheap)
@@ -296,9 +300,9 @@ def tune_gantry_mimo(model: GantryModel, *, limits=None, filters: FilterPack | N
     tuning = {
         "method": "the edge of every shape (PM target, damping increase) in the CoM crossover target (bisected to "
                   "the largest meeting the limits in the checked case of every FRF), ranked by the objective, then "
-                  "the same over the integral lag at the best shape; under stiffness and pareto the winner's shape "
-                  "refined by a local search over continuous PM target, damping increase and integral lag within "
-                  "the values listed; the winner stable in every case",
+                  "the same over the integral lag at the best shape (and every shape tied with it); under stiffness "
+                  "and pareto the winner's shape refined by a local search over continuous PM target, damping "
+                  "increase and integral lag within the values listed; the winner stable in every case",
         **obj.record("ki", f"{model.input_unit}/(m s)", _ki(best), front),
         "rule": f"gantry MIMO tuned by feedtune.tune.gantry for {obj.name} under {policy.describe()}",
         "limits": policy.to_dict(),
