@@ -105,14 +105,17 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=1, metavar="N",
                         help="with --skip-warmup: N cold/warm pairs, each in a fresh cache folder; their medians")
     args = parser.parse_args()
+    if args.repeat < 1 or (args.repeat > 1 and not args.skip_warmup):
+        parser.error("--repeat N needs N >= 1, and N > 1 needs --skip-warmup")
     if not args.skip_demos:
         for machine in args.machine or ["ballscrew", "gantry"]:
             t = (first_runs(machine, args.repeat) if args.skip_warmup and args.repeat > 1
                  else first_run(machine, warmup=not args.skip_warmup))
+            after = ("" if args.skip_warmup else f"; feedtune warmup {t['warmup']:.1f} s, then the first run "
+                     f"{t['after_warmup']:.1f} s: ratio {t['after_warmup'] / t['warm']:.2f}")
             print(f"demo {machine}: cold {t['cold']:.1f} s, warm {t['warm']:.1f} s: ratio {t['cold'] / t['warm']:.2f}"
                   f" (target <= {RATIO_TARGET}); CPU cold {t['cold_cpu']:.1f} s, warm {t['warm_cpu']:.1f} s: ratio "
-                  f"{t['cold_cpu'] / t['warm_cpu']:.2f}; feedtune warmup {t['warmup']:.1f} s, then the first run "
-                  f"{t['after_warmup']:.1f} s: ratio {t['after_warmup'] / t['warm']:.2f}")
+                  f"{t['cold_cpu'] / t['warm_cpu']:.2f}{after}")
     if not args.skip_tune:
         cpu = tuners()
         for filters in ("own", "identical"):

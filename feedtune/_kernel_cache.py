@@ -164,19 +164,27 @@ class PendingKernel:
 
     def __init__(self) -> None:
         self._future = None
+        self._pid = None
 
     def set(self, future) -> None:
         """``future`` (a :class:`concurrent.futures.Future`) ends when the kernel is in the cache; None: nothing to
-        wait for."""
+        wait for. Only this process waits for it: a forked child holds a copy of the future that nothing will end,
+        and compiles or loads the kernel itself."""
         self._future = future
+        self._pid = _os.getpid()
+
+    def _own(self):
+        """The future, in the process that set it (None elsewhere)."""
+        return self._future if self._pid == _os.getpid() else None
 
     def pending(self) -> bool:
         """Whether the other process is still compiling it."""
-        return self._future is not None and not self._future.done()
+        future = self._own()
+        return future is not None and not future.done()
 
     def wait(self) -> None:
-        """Wait for the other process (once; at once when nothing compiles elsewhere)."""
-        future, self._future = self._future, None
+        """Wait for the other process (once; at once when nothing compiles elsewhere or in a forked child)."""
+        future, self._future = self._own(), None
         if future is not None:
             from concurrent.futures import wait
 

@@ -256,10 +256,13 @@ def noise_db(freq_hz: np.ndarray, response: np.ndarray, coherence: np.ndarray | 
     return out
 
 
-def line_axis(freq_hz: np.ndarray) -> np.ndarray:
-    """The axis the roughness is read on: ``log(freq_hz)`` when every line is above 0 Hz, else the line index."""
+def line_axis(freq_hz: np.ndarray, log_freq: np.ndarray | None = None) -> np.ndarray:
+    """The axis the roughness is read on: ``log(freq_hz)`` when every line is above 0 Hz (``log_freq`` when given:
+    the same, computed already), else the line index."""
     f = np.asarray(freq_hz, float)
-    return np.log(f) if f.size and f.min() > 0 else np.arange(f.size, dtype=float)
+    if f.size and f.min() > 0:
+        return np.log(f) if log_freq is None else log_freq
+    return np.arange(f.size, dtype=float)
 
 
 ROUGHNESS_STENCIL = 5

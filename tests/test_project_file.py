@@ -217,3 +217,37 @@ def test_tune_and_report_without_arguments_reproduce_the_explicit_commands(proje
         assert from_project[key] == explicit[key], key
     html = (project / "report.html").read_text()
     assert "Made by <code>feedtune report model.toml gains.toml" in html and "(project feedtune.toml)" in html
+
+
+def test_frf_pieces_are_cut_as_the_frf_option_cuts_them(tmp_path, monkeypatch):
+    """A report input of pieces keeps a SPEC's ``+`` (``scale=1e+3``) and a file name's ``+``: each file resolved in
+    the project's folder, each SPEC as written; the record of inputs names the files (once: ``...,scale=1e+sub/3``
+    and an input ``3``)."""
+    from feedtune.cli.guard import _input_files
+    from feedtune.cli.project_args import _resolve_piece
+    from feedtune.io.project_file import Project
+
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    for name in ("a.csv", "b+c.csv"):
+        (sub / name).write_text("x")
+    monkeypatch.chdir(tmp_path)
+    project = Project(sub / "feedtune.toml", None)
+    assert _resolve_piece(project, "a.csv:x1/u,scale=1e+3") == "sub/a.csv:x1/u,scale=1e+3"
+    assert _resolve_piece(project, "a.csv:x1/u+b+c.csv:x2/u") == "sub/a.csv:x1/u+sub/b+c.csv:x2/u"
+    monkeypatch.chdir(sub)
+    assert _input_files({"frf": ["a.csv:x1/u,scale=1e+3+b+c.csv:x2/u"]}, ("frf",)) == ["a.csv", "b+c.csv"]
+
+
+def test_project_init_into_a_folder_and_limits_checked_before_writing(tmp_path, examples_dir, capsys, monkeypatch):
+    """``--out DIR`` writes DIR/feedtune.toml (the help's promise); a limit no command would accept (Ms <= 0.5) is
+    refused by init, naming the option, and nothing is written."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "axis").mkdir()
+    frf = examples_dir / FRFS[0]
+    code, _out, err = run(["project", "init", "--frf", frf, "--out", "axis"], capsys, monkeypatch)
+    assert code == 0, err
+    assert read_project(tmp_path / "axis" / "feedtune.toml").frf[0].resolve() == frf.resolve()
+    code, _out, err = run(["project", "init", "--frf", frf, "--ms-max", "0.5", "--out", "p.toml"], capsys,
+                          monkeypatch)
+    assert code == 2 and "--ms-max" in err and len(err.splitlines()) == 1 and not (tmp_path / "p.toml").exists()

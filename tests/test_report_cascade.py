@@ -127,6 +127,28 @@ def test_cascade_report_numbers_are_analyze_json(report, axis):
         assert row[3].text.endswith(f"on {worst['active_limit']['frf']}")
 
 
+def test_a_file_without_a_model_is_drawn_on_its_frf_and_refused_with_the_reason_without_one(axis, tmp_path):
+    """A drive's parameter set read by ``import drive`` holds no [model]: the report analyses it on the FRF among its
+    inputs that fits (the rigid body written out here as an FRF in rad/(N*m)), and without one it stops with one
+    line naming the file and what to give."""
+    from feedtune.errors import DataError
+    from feedtune.frf import Frf
+    from feedtune.io import read_document, write_document
+    from feedtune.io.frf_read import write_frf
+
+    doc = {k: v for k, v in read_document(axis / "fast.toml").items() if k not in ("model", "certificate")}
+    write_document(tmp_path / "drive.toml", doc)
+    f = np.geomspace(1.0, 2000.0, 800)
+    s = 2j * np.pi * f
+    rigid = 1 / (s * (RIGID.mass * s + RIGID.viscous))
+    write_frf(Frf(f, rigid[None, None], ("x1",), ("u",), "position", input_unit="N*m", output_unit="rad"),
+              tmp_path / "rigid.csv")
+    rep = build_report([tmp_path / "drive.toml", tmp_path / "rigid.csv"], render=False)
+    assert list(rep.data["design"]["drive.toml"]["on"]) == ["rigid.csv"]
+    with pytest.raises(DataError, match=r"drive\.toml: the gains file holds no plant model .* give the FRF"):
+        build_report([tmp_path / "drive.toml"], render=False)
+
+
 def test_speed_loop_crossover_on_the_model_is_the_written_out_loop(report):
     """The report's first crossover of L_v (model, continuous controller) is where the loop written out here,
     ``Kp (1 + 1/(Tn s)) s G(s) / (1 + s/wc)`` with ``G = 1/(s (J s + B))``, has ``|L| = 1``."""

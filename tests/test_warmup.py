@@ -67,10 +67,10 @@ import numba  # loaded, as in a demo: a table of 60000 cells takes the compiled 
 handle = ensure_kernels(["CSV writer"], background=True)
 pending = csv_text._PENDING.pending()
 text = csv_text.csv_rows(columns)  # waits for the worker, then loads its kernel from the cache
-seconds = handle.wait()
+seconds, failed = handle.wait()
 print(json.dumps({"pending": pending, "repr": text.splitlines()[5] == ",".join(repr(float(c[5])) for c in columns),
                   "rows": len(text.splitlines()), "ready": kernels_ready(["CSV writer"]), "seconds": seconds,
-                  "signatures": len(csv_text._row_kernel().signatures)}))
+                  "signatures": len(csv_text._row_kernel().signatures), "failed": failed}))
 """
 
 
@@ -80,6 +80,28 @@ def test_a_background_kernel_compiles_in_a_worker_and_its_first_use_loads_it_fro
     assert out["pending"] is True  # the worker compiles it while this process goes on
     assert out["repr"] and out["rows"] == 20000  # Python's repr of every number
     assert out["ready"] is True and set(out["seconds"]) == {"CSV writer"} and out["signatures"] == 1
+    assert out["failed"] == []
     # this process did not compile the kernel a second time: it loaded the worker's from the cache
     assert "[cache] data loaded from" in out["output"], out["output"][-2000:]
     assert out["output"].count("[cache] data saved to") == 1  # the worker's save only
+
+
+def test_a_forked_child_does_not_wait_for_its_parents_background_compile():
+    """A forked worker (the demo's twin tests, a CSV writer in a child) holds a copy of the parent's pending future
+    that nothing ends: its wait returns at once (it loads or compiles the kernel itself), the parent still waits."""
+    import multiprocessing as mp
+    from concurrent.futures import Future
+
+    from feedtune._kernel_cache import PendingKernel
+
+    pending = PendingKernel()
+    never = Future()
+    pending.set(never)
+    child = mp.get_context("fork").Process(target=pending.wait)
+    child.start()
+    child.join(timeout=20)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive and child.exitcode == 0
+    assert pending.pending()  # the parent's own future is still pending

@@ -539,7 +539,7 @@ class LineNoise:
         """The axis the roughness is read on (:func:`~feedtune.frf_quality.line_axis`; computed once)."""
         ax = self.__dict__.get("_line_axis")
         if ax is None:
-            ax = self.__dict__["_line_axis"] = line_axis(self.freq_hz)
+            ax = self.__dict__["_line_axis"] = line_axis(self.freq_hz, self.log_freq())
         return ax
 
     def log_freq(self) -> np.ndarray:

@@ -9,6 +9,7 @@ import typer
 
 from ..machines.registry import machines
 from .common import FORCE_OPTION, JSON_OPTION
+from .envelope import warn
 from .help_text import ENGINES, choice
 from .limits_options import (
     DM_MIN_OPTION,
@@ -101,7 +102,8 @@ def demo(
             behind.cancel()
         raise
     if behind is not None:
-        behind.wait()
+        for line in behind.wait()[1]:
+            warn(line)
     progress.done()
     written = [out / p.name for p in staged]
     report_path = out / REPORT_NAME

@@ -83,10 +83,7 @@ def _ballscrew_friction(path: Path | None, band: float | None, model, model_file
     """The friction model of ``--friction`` (None without), its units and ``--friction-band`` checked against the
     ball-screw model before any design work (the gains file repeats the check with the law's own viscous term)."""
     from ..control.friction import friction_feedforward
-    from ..errors import UsageError
 
-    if band is not None and path is None:
-        raise UsageError("--friction-band needs --friction")
     friction = _load_friction(path)
     if friction is not None:
         friction_feedforward(friction, command_unit=model.input_unit, lead_m_per_rad=model.lead_m_per_rad,

@@ -228,21 +228,26 @@ def _parse_spec(text: str, where: str, strict: bool) -> dict | None:
     return fields
 
 
-def _piece(text: str, strict: bool) -> FrfPiece | None:
-    """``FILE`` or ``FILE:SPEC`` as a piece; None when ``text`` is neither an existing file nor ends in a SPEC."""
+def _piece(text: str, strict: bool, base: Path | None = None) -> FrfPiece | None:
+    """``FILE`` or ``FILE:SPEC`` as a piece; None when ``text`` is neither an existing file nor ends in a SPEC (a
+    relative FILE looked for in ``base`` when given)."""
     path = Path(text)
-    if path.exists():
+    if _exists(path, base):
         return FrfPiece(path)
     head, colon, tail = text.rpartition(":")
     if not colon or not head:
         return FrfPiece(path) if strict else None
-    fields = _parse_spec(tail, text, strict=strict and Path(head).exists())
+    fields = _parse_spec(tail, text, strict=strict and _exists(Path(head), base))
     if fields is None:
         return FrfPiece(path) if strict else None
     return FrfPiece(Path(head), **fields)
 
 
-def parse_frf_argument(text: str | os.PathLike[str]) -> list[FrfPiece]:
+def _exists(path: Path, base: Path | None) -> bool:
+    return (path if base is None or path.is_absolute() else base / path).exists()
+
+
+def parse_frf_argument(text: str | os.PathLike[str], base: Path | None = None) -> list[FrfPiece]:
     """The files of one FRF argument: ``FILE``, ``FILE:SPEC``, or such pieces joined with ``+`` (module docstring).
 
     An existing file of that name is always the file itself (a name may hold ``:`` or ``+``). Otherwise the text is cut
@@ -252,6 +257,9 @@ def parse_frf_argument(text: str | os.PathLike[str]) -> list[FrfPiece]:
     ----------
     text : str or path-like
         The argument as typed.
+    base : Path, optional
+        The folder relative file names are in (a project file's; default the current folder). The pieces keep the
+        names as written.
 
     Returns
     -------
@@ -265,15 +273,15 @@ def parse_frf_argument(text: str | os.PathLike[str]) -> list[FrfPiece]:
         without a channel in a join.
     """
     text = str(text)
-    if Path(text).exists() or "+" not in text:
-        return [_piece(text, strict=True)]
+    if _exists(Path(text), base) or "+" not in text:
+        return [_piece(text, strict=True, base=base)]
     pieces: list[FrfPiece] = []
     parts = text.split("+")
     pending = ""
     for k, part in enumerate(parts):
         pending = part if not pending else f"{pending}+{part}"
         last = k == len(parts) - 1
-        piece = _piece(pending, strict=last)
+        piece = _piece(pending, strict=last, base=base)
         if piece is not None:
             pieces.append(piece)
             pending = ""

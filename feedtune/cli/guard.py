@@ -114,7 +114,10 @@ def _input_parameters(callback) -> tuple[str, ...]:
 
 def _input_files(kwargs: dict, names: tuple[str, ...]) -> list[str]:
     """The input paths of a command's keyword arguments; an FRF of pieces (``a.csv:x1/u+b.csv:x2/u``) gives its
-    files."""
+    files (:func:`~feedtune.cli.frf_options.parse_frf_argument`)."""
+    from ..errors import UsageError
+    from .frf_options import parse_frf_argument
+
     out = []
     for name in names:
         value = kwargs.get(name)
@@ -122,9 +125,9 @@ def _input_files(kwargs: dict, names: tuple[str, ...]) -> list[str]:
             if v is None:
                 continue
             text = str(v)
-            if not os.path.lexists(text) and ("+" in text or ":" in text):
-                out += [piece.partition(":")[0] for piece in text.split("+")]
-            else:
+            try:
+                out += [str(piece.path) for piece in parse_frf_argument(text)]
+            except UsageError:  # not an FRF argument after all: the command's own check names it
                 out.append(text)
     return out
 

@@ -127,13 +127,21 @@ def _shown(p: Path) -> str:
 
 def _resolve_piece(project, value: str) -> str:
     """A report input: a path, or an FRF of pieces ``a.csv:x1/u+b.csv:x2/u,scale=-1`` (each file resolved)."""
-    pieces = []
-    for piece in value.split("+"):
-        head, sep, tail = piece.partition(":")
-        if sep and "/" not in tail:  # a colon inside a file name, not a channel
-            head, sep, tail = piece, "", ""
-        pieces.append(_shown(project.resolve(head)) + sep + tail)
-    return "+".join(pieces)
+    from ..errors import UsageError
+    from .frf_options import parse_frf_argument
+
+    try:
+        pieces = parse_frf_argument(value, base=project.folder)
+    except UsageError:  # not an FRF argument: the command names what is wrong with it
+        return value
+    out, start = [], 0
+    for k, piece in enumerate(pieces):  # each piece's text: its file name as written, then its SPEC
+        name = str(piece.path)
+        at = value.index(name, start)
+        end = value.index(str(pieces[k + 1].path), at + len(name)) - 1 if k + 1 < len(pieces) else len(value)
+        out.append(_shown(project.resolve(name)) + value[at + len(name):end])
+        start = end
+    return "+".join(out)
 
 
 def _values(project, key: str, param, value) -> list[str]:

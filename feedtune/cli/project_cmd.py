@@ -14,6 +14,14 @@ import typer
 
 from .common import FORCE_OPTION, JSON_OPTION
 from .help_text import LIMITS_PROFILES, choice
+from .limits_options import (
+    DM_MIN_OPTION,
+    GM_LOW_MIN_OPTION,
+    GM_MIN_OPTION,
+    MS_MAX_OPTION,
+    PM_MIN_OPTION,
+    limits_from_options,
+)
 from .progress_display import QUIET_OPTION, show_progress
 
 app = typer.Typer(rich_markup_mode="rich", no_args_is_help=True,
@@ -61,18 +69,17 @@ def init(
                                                        "loopshape or cascade."),
     limits: str = typer.Option(None, "--limits", **choice(LIMITS_PROFILES),
                                help="The limits profile of every command (textbook or thesis)."),
-    ms_max: float = typer.Option(None, "--ms-max", metavar="MS", help="Largest peak sensitivity max|S| [-]."),
-    pm_min: float = typer.Option(None, "--pm-min", metavar="DEG", help="Smallest phase margin [deg]."),
-    gm_min: float = typer.Option(None, "--gm-min", metavar="DB", help="Smallest gain-increase margin [dB]."),
-    gm_low_min: float = typer.Option(None, "--gm-low-min", metavar="DB",
-                                     help="Smallest gain-reduction margin [dB]."),
-    dm_min: float = typer.Option(None, "--dm-min", metavar="ALPHA", help="Smallest disk margin alpha [-]."),
+    ms_max: float = MS_MAX_OPTION,
+    pm_min: float = PM_MIN_OPTION,
+    gm_min: float = GM_MIN_OPTION,
+    gm_low_min: float = GM_LOW_MIN_OPTION,
+    dm_min: float = DM_MIN_OPTION,
     set_: list[str] = typer.Option(
         None, "--set", metavar="SECTION.KEY=VALUE",
         help="An option of tune, analyze or report, by its name without dashes (repeatable): --set "
              "tune.filters=own, --set report.out=report.html, --set report.pdf=true."),
-    out: Path = typer.Option(
-        Path("feedtune.toml"), "--out", "-o", metavar="FILE",
+    project_out: Path = typer.Option(  # not named out: a folder is allowed, checked here (not by the guard)
+        Path("feedtune.toml"), "--out", "-o", metavar="FILE|DIR",
         help="Project file to write (default feedtune.toml here; a folder: its feedtune.toml)."),
     force: bool = FORCE_OPTION,
     as_json: bool = JSON_OPTION,
@@ -91,11 +98,10 @@ def init(
     from .envelope import _context
     from .project_args import PROJECT_COMMANDS, project_values
 
-    if limits is not None and limits not in LIMITS_PROFILES:
-        raise UsageError(f"--limits must be one of {', '.join(LIMITS_PROFILES)}, got {limits!r}")
-    path = out / PROJECT_FILE if out.is_dir() else out
+    limits_from_options(limits or "textbook", ms_max, pm_min, gm_min, dm_min, gm_low_min)  # checked before writing
+    path = project_out / PROJECT_FILE if project_out.is_dir() else project_out
     if path.suffix.lower() != ".toml":
-        raise UsageError(f"--out {out}: a project file is TOML; give a name ending in .toml")
+        raise UsageError(f"--out {project_out}: a project file is TOML; give a name ending in .toml")
     from ..io.atomic import ensure_writable
 
     ensure_writable(path, force)

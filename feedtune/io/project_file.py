@@ -41,8 +41,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..errors import DataError
-from ._table import read_bytes
-from .document import loads_document, require_schema
+from .document import read_document, require_schema
 from .schema_common import check_finite, check_schema
 
 PROJECT_FILE = "feedtune.toml"
@@ -152,11 +151,7 @@ def read_project(path: str | os.PathLike[str]) -> Project:
         wrong type or unknown, a path of ``[axis]`` that is not a file.
     """
     p = Path(path)
-    try:
-        text = read_bytes(p).decode("utf-8")
-    except UnicodeDecodeError:
-        raise DataError(f"{p}: a project file is UTF-8 TOML text") from None
-    doc = loads_document(text, "toml", str(p))
+    doc = read_document(p)
     require_schema(doc, PROJECT_SCHEMA, str(p), PROJECT_SCHEMA_MAJOR)
     check_finite(doc, [], str(p))
     check_schema(doc, PROJECT_JSON_SCHEMA, str(p))

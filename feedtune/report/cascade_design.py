@@ -36,13 +36,14 @@ from .design import (
     model_band_top,
     sampling_warnings,
     shows,
+    store_bandwidth,
     support_of,
     verdict_paragraph,
 )
 from .figures import Curve, controller_figure, loop_figure, nyquist_figure, sensitivity_figure
 from .objective import objective_block
 from .sections import Colors, ReportLimits, controller_label, parameter_table, tuning_table
-from .trust import BANDWIDTH_DEFINITION, bandwidth_entry, limit_text, mask_note, trusted_mask
+from .trust import bandwidth_entry, limit_text, mask_note, trusted_mask
 
 MODEL = "model"
 """The name of the model among the sources a design is analysed on (the certificate's name for it)."""
@@ -105,7 +106,8 @@ class CascadeReportDesign:
 
 # ------------------------------------------------------------------------------------------ analysis
 def _sources(gi: GainsInput, inputs: Inputs, names: Mapping) -> tuple[list[Source], list[tuple[str, str]]]:
-    """The design analysed on every FRF of the inputs that fits it and on its model; the FRFs that do not fit."""
+    """The design analysed on every FRF of the inputs that fits it and on its model (when the file holds one); the
+    FRFs that do not fit."""
     from ..errors import cli_message
     from ..machines import analyze_gains
 
@@ -116,7 +118,12 @@ def _sources(gi: GainsInput, inputs: Inputs, names: Mapping) -> tuple[list[Sourc
             found.append(Source(names[fi.path], fi.frf, analyze_gains(gi.doc, where, fi.frf)))
         except DataError as exc:
             skipped.append((names[fi.path], cli_message(exc)))
-    found.append(Source(MODEL, None, analyze_gains(gi.doc, where, None)))
+    if gi.doc.get("model") is not None:  # a drive's imported parameter set holds none
+        found.append(Source(MODEL, None, analyze_gains(gi.doc, where, None)))
+    elif not found:
+        reasons = "; ".join(f"{name}: {why}" for name, why in skipped)
+        raise DataError(f"{where}: the gains file holds no plant model ([model]) and no FRF among the report's inputs "
+                        f"fits it{f' ({reasons})' if reasons else ''}; give the FRF it was made for as an input")
     return found, skipped
 
 
@@ -372,11 +379,8 @@ def cascade_subsections(inputs: Inputs, names: Mapping, limits: ReportLimits, da
     for d in designs:
         store[d.name] = {**d.result, "frf": d.frf, "frfs": [s.name for s in d.sources if s.frf is not None],
                          "on": {s.name: s.done.result["analysis"] for s in d.sources},
-                         "skipped_frfs": [{"frf": n, "reason": r} for n, r in d.skipped],
-                         "tracking_bandwidth": {"definition": "the " + BANDWIDTH_DEFINITION.format(
-                             thr=limits.coherence_trust).replace("tracking response (with feedforward)",
-                                                                 "closed loop L/(1+L)"),
-                             "cases": d.bandwidth}}
+                         "skipped_frfs": [{"frf": n, "reason": r} for n, r in d.skipped]}
+        store_bandwidth(store, d, limits, response="closed loop L/(1+L)")
         blocks.append(parameter_table(f"Gains of {d.label} ({d.name})", d.result["gains"], ["design", d.name, "gains"],
                                       units=d.result.get("gain_units")))
         blocks.append(_units_paragraph(d))

@@ -32,8 +32,9 @@ from .figures import (
 from .objective import objective_block
 from .sections import Colors, ReportLimits, controller_label, parameter_table, quantity_value, tuning_table
 from .trust import (
-    BANDWIDTH_DEFINITION,
     MEASURED_CASES,
+    TRACKING_RESPONSE,
+    bandwidth_definition,
     bandwidth_entry,
     coherence_of,
     mask_note,
@@ -127,12 +128,12 @@ def bandwidth_cell(d, case: str) -> Cell:
 
 def bandwidth_note(limits: ReportLimits) -> str:
     """Table note defining the tracking bandwidth."""
-    return "Tracking bandwidth: the " + BANDWIDTH_DEFINITION.format(thr=limits.coherence_trust) + "; '-' otherwise."
+    return "Tracking bandwidth: the " + bandwidth_definition(limits.coherence_trust) + "; '-' otherwise."
 
 
-def store_bandwidth(store: dict, d, limits: ReportLimits) -> None:
-    """``store[name]["tracking_bandwidth"]``: the definition and each case's entry."""
-    store[d.name]["tracking_bandwidth"] = {"definition": BANDWIDTH_DEFINITION.format(thr=limits.coherence_trust),
+def store_bandwidth(store: dict, d, limits: ReportLimits, response: str = TRACKING_RESPONSE) -> None:
+    """``store[name]["tracking_bandwidth"]``: the definition (the bandwidth of ``response``) and each case's entry."""
+    store[d.name]["tracking_bandwidth"] = {"definition": bandwidth_definition(limits.coherence_trust, response),
                                            "cases": d.bandwidth}
 
 

@@ -19,10 +19,18 @@ import numpy as np
 
 LOW_RUN = 3
 """Consecutive FRF lines below the coherence threshold that end the trusted band."""
-BANDWIDTH_DEFINITION = ("first frequency where the tracking response (with feedforward) leaves 0 +- 3 dB; shown only "
-                        "below the top of the band the data supports (measured cases: the FRF lines with "
-                        "coherence >= {thr:g}; model cases: the model's fit band)")
-"""What the report's tracking bandwidth is (``{thr}``: the coherence threshold)."""
+BANDWIDTH_DEFINITION = ("first frequency where the {response} leaves 0 +- 3 dB; shown only below the top of the band "
+                        "the data supports (measured cases: the FRF lines with coherence >= {thr:g}; model cases: the "
+                        "model's fit band)")
+"""What the report's tracking bandwidth is (``{response}``: of which response, :func:`bandwidth_definition`;
+``{thr}``: the coherence threshold)."""
+TRACKING_RESPONSE = "tracking response (with feedforward)"
+"""The response a design's tracking bandwidth is read on (a drive cascade's: its closed loop ``L/(1+L)``)."""
+
+
+def bandwidth_definition(thr: float, response: str = TRACKING_RESPONSE) -> str:
+    """:data:`BANDWIDTH_DEFINITION` of ``response`` at the coherence threshold ``thr`` [-]."""
+    return BANDWIDTH_DEFINITION.format(thr=thr, response=response)
 MODEL_CASES = ("ideal", "ideal_discrete")
 MEASURED_CASES = ("measured", "discrete")
 

@@ -329,16 +329,24 @@ class Background:
             _hook(k)(f)
         return cls(pool, futures)
 
-    def wait(self) -> dict[str, float]:
-        """Wait for every kernel (at the caller's end) and stamp them; ``{kernel: seconds}`` each took."""
+    def wait(self) -> tuple[dict[str, float], list[str]]:
+        """Wait for every kernel (at the caller's end) and stamp those compiled: ``({kernel: seconds}, failures)``,
+        one line per kernel whose worker failed (its users compiled it themselves; the caller's work stands)."""
+        seconds, failed = {}, []
         try:
-            seconds = {k: f.result() for k, f in self._futures.items()}
+            for k, f in self._futures.items():
+                try:
+                    seconds[k] = f.result()
+                except Exception as exc:  # a worker killed or failing: nothing the caller made depends on it
+                    failed.append(f"the background compile of kernel {k} failed ({type(exc).__name__}: {exc}); "
+                                  "it was compiled where it was used")
         finally:
             for k in self._futures:
                 _hook(k)(None)
             self._pool.shutdown(wait=True, cancel_futures=True)
-        _write_stamp(seconds)
-        return seconds
+        if seconds:
+            _write_stamp(seconds)
+        return seconds, failed
 
     def cancel(self) -> None:
         """Stop waiting (the caller failed or was interrupted): the workers are not waited for."""
